@@ -1,0 +1,65 @@
+"""One exception family for the whole project.
+
+Every user mistake raises a `VsmpError` (or a child). The CLI turns it into a
+one-paragraph message and exit code 2. A message names the file, the field and
+what is allowed, so a user can fix the input without reading code.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class VsmpError(Exception):
+    """Base class of every error this project raises on purpose."""
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str | Path | None = None,
+        field: str | None = None,
+        allowed: str | None = None,
+    ) -> None:
+        self.message = message
+        self.file = str(file) if file is not None else None
+        self.field = field
+        self.allowed = allowed
+        super().__init__(self.render())
+
+    def render(self) -> str:
+        """The one-paragraph message shown to a user."""
+        parts = []
+        if self.file:
+            parts.append(f"{self.file}:")
+        if self.field:
+            parts.append(f"field '{self.field}':")
+        parts.append(self.message.rstrip("."))
+        text = " ".join(parts) + "."
+        if self.allowed:
+            text += f" Allowed: {self.allowed}."
+        return text
+
+
+class ValidationError(VsmpError):
+    """Input that does not match its schema or its allowed values."""
+
+
+class InputFileError(VsmpError):
+    """A file that is missing, unreadable or in the wrong format."""
+
+
+class ConfigError(VsmpError):
+    """A bad option, configuration value or combination of them."""
+
+
+class DependencyError(VsmpError):
+    """An optional component (an extra, weights, a GPU) is not available."""
+
+
+class ExtractionError(VsmpError):
+    """SMP extraction failed (e.g. fewer than 3 valid responses)."""
+
+
+class ServiceError(VsmpError):
+    """A remote service (e.g. the VLM endpoint) failed after retries."""

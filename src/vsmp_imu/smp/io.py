@@ -1,0 +1,24 @@
+"""Load and save SMPs as JSON or YAML."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from vsmp_imu.io import read_structured, write_structured
+from vsmp_imu.smp.schema import SMP
+from vsmp_imu.validation import validate_model
+
+
+def smp_from_dict(data: object, file: str | Path | None = None) -> SMP:
+    """Validate a parsed mapping into an SMP (errors name the file and field)."""
+    return validate_model(SMP, data, file)
+
+
+def load_smp(path: str | Path) -> SMP:
+    """Read an SMP from a .json, .yaml or .yml file."""
+    return smp_from_dict(read_structured(path), path)
+
+
+def save_smp(smp: SMP, path: str | Path) -> Path:
+    """Write an SMP atomically; the extension picks JSON or YAML."""
+    return write_structured(path, smp.model_dump(mode="json"))

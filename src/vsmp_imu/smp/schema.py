@@ -1,0 +1,291 @@
+"""The Semantic Motion Program (SMP) schema.
+
+Field names, types and allowed values follow the paper's JSON schema
+(appendix "VLM-Based SMP Extraction") exactly, plus `schema_version`.
+
+The paper's Table 1 types tempo, amplitude and global displacement as
+"scalar / categorical": each accepts its category word or a number.
+Tempo and amplitude numbers are positions on the ordinal scale
+(0 = slow/small, 1 = medium, 2 = fast/large); a global-displacement number is
+the travelled extent in metres (0 = stationary). Constrained augmentation
+writes numbers; the verbalizer rounds them back to words.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+SCHEMA_VERSION = "1.0"
+
+UNKNOWN = "unknown"
+Unknown = Literal["unknown"]
+
+Unit = Annotated[float, Field(ge=0.0, le=1.0)]
+NonNegFloat = Annotated[float, Field(ge=0.0)]
+OrdinalLevel = Annotated[float, Field(ge=0.0, le=2.0)]
+
+TEMPO_LEVELS = ("slow", "medium", "fast")
+AMPLITUDE_LEVELS = ("small", "medium", "large")
+DOMINANT_SIDES = ("left", "right", "bilateral", "none")
+SYMMETRIES = ("symmetric", "asymmetric")
+DISPLACEMENTS = ("stationary", "small", "large")
+PERIODICITIES = ("none", "single", "cyclic")
+ORDERINGS = ("ordered", "weakly_ordered", "unordered")
+TRANSITION_TYPES = ("discrete", "continuous")
+DURATION_TYPES = ("absolute", "relative")
+
+INVARIANT_FIELDS = (
+    "activity_label",
+    "primitive_sequence",
+    "mandatory_body_parts",
+    "required_contact",
+    "stationary_or_mobile",
+)
+VARIANT_FIELDS = (
+    "tempo",
+    "amplitude",
+    "repetition_count",
+    "primitive_duration",
+    "dominant_side",
+    "symmetry",
+    "global_displacement",
+)
+UNCERTAINTY_FIELDS = (
+    "activity_label",
+    "motion_primitives",
+    "primitive_duration",
+    "body_parts",
+    "temporal_structure",
+    "repetition_count",
+    "tempo",
+    "amplitude",
+    "dominant_side",
+    "symmetry",
+    "global_displacement",
+    "object_contact",
+)
+
+# Nominal travelled extent (metres) of the displacement categories; used to
+# turn a category into a number before a bounded +-25 % perturbation.
+DISPLACEMENT_EXTENT_M = {"stationary": 0.0, "small": 1.0, "large": 4.0}
+# Extents below this are "small", at or above it "large" (mobile either way).
+LARGE_DISPLACEMENT_M = 2.5
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+class MotionPrimitive(_Strict):
+    name: str = Field(min_length=1)
+    order_index: int = Field(ge=0)
+    description: str = ""
+    body_parts: list[str] = Field(default_factory=list)
+    relative_duration: NonNegFloat | Unknown = UNKNOWN
+    contact: list[str] = Field(default_factory=list)
+
+
+class PrimitiveDurations(_Strict):
+    type: Literal["absolute", "relative", "unknown"] = UNKNOWN
+    values: list[NonNegFloat | Unknown] = Field(default_factory=list)
+
+
+class BodyParts(_Strict):
+    mandatory: list[str] = Field(default_factory=list)
+    optional: list[str] = Field(default_factory=list)
+    dominant_moving_segments: list[str] = Field(default_factory=list)
+
+
+class TemporalStructure(_Strict):
+    is_repetitive: bool = False
+    repetition_count: Annotated[int, Field(ge=0)] | Unknown = UNKNOWN
+    periodicity: Literal["none", "single", "cyclic", "unknown"] = UNKNOWN
+    ordering: Literal["ordered", "weakly_ordered", "unordered"] = "ordered"
+    transition_type: Literal["discrete", "continuous", "unknown"] = UNKNOWN
+
+
+class ExecutionAttributes(_Strict):
+    tempo: Literal["slow", "medium", "fast", "unknown"] | OrdinalLevel = UNKNOWN
+    amplitude: Literal["small", "medium", "large", "unknown"] | OrdinalLevel = UNKNOWN
+    dominant_side: Literal["left", "right", "bilateral", "none", "unknown"] = UNKNOWN
+    symmetry: Literal["symmetric", "asymmetric", "unknown"] = UNKNOWN
+    global_displacement: Literal["stationary", "small", "large", "unknown"] | NonNegFloat = UNKNOWN
+
+
+class ObjectContact(_Strict):
+    objects: list[str] = Field(default_factory=list)
+    body_contact: list[str] = Field(default_factory=list)
+    environment_contact: list[str] = Field(default_factory=list)
+    required_contact: list[str] = Field(default_factory=list)
+
+
+class ConstraintRules(_Strict):
+    preserve_activity_label: bool = True
+    preserve_core_primitive_order: bool = True
+    preserve_mandatory_body_parts: bool = True
+    preserve_required_contact: bool = True
+    dominant_side_swap_allowed_only_if_side_agnostic: bool = True
+    symmetry_change_allowed_only_if_label_preserving: bool = True
+    global_displacement_change_must_preserve_stationary_or_mobile_semantics: bool = True
+
+
+class Constraints(_Strict):
+    invariant_fields: list[
+        Literal[
+            "activity_label",
+            "primitive_sequence",
+            "mandatory_body_parts",
+            "required_contact",
+            "stationary_or_mobile",
+        ]
+    ] = Field(default_factory=lambda: list(INVARIANT_FIELDS))
+    variant_fields: list[
+        Literal[
+            "tempo",
+            "amplitude",
+            "repetition_count",
+            "primitive_duration",
+            "dominant_side",
+            "symmetry",
+            "global_displacement",
+        ]
+    ] = Field(default_factory=list)
+    rules: ConstraintRules = Field(default_factory=ConstraintRules)
+
+
+class Uncertainty(_Strict):
+    activity_label: Unit = 0.5
+    motion_primitives: Unit = 0.5
+    primitive_duration: Unit = 0.5
+    body_parts: Unit = 0.5
+    temporal_structure: Unit = 0.5
+    repetition_count: Unit = 0.5
+    tempo: Unit = 0.5
+    amplitude: Unit = 0.5
+    dominant_side: Unit = 0.5
+    symmetry: Unit = 0.5
+    global_displacement: Unit = 0.5
+    object_contact: Unit = 0.5
+
+
+class SMP(_Strict):
+    """A Semantic Motion Program S = {y, P, D, B, T, A, O, C, U}."""
+
+    schema_version: str = SCHEMA_VERSION
+    activity_label: str = Field(min_length=1)
+    motion_primitives: list[MotionPrimitive] = Field(min_length=1)
+    primitive_sequence: list[str] = Field(min_length=1)
+    primitive_durations: PrimitiveDurations = Field(default_factory=PrimitiveDurations)
+    body_parts: BodyParts = Field(default_factory=BodyParts)
+    temporal_structure: TemporalStructure = Field(default_factory=TemporalStructure)
+    execution_attributes: ExecutionAttributes = Field(default_factory=ExecutionAttributes)
+    object_contact: ObjectContact = Field(default_factory=ObjectContact)
+    constraints: Constraints = Field(default_factory=Constraints)
+    uncertainty: Uncertainty = Field(default_factory=Uncertainty)
+
+    @field_validator("activity_label")
+    @classmethod
+    def _strip_label(cls, value: str) -> str:
+        value = value.strip()
+        if not value:
+            raise ValueError("must not be empty")
+        return value
+
+    @model_validator(mode="after")
+    def _check_lengths(self) -> SMP:
+        values = self.primitive_durations.values
+        if values and len(values) != len(self.primitive_sequence):
+            raise ValueError(
+                f"primitive_durations.values has {len(values)} entries but "
+                f"primitive_sequence has {len(self.primitive_sequence)}"
+            )
+        return self
+
+    # -- identity ---------------------------------------------------------
+    def canonical_json(self) -> str:
+        """Key-sorted compact JSON: the bytes that define this SMP's identity."""
+        return json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+
+    @property
+    def smp_id(self) -> str:
+        """A short content hash; equal SMPs have equal ids."""
+        return hashlib.sha256(self.canonical_json().encode()).hexdigest()[:16]
+
+    # -- scalar views of "scalar / categorical" fields ----------------------
+    def tempo_level(self) -> float | None:
+        """Tempo on the ordinal scale 0 (slow) .. 2 (fast); None if unknown."""
+        return ordinal_level(self.execution_attributes.tempo, TEMPO_LEVELS)
+
+    def amplitude_level(self) -> float | None:
+        """Amplitude on the ordinal scale 0 (small) .. 2 (large); None if unknown."""
+        return ordinal_level(self.execution_attributes.amplitude, AMPLITUDE_LEVELS)
+
+    def displacement_extent_m(self) -> float | None:
+        """Travelled extent in metres (category -> nominal extent); None if unknown."""
+        value = self.execution_attributes.global_displacement
+        if isinstance(value, str):
+            return DISPLACEMENT_EXTENT_M.get(value)
+        return float(value)
+
+    def repetition_count(self) -> int | None:
+        value = self.temporal_structure.repetition_count
+        return None if value == UNKNOWN else int(value)
+
+    def relative_durations(self) -> list[float]:
+        """Per-primitive relative durations in sequence order, normalized to sum 1.
+
+        Unknown entries are filled with the mean of the known ones (or 1 when
+        none is known).
+        """
+        n = len(self.primitive_sequence)
+        raw: list[float | None] = [None] * n
+        values = self.primitive_durations.values
+        if len(values) == n:
+            raw = [None if v == UNKNOWN else float(v) for v in values]
+        if all(v is None for v in raw):
+            by_name = {p.name: p.relative_duration for p in self.motion_primitives}
+            raw = [
+                None if by_name.get(name, UNKNOWN) == UNKNOWN else float(by_name[name])
+                for name in self.primitive_sequence
+            ]
+        known = [v for v in raw if v is not None and v > 0]
+        fill = sum(known) / len(known) if known else 1.0
+        filled = [v if v is not None and v > 0 else fill for v in raw]
+        total = sum(filled)
+        return [v / total for v in filled]
+
+
+def ordinal_level(value: str | float, levels: tuple[str, str, str]) -> float | None:
+    """Map a category word or a number to the 0..2 ordinal scale."""
+    if isinstance(value, str):
+        return float(levels.index(value)) if value in levels else None
+    return float(value)
+
+
+def ordinal_word(value: str | float, levels: tuple[str, str, str]) -> str:
+    """Map a category word or a number back to the nearest category word."""
+    if isinstance(value, str):
+        return value
+    index = int(min(2, max(0, round(float(value)))))
+    return levels[index]
+
+
+def displacement_word(value: str | float) -> str:
+    """The category of a displacement value (number in metres or word)."""
+    if isinstance(value, str):
+        return value
+    if value <= 0:
+        return "stationary"
+    return "large" if value >= LARGE_DISPLACEMENT_M else "small"
+
+
+def smp_json_schema() -> dict[str, Any]:
+    """The JSON Schema of the SMP (what `vsmp-imu smp schema` prints)."""
+    schema = SMP.model_json_schema()
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    schema["title"] = "Semantic Motion Program"
+    return schema

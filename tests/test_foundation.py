@@ -1,0 +1,56 @@
+"""Errors, atomic writes and the CLI's handling of user mistakes."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from vsmp_imu.errors import ValidationError, VsmpError
+from vsmp_imu.io import atomic_path, read_structured, write_json
+
+
+def test_error_message_names_file_field_and_allowed():
+    err = ValidationError("bad value 'zoom'", file="a.json", field="execution_attributes.tempo",
+                          allowed="slow, medium, fast, unknown")
+    text = err.render()
+    assert text.startswith("a.json: field 'execution_attributes.tempo': bad value 'zoom'.")
+    assert text.endswith("Allowed: slow, medium, fast, unknown.")
+    assert isinstance(err, VsmpError)
+
+
+def test_atomic_write_leaves_nothing_on_failure(tmp_path):
+    target = tmp_path / "out.json"
+    with pytest.raises(RuntimeError), atomic_path(target) as tmp:
+        tmp.write_text("partial")
+        raise RuntimeError("crash")
+    assert not target.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_atomic_write_replaces_whole_file(tmp_path):
+    target = tmp_path / "out.json"
+    write_json(target, {"a": 1})
+    write_json(target, {"b": 2})
+    assert read_structured(target) == {"b": 2}
+    assert [p.name for p in tmp_path.iterdir()] == ["out.json"]
+
+
+def test_console_script_exits_2_with_one_paragraph(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"activity_label": "x"}')
+    proc = subprocess.run(
+        [sys.executable, "-c", "from vsmp_imu.cli import main; main()", "smp", "validate", str(bad)],
+        capture_output=True, text=True,
+    )
+    assert proc.returncode == 2
+    assert str(bad) in proc.stderr
+    assert "motion_primitives" in proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_missing_file_is_exit_2(cli, tmp_path):
+    code, _, err = cli("smp", "validate", tmp_path / "nope.json")
+    assert code == 2
+    assert "file not found" in err
