@@ -1,0 +1,199 @@
+"""Rank grounding, convention alignment, D_stat/D_rank split and L_sim statistics."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from scipy.stats import ks_2samp, spearmanr
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.grounding.align import (
+    Convention,
+    ConventionAlignment,
+    axes_matrix,
+    infer_axes,
+    sample_mounting_perturbation,
+    signed_permutations,
+)
+from vsmp_imu.grounding.rank import RankGrounder
+from vsmp_imu.grounding.split import stat_rank_split
+from vsmp_imu.grounding.stats import (
+    TargetStatistics,
+    segment,
+    sim_loss,
+    summarize_sequence,
+    summarize_windows,
+    window_acf,
+    window_band_energy,
+)
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(0)
+
+
+# -- rank grounding ------------------------------------------------------------
+def test_rank_grounding_matches_real_marginals_and_keeps_order(rng):
+    synthetic = rng.gamma(2.0, 1.5, size=(240, 100, 6))
+    real = rng.normal(2.0, 3.0, size=(300, 100, 6)).round(3)  # quantized like a sensor
+    grounded = RankGrounder().fit(synthetic, real).transform(synthetic)
+    for c in range(6):
+        assert ks_2samp(grounded[..., c].ravel(), real[..., c].ravel()).statistic < 0.05
+    rhos = [spearmanr(grounded[i, :, c], synthetic[i, :, c]).statistic for i in range(0, 240, 7) for c in range(6)]
+    assert min(rhos) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_rank_grounding_changes_values(rng):
+    synthetic = rng.normal(0, 1, size=(50, 100, 6))
+    real = rng.normal(5, 2, size=(50, 100, 6))
+    grounded = RankGrounder().fit(synthetic, real).transform(synthetic)
+    assert abs(grounded.mean() - 5) < 0.2
+    assert abs(grounded.std() - 2) < 0.2
+
+
+def test_rank_grounding_per_class(rng):
+    syn = np.concatenate([rng.normal(0, 1, (40, 50, 6)), rng.normal(0, 1, (40, 50, 6))])
+    rea = np.concatenate([rng.normal(-3, 1, (40, 50, 6)), rng.normal(3, 1, (40, 50, 6))])
+    ys, yr = np.repeat([0, 1], 40), np.repeat([0, 1], 40)
+    g = RankGrounder(per_class=True).fit(syn, rea, ys, yr)
+    out = g.transform(syn, ys)
+    assert out[ys == 0].mean() == pytest.approx(-3, abs=0.2)
+    assert out[ys == 1].mean() == pytest.approx(3, abs=0.2)
+    pooled = RankGrounder().fit(syn, rea).transform(syn)
+    assert abs(pooled[ys == 0].mean()) < 1.0  # pooled map cannot separate the classes
+
+
+def test_rank_grounding_rejects_bad_input(rng):
+    with pytest.raises(ValidationError):
+        RankGrounder().fit(rng.normal(size=(5, 10, 6)), rng.normal(size=(5, 10, 3)))
+    bad = rng.normal(size=(5, 10, 6))
+    bad[0, 0, 0] = np.nan
+    with pytest.raises(ValidationError, match="NaN"):
+        RankGrounder().fit(bad, rng.normal(size=(5, 10, 6)))
+
+
+# -- alignment ---------------------------------------------------------------------
+def test_axes_matrix_maps_anatomical_words():
+    p = axes_matrix(("up", "right", "forward"))
+    sim = np.array([1.0, 2.0, 3.0])  # (left, up, forward)
+    assert np.allclose(p @ sim, [2.0, -1.0, 3.0])
+    with pytest.raises(ValidationError, match="same body direction"):
+        axes_matrix(("up", "down", "left"))
+    with pytest.raises(ValidationError):
+        axes_matrix(("north", "up", "left"))
+
+
+def test_alignment_gravity_units_and_axes():
+    x = np.zeros((1, 4, 6))
+    x[..., 1] = 9.81  # static upright sensor: +g on its up axis
+    x[..., 3] = 0.5  # gyro about the left axis
+    grav = np.zeros((1, 4, 3))
+    grav[..., 1] = 9.81
+    conv = Convention(axes=("up", "left", "forward"), gravity_included=True, acc_unit="g", gyr_unit="deg/s")
+    out = ConventionAlignment(conv).transform(x, grav)
+    assert np.allclose(out[0, 0, :3], [1.0, 0.0, 0.0])
+    assert np.allclose(out[0, 0, 3:], [0.0, np.degrees(0.5), 0.0])
+    linear = ConventionAlignment(Convention(gravity_included=False)).transform(x, grav)
+    assert np.allclose(linear[..., :3], 0.0)
+    with pytest.raises(ValidationError, match="gravity"):
+        ConventionAlignment(Convention(gravity_included=False)).transform(x)
+
+
+def test_signed_permutations_are_48_distinct_orthogonal():
+    perms = signed_permutations()
+    assert len(perms) == 48
+    assert len({p.tobytes() for p in perms}) == 48
+    assert all(np.allclose(p @ p.T, np.eye(3)) for p in perms)
+
+
+def test_infer_axes_recovers_a_hidden_convention(rng):
+    t = np.linspace(0, 20, 2000)
+    acc = np.stack([np.sin(t), 9.81 + 2 * np.sin(2 * t), 0.3 * np.cos(t)], axis=1)
+    gyr = np.stack([np.cos(3 * t), 0.1 * np.sin(t), 0.5 * np.sin(t)], axis=1)
+    sim = np.concatenate([acc, gyr], axis=1)[None] + rng.normal(0, 0.05, (1, 2000, 6))
+    hidden = axes_matrix(("down", "forward", "left"))
+    real = np.concatenate([sim[..., :3] @ hidden.T, sim[..., 3:] @ hidden.T], axis=-1)
+    p, _ = infer_axes(sim, real)
+    assert np.allclose(p, hidden)
+
+
+def test_mounting_perturbation_respects_prior_bounds(rng):
+    for loc, bound in (("right_wrist", 30.0), ("waist", 30.0)):
+        angles = np.array([sample_mounting_perturbation(loc, rng).as_euler("zxy", degrees=True) for _ in range(300)])
+        assert np.abs(angles).max() <= bound + 1e-6
+    waist = np.array([sample_mounting_perturbation("waist", rng).as_euler("zxy", degrees=True) for _ in range(300)])
+    assert np.abs(waist[:, :2]).max() <= 15 + 1e-6
+    assert np.abs(waist[:, :2]).max() > 10
+    assert isinstance(sample_mounting_perturbation("waist", rng), Rotation)
+
+
+# -- split --------------------------------------------------------------------------
+def test_stat_rank_split_is_stratified_disjoint_and_seeded():
+    labels = np.array([0] * 10 + [1] * 7 + [2] * 1)
+    stat, rank = stat_rank_split(labels, seed=3)
+    assert np.intersect1d(stat, rank).size == 0
+    assert np.union1d(stat, rank).size == labels.size
+    assert (labels[stat] == 0).sum() == 5 and (labels[rank] == 0).sum() == 5
+    assert abs((labels[stat] == 1).sum() - (labels[rank] == 1).sum()) == 1
+    assert (labels[stat] == 2).sum() == 1
+    again = stat_rank_split(labels, seed=3)
+    assert np.array_equal(stat, again[0])
+    assert not np.array_equal(stat, stat_rank_split(labels, seed=4)[0])
+
+
+# -- statistics ---------------------------------------------------------------------
+def test_segment_shapes():
+    x = np.zeros((3, 250, 6))
+    assert segment(x, 100).shape == (3, 2, 100, 6)
+    assert segment(np.zeros((50, 6)), 100).shape == (1, 50, 6)
+
+
+def test_band_energy_finds_the_sine_band():
+    fs = 50.0
+    t = np.arange(100) / fs
+    w = np.stack([np.sin(2 * np.pi * 3.0 * t)] * 6, axis=1)  # 3 Hz: band (2, 4]
+    energy = window_band_energy(w, fs)
+    assert energy.shape == (6, 6)
+    assert np.allclose(energy.sum(-1), 1.0)
+    assert (energy.argmax(-1) == 3).all()
+
+
+def test_acf_of_periodic_signal():
+    t = np.arange(200)
+    w = np.sin(2 * np.pi * t / 20.0)[:, None].repeat(6, 1)
+    acf = window_acf(w)
+    assert acf.shape == (6, 6)
+    assert acf[0, 4] > 0.8  # lag 20 = one period
+    assert acf[0, 3] < -0.8  # lag 10 = half a period
+
+
+def test_sim_loss_zero_at_target_and_grows_with_mismatch(rng):
+    fs = 50.0
+    real = rng.normal(0, 1, (30, 100, 6))
+    real[..., 1] += 9.81
+    target = summarize_windows(real, fs)
+    assert sim_loss(target, target) == pytest.approx(0.0, abs=1e-9)
+    same = summarize_sequence(real.reshape(-1, 6), fs)
+    noisy = summarize_sequence(real.reshape(-1, 6) * np.array([1, 1, 1, 3, 3, 3]), fs)
+    assert sim_loss(noisy, target) > sim_loss(same, target) + 0.1
+
+
+def test_sim_loss_vectorized_over_candidates(rng):
+    fs = 50.0
+    target = summarize_windows(rng.normal(0, 1, (20, 100, 6)), fs)
+    cands = rng.normal(0, 1, (8, 300, 6)) * np.linspace(0.5, 2, 8)[:, None, None]
+    batch = sim_loss(summarize_sequence(cands, fs), target)
+    single = [float(sim_loss(summarize_sequence(c, fs), target)) for c in cands]
+    assert batch.shape == (8,)
+    assert np.allclose(batch, single)
+
+
+def test_target_statistics_fall_back_for_small_classes(rng):
+    w = rng.normal(0, 1, (50, 100, 6))
+    labels = np.array([0] * 45 + [1] * 5)
+    ts = TargetStatistics(fs_hz=50.0, min_windows=20).fit(w, labels)
+    assert 0 in ts.per_class_ and 1 not in ts.per_class_
+    assert ts.for_class(1) is ts.overall_
+    assert ts.for_class(0) is not ts.overall_
