@@ -1,0 +1,104 @@
+"""Step 2 of the simulation: sensor readings for N candidate parameter sets at once.
+
+For candidate n with mounting M_n (sensor <- segment), biases b_a, b_w, noise
+scales k_a, k_w and gravity flag g_n:
+
+    acc_n = M_n (acc_lin_seg + g_n * grav_seg) + b_a,n + k_a,n * noise_acc
+    gyr_n = M_n gyr_seg + b_w,n + k_w,n * noise_gyr
+
+noise_acc, noise_gyr are the nominal noise series of one `ImuNoise` draw,
+shared by all candidates (common random numbers): candidates differ only by
+their parameters. g_n = False gives the linear-acceleration convention.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.imu.kinematics import SegmentKinematics
+from vsmp_imu.imu.sensor import ImuNoise
+
+
+def _as_stack(value, tail: tuple[int, ...], name: str, default) -> np.ndarray:
+    """value as (N, *tail) with N >= 1 (a single value gives N = 1)."""
+    if value is None:
+        value = default
+    if isinstance(value, Rotation):
+        value = value.as_matrix()
+    arr = np.asarray(value, dtype=float)
+    if arr.shape == tail:
+        arr = arr[None]
+    if arr.ndim != len(tail) + 1 or arr.shape[1:] != tail:
+        raise ValidationError(f"expected shape {tail} or (N, {', '.join(map(str, tail))}), "
+                              f"got {arr.shape}", field=name)
+    return arr
+
+
+def _as_vector(value, name: str, dtype) -> np.ndarray:
+    """A scalar or (N,) as a 1-D array."""
+    arr = np.atleast_1d(np.asarray(value, dtype=dtype))
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValidationError(f"expected a scalar or (N,), got shape {np.shape(value)}", field=name)
+    return arr
+
+
+def _broadcast_n(arrays: dict[str, np.ndarray]) -> int:
+    sizes = {len(a) for a in arrays.values()} - {1}
+    if len(sizes) > 1:
+        detail = ", ".join(f"{k}: {len(a)}" for k, a in arrays.items())
+        raise ValidationError(f"candidate counts disagree ({detail})", field="candidates")
+    return sizes.pop() if sizes else 1
+
+
+def sensor_readings(
+    kin: SegmentKinematics,
+    mounting=None,
+    acc_bias=None,
+    gyr_bias=None,
+    acc_noise_scale=1.0,
+    gyr_noise_scale=1.0,
+    gravity_included=True,
+    noise: ImuNoise | None = None,
+) -> np.ndarray:
+    """Readings (N, T, 6) [acc_x..z, gyr_x..z] for N candidates (see module doc).
+
+    mounting: (3, 3) or (N, 3, 3) rotation matrices, or a scipy Rotation (identity when None);
+    acc_bias, gyr_bias: (3,) or (N, 3); noise scales and gravity flag: scalar or (N,);
+    noise: pre-drawn noise, or None for exact kinematics (scales are then ignored).
+    """
+    mats = _as_stack(mounting, (3, 3), "mounting", np.eye(3))
+    b_a = _as_stack(acc_bias, (3,), "acc_bias", np.zeros(3))
+    b_w = _as_stack(gyr_bias, (3,), "gyr_bias", np.zeros(3))
+    k_a = _as_vector(acc_noise_scale, "acc_noise_scale", float)
+    k_w = _as_vector(gyr_noise_scale, "gyr_noise_scale", float)
+    grav = _as_vector(gravity_included, "gravity_included", bool)
+    n = _broadcast_n({"mounting": mats, "acc_bias": b_a, "gyr_bias": b_w,
+                      "acc_noise_scale": k_a, "gyr_noise_scale": k_w, "gravity_included": grav})
+    if noise is not None and noise.n_samples != kin.n_samples:
+        raise ValidationError(f"noise has {noise.n_samples} samples, kinematics {kin.n_samples}",
+                              field="noise")
+
+    # One product for all candidates: features (T, F) @ weights (F, N * 6), where the
+    # features are [acc_lin, grav, gyr, 1, noise_acc, noise_gyr] (segment frame) and
+    # the weights hold M^T (v_sensor = M v_seg for row vectors), gravity flags, biases
+    # and noise scales.
+    t = kin.n_samples
+    columns = [kin.acc_lin_seg, kin.grav_seg, kin.gyr_seg, np.ones((t, 1))]
+    if noise is not None:
+        columns += [noise.acc, noise.gyr]
+    features = np.concatenate(columns, axis=1)
+    weights = np.zeros((features.shape[1], n, 6))
+    mt = np.broadcast_to(mats.transpose(0, 2, 1), (n, 3, 3)).transpose(1, 0, 2)  # [j, n, i] = M_n[i, j]
+    weights[0:3, :, 0:3] = mt
+    weights[3:6, :, 0:3] = mt * grav[None, :, None]
+    weights[6:9, :, 3:6] = mt
+    weights[9, :, 0:3] = b_a
+    weights[9, :, 3:6] = b_w
+    if noise is not None:
+        axis = np.arange(3)
+        weights[10 + axis, :, axis] = k_a[None, :]
+        weights[13 + axis, :, 3 + axis] = k_w[None, :]
+    out = (features @ weights.reshape(len(weights), 6 * n)).reshape(t, n, 6)
+    return np.ascontiguousarray(out.transpose(1, 0, 2))
