@@ -10,12 +10,14 @@ rank grounding.
 The paper leaves the scale of each term open. Here each term is made
 dimensionless so the weights mean what they say: the covariance error is
 relative to the target's Frobenius norm, the PSD is the per-channel relative
-band-energy distribution, and r holds the mean and std of the accelerometer
-and gyroscope vector norms (relative to the target's) and the per-channel
-normalized autocorrelation at the lags.
+band-energy distribution, and r holds RMS vector-norm statistics of the
+accelerometer and gyroscope (relative to the target's) and the per-channel
+normalized autocorrelation at the lags. Statistics are pooled over the 2 s
+windows (moments summed, then normalized).
 
-Every function takes windows with arbitrary leading batch axes, so a whole
-population of CEM candidates is scored in one vectorized call.
+All of them are quadratic forms in the signal. `LinearMoments` exploits that:
+readings of every CEM candidate are features @ weights, so the statistics of a
+whole population follow from moments of the features computed once.
 """
 
 from __future__ import annotations
@@ -44,83 +46,115 @@ def segment(x: np.ndarray, length: int) -> np.ndarray:
     return head.reshape(*x.shape[:-2], w, length, x.shape[-1])
 
 
-def window_covariance(w: np.ndarray) -> np.ndarray:
-    """Cross-channel covariance of each window: (..., L, C) -> (..., C, C)."""
-    centered = w - w.mean(axis=-2, keepdims=True)
-    return np.einsum("...ti,...tj->...ij", centered, centered) / max(w.shape[-2] - 1, 1)
-
-
 def band_edges(fs_hz: float) -> np.ndarray:
     return np.array([*PSD_BAND_EDGES_HZ, fs_hz / 2.0])
 
 
-def window_band_energy(w: np.ndarray, fs_hz: float) -> np.ndarray:
-    """Relative band energy per channel: (..., L, C) -> (..., C, 6); bands sum to 1."""
-    centered = w - w.mean(axis=-2, keepdims=True)
-    power = np.abs(np.fft.rfft(centered, axis=-2)) ** 2  # (..., F, C)
-    freqs = np.fft.rfftfreq(w.shape[-2], d=1.0 / fs_hz)
+def _band_matrix(n_samples: int, fs_hz: float) -> np.ndarray:
+    """(Q, 6) indicator of which rfft bin falls in which band."""
+    freqs = np.fft.rfftfreq(n_samples, d=1.0 / fs_hz)
     edges = band_edges(fs_hz)
-    bands = []
+    bands = np.zeros((freqs.size, len(edges) - 1))
     for i in range(len(edges) - 1):
         lo, hi = edges[i], edges[i + 1]
-        mask = (freqs >= lo) & (freqs <= hi) if i == 0 else (freqs > lo) & (freqs <= hi)
-        bands.append(power[..., mask, :].sum(axis=-2))
-    energy = np.stack(bands, axis=-1)  # (..., C, 6)
-    return energy / (energy.sum(axis=-1, keepdims=True) + _EPS)
-
-
-def window_acf(w: np.ndarray, lags: tuple[int, ...] = ACF_LAGS) -> np.ndarray:
-    """Normalized autocorrelation per channel at `lags`: (..., L, C) -> (..., C, n_lags).
-
-    Lags at or beyond the window length read 0.
-    """
-    length = w.shape[-2]
-    centered = w - w.mean(axis=-2, keepdims=True)
-    spec = np.fft.rfft(centered, n=2 * length, axis=-2)
-    acov = np.fft.irfft(np.abs(spec) ** 2, n=2 * length, axis=-2)[..., :length, :]
-    acf = acov / (acov[..., :1, :] + _EPS)
-    out = np.zeros((*w.shape[:-2], w.shape[-1], len(lags)))
-    for k, lag in enumerate(lags):
-        if lag < length:
-            out[..., k] = acf[..., lag, :]
-    return out
-
-
-def window_norms(w: np.ndarray) -> np.ndarray:
-    """Mean and std of the acc and gyro vector norms: (..., L, 6) -> (..., 4)."""
-    acc = np.linalg.norm(w[..., 0:3], axis=-1)
-    gyr = np.linalg.norm(w[..., 3:6], axis=-1)
-    return np.stack([acc.mean(-1), acc.std(-1), gyr.mean(-1), gyr.std(-1)], axis=-1)
+        bands[:, i] = (freqs >= lo) & (freqs <= hi) if i == 0 else (freqs > lo) & (freqs <= hi)
+    return bands
 
 
 @dataclass(frozen=True)
 class StatSummary:
-    """The statistics of one 6-channel (acc, gyr) sensor stream or window set.
+    """The statistics of one 6-channel (acc, gyr) stream or window set.
 
     Arrays may carry leading batch axes (one summary per CEM candidate).
     """
 
-    cov: np.ndarray  # (..., 6, 6)
-    psd: np.ndarray  # (..., 6, 6 bands)
-    norms: np.ndarray  # (..., 4)
-    acf: np.ndarray  # (..., 6, n_lags)
+    cov: np.ndarray  # (..., 6, 6) mean window covariance
+    psd: np.ndarray  # (..., 6, 6 bands) relative band energy per channel
+    norms: np.ndarray  # (..., 4) RMS |a|, RMS |a - mean a|, RMS |w|, RMS |w - mean w|
+    acf: np.ndarray  # (..., 6, n_lags) normalized autocorrelation
+
+
+class LinearMoments:
+    """Pooled window moments of features (..., T, F) (or windows (..., W, L, F)).
+
+    `summarize(weights)` gives the statistics of the signal features @ weights
+    for N candidate weight matrices (N, F, C) at once; `summarize()` (identity
+    weights) gives the statistics of the features themselves.
+    """
+
+    def __init__(self, windows: np.ndarray, fs_hz: float) -> None:
+        w = np.asarray(windows, dtype=np.float64)
+        length = w.shape[-2]
+        w = w.reshape(-1, length, w.shape[-1])  # all windows pooled
+        centered = w - w.mean(axis=-2, keepdims=True)
+        self.length = length
+        self.n_windows = w.shape[0]
+        self.fs_hz = fs_hz
+        ct = centered.swapaxes(-1, -2)
+        self.cov = (ct @ centered).sum(0) / (max(length - 1, 1) * self.n_windows)
+        self.second = (w.swapaxes(-1, -2) @ w).sum(0) / (length * self.n_windows)
+        spec = np.fft.rfft(centered, axis=-2)  # (W, Q, F)
+        cross = np.einsum("wqf,wqg->qfg", spec, spec.conj()).real
+        self.band = np.einsum("qb,qfg->bfg", _band_matrix(length, fs_hz), cross)
+        lagged = []
+        for lag in ACF_LAGS:
+            a = np.zeros_like(self.cov)
+            if lag < length:
+                a = (ct[:, :, lag:] @ centered[:, : length - lag, :]).sum(0)
+            lagged.append((a + a.T) / 2)
+        self.lagged = np.stack(lagged)  # (K, F, F)
+        self._stack = np.concatenate([self.band, self.lagged, self.second[None], self.cov[None]])
+
+    @classmethod
+    def of_sequence(cls, x: np.ndarray, fs_hz: float, window_s: float = COV_WINDOW_S) -> LinearMoments:
+        """Moments of a (T, F) sequence cut into 2 s windows."""
+        return cls(segment(np.asarray(x, dtype=np.float64), int(round(window_s * fs_hz))), fs_hz)
+
+    def summarize(self, weights: np.ndarray | None = None) -> StatSummary:
+        """Statistics of features @ weights; weights (N, F, 6) or None for the features."""
+        if weights is None:
+            single = np.eye(self.cov.shape[0])[None]
+            return StatSummary(*(a[0] for a in _summary_arrays(self, single)))
+        return StatSummary(*_summary_arrays(self, np.asarray(weights, dtype=np.float64)))
+
+
+def _summary_arrays(m: LinearMoments, wt: np.ndarray):
+    if wt.shape[-1] != 6:
+        raise ValueError(f"expected 6 output channels (acc xyz, gyr xyz), got {wt.shape[-1]}")
+    mw = m._stack[None] @ wt[:, None]  # (N, X, F, 6)
+    diag = (mw * wt[:, None]).sum(axis=-2)  # (N, X, 6): diagonal of W^T M W
+    n_band, n_lag = m.band.shape[0], m.lagged.shape[0]
+    energy = diag[:, :n_band].swapaxes(-1, -2)  # (N, 6, B)
+    psd = energy / (energy.sum(axis=-1, keepdims=True) + _EPS)
+    var = diag[:, -1]  # (N, 6)
+    denom = var[..., None] * max(m.length - 1, 1) * m.n_windows + _EPS
+    acf = diag[:, n_band : n_band + n_lag].swapaxes(-1, -2) / denom
+    second = diag[:, -2]
+    centered_sq = var * (max(m.length - 1, 1) / m.length)
+    norms = np.stack(
+        [
+            np.sqrt(second[:, 0:3].sum(-1)),
+            np.sqrt(centered_sq[:, 0:3].sum(-1)),
+            np.sqrt(second[:, 3:6].sum(-1)),
+            np.sqrt(centered_sq[:, 3:6].sum(-1)),
+        ],
+        axis=-1,
+    )
+    cov = wt.swapaxes(-1, -2) @ mw[:, -1]
+    return cov, psd, norms, acf
 
 
 def summarize_windows(windows: np.ndarray, fs_hz: float) -> StatSummary:
-    """Average statistics over the window axis: (..., W, L, 6) -> summary (...)."""
+    """Statistics of real windows (N, L, 6), pooled (what D_stat holds)."""
+    windows = np.asarray(windows)
     if windows.shape[-1] != 6:
         raise ValueError(f"expected 6 channels (acc xyz, gyr xyz), got {windows.shape[-1]}")
-    return StatSummary(
-        cov=window_covariance(windows).mean(axis=-3),
-        psd=window_band_energy(windows, fs_hz).mean(axis=-3),
-        norms=window_norms(windows).mean(axis=-2),
-        acf=window_acf(windows).mean(axis=-3),
-    )
+    return LinearMoments(windows, fs_hz).summarize()
 
 
 def summarize_sequence(x: np.ndarray, fs_hz: float, window_s: float = COV_WINDOW_S) -> StatSummary:
-    """Statistics of a (..., T, 6) sequence over its 2 s windows."""
-    return summarize_windows(segment(x, int(round(window_s * fs_hz))), fs_hz)
+    """Statistics of one (T, 6) sequence over its 2 s windows."""
+    return LinearMoments.of_sequence(x, fs_hz, window_s).summarize()
 
 
 def sim_loss(candidate: StatSummary, target: StatSummary) -> np.ndarray:

@@ -52,6 +52,57 @@ def _broadcast_n(arrays: dict[str, np.ndarray]) -> int:
     return sizes.pop() if sizes else 1
 
 
+def reading_features(kin: SegmentKinematics, noise: ImuNoise | None = None) -> np.ndarray:
+    """Segment-frame features (T, F): [acc_lin(3), grav(3), gyr(3), 1, noise_acc(3), noise_gyr(3)].
+
+    Readings are linear in them: readings = features @ weights (see `reading_weights`).
+    Without noise the last six columns are absent (F = 10).
+    """
+    if noise is not None and noise.n_samples != kin.n_samples:
+        raise ValidationError(f"noise has {noise.n_samples} samples, kinematics {kin.n_samples}",
+                              field="noise")
+    columns = [kin.acc_lin_seg, kin.grav_seg, kin.gyr_seg, np.ones((kin.n_samples, 1))]
+    if noise is not None:
+        columns += [noise.acc, noise.gyr]
+    return np.concatenate(columns, axis=1)
+
+
+def reading_weights(
+    mounting=None,
+    acc_bias=None,
+    gyr_bias=None,
+    acc_noise_scale=1.0,
+    gyr_noise_scale=1.0,
+    gravity_included=True,
+    with_noise: bool = True,
+) -> np.ndarray:
+    """Weights (N, F, 6) mapping `reading_features` to the readings of N candidates.
+
+    They hold M^T (v_sensor = M v_seg for row vectors), the gravity flags, the
+    biases and the noise scales. Arguments as in `sensor_readings`.
+    """
+    mats = _as_stack(mounting, (3, 3), "mounting", np.eye(3))
+    b_a = _as_stack(acc_bias, (3,), "acc_bias", np.zeros(3))
+    b_w = _as_stack(gyr_bias, (3,), "gyr_bias", np.zeros(3))
+    k_a = _as_vector(acc_noise_scale, "acc_noise_scale", float)
+    k_w = _as_vector(gyr_noise_scale, "gyr_noise_scale", float)
+    grav = _as_vector(gravity_included, "gravity_included", bool)
+    n = _broadcast_n({"mounting": mats, "acc_bias": b_a, "gyr_bias": b_w,
+                      "acc_noise_scale": k_a, "gyr_noise_scale": k_w, "gravity_included": grav})
+    weights = np.zeros((n, 16 if with_noise else 10, 6))
+    mt = np.broadcast_to(mats.transpose(0, 2, 1), (n, 3, 3))  # [n, j, i] = M_n[i, j]
+    weights[:, 0:3, 0:3] = mt
+    weights[:, 3:6, 0:3] = mt * grav[:, None, None]
+    weights[:, 6:9, 3:6] = mt
+    weights[:, 9, 0:3] = b_a
+    weights[:, 9, 3:6] = b_w
+    if with_noise:
+        axis = np.arange(3)
+        weights[:, 10 + axis, axis] = np.broadcast_to(k_a[:, None], (n, 3))
+        weights[:, 13 + axis, 3 + axis] = np.broadcast_to(k_w[:, None], (n, 3))
+    return weights
+
+
 def sensor_readings(
     kin: SegmentKinematics,
     mounting=None,
@@ -68,37 +119,11 @@ def sensor_readings(
     acc_bias, gyr_bias: (3,) or (N, 3); noise scales and gravity flag: scalar or (N,);
     noise: pre-drawn noise, or None for exact kinematics (scales are then ignored).
     """
-    mats = _as_stack(mounting, (3, 3), "mounting", np.eye(3))
-    b_a = _as_stack(acc_bias, (3,), "acc_bias", np.zeros(3))
-    b_w = _as_stack(gyr_bias, (3,), "gyr_bias", np.zeros(3))
-    k_a = _as_vector(acc_noise_scale, "acc_noise_scale", float)
-    k_w = _as_vector(gyr_noise_scale, "gyr_noise_scale", float)
-    grav = _as_vector(gravity_included, "gravity_included", bool)
-    n = _broadcast_n({"mounting": mats, "acc_bias": b_a, "gyr_bias": b_w,
-                      "acc_noise_scale": k_a, "gyr_noise_scale": k_w, "gravity_included": grav})
-    if noise is not None and noise.n_samples != kin.n_samples:
-        raise ValidationError(f"noise has {noise.n_samples} samples, kinematics {kin.n_samples}",
-                              field="noise")
-
-    # One product for all candidates: features (T, F) @ weights (F, N * 6), where the
-    # features are [acc_lin, grav, gyr, 1, noise_acc, noise_gyr] (segment frame) and
-    # the weights hold M^T (v_sensor = M v_seg for row vectors), gravity flags, biases
-    # and noise scales.
-    t = kin.n_samples
-    columns = [kin.acc_lin_seg, kin.grav_seg, kin.gyr_seg, np.ones((t, 1))]
-    if noise is not None:
-        columns += [noise.acc, noise.gyr]
-    features = np.concatenate(columns, axis=1)
-    weights = np.zeros((features.shape[1], n, 6))
-    mt = np.broadcast_to(mats.transpose(0, 2, 1), (n, 3, 3)).transpose(1, 0, 2)  # [j, n, i] = M_n[i, j]
-    weights[0:3, :, 0:3] = mt
-    weights[3:6, :, 0:3] = mt * grav[None, :, None]
-    weights[6:9, :, 3:6] = mt
-    weights[9, :, 0:3] = b_a
-    weights[9, :, 3:6] = b_w
-    if noise is not None:
-        axis = np.arange(3)
-        weights[10 + axis, :, axis] = k_a[None, :]
-        weights[13 + axis, :, 3 + axis] = k_w[None, :]
-    out = (features @ weights.reshape(len(weights), 6 * n)).reshape(t, n, 6)
+    features = reading_features(kin, noise)
+    weights = reading_weights(mounting, acc_bias, gyr_bias, acc_noise_scale, gyr_noise_scale,
+                              gravity_included, with_noise=noise is not None)
+    n = weights.shape[0]
+    # One product for all candidates: (T, F) @ (F, N * 6).
+    flat = weights.transpose(1, 0, 2).reshape(features.shape[1], n * 6)
+    out = (features @ flat).reshape(kin.n_samples, n, 6)
     return np.ascontiguousarray(out.transpose(1, 0, 2))
