@@ -1,4 +1,8 @@
-"""`vsmp-imu smp ...`: Semantic Motion Program commands."""
+"""`vsmp-imu smp ...`: Semantic Motion Program commands.
+
+A FILE argument that is not an existing path but names a library activity
+(e.g. `jumping_jacks`) stands for that activity's library SMP.
+"""
 
 from __future__ import annotations
 
@@ -6,12 +10,82 @@ import json
 from pathlib import Path
 
 import typer
+from rich.table import Table
 
-from vsmp_imu.cli.common import console
-from vsmp_imu.smp import load_smp, smp_json_schema
+from vsmp_imu.cli.common import console, library_dirs
+from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError
+from vsmp_imu.io import write_json, write_text
+from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
+from vsmp_imu.smp.aggregate import aggregate
+from vsmp_imu.smp.augment import SMPAugmenter
+from vsmp_imu.smp.intervene import ATTRIBUTES, intervene
+from vsmp_imu.smp.library import ActivityLibrary
+from vsmp_imu.smp.refine import Refiner, RefineResult
+from vsmp_imu.smp.repair import RepairReport, parse_response
+from vsmp_imu.smp.schema import SMP
+from vsmp_imu.smp.verbalize import attribute_phrase, verbalize
 
 smp_app = typer.Typer(help="Semantic Motion Programs: schema, validation, library, repair, "
                       "augmentation, interventions, verbalization.", no_args_is_help=True)
+library_app = typer.Typer(help="The activity library.", no_args_is_help=True)
+smp_app.add_typer(library_app, name="library")
+
+LIBRARY_OPTION = typer.Option(None, "--library", help="Extra activity-library folder (repeatable).")
+SMP_ARG_HELP = "SMP file (.json, .yaml) or the name of a library activity"
+
+
+def _library(library: list[Path] | None) -> ActivityLibrary:
+    return ActivityLibrary.load(library_dirs(library))
+
+
+def _smp_arg(value: str, library: list[Path] | None = None) -> SMP:
+    """An SMP from a file, or from the library when `value` names an activity."""
+    path = Path(value)
+    if path.exists() or path.suffix.lower() in (".json", ".yaml", ".yml") or "/" in value:
+        return load_smp(path)
+    lib = _library(library)
+    if value in lib:
+        return lib.get(value).smp
+    raise InputFileError("neither an existing SMP file nor a library activity "
+                         "(`vsmp-imu smp library list` shows the activities)", file=value)
+
+
+def _read_raw(path: Path) -> bytes:
+    if not path.exists():
+        raise InputFileError("file not found", file=path)
+    if path.is_dir():
+        raise InputFileError("expected a file, found a directory", file=path)
+    return path.read_bytes()
+
+
+def _print_repair(name: str, report: RepairReport) -> None:
+    status = "[red]rejected[/]" if report.rejected else (
+        "[yellow]repaired[/]" if report.repaired else "[green]valid[/]")
+    console.print(f"{status} {name}: malformed_json={report.malformed_json}, "
+                  f"json_found={report.json_found}, {len(report.repairs)} repair(s), "
+                  f"{len(report.invalid_values)} invalid value(s)", highlight=False)
+    if report.missing_mandatory:
+        console.print(f"  missing mandatory: {', '.join(report.missing_mandatory)}", highlight=False)
+    for line in report.repairs:
+        console.print(f"  - {line}", highlight=False, markup=False)
+    if report.reason:
+        console.print(f"  reason: {report.reason}", highlight=False, markup=False)
+
+
+def _print_refine(result: RefineResult) -> None:
+    where = f"library entry '{result.entry}'" if result.entry else "no library entry"
+    console.print(f"refinement ({where}): {len(result.corrections)} correction(s)", highlight=False)
+    for c in result.corrections:
+        console.print(f"  - [{c.check}] {c.action} {c.field}: {c.before!r} -> {c.after!r}",
+                      highlight=False, markup=False)
+
+
+def _write_or_print(smp: SMP, output: Path | None) -> None:
+    if output is None:
+        typer.echo(json.dumps(smp.model_dump(mode="json"), indent=2, sort_keys=True))
+    else:
+        save_smp(smp, output)
+        console.print(f"wrote {output}", highlight=False)
 
 
 @smp_app.command("schema")
@@ -26,6 +100,157 @@ def validate_cmd(file: Path = typer.Argument(..., help="SMP file (.json, .yaml)"
     smp = load_smp(file)
     console.print(f"[green]valid[/] {file}: '{smp.activity_label}', "
                   f"{len(smp.primitive_sequence)} primitives, id {smp.smp_id}")
+
+
+@library_app.command("list")
+def library_list_cmd(
+    library: list[Path] = LIBRARY_OPTION,
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table"),
+) -> None:
+    """List the activities: name, datasets, repetitive, primitives."""
+    lib = _library(library)
+    if as_json:
+        typer.echo(json.dumps([{"name": e.name, "datasets": e.datasets,
+                                "repetitive": e.smp.temporal_structure.is_repetitive,
+                                "primitives": e.smp.primitive_sequence, "path": str(e.path)}
+                               for e in lib], indent=2))
+        return
+    table = Table(title=f"Activity library ({len(lib)} activities)")
+    table.add_column("name", no_wrap=True)
+    table.add_column("datasets", overflow="fold")
+    table.add_column("repetitive")
+    table.add_column("primitives", overflow="fold")
+    for entry in lib:
+        datasets = ", ".join(f"{ds}:{label}" for ds, label in sorted(entry.datasets.items()))
+        table.add_row(entry.name, datasets, "yes" if entry.smp.temporal_structure.is_repetitive
+                      else "no", " > ".join(entry.smp.primitive_sequence))
+    console.print(table)
+
+
+@library_app.command("show")
+def library_show_cmd(
+    name: str = typer.Argument(..., help="Activity name or alias"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the SMP here (.json/.yaml)"),
+    library: list[Path] = LIBRARY_OPTION,
+) -> None:
+    """Print (or write) an activity's library SMP."""
+    _write_or_print(_library(library).get(name).smp, output)
+
+
+@smp_app.command("repair")
+def repair_cmd(
+    raw: Path = typer.Argument(..., help="Raw model response (any text)"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the repaired SMP here"),
+    report_file: Path | None = typer.Option(None, "--report", help="Write the repair report (JSON)"),
+) -> None:
+    """Parse and repair one raw response; exit 2 with the reason when it is rejected."""
+    result = parse_response(_read_raw(raw))
+    _print_repair(str(raw), result.report)
+    if report_file is not None:
+        write_json(report_file, result.report.to_dict())
+    if result.smp is None:
+        raise ValidationError(f"response rejected: {result.report.reason}", file=raw)
+    if output is not None:
+        _write_or_print(result.smp, output)
+
+
+@smp_app.command("aggregate")
+def aggregate_cmd(
+    raws: list[Path] = typer.Argument(..., help="Raw responses for one clip"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the final SMP here"),
+    min_valid: int = typer.Option(3, "--min-valid", help="Discard the clip below this many valid responses"),
+    no_refine: bool = typer.Option(False, "--no-refine", help="Skip the four consistency checks"),
+    report_file: Path | None = typer.Option(None, "--report", help="Write the full report (JSON)"),
+    library: list[Path] = LIBRARY_OPTION,
+) -> None:
+    """Repair each response, aggregate them, then refine (the paper's extraction tail)."""
+    results = [parse_response(_read_raw(p)) for p in raws]
+    for path, res in zip(raws, results, strict=True):
+        _print_repair(str(path), res.report)
+    agg = aggregate([r.smp for r in results], min_valid=min_valid)
+    report: dict = {"responses": [r.report.to_dict() for r in results],
+                    "aggregation": {k: v for k, v in agg.to_dict().items() if k != "smp"}}
+    if agg.smp is None:
+        if report_file is not None:
+            write_json(report_file, report)
+        raise ExtractionError(f"clip discarded: {agg.reason}", file=raws[0])
+    disagree = {k: v for k, v in agg.disagreement.items() if v > 0}
+    console.print(f"aggregated {agg.n_valid}/{agg.n_total} valid responses; sequence from "
+                  f"response {agg.anchor_index}; disagreement: {disagree or 'none'}", highlight=False)
+    final = agg.smp
+    if not no_refine:
+        refined = Refiner(_library(library)).refine(final)
+        _print_refine(refined)
+        report["refinement"] = {k: v for k, v in refined.to_dict().items() if k != "smp"}
+        final = refined.smp
+    if report_file is not None:
+        write_json(report_file, report)
+    _write_or_print(final, output)
+
+
+@smp_app.command("refine")
+def refine_cmd(
+    file: str = typer.Argument(..., help=SMP_ARG_HELP),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the refined SMP here"),
+    library: list[Path] = LIBRARY_OPTION,
+) -> None:
+    """Run the four consistency checks and print every correction."""
+    result = Refiner(_library(library)).refine(_smp_arg(file, library))
+    _print_refine(result)
+    if output is not None:
+        _write_or_print(result.smp, output)
+
+
+@smp_app.command("augment")
+def augment_cmd(
+    file: str = typer.Argument(..., help=SMP_ARG_HELP),
+    k: int = typer.Option(..., "-k", help="Number of variants"),
+    seed: int = typer.Option(0, "--seed", help="Top-level seed"),
+    output: Path = typer.Option(..., "-o", "--output", help="Output .jsonl (one SMP per line)"),
+    no_uncertainty: bool = typer.Option(False, "--no-uncertainty",
+                                        help="Ignore field uncertainty (u = 0 everywhere)"),
+    provenance: Path | None = typer.Option(None, "--provenance",
+                                           help="Also write what each variant changed (.jsonl)"),
+    library: list[Path] = LIBRARY_OPTION,
+) -> None:
+    """Draw K constrained variants; the same seed gives the same bytes."""
+    smp = _smp_arg(file, library)
+    augmenter = SMPAugmenter(uncertainty_conditioned=not no_uncertainty)
+    variants = augmenter.augment(smp, k, seed)
+    write_text(output, "".join(v.canonical_json() + "\n" for v in variants))
+    if provenance is not None:
+        write_text(provenance, "".join(json.dumps(c, sort_keys=True, separators=(",", ":")) + "\n"
+                                       for c in augmenter.changes_))
+    console.print(f"wrote {len(variants)} variant(s) of '{smp.activity_label}' to {output}",
+                  highlight=False)
+
+
+@smp_app.command("intervene")
+def intervene_cmd(
+    file: str = typer.Argument(..., help=SMP_ARG_HELP),
+    attribute: str = typer.Option(..., "--attribute", help=f"One of: {', '.join(ATTRIBUTES)}"),
+    level: str = typer.Option(..., "--level", help="slow|medium|fast, small|medium|large, a count, "
+                              "a duration factor, symmetric|asymmetric"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the SMP here"),
+    library: list[Path] = LIBRARY_OPTION,
+) -> None:
+    """Change exactly one attribute (controllability interventions)."""
+    _write_or_print(intervene(_smp_arg(file, library), attribute, level), output)
+
+
+@smp_app.command("verbalize")
+def verbalize_cmd(
+    file: str = typer.Argument(..., help=SMP_ARG_HELP),
+    phase_durations: bool = typer.Option(False, "--phase-durations",
+                                         help="Also state the central phase's share"),
+    attributes_only: bool = typer.Option(False, "--attributes",
+                                         help="Print only the attribute phrase A"),
+    library: list[Path] = LIBRARY_OPTION,
+) -> None:
+    """Print the HY-Motion prompt of an SMP."""
+    smp = _smp_arg(file, library)
+    text = attribute_phrase(smp, phase_durations) if attributes_only else verbalize(smp, phase_durations)
+    typer.echo(text)
 
 
 def register(app: typer.Typer) -> None:

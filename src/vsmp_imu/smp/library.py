@@ -1,0 +1,250 @@
+"""The activity library: one YAML (or JSON) file per activity with its reviewed SMP.
+
+A file holds `name` (equal to the file stem), `aliases`, `datasets` (dataset ->
+that dataset's own label), `captions` (generic free-text descriptions) and
+`smp`; any other top-level key (e.g. `procedural`, read by the procedural
+motion backend) is kept untouched in `LibraryEntry.extras`.
+
+The built-in folder ships with the package; users add folders with
+`ActivityLibrary.load(extra_dirs=[...])` (CLI: `--library DIR`). A user file
+whose `name` equals a built-in one replaces it.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pydantic
+from pydantic import BaseModel, ConfigDict, Field
+from rapidfuzz import fuzz, process
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.io import read_structured
+from vsmp_imu.smp._text import norm_name
+from vsmp_imu.smp.schema import SMP
+from vsmp_imu.validation import validation_error
+
+log = logging.getLogger(__name__)
+
+BUILTIN_DIR = Path(__file__).resolve().parent / "activities"
+LIBRARY_SUFFIXES = (".yaml", ".yml", ".json")
+# Minimum rapidfuzz WRatio (0..100) for `resolve` to accept a free-text label.
+DEFAULT_MIN_SCORE = 85.0
+
+
+class _LibraryFile(BaseModel):
+    """What a library file must contain (extra top-level keys are allowed)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    name: str = Field(pattern=r"^[a-z0-9][a-z0-9_]*$")
+    aliases: list[str] = Field(default_factory=list)
+    datasets: dict[str, str] = Field(default_factory=dict)
+    captions: list[str] = Field(default_factory=list)
+    smp: SMP
+
+
+@dataclass(frozen=True)
+class LibraryEntry:
+    """One activity of the library."""
+
+    name: str
+    aliases: tuple[str, ...]
+    datasets: dict[str, str]
+    captions: tuple[str, ...]
+    smp: SMP
+    extras: dict[str, Any] = field(default_factory=dict)
+    path: Path = Path()
+
+    def __hash__(self) -> int:
+        return hash((self.name, str(self.path)))
+
+    def lookup_keys(self) -> list[str]:
+        """The normalized strings this entry answers to: name, aliases, SMP label."""
+        keys = [norm_name(self.name), *(norm_name(a) for a in self.aliases),
+                norm_name(self.smp.activity_label)]
+        return list(dict.fromkeys(k for k in keys if k))
+
+    def copy(self) -> LibraryEntry:
+        """A copy whose SMP may be changed without touching the cached one."""
+        return LibraryEntry(self.name, self.aliases, dict(self.datasets), self.captions,
+                            self.smp.model_copy(deep=True), _deep_copy(self.extras), self.path)
+
+
+def _deep_copy(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _deep_copy(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_deep_copy(v) for v in value]
+    return value
+
+
+def load_entry(path: str | Path) -> LibraryEntry:
+    """Read and validate one library file; errors name the file and the field."""
+    path = Path(path)
+    data = read_structured(path)
+    if not isinstance(data, dict):
+        raise ValidationError("a library file must be a mapping with keys name, aliases, "
+                              "datasets, captions, smp", file=path)
+    data.setdefault("name", path.stem)
+    try:
+        parsed = _LibraryFile.model_validate(data)
+    except pydantic.ValidationError as exc:
+        raise validation_error(exc, path) from exc
+    if parsed.name != path.stem:
+        raise ValidationError(f"name '{parsed.name}' must equal the file stem '{path.stem}'",
+                              file=path, field="name")
+    return LibraryEntry(
+        name=parsed.name,
+        aliases=tuple(a.strip() for a in parsed.aliases if a.strip()),
+        datasets={str(k): str(v) for k, v in parsed.datasets.items()},
+        captions=tuple(c.strip() for c in parsed.captions if c.strip()),
+        smp=parsed.smp,
+        extras=dict(parsed.model_extra or {}),
+        path=path,
+    )
+
+
+def _library_files(folder: Path) -> list[Path]:
+    if not folder.exists():
+        raise ValidationError("activity-library folder not found", file=folder)
+    if not folder.is_dir():
+        raise ValidationError("an activity-library path must be a folder", file=folder)
+    return sorted(p for p in folder.iterdir()
+                  if p.suffix.lower() in LIBRARY_SUFFIXES and not p.name.startswith((".", "_")))
+
+
+def _signature(folder: Path) -> tuple[tuple[str, int, int], ...]:
+    """What identifies a folder's content for the cache: names, sizes, mtimes."""
+    out = []
+    for p in _library_files(folder):
+        st = p.stat()
+        out.append((p.name, st.st_size, st.st_mtime_ns))
+    return tuple(out)
+
+
+@functools.lru_cache(maxsize=32)
+def _load_folder_cached(folder: str, signature: tuple) -> tuple[LibraryEntry, ...]:
+    entries = [load_entry(Path(folder) / name) for name, _, _ in signature]
+    return tuple(entries)
+
+
+def load_folder(folder: str | Path) -> list[LibraryEntry]:
+    """All entries of one folder (cached while the files are unchanged)."""
+    folder = Path(folder).resolve()
+    return [e.copy() for e in _load_folder_cached(str(folder), _signature(folder))]
+
+
+class ActivityLibrary:
+    """A set of activities addressed by name, alias, SMP label or dataset label."""
+
+    def __init__(self, entries: Sequence[LibraryEntry]) -> None:
+        self._entries: dict[str, LibraryEntry] = {}
+        for entry in entries:
+            if entry.name in self._entries:
+                log.debug("activity '%s' from %s overrides %s", entry.name, entry.path,
+                          self._entries[entry.name].path)
+            self._entries[entry.name] = entry
+        self._index = self._build_index()
+
+    @classmethod
+    def load(cls, extra_dirs: Sequence[str | Path] = ()) -> ActivityLibrary:
+        """The built-in library plus the user's folders (later folders override earlier ones)."""
+        entries = load_folder(BUILTIN_DIR)
+        for folder in extra_dirs:
+            entries.extend(load_folder(folder))
+        return cls(entries)
+
+    def _build_index(self) -> dict[str, str]:
+        index: dict[str, str] = {}
+        for entry in self._entries.values():
+            for key in entry.lookup_keys():
+                other = index.get(key)
+                if other is not None and other != entry.name:
+                    raise ValidationError(
+                        f"'{key}' names both activity '{other}' ({self._entries[other].path}) "
+                        f"and activity '{entry.name}'; every name and alias must be unique",
+                        file=entry.path, field="aliases")
+                index[key] = entry.name
+        return index
+
+    # -- container protocol -------------------------------------------------
+    def names(self) -> list[str]:
+        return sorted(self._entries)
+
+    def __contains__(self, name: object) -> bool:
+        return isinstance(name, str) and norm_name(name) in self._index
+
+    def __iter__(self) -> Iterator[LibraryEntry]:
+        return iter(self._entries[n] for n in self.names())
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    # -- lookup -----------------------------------------------------------------
+    def get(self, name: str) -> LibraryEntry:
+        """The entry for an exact name, alias or SMP label (case/space/_/- insensitive)."""
+        key = norm_name(name)
+        if key in self._index:
+            return self._entries[self._index[key]]
+        close = self.close_matches(name)
+        hint = f"; close matches: {', '.join(close)}" if close else ""
+        raise ValidationError(f"unknown activity '{name}'{hint}", field="activity",
+                              allowed="vsmp-imu smp library list shows every activity")
+
+    def close_matches(self, label: str, limit: int = 3) -> list[str]:
+        """Names of the entries whose names or aliases are closest to `label`."""
+        ranked = self._rank(label)
+        return list(dict.fromkeys(name for name, score in ranked if score >= 50))[:limit]
+
+    def _rank(self, label: str) -> list[tuple[str, float]]:
+        """(entry name, best score) for every entry, best first; ties by name."""
+        keys = list(self._index)
+        if not keys:
+            return []
+        hits = process.extract(norm_name(label), keys, scorer=fuzz.WRatio, limit=None)
+        best: dict[str, float] = {}
+        for key, score, _ in hits:
+            name = self._index[key]
+            best[name] = max(best.get(name, 0.0), float(score))
+        return sorted(best.items(), key=lambda item: (-item[1], item[0]))
+
+    def resolve(self, label: str, min_score: float = DEFAULT_MIN_SCORE) -> LibraryEntry:
+        """The entry for a free-text label: exact lookup first, then fuzzy (rapidfuzz WRatio).
+
+        Raises ValidationError when the best score is below `min_score`.
+        """
+        key = norm_name(label)
+        if key in self._index:
+            return self._entries[self._index[key]]
+        ranked = self._rank(label)
+        if ranked and ranked[0][1] >= min_score:
+            return self._entries[ranked[0][0]]
+        close = [f"{n} ({s:.0f})" for n, s in ranked[:3]]
+        raise ValidationError(
+            f"no activity matches '{label}' with score >= {min_score:g}"
+            + (f"; best: {', '.join(close)}" if close else ""), field="activity_label")
+
+    def for_dataset(self, dataset: str) -> dict[str, LibraryEntry]:
+        """Dataset label -> entry, from every entry's `datasets` (dataset name case-insensitive)."""
+        wanted = norm_name(dataset)
+        out: dict[str, LibraryEntry] = {}
+        for entry in self:
+            for ds, label in entry.datasets.items():
+                if norm_name(ds) != wanted:
+                    continue
+                if label in out and out[label].name != entry.name:
+                    raise ValidationError(
+                        f"dataset '{dataset}' label '{label}' is claimed by both "
+                        f"'{out[label].name}' and '{entry.name}'", file=entry.path, field="datasets")
+                out[label] = entry
+        return out
+
+    def datasets(self) -> list[str]:
+        """Every dataset named by some entry."""
+        return sorted({ds for e in self for ds in e.datasets})

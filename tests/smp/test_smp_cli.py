@@ -1,0 +1,156 @@
+"""`vsmp-imu smp ...` commands, run in-process."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import yaml
+
+from vsmp_imu.smp import load_smp
+from vsmp_imu.smp.library import BUILTIN_DIR
+from vsmp_imu.smp.schema import SMP, displacement_word
+
+
+@pytest.fixture
+def jj_file(tmp_path, jj):
+    path = tmp_path / "jj.json"
+    path.write_text(jj.model_dump_json())
+    return path
+
+
+def test_schema_and_validate(cli, jj_file, tmp_path):
+    code, out, _ = cli("smp", "schema")
+    assert code == 0 and json.loads(out)["title"] == "Semantic Motion Program"
+    code, out, _ = cli("smp", "validate", jj_file)
+    assert code == 0 and "valid" in out
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({**json.loads(jj_file.read_text()), "primitive_sequence": []}))
+    code, _, err = cli("smp", "validate", bad)
+    assert code == 2 and str(bad) in err and "primitive_sequence" in err
+
+
+def test_library_list_and_show(cli, tmp_path, library):
+    code, out, _ = cli("smp", "library", "list")
+    assert code == 0
+    assert f"({len(library)} activities)" in out
+    assert all(name in out for name in library.names())
+    code, out, _ = cli("smp", "library", "list", "--json")
+    rows = {row["name"]: row for row in json.loads(out)}
+    assert rows["jumping_jacks"]["datasets"] == {"mmfit": "jumping_jacks"}
+    assert rows["jumping_jacks"]["primitives"] == ["stand", "jump_open", "jump_close"]
+    code, out, _ = cli("smp", "library", "show", "Jumping Jacks")
+    assert code == 0 and SMP.model_validate_json(out) == library.get("jumping_jacks").smp
+    target = tmp_path / "jj.yaml"
+    code, _, _ = cli("smp", "library", "show", "jumping_jacks", "-o", target)
+    assert code == 0 and load_smp(target) == library.get("jumping_jacks").smp
+    code, _, err = cli("smp", "library", "show", "jumpin jack")
+    assert code == 2 and "jumping_jacks" in err
+
+
+def test_library_option_adds_user_folders(cli, tmp_path):
+    data = yaml.safe_load((BUILTIN_DIR / "jumping_jacks.yaml").read_text())
+    data.update(name="seal_jacks", aliases=[], datasets={"mine": "seal"})
+    data["smp"]["activity_label"] = "seal jacks"
+    (tmp_path / "seal_jacks.yaml").write_text(yaml.safe_dump(data))
+    code, out, _ = cli("smp", "library", "list", "--library", tmp_path)
+    assert code == 0 and "seal_jacks" in out
+    code, out, _ = cli("smp", "verbalize", "seal_jacks", "--library", tmp_path)
+    assert code == 0 and "seal jacks" in out
+    code, _, err = cli("smp", "verbalize", "seal_jacks")
+    assert code == 2 and "seal_jacks" in err
+
+
+def test_repair(cli, tmp_path, jj):
+    raw = tmp_path / "raw.txt"
+    raw.write_text("Here it is:\n```json\n" + jj.model_dump_json().replace("tempo", "temop")[:-30])
+    out_file, report_file = tmp_path / "out.json", tmp_path / "report.json"
+    code, out, _ = cli("smp", "repair", raw, "-o", out_file, "--report", report_file)
+    assert code == 0 and "repaired" in out and "renamed key 'temop' -> 'tempo'" in out
+    assert load_smp(out_file).activity_label == "jumping jacks"
+    assert json.loads(report_file.read_text())["malformed_json"] is True
+    bad = tmp_path / "bad.txt"
+    bad.write_text("I could not see anyone in the video.")
+    code, out, err = cli("smp", "repair", bad, "-o", out_file)
+    assert code == 2 and str(bad) in err and "no JSON object" in err
+    code, _, err = cli("smp", "repair", tmp_path / "missing.txt")
+    assert code == 2 and "file not found" in err
+
+
+def test_aggregate(cli, tmp_path, jj):
+    raws = []
+    for i, tempo in enumerate(["fast", "fast", "slow", "fast"]):
+        d = jj.model_dump(mode="json")
+        d["execution_attributes"]["tempo"] = tempo
+        path = tmp_path / f"r{i}.txt"
+        path.write_text(json.dumps(d))
+        raws.append(path)
+    garbage = tmp_path / "garbage.txt"
+    garbage.write_bytes(b"\x00\xff not json")
+    out_file, report_file = tmp_path / "agg.json", tmp_path / "agg_report.json"
+    code, out, _ = cli("smp", "aggregate", *raws, garbage, "-o", out_file, "--report", report_file)
+    assert code == 0 and "aggregated 4/5" in out and "refinement" in out
+    smp = load_smp(out_file)
+    assert smp.execution_attributes.tempo == "fast"
+    assert smp.uncertainty.tempo > jj.uncertainty.tempo
+    report = json.loads(report_file.read_text())
+    assert report["aggregation"]["n_valid"] == 4 and len(report["responses"]) == 5
+    code, _, err = cli("smp", "aggregate", raws[0], garbage, garbage, "-o", out_file)
+    assert code == 2 and "discarded" in err and "only 1 of 3" in err
+
+
+def test_refine(cli, tmp_path, jj):
+    d = jj.model_dump(mode="json")
+    d["temporal_structure"]["is_repetitive"] = False
+    path = tmp_path / "in.json"
+    path.write_text(json.dumps(d))
+    out_file = tmp_path / "refined.json"
+    code, out, _ = cli("smp", "refine", path, "-o", out_file)
+    assert code == 0 and "[temporal] corrected temporal_structure.is_repetitive" in out
+    assert load_smp(out_file).temporal_structure.is_repetitive is True
+    code, out, _ = cli("smp", "refine", "jumping_jacks")
+    assert code == 0 and "0 correction(s)" in out
+
+
+def test_augment_jumping_jacks_200_is_deterministic(cli, tmp_path, jj):
+    a, b, prov = tmp_path / "a.jsonl", tmp_path / "b.jsonl", tmp_path / "prov.jsonl"
+    assert cli("smp", "augment", "jumping_jacks", "-k", 200, "--seed", 0, "-o", a,
+               "--provenance", prov)[0] == 0
+    assert cli("smp", "augment", "jumping_jacks", "-k", 200, "--seed", 0, "-o", b)[0] == 0
+    assert a.read_bytes() == b.read_bytes()
+    lines = a.read_text().splitlines()
+    assert len(lines) == 200 and len(prov.read_text().splitlines()) == 200
+    for line in lines:
+        v = SMP.model_validate_json(line)
+        assert line == v.canonical_json()
+        assert v.activity_label == jj.activity_label
+        assert v.primitive_sequence == jj.primitive_sequence
+        assert v.motion_primitives == jj.motion_primitives
+        assert v.body_parts == jj.body_parts
+        assert v.object_contact == jj.object_contact
+        assert displacement_word(v.execution_attributes.global_displacement) == "stationary"
+        assert 0 <= v.tempo_level() <= 2 and 0 <= v.amplitude_level() <= 2
+        assert abs(v.repetition_count() - 8) <= 5
+    c = tmp_path / "c.jsonl"
+    assert cli("smp", "augment", "jumping_jacks", "-k", 5, "--seed", 0, "-o", c,
+               "--no-uncertainty")[0] == 0
+    assert c.read_text().splitlines() != lines[:5]
+    code, _, err = cli("smp", "augment", tmp_path / "nope.json", "-k", 2, "-o", c)
+    assert code == 2 and "file not found" in err
+
+
+def test_intervene_and_verbalize(cli, tmp_path, jj_file):
+    out_file = tmp_path / "fast.json"
+    code, _, _ = cli("smp", "intervene", jj_file, "--attribute", "tempo", "--level", "fast",
+                     "-o", out_file)
+    assert code == 0 and load_smp(out_file).execution_attributes.tempo == "fast"
+    code, out, _ = cli("smp", "verbalize", out_file)
+    assert code == 0 and "at a deliberately fast pace" in out
+    code, out, _ = cli("smp", "verbalize", "jumping_jacks", "--attributes")
+    assert code == 0 and out.startswith("at a moderate pace")
+    code, _, err = cli("smp", "intervene", jj_file, "--attribute", "tempo", "--level", "zoom")
+    assert code == 2 and "field 'level'" in err and "slow, medium, fast" in err
+    code, _, err = cli("smp", "intervene", jj_file, "--attribute", "speed", "--level", "fast")
+    assert code == 2 and "field 'attribute'" in err
+    code, _, err = cli("smp", "verbalize", "not_an_activity")
+    assert code == 2 and "neither an existing SMP file nor a library activity" in err
