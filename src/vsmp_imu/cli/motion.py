@@ -1,9 +1,142 @@
-"""`vsmp-imu` commands of the motion room."""
+"""`vsmp-imu motion ...`: synthesize, draw, export and inspect motions."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import typer
+from rich.table import Table
+
+from vsmp_imu.cli.common import console, library_dirs
+from vsmp_imu.errors import ConfigError, ValidationError
+
+motion_app = typer.Typer(help="Motions: synthesize from an SMP or a prompt (procedural or HY-Motion), "
+                         "render, export to BVH, inspect, resample.", no_args_is_help=True)
+
+
+def _library(library: list[Path] | None):
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    return ActivityLibrary.load(extra_dirs=library_dirs(library))
+
+
+def _read_smp(source: str, library):
+    """An SMP from a file, or the library SMP of an activity name."""
+    from vsmp_imu.smp import load_smp
+
+    path = Path(source)
+    if path.suffix.lower() in (".json", ".yaml", ".yml") or path.exists():
+        return load_smp(path)
+    try:
+        return library.get(source).smp
+    except ValidationError as exc:
+        raise ValidationError(f"'{source}' is neither an SMP file nor a library activity ({exc.message})",
+                              field="SMP", allowed="an .json/.yaml SMP file or an activity name "
+                              "(vsmp-imu smp library list)") from None
+
+
+def _load_motion(path: Path):
+    from vsmp_imu.motion import Motion
+
+    return Motion.load(path)
+
+
+@motion_app.command("synth")
+def synth_cmd(
+    smp: str = typer.Argument(None, help="SMP file (.json/.yaml) or activity name; optional with --prompt"),
+    seed: int = typer.Option(..., "--seed", help="generation seed (same seed, same bytes)"),
+    output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
+    duration_s: float = typer.Option(None, "--duration-s", help="duration in seconds (default: natural)"),
+    backend: str = typer.Option("procedural", "--backend", help="procedural | hymotion"),
+    prompt: str = typer.Option(None, "--prompt", help="free-text prompt instead of (or overriding) the SMP"),
+    library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder (repeatable)"),
+    fps: float = typer.Option(30.0, "--fps", help="frame rate of the procedural backend"),
+    model_path: str = typer.Option(None, "--model-path", help="HY-Motion checkpoint folder"),
+) -> None:
+    """Generate one motion and write it as .npz."""
+    from vsmp_imu.motion import get_backend
+
+    if smp is None and prompt is None:
+        raise ConfigError("give an SMP (file or activity name) or --prompt", field="SMP")
+    lib = _library(library)
+    name = backend.strip().lower()
+    kwargs = {"library": lib}
+    if name == "procedural":
+        kwargs["fps"] = fps
+    elif model_path is not None:
+        kwargs["model_path"] = model_path
+    engine = get_backend(backend, **kwargs)
+    source = prompt if prompt is not None else _read_smp(smp, lib)
+    with console.status(f"[bold]synthesizing[/] with {engine.name} (seed {seed})..."):
+        motion = engine.generate(source, seed=seed, duration_s=duration_s)
+        motion.save(output)
+    console.print(f"[green]wrote[/] {output}: {motion.meta.get('activity', '?')}, "
+                  f"{motion.n_frames} frames at {motion.fps:g} fps ({motion.duration_s:.2f} s), "
+                  f"backend {motion.meta.get('backend')}, seed {seed}")
+
+
+@motion_app.command("render")
+def render_cmd(
+    motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
+    output: Path = typer.Option(..., "-o", "--output", help="animated GIF to write"),
+    keyframes: Path = typer.Option(None, "--keyframes", help="also write a keyframe strip (.png)"),
+    n: int = typer.Option(6, "--n", help="number of keyframes"),
+    view: float = typer.Option(None, "--view", help="camera azimuth in degrees (-90: right side)"),
+) -> None:
+    """Draw the skeleton animation as a GIF (and a keyframe strip)."""
+    from vsmp_imu.motion.render import render_gif, render_keyframes
+
+    motion = _load_motion(motion_file)
+    with console.status("[bold]rendering[/]..."):
+        render_gif(motion, output, yaw_deg=view)
+        if keyframes is not None:
+            render_keyframes(motion, keyframes, n=n, yaw_deg=view)
+    console.print(f"[green]wrote[/] {output}" + (f" and {keyframes}" if keyframes else ""))
+
+
+@motion_app.command("bvh")
+def bvh_cmd(
+    motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
+    output: Path = typer.Option(..., "-o", "--output", help="BVH file to write"),
+    scale: float = typer.Option(1.0, "--scale", help="unit scale (1 = metres, 100 = centimetres)"),
+) -> None:
+    """Export a motion as BVH (opens in Blender)."""
+    from vsmp_imu.motion.bvh import write_bvh
+
+    motion = _load_motion(motion_file)
+    write_bvh(motion, output, scale=scale)
+    console.print(f"[green]wrote[/] {output}: {motion.n_joints} joints, {motion.n_frames} frames")
+
+
+@motion_app.command("info")
+def info_cmd(motion_file: Path = typer.Argument(..., help="motion file (.npz)")) -> None:
+    """Show a motion's size, body and provenance."""
+    motion = _load_motion(motion_file)
+    table = Table(title=str(motion_file), show_header=False)
+    table.add_row("frames", f"{motion.n_frames} at {motion.fps:g} fps ({motion.duration_s:.2f} s)")
+    table.add_row("joints", f"{motion.n_joints}: {', '.join(motion.joint_names)}")
+    table.add_row("body height", f"{motion.body_height_m():.3f} m")
+    for key in ("backend", "seed", "activity", "activity_label", "smp_id", "prompt"):
+        if motion.meta.get(key) is not None:
+            table.add_row(key, str(motion.meta[key]))
+    if "controls" in motion.meta:
+        table.add_row("controls", json.dumps(motion.meta["controls"], sort_keys=True))
+    console.print(table)
+
+
+@motion_app.command("resample")
+def resample_cmd(
+    motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
+    fps: float = typer.Option(..., "--fps", help="new frame rate"),
+    output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
+) -> None:
+    """Write the motion at another frame rate."""
+    motion = _load_motion(motion_file).resample(fps)
+    motion.save(output)
+    console.print(f"[green]wrote[/] {output}: {motion.n_frames} frames at {motion.fps:g} fps")
 
 
 def register(app: typer.Typer) -> None:
     """Attach this module's commands to the main app."""
+    app.add_typer(motion_app, name="motion")

@@ -13,7 +13,7 @@ import typer
 from rich.table import Table
 
 from vsmp_imu.cli.common import console, library_dirs
-from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError
+from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError, VsmpError
 from vsmp_imu.io import write_json, write_text
 from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
 from vsmp_imu.smp.aggregate import aggregate
@@ -235,7 +235,16 @@ def intervene_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Change exactly one attribute (controllability interventions)."""
-    _write_or_print(intervene(_smp_arg(file, library), attribute, level), output)
+    smp = _smp_arg(file, library)
+    _write_or_print(intervene(smp, attribute, level, _central_primitive(smp, library)), output)
+
+
+def _central_primitive(smp: SMP, library: list[Path] | None) -> str | None:
+    """The library's principal phase of the SMP's activity, when the library knows it."""
+    try:
+        return _library(library).get(smp.activity_label).central_primitive
+    except VsmpError:
+        return None
 
 
 @smp_app.command("verbalize")

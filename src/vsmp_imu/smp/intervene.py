@@ -52,10 +52,11 @@ def is_rest(name: str) -> bool:
     return bool(words) and all(w in REST_WORDS for w in words)
 
 
-def central_primitive_index(smp: SMP) -> int:
+def central_primitive_index(smp: SMP, central: str | None = None) -> int:
     """The sequence position a duration intervention scales.
 
-    Among the non-rest primitives (all of them when every one is a rest phase),
+    `central` names it when known (a library entry's `central_primitive`, the
+    activity's principal phase). Otherwise, among the non-rest primitives (all of them when every one is a rest phase),
     those with the largest nominal `motion_primitives[].relative_duration`, and
     of these the middle one (the earlier of two middles); unknown nominal
     durations count as equal. The nominal durations belong to the invariant
@@ -63,6 +64,8 @@ def central_primitive_index(smp: SMP) -> int:
     an intervention or augmentation changes the durations.
     """
     names = smp.primitive_sequence
+    if central is not None and central in names:
+        return names.index(central)
     by_name = {norm_name(p.name): p.relative_duration for p in smp.motion_primitives}
     nominal = [by_name.get(norm_name(n), UNKNOWN) for n in names]
     candidates = [i for i, n in enumerate(names) if not is_rest(n)] or list(range(len(names)))
@@ -99,8 +102,12 @@ def _number(attribute: str, level: Any) -> float:
                               allowed=_allowed(attribute)) from None
 
 
-def intervene(smp: SMP, attribute: str, level: Any) -> SMP:
-    """A copy of `smp` with only `attribute` set to `level`."""
+def intervene(smp: SMP, attribute: str, level: Any, central_primitive: str | None = None) -> SMP:
+    """A copy of `smp` with only `attribute` set to `level`.
+
+    `central_primitive` names the phase a duration intervention scales (see
+    `central_primitive_index`); library callers pass the entry's.
+    """
     attribute = norm_name(str(attribute)).replace(" ", "_")
     if attribute not in INTERVENTION_LEVELS:
         raise ValidationError(f"unknown attribute {attribute!r}", field="attribute",
@@ -123,12 +130,12 @@ def intervene(smp: SMP, attribute: str, level: Any) -> SMP:
         if not 0 < factor <= MAX_DURATION_FACTOR:
             raise ValidationError(f"invalid duration level {level!r}", field="level",
                                   allowed=_allowed(attribute))
-        _scale_central(smp, d, factor)
+        _scale_central(smp, d, factor, central_primitive)
     return SMP.model_validate(d)
 
 
-def _scale_central(smp: SMP, d: dict[str, Any], factor: float) -> None:
-    c = central_primitive_index(smp)
+def _scale_central(smp: SMP, d: dict[str, Any], factor: float, central: str | None) -> None:
+    c = central_primitive_index(smp, central)
     dur = smp.primitive_durations
     if dur.values and all(v != UNKNOWN for v in dur.values):
         values = [float(v) for v in dur.values]

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import pydantic
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 from rapidfuzz import fuzz, process
 
 from vsmp_imu.errors import ValidationError
@@ -46,7 +46,15 @@ class _LibraryFile(BaseModel):
     aliases: list[str] = Field(default_factory=list)
     datasets: dict[str, str] = Field(default_factory=dict)
     captions: list[str] = Field(default_factory=list)
+    central_primitive: str | None = None
     smp: SMP
+
+    @model_validator(mode="after")
+    def _central_in_sequence(self) -> _LibraryFile:
+        if self.central_primitive is not None and self.central_primitive not in self.smp.primitive_sequence:
+            raise ValueError(f"central_primitive '{self.central_primitive}' is not in smp.primitive_sequence "
+                             f"({', '.join(self.smp.primitive_sequence)})")
+        return self
 
 
 @dataclass(frozen=True)
@@ -60,6 +68,8 @@ class LibraryEntry:
     smp: SMP
     extras: dict[str, Any] = field(default_factory=dict)
     path: Path = Path()
+    # the principal phase (e.g. the release of a throw): what a duration intervention scales
+    central_primitive: str | None = None
 
     def __hash__(self) -> int:
         return hash((self.name, str(self.path)))
@@ -73,7 +83,8 @@ class LibraryEntry:
     def copy(self) -> LibraryEntry:
         """A copy whose SMP may be changed without touching the cached one."""
         return LibraryEntry(self.name, self.aliases, dict(self.datasets), self.captions,
-                            self.smp.model_copy(deep=True), _deep_copy(self.extras), self.path)
+                            self.smp.model_copy(deep=True), _deep_copy(self.extras), self.path,
+                            self.central_primitive)
 
 
 def _deep_copy(value: Any) -> Any:
@@ -107,6 +118,7 @@ def load_entry(path: str | Path) -> LibraryEntry:
         smp=parsed.smp,
         extras=dict(parsed.model_extra or {}),
         path=path,
+        central_primitive=parsed.central_primitive,
     )
 
 

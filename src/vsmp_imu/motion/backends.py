@@ -1,0 +1,36 @@
+"""Motion backends behind one interface: `generate(smp_or_prompt, seed, duration_s=None) -> Motion`."""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, runtime_checkable
+
+from vsmp_imu.errors import ConfigError
+from vsmp_imu.motion.motion import Motion
+from vsmp_imu.smp.schema import SMP
+
+BACKENDS = ("procedural", "hymotion")
+
+
+@runtime_checkable
+class MotionBackend(Protocol):
+    """What every motion backend provides."""
+
+    name: str
+
+    def generate(self, smp_or_prompt: SMP | str, seed: int, duration_s: float | None = None) -> Motion:
+        """One motion for an SMP (or a free-text prompt) and a seed."""
+        ...
+
+
+def get_backend(name: str, **kwargs: Any) -> MotionBackend:
+    """A backend by name ('procedural' or 'hymotion'); keyword arguments go to its constructor."""
+    key = str(name).strip().lower().replace("-", "").replace("_", "")
+    if key == "procedural":
+        from vsmp_imu.motion.procedural import ProceduralBackend
+
+        return ProceduralBackend(**kwargs)
+    if key in ("hymotion", "hymotion1", "hymotion10"):
+        from vsmp_imu.motion.hymotion import HYMotionBackend
+
+        return HYMotionBackend(**kwargs)
+    raise ConfigError(f"unknown motion backend '{name}'", field="backend", allowed=", ".join(BACKENDS))

@@ -1,0 +1,235 @@
+"""Anatomical degrees of freedom (DOFs) of the SMPL-22 body and their joint rotations.
+
+The procedural backend animates a body through named anatomical angles in
+degrees (``left_elbow_flex``, ``trunk_twist``, ...) instead of raw
+quaternions. Conventions (body standing, facing +Z, +X = the body's left,
++Y = up; all zero = the SMPL T-pose except that zero shoulder abduction
+means arms hanging down):
+
+- centre DOFs: ``root_pitch`` (+ = whole body tips forward; -90 = lying on
+  the back), ``root_yaw`` (+ = turn to the left), ``root_roll`` (+ = lean to
+  the left), ``root_dx/dy/dz`` (metres for a 1.70 m body: left, up, forward),
+  ``trunk_flex`` (+ = bend forward), ``trunk_lean`` (+ = to the left),
+  ``trunk_twist`` (+ = chest turns left), ``neck_flex``, ``head_flex``
+  (+ = chin down), ``head_turn`` (+ = look left), ``head_tilt`` (+ = ear to
+  the left shoulder).
+- side DOFs, written ``left_<dof>`` / ``right_<dof>`` (or without the side
+  prefix for both sides at once): ``collar_elev`` (shrug), ``collar_protract``
+  (shoulder forward), ``shoulder_abd`` (arm raised sideways, 90 = horizontal),
+  ``shoulder_flex`` (arm raised forward, 90 = horizontal, 180 = overhead),
+  ``shoulder_horiz`` (arm swung across the body), ``shoulder_rot`` (internal
+  rotation), ``elbow_flex``, ``wrist_flex`` (palm side), ``wrist_dev``
+  (radial deviation), ``wrist_rot`` (pronation), ``hip_flex`` (thigh forward),
+  ``hip_abd`` (thigh outwards), ``hip_rot`` (internal rotation), ``knee_flex``,
+  ``ankle_flex`` (dorsiflexion, toes up), ``ankle_inv`` (inversion),
+  ``toe_flex`` (toes up).
+
+A right-side DOF means the same anatomical movement as its left twin: the
+right joint's rotation is the mirror image (x, -y, -z, w) of the left formula.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from vsmp_imu.motion.quat import euler
+from vsmp_imu.motion.skeleton import SMPL22_JOINTS
+
+CENTER_DOFS: tuple[str, ...] = (
+    "root_pitch", "root_yaw", "root_roll", "root_dx", "root_dy", "root_dz",
+    "trunk_flex", "trunk_lean", "trunk_twist", "neck_flex", "head_flex", "head_turn", "head_tilt",
+)
+SIDE_DOFS: tuple[str, ...] = (
+    "collar_elev", "collar_protract", "shoulder_abd", "shoulder_flex", "shoulder_horiz",
+    "shoulder_rot", "elbow_flex", "wrist_flex", "wrist_dev", "wrist_rot", "hip_flex", "hip_abd",
+    "hip_rot", "knee_flex", "ankle_flex", "ankle_inv", "toe_flex",
+)
+SIDES = ("left", "right")
+DOF_NAMES: tuple[str, ...] = (
+    CENTER_DOFS
+    + tuple(f"left_{d}" for d in SIDE_DOFS)
+    + tuple(f"right_{d}" for d in SIDE_DOFS)
+)
+DOF_INDEX = {name: i for i, name in enumerate(DOF_NAMES)}
+N_DOFS = len(DOF_NAMES)
+TRANSLATION_DOFS = ("root_dx", "root_dy", "root_dz")
+# Centre DOFs that change sign in the left-right mirror image.
+MIRROR_ODD = ("root_yaw", "root_roll", "root_dx", "trunk_lean", "trunk_twist", "head_turn", "head_tilt")
+
+LEFT_COLUMNS = np.array([DOF_INDEX[f"left_{d}"] for d in SIDE_DOFS])
+RIGHT_COLUMNS = np.array([DOF_INDEX[f"right_{d}"] for d in SIDE_DOFS])
+SIDE_COLUMNS = {"left": LEFT_COLUMNS, "right": RIGHT_COLUMNS}
+ROTATION_COLUMNS = np.array([i for i, n in enumerate(DOF_NAMES) if n not in TRANSLATION_DOFS])
+
+# Anatomical soft limits (degrees) applied after amplitude scaling; the
+# limiting function is strictly increasing, so a larger requested amplitude
+# never gives a smaller excursion.
+LIMITS_DEG: dict[str, tuple[float, float]] = {
+    "trunk_flex": (-40, 110), "trunk_lean": (-45, 45), "trunk_twist": (-70, 70),
+    "neck_flex": (-50, 60), "head_flex": (-50, 60), "head_turn": (-80, 80), "head_tilt": (-40, 40),
+    "collar_elev": (-15, 35), "collar_protract": (-25, 30),
+    "shoulder_abd": (-30, 185), "shoulder_flex": (-70, 185), "shoulder_horiz": (-60, 140),
+    "shoulder_rot": (-90, 100), "elbow_flex": (-5, 150), "wrist_flex": (-75, 85),
+    "wrist_dev": (-30, 40), "wrist_rot": (-90, 90),
+    "hip_flex": (-35, 135), "hip_abd": (-30, 70), "hip_rot": (-45, 45), "knee_flex": (-5, 155),
+    "ankle_flex": (-55, 35), "ankle_inv": (-30, 35), "toe_flex": (-40, 60),
+}
+
+
+def limits_array() -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) limit per DOF column; +-inf where a DOF has no limit."""
+    low = np.full(N_DOFS, -np.inf)
+    high = np.full(N_DOFS, np.inf)
+    for name, i in DOF_INDEX.items():
+        stem = name.split("_", 1)[1] if name.startswith(SIDES) else name
+        if stem in LIMITS_DEG:
+            low[i], high[i] = LIMITS_DEG[stem]
+    return low, high
+
+
+def soft_limit(values: np.ndarray, low: np.ndarray, high: np.ndarray, margin: float = 15.0) -> np.ndarray:
+    """Squash values (..., N_DOFS) into (low, high) smoothly and monotonically.
+
+    Values more than `margin` inside the range pass unchanged; beyond that
+    they approach the limit exponentially (C1, strictly increasing).
+    """
+    v = np.asarray(values, dtype=float)
+    with np.errstate(invalid="ignore"):
+        over = np.nan_to_num(np.maximum(v - (high - margin), 0.0))
+        under = np.nan_to_num(np.maximum((low + margin) - v, 0.0))
+    v = v - over + margin * (1.0 - np.exp(-over / margin))
+    return v + under - margin * (1.0 - np.exp(-under / margin))
+
+
+def expand_pose(pose: Mapping[str, float], *, where: str = "pose") -> dict[str, float]:
+    """Canonical DOF names: a side DOF without prefix sets both sides.
+
+    Raises KeyError naming the unknown DOF (callers turn it into a
+    ValidationError with the file and field).
+    """
+    out: dict[str, float] = {}
+    for key, value in pose.items():
+        if key in DOF_INDEX:
+            out[key] = float(value)
+        elif key in SIDE_DOFS:
+            out[f"left_{key}"] = float(value)
+            out[f"right_{key}"] = float(value)
+        else:
+            raise KeyError(key)
+    return out
+
+
+def is_dof_name(name: str) -> bool:
+    """True for a canonical DOF name or a side DOF stem (both sides)."""
+    return name in DOF_INDEX or name in SIDE_DOFS
+
+
+def dof_columns(name: str) -> list[int]:
+    """Columns named by a DOF or a side-less stem."""
+    if name in DOF_INDEX:
+        return [DOF_INDEX[name]]
+    if name in SIDE_DOFS:
+        return [DOF_INDEX[f"left_{name}"], DOF_INDEX[f"right_{name}"]]
+    raise KeyError(name)
+
+
+def pose_vector(pose: Mapping[str, float], base: np.ndarray | None = None) -> np.ndarray:
+    """A (N_DOFS,) vector: `base` (zeros by default) overridden by `pose`."""
+    vec = np.zeros(N_DOFS) if base is None else np.array(base, dtype=float, copy=True)
+    for key, value in expand_pose(pose).items():
+        vec[DOF_INDEX[key]] = value
+    return vec
+
+
+def mirror_dofs(values: np.ndarray) -> np.ndarray:
+    """The left-right mirror image of DOF values (..., N_DOFS)."""
+    out = np.array(values, dtype=float, copy=True)
+    out[..., LEFT_COLUMNS] = values[..., RIGHT_COLUMNS]
+    out[..., RIGHT_COLUMNS] = values[..., LEFT_COLUMNS]
+    for name in MIRROR_ODD:
+        out[..., DOF_INDEX[name]] = -values[..., DOF_INDEX[name]]
+    return out
+
+
+# -- built-in poses (degrees / metres for 1.70 m) ---------------------------------
+BUILTIN_POSES: dict[str, dict[str, float]] = {
+    "tpose": {"shoulder_abd": 90.0},
+    "standing": {"shoulder_abd": 8.0, "elbow_flex": 12.0, "wrist_rot": 0.0, "shoulder_rot": 5.0},
+    # on a chair: thighs horizontal, shanks vertical, hands resting on the thighs
+    "sitting": {"hip_flex": 88.0, "knee_flex": 88.0, "hip_abd": 6.0, "trunk_flex": 4.0,
+                "shoulder_abd": 6.0, "shoulder_flex": 18.0, "elbow_flex": 55.0,
+                "head_flex": 6.0},
+    # on the floor with straight legs
+    "sitting_floor": {"hip_flex": 85.0, "knee_flex": 5.0, "trunk_flex": 8.0, "shoulder_abd": 15.0,
+                      "shoulder_flex": 15.0, "elbow_flex": 10.0},
+    # supine: on the back, face up, arms along the body
+    "lying": {"root_pitch": -90.0, "shoulder_abd": 10.0, "elbow_flex": 8.0, "ankle_flex": -25.0,
+              "head_flex": 10.0, "hip_abd": 4.0},
+    # prone: on the belly, face down
+    "lying_prone": {"root_pitch": 90.0, "shoulder_abd": 10.0, "elbow_flex": 8.0,
+                    "ankle_flex": -45.0, "head_flex": -25.0},
+    "kneeling": {"hip_flex": 0.0, "knee_flex": 90.0, "ankle_flex": -40.0, "shoulder_abd": 8.0,
+                 "elbow_flex": 12.0},
+}
+
+
+# -- DOF values -> local joint rotations -------------------------------------------
+_J = {name: i for i, name in enumerate(SMPL22_JOINTS)}
+_SPINE_WEIGHTS = {"spine1": 0.35, "spine2": 0.35, "spine3": 0.30}
+
+
+def _col(values: np.ndarray, name: str) -> np.ndarray:
+    return np.radians(values[:, DOF_INDEX[name]])
+
+
+def _mirror_quat(q: np.ndarray) -> np.ndarray:
+    out = q.copy()
+    out[:, 1] *= -1.0
+    out[:, 2] *= -1.0
+    return out
+
+
+def _side_rotations(values: np.ndarray, side: str) -> dict[str, np.ndarray]:
+    """Local quaternions of one side's joints, written with the left formulas."""
+    def c(stem: str) -> np.ndarray:
+        return _col(values, f"{side}_{stem}")
+
+    half_pi = np.pi / 2.0
+    quats = {
+        "collar": euler("YZ", -c("collar_protract"), c("collar_elev")),
+        # horizontal swing, forward flexion, abduction from hanging, then axial twist
+        "shoulder": euler("YXZX", -c("shoulder_horiz"), -c("shoulder_flex"), c("shoulder_abd") - half_pi,
+                          c("shoulder_rot")),
+        "elbow": euler("Y", -c("elbow_flex")),
+        "wrist": euler("XZY", c("wrist_rot"), -c("wrist_flex"), c("wrist_dev")),
+        "hip": euler("XZY", -c("hip_flex"), c("hip_abd"), -c("hip_rot")),
+        "knee": euler("X", c("knee_flex")),
+        "ankle": euler("XZ", -c("ankle_flex"), -c("ankle_inv")),
+        "foot": euler("X", -c("toe_flex")),
+    }
+    out = {f"{side}_{k}": q for k, q in quats.items()}
+    if side == "right":
+        out = {k: _mirror_quat(q) for k, q in out.items()}
+    return out
+
+
+def dofs_to_local_quats(values: np.ndarray) -> np.ndarray:
+    """Local joint rotations (T, 22, 4 xyzw) from DOF values (T, N_DOFS) in degrees."""
+    values = np.asarray(values, dtype=float)
+    t = values.shape[0]
+    out = np.zeros((t, len(SMPL22_JOINTS), 4))
+    out[..., 3] = 1.0
+    out[:, _J["pelvis"]] = euler("YXZ", _col(values, "root_yaw"), _col(values, "root_pitch"),
+                                 -_col(values, "root_roll"))
+    flex, lean, twist = _col(values, "trunk_flex"), _col(values, "trunk_lean"), _col(values, "trunk_twist")
+    for joint, w in _SPINE_WEIGHTS.items():
+        out[:, _J[joint]] = euler("YXZ", w * twist, w * flex, -w * lean)
+    turn = _col(values, "head_turn")
+    out[:, _J["neck"]] = euler("YX", 0.4 * turn, _col(values, "neck_flex"))
+    out[:, _J["head"]] = euler("YXZ", 0.6 * turn, _col(values, "head_flex"), -_col(values, "head_tilt"))
+    for side in SIDES:
+        for joint, q in _side_rotations(values, side).items():
+            out[:, _J[joint]] = q
+    return out

@@ -1,0 +1,91 @@
+"""BVH export, rendering, and the `vsmp-imu motion` commands."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from vsmp_imu.errors import InputFileError
+from vsmp_imu.motion import Motion
+from vsmp_imu.motion.bvh import read_bvh, write_bvh
+from vsmp_imu.motion.render import render_gif, render_keyframes
+
+
+@pytest.fixture(scope="module")
+def walk(backend, library) -> Motion:
+    return backend.generate(library.get("walking").smp, seed=4, duration_s=2.0)
+
+
+@pytest.mark.parametrize("scale", [1.0, 100.0])
+def test_bvh_round_trip(tmp_path, walk, scale):
+    path = write_bvh(walk, tmp_path / "walk.bvh", scale=scale)
+    bvh = read_bvh(path)
+    assert bvh.joint_names[0] == "pelvis" and len(bvh.joint_names) == 22
+    assert bvh.frame_time_s == pytest.approx(1 / 30)
+    assert bvh.frames.shape == (walk.n_frames, 6 + 3 * 21)
+    order = [bvh.joint_names.index(n) for n in walk.joint_names]
+    pos = bvh.positions()[:, order] / scale
+    assert np.abs(pos - walk.positions).max() < 1e-3  # within a millimetre
+    text = path.read_text()
+    assert text.count("End Site") == 5  # head, wrists, feet
+    assert "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation" in text
+
+
+def test_bvh_of_a_bad_file(tmp_path):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT a\n{\n OFFSET 0 0 x\n")
+    with pytest.raises(InputFileError, match="not a readable BVH"):
+        read_bvh(bad)
+
+
+def test_render_gif_and_keyframes(tmp_path, walk):
+    gif = render_gif(walk, tmp_path / "walk.gif", size_px=200)
+    with Image.open(gif) as im:
+        assert im.format == "GIF" and im.n_frames == len(range(0, walk.n_frames, 2))
+    png = render_keyframes(walk, tmp_path / "walk.png", n=4, panel_px=120)
+    with Image.open(png) as im:
+        arr = np.asarray(im.convert("L"))
+        assert im.size[0] > 3 * im.size[1]  # a strip
+        assert (arr < 100).mean() > 0.002  # the skeleton is drawn
+    assert {p.name for p in tmp_path.iterdir()} == {"walk.gif", "walk.png"}  # no temporary left
+
+
+def test_cli_synth_info_render_bvh_resample(cli, tmp_path):
+    out = tmp_path / "curl.npz"
+    code, stdout, _ = cli("motion", "synth", "two_arm_curl", "--seed", "2", "-o", out)
+    assert code == 0 and out.exists() and "two_arm_curl" in stdout
+    m = Motion.load(out)
+    assert m.meta["seed"] == 2 and m.meta["backend"] == "procedural"
+    code, stdout, _ = cli("motion", "info", out)
+    assert code == 0 and "two_arm_curl" in stdout and "procedural" in stdout
+    code, _, _ = cli("motion", "render", out, "-o", tmp_path / "c.gif", "--keyframes", tmp_path / "c.png")
+    assert code == 0 and (tmp_path / "c.gif").exists() and (tmp_path / "c.png").exists()
+    code, _, _ = cli("motion", "bvh", out, "-o", tmp_path / "c.bvh")
+    assert code == 0 and read_bvh(tmp_path / "c.bvh").frames.shape[0] == m.n_frames
+    code, _, _ = cli("motion", "resample", out, "--fps", "60", "-o", tmp_path / "c60.npz")
+    assert code == 0 and Motion.load(tmp_path / "c60.npz").fps == 60.0
+
+
+def test_cli_synth_from_file_prompt_and_duration(cli, tmp_path, library):
+    from vsmp_imu.smp import save_smp
+
+    smp_file = save_smp(library.get("jumping_jacks").smp, tmp_path / "jj.json")
+    code, _, _ = cli("motion", "synth", smp_file, "--seed", "1", "--duration-s", "12", "-o", tmp_path / "a.npz")
+    assert code == 0 and Motion.load(tmp_path / "a.npz").duration_s == pytest.approx(12.0)
+    code, _, _ = cli("motion", "synth", "--prompt", "a person claps their hands quickly",
+                     "--seed", "1", "-o", tmp_path / "b.npz")
+    assert code == 0 and Motion.load(tmp_path / "b.npz").meta["activity"] == "two_hand_front_clap"
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (("motion", "synth", "moonwalk_backwards", "--seed", "1", "-o", "x.npz"), "neither an SMP file"),
+    (("motion", "synth", "walking", "--seed", "1", "--backend", "mocap", "-o", "x.npz"), "unknown motion backend"),
+    (("motion", "synth", "walking", "--seed", "1", "--backend", "hymotion", "-o", "x.npz"), "HY-Motion"),
+    (("motion", "synth", "--seed", "1", "-o", "x.npz"), "give an SMP"),
+    (("motion", "info", "missing.npz"), "file not found"),
+])
+def test_cli_user_mistakes_exit_2(cli, tmp_path, monkeypatch, args, words):
+    monkeypatch.chdir(tmp_path)
+    code, _, err = cli(*args)
+    assert code == 2 and words in err

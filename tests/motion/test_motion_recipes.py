@@ -1,0 +1,150 @@
+"""Recipe validation (errors name file and field) and the activity-library files of this room."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+import yaml
+from motion_cases import AUTHORED, CONTROLLABILITY, HAPT, SYMMETRY_ACTIVITIES
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.motion.procedural import match_primitives
+from vsmp_imu.motion.recipe import parse_recipe, recipe_for_entry
+from vsmp_imu.smp.bodyparts import BODY_PARTS
+from vsmp_imu.smp.library import ActivityLibrary
+
+PAMAP2 = {"lying": "lying", "sitting": "sitting", "standing": "standing", "walking": "walking",
+          "walking_upstairs": "ascending stairs", "walking_downstairs": "descending stairs"}
+HAPT_LABELS = {"walking": "WALKING", "walking_upstairs": "WALKING_UPSTAIRS",
+               "walking_downstairs": "WALKING_DOWNSTAIRS", "sitting": "SITTING", "standing": "STANDING",
+               "lying": "LAYING", "stand_to_sit": "STAND_TO_SIT", "sit_to_stand": "SIT_TO_STAND",
+               "sit_to_lie": "SIT_TO_LIE", "lie_to_sit": "LIE_TO_SIT", "stand_to_lie": "STAND_TO_LIE",
+               "lie_to_stand": "LIE_TO_STAND"}
+
+
+def _jj_recipe(library):
+    return copy.deepcopy(library.get("jumping_jacks").extras["procedural"])
+
+
+@pytest.mark.parametrize("name", AUTHORED)
+def test_library_recipe_is_valid_and_matches_its_smp(library, name):
+    entry = library.get(name)
+    recipe = recipe_for_entry(entry)
+    matched = match_primitives(entry.smp, recipe)
+    # every SMP primitive is a recipe primitive under its own name, in the recipe's order
+    assert [m[2] for m in matched] == list(entry.smp.primitive_sequence)
+    assert list(recipe.primitives) == list(entry.smp.primitive_sequence)
+    if entry.central_primitive is not None:
+        assert entry.central_primitive in entry.smp.primitive_sequence
+
+
+@pytest.mark.parametrize("name", AUTHORED)
+def test_library_file_content(library, name):
+    entry = library.get(name)
+    smp = entry.smp
+    assert len(entry.captions) >= 5 and len(set(entry.captions)) == len(entry.captions)
+    assert len(entry.aliases) >= 3
+    for prim in smp.motion_primitives:
+        assert prim.description and set(prim.body_parts) <= set(BODY_PARTS), prim.name
+        assert isinstance(prim.relative_duration, float) and prim.relative_duration > 0
+    parts = smp.body_parts
+    assert set(parts.mandatory + parts.optional + parts.dominant_moving_segments) <= set(BODY_PARTS)
+    variants = smp.constraints.variant_fields
+    side = smp.execution_attributes.dominant_side
+    if "dominant_side" in variants:
+        assert side not in ("left", "right") and not name.startswith(("right_", "left_"))
+    if "repetition_count" in variants:
+        assert smp.temporal_structure.is_repetitive
+    if "symmetry" in variants:
+        assert name in SYMMETRY_ACTIVITIES
+    if smp.temporal_structure.is_repetitive:
+        assert smp.temporal_structure.periodicity == "cyclic"
+    assert all(0.0 <= v <= 1.0 for v in smp.uncertainty.model_dump().values())
+
+
+def test_dataset_labels(library):
+    for name in HAPT:
+        assert library.get(name).datasets["hapt"] == HAPT_LABELS[name]
+    for name, label in PAMAP2.items():
+        assert library.get(name).datasets["pamap2"] == label
+    for name in CONTROLLABILITY:
+        assert library.get(name).datasets.get("utd_mhad"), name
+    assert library.get("sit_to_stand").datasets["utd_mhad"] == "sit to stand"
+    assert library.get("stand_to_sit").datasets["utd_mhad"] == "stand to sit"
+    # dataset spellings resolve to the activity
+    assert library.resolve("WALKING_UPSTAIRS").name == "walking_upstairs"
+    assert library.resolve("ascending stairs").name == "walking_upstairs"
+    assert library.resolve("LAYING").name == "lying"
+
+
+def test_jumping_jacks_keeps_its_smp(library):
+    entry = library.get("jumping_jacks")
+    assert entry.smp.primitive_sequence == ["stand", "jump_open", "jump_close"]
+    assert entry.smp.repetition_count() == 8
+    assert "procedural" in entry.extras
+
+
+@pytest.mark.parametrize(("edit", "field", "words"), [
+    (lambda r: r["poses"].__setitem__("open", {"shoulder_abduction": 150}), "procedural.poses",
+     "unknown DOF 'shoulder_abduction'"),
+    (lambda r: r["primitives"]["jump_open"].__setitem__("keys", [[1.0, "nowhere"]]), "procedural",
+     "unknown pose 'nowhere'"),
+    (lambda r: r["cycle"].__setitem__("primitives", ["jump_open", "hop"]), "procedural",
+     "unknown primitive(s) hop"),
+    (lambda r: r.__setitem__("principal_joints", ["left_wirst"]), "procedural.principal_joints",
+     "unknown joint(s) left_wirst"),
+    (lambda r: r["primitives"]["stand"].__setitem__("duration_s", -1), "procedural.primitives.stand.duration_s",
+     "greater than 0"),
+    (lambda r: r.__setitem__("kind", "weird"), "procedural.kind", "periodic"),
+    (lambda r: r["primitives"]["jump_open"].__setitem__("keys", [[0.8, "open"], [0.5, "base"]]),
+     "procedural.primitives.jump_open.keys", "increase"),
+    (lambda r: r["cycle"]["wave"].__setitem__("root_dy", [[0.5, 0.0]]), "procedural.cycle.wave",
+     "at least 2"),
+])
+def test_recipe_errors_name_file_and_field(library, edit, field, words):
+    data = _jj_recipe(library)
+    edit(data)
+    with pytest.raises(ValidationError) as info:
+        parse_recipe(data, file="activities/jumping_jacks.yaml")
+    err = info.value
+    assert err.file == "activities/jumping_jacks.yaml"
+    assert err.field.startswith(field), err.field
+    assert words in err.render(), err.render()
+
+
+def test_pose_like_loops_are_reported(library):
+    data = _jj_recipe(library)
+    data["poses"].update({"a": {"like": "b", "elbow_flex": 1}, "b": {"like": "a"}})
+    with pytest.raises(ValidationError, match="refers to itself"):
+        parse_recipe(data, file="x.yaml")
+
+
+def test_activity_without_recipe_is_a_clear_error(tmp_path, library):
+    text = (library.get("jumping_jacks").path.read_text()).split("# Procedural recipe")[0]
+    data = yaml.safe_load(text)
+    data["name"] = "hopscotch"
+    data["aliases"] = ["hop scotch"]
+    data["smp"]["activity_label"] = "hopscotch"
+    (tmp_path / "hopscotch.yaml").write_text(yaml.safe_dump(data))
+    lib = ActivityLibrary.load(extra_dirs=[tmp_path])
+    with pytest.raises(ValidationError, match="no procedural recipe") as info:
+        recipe_for_entry(lib.get("hopscotch"))
+    assert "hopscotch.yaml" in info.value.render()
+
+
+LIBRARY_RECIPES = [e.name for e in ActivityLibrary.load() if "procedural" in e.extras]
+
+
+@pytest.mark.parametrize("name", LIBRARY_RECIPES)
+def test_every_library_recipe_animates_its_smp(backend, library, name):
+    """Recipes added to the library later are checked too."""
+    from vsmp_imu.motion.selfcheck import is_plausible
+    from vsmp_imu.smp.intervene import intervene
+
+    entry = library.get(name)
+    recipe = recipe_for_entry(entry)
+    assert [m[2] for m in match_primitives(entry.smp, recipe)] == list(entry.smp.primitive_sequence)
+    assert is_plausible(backend.generate(entry.smp, seed=0))
+    fast = intervene(intervene(entry.smp, "tempo", "fast"), "amplitude", "large")
+    assert is_plausible(backend.generate(fast, seed=1))
