@@ -67,7 +67,9 @@ def test_cem_finds_the_gravity_convention_when_searched(setup):
     res = SimInTheLoopCalibrator(search_gravity=True).calibrate(
         kin, target, Convention(), np.random.default_rng(3), noise=noise)
     assert res.gravity_included is False
-    assert np.abs(res.readings[:, :3].mean(0)).max() < 1.0
+    linear = res.readings[:, :3] - res.gravity
+    assert np.abs(linear.mean(0)).max() < 1.0
+    assert np.linalg.norm(res.gravity, axis=1) == pytest.approx(9.81, abs=1e-6)
 
 
 def test_cem_is_deterministic_and_returns_x_opt(setup):

@@ -12,8 +12,10 @@ population.
 The loss compares statistics in the target's axis convention (a fixed signed
 permutation; D_stat is SI in memory), because cross-channel covariance is
 frame-dependent; X_opt itself stays in the simulator's sensor frame and is
-aligned afterwards. Each candidate's readings follow its gravity flag: the
-target's declared convention, or the searched one.
+aligned afterwards. Each candidate is scored under its gravity flag (the
+target's declared convention, or the searched one); X_opt is returned with
+gravity included plus the sensor-frame gravity, and alignment applies the
+chosen convention.
 """
 
 from __future__ import annotations
@@ -53,8 +55,9 @@ class CalibrationResult:
     """eta*, the optimized readings and the loss trace."""
 
     eta: dict[str, float]
-    gravity_included: bool
-    readings: np.ndarray  # (T, 6) X_opt in the simulator sensor frame
+    gravity_included: bool  # the target's convention, or the searched one
+    readings: np.ndarray  # (T, 6) X_opt in the simulator sensor frame, gravity included
+    gravity: np.ndarray  # (T, 3) gravity part of the specific force in the sensor frame
     loss_nominal: float
     loss_final: float
     loss_history: list[float] = field(default_factory=list)
@@ -138,12 +141,14 @@ class SimInTheLoopCalibrator:
             if losses[order[0]] < best_loss:
                 best_eta, best_grav, best_loss = eta[order[0]], bool(grav[order[0]]), float(losses[order[0]])
             history.append(best_loss)
-        weights = self._weights(base, best_eta[None], np.array([best_grav]), noise is not None)[0]
+        weights = self._weights(base, best_eta[None], np.array([True]), noise is not None)[0]
         readings = features @ weights
+        gravity = kin.grav_seg @ (eta_rotation(best_eta[None])[0] @ base).T
         return CalibrationResult(
             eta={name: float(v) for name, v in zip(ETA_NAMES, best_eta, strict=True)},
             gravity_included=best_grav,
             readings=readings,
+            gravity=gravity,
             loss_nominal=loss_nominal,
             loss_final=best_loss,
             loss_history=history,
