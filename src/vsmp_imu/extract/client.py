@@ -1,0 +1,376 @@
+"""A chat-completions client for any OpenAI-compatible endpoint (hosted, vLLM, Ollama, ...).
+
+Built on the `openai` package with its own retries switched off
+(`max_retries=0`): this module retries, so that every attempt, wait and
+failure is counted in the extraction report.
+
+- Retries: HTTP 408/409/425/429 and 5xx, timeouts, connection errors and
+  unreadable response bodies are retried with exponential backoff
+  (`base_delay_s * 2**k`, capped at `max_delay_s`) and jitter (x 0.5..1);
+  a `Retry-After` (or `retry-after-ms`) header is honoured (waits at least
+  that long, up to `max_retry_after_s`). Other client errors (401, 403, 404,
+  ...) are configuration mistakes: `ServiceError` at once.
+- Structured output: the JSON-schema `response_format` is sent unless the
+  endpoint is known not to support it. A 400/422 answer to a request that
+  carried it is retried at once without it; when that succeeds the endpoint
+  (base URL + model) is remembered as text-only, in memory and in the cache
+  folder (`endpoints.json`).
+- Cache: successful responses are stored under the request's key fields
+  (`cache.ResponseCache`); a hit costs no request.
+- The API key comes from the constructor or the environment
+  (`VSMP_VLM_API_KEY`, else `OPENAI_API_KEY`). It is sent in the
+  Authorization header only: never cached, logged or put in a message, and
+  every stored text is scrubbed of it.
+"""
+
+from __future__ import annotations
+
+import email.utils
+import json
+import logging
+import os
+import random
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from vsmp_imu.errors import DependencyError, ServiceError
+from vsmp_imu.extract.cache import ResponseCache
+
+log = logging.getLogger(__name__)
+
+API_KEY_ENV_VARS = ("VSMP_VLM_API_KEY", "OPENAI_API_KEY")
+NO_KEY_PLACEHOLDER = "no-key"  # sent when no key is set (local servers ignore it)
+RETRY_STATUSES = frozenset({408, 409, 425, 429})
+FORMAT_REJECT_STATUSES = frozenset({400, 422})
+ENDPOINTS_FILE = "endpoints.json"
+MAX_ERROR_CHARS = 300
+
+
+def api_key_from_env(environ: Mapping[str, str] | None = None) -> str | None:
+    """The key from VSMP_VLM_API_KEY, else OPENAI_API_KEY; None when neither is set."""
+    env = os.environ if environ is None else environ
+    for name in API_KEY_ENV_VARS:
+        value = env.get(name, "").strip()
+        if value:
+            return value
+    return None
+
+
+def scrub(text: str, secret: str | None) -> str:
+    """`text` with every occurrence of `secret` replaced by ***."""
+    if not secret or not text:
+        return text
+    return text.replace(secret, "***")
+
+
+def _scrub_obj(obj: Any, secret: str | None) -> Any:
+    if not secret:
+        return obj
+    if isinstance(obj, str):
+        return scrub(obj, secret)
+    if isinstance(obj, dict):
+        return {scrub(str(k), secret): _scrub_obj(v, secret) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_scrub_obj(v, secret) for v in obj]
+    return obj
+
+
+def retry_after_s(headers: Mapping[str, str] | None, now: float | None = None) -> float | None:
+    """Seconds asked for by `retry-after-ms` or `Retry-After` (seconds or an HTTP date)."""
+    if not headers:
+        return None
+    lower = {str(k).lower(): str(v) for k, v in headers.items()}
+    if "retry-after-ms" in lower:
+        try:
+            return max(0.0, float(lower["retry-after-ms"]) / 1000.0)
+        except ValueError:
+            pass
+    value = lower.get("retry-after")
+    if value is None:
+        return None
+    try:
+        return max(0.0, float(value))
+    except ValueError:
+        pass
+    try:
+        when = email.utils.parsedate_to_datetime(value)
+    except (TypeError, ValueError):
+        return None
+    if when is None:
+        return None
+    return max(0.0, when.timestamp() - (time.time() if now is None else now))
+
+
+def message_text(body: dict[str, Any]) -> str | None:
+    """`choices[0].message.content` as text (content parts joined); None if absent."""
+    choices = body.get("choices")
+    if not isinstance(choices, list) or not choices or not isinstance(choices[0], dict):
+        return None
+    message = choices[0].get("message")
+    if not isinstance(message, dict):
+        return None
+    content = message.get("content")
+    if isinstance(content, list):
+        parts = [p.get("text", "") for p in content if isinstance(p, dict)]
+        content = "".join(str(p) for p in parts)
+    if content is None:
+        refusal = message.get("refusal")
+        return "" if refusal is None else str(refusal)
+    return str(content)
+
+
+@dataclass
+class Completion:
+    """The outcome of one logical request (after retries, or from the cache)."""
+
+    content: str | None
+    response: dict[str, Any] | None = None  # the full response body
+    cached: bool = False
+    attempts: int = 0
+    retries: int = 0
+    response_format: str = "text"  # "json_schema" or "text": what the answered request carried
+    format_fallback: bool = False
+    waits_s: list[float] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)  # one line per failed attempt
+    error: str | None = None  # set when every attempt failed
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None and self.content is not None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"content": self.content, "response": self.response, "cached": self.cached,
+                "attempts": self.attempts, "retries": self.retries,
+                "response_format": self.response_format, "format_fallback": self.format_fallback,
+                "waits_s": [round(w, 3) for w in self.waits_s], "errors": list(self.errors),
+                "error": self.error}
+
+
+class _Retryable(Exception):
+    def __init__(self, message: str, wait_hint_s: float | None = None) -> None:
+        super().__init__(message)
+        self.wait_hint_s = wait_hint_s
+
+
+class VLMClient:
+    """One OpenAI-compatible chat-completions endpoint and model.
+
+    base_url: e.g. `https://api.openai.com/v1`, `http://localhost:8000/v1`
+        (vLLM), `http://localhost:11434/v1` (Ollama).
+    model: the model name the endpoint serves.
+    api_key: None reads the environment (see module docs).
+    timeout_s: per-request timeout; max_retries: retries after the first attempt.
+    base_delay_s, max_delay_s, max_retry_after_s: backoff settings.
+    cache_dir: response cache folder (None: no cache).
+    use_response_format: send the JSON-schema response_format when the
+        endpoint supports it.
+    temperature, max_tokens: sent only when set.
+    sleep: the wait function (tests pass a recorder); seed: jitter seed.
+    """
+
+    def __init__(self, base_url: str, model: str, api_key: str | None = None,
+                 timeout_s: float = 120.0, max_retries: int = 4, base_delay_s: float = 1.0,
+                 max_delay_s: float = 30.0, max_retry_after_s: float = 120.0,
+                 cache_dir: str | os.PathLike[str] | None = None, use_response_format: bool = True,
+                 temperature: float | None = None, max_tokens: int | None = None,
+                 sleep: Callable[[float], None] | None = None, seed: int = 0) -> None:
+        self.base_url = base_url
+        self.model = model
+        self.api_key = api_key
+        self.timeout_s = timeout_s
+        self.max_retries = max_retries
+        self.base_delay_s = base_delay_s
+        self.max_delay_s = max_delay_s
+        self.max_retry_after_s = max_retry_after_s
+        self.cache_dir = cache_dir
+        self.use_response_format = use_response_format
+        self.temperature = temperature
+        self.max_tokens = max_tokens
+        self.sleep = sleep
+        self.seed = seed
+        self._openai: Any = None
+        self._rng = random.Random(seed)
+        self._text_only: set[str] = set()
+
+    def __repr__(self) -> str:
+        return f"VLMClient(base_url={self.base_url!r}, model={self.model!r})"
+
+    # -- settings -------------------------------------------------------------
+    @property
+    def cache(self) -> ResponseCache:
+        return ResponseCache(self.cache_dir)
+
+    @property
+    def endpoint_id(self) -> str:
+        return f"{self.base_url.rstrip('/')} {self.model}"
+
+    @property
+    def url(self) -> str:
+        return self.base_url.rstrip("/") + "/chat/completions"
+
+    def _key(self) -> str | None:
+        return self.api_key if self.api_key else api_key_from_env()
+
+    def supports_response_format(self) -> bool:
+        """False once the endpoint rejected it (this run or a cached earlier one)."""
+        if not self.use_response_format or self.endpoint_id in self._text_only:
+            return False
+        known = self.cache.read_json(ENDPOINTS_FILE).get(self.endpoint_id, {})
+        return known.get("response_format", "supported") != "unsupported"
+
+    def _remember_text_only(self) -> None:
+        self._text_only.add(self.endpoint_id)
+        data = self.cache.read_json(ENDPOINTS_FILE)
+        data[self.endpoint_id] = {"response_format": "unsupported"}
+        self.cache.write_json(ENDPOINTS_FILE, data)
+
+    def _client(self) -> Any:
+        if self._openai is None:
+            try:
+                from openai import OpenAI
+            except ImportError as exc:  # pragma: no cover - a pinned dependency
+                raise DependencyError("the VLM client needs the `openai` package "
+                                      "(pip install -e .)") from exc
+            self._openai = OpenAI(base_url=self.base_url, api_key=self._key() or NO_KEY_PLACEHOLDER,
+                                  timeout=self.timeout_s, max_retries=0)
+        return self._openai
+
+    def _body(self, messages: list[dict[str, Any]], response_format: dict[str, Any] | None) -> dict[str, Any]:
+        body: dict[str, Any] = {"model": self.model, "messages": messages}
+        if response_format is not None:
+            body["response_format"] = response_format
+        if self.temperature is not None:
+            body["temperature"] = self.temperature
+        if self.max_tokens is not None:
+            body["max_tokens"] = self.max_tokens
+        return body
+
+    # -- the request ------------------------------------------------------------
+    def preview(self, messages: list[dict[str, Any]],
+                response_format: dict[str, Any] | None = None) -> dict[str, Any]:
+        """The request that `complete` would send (key redacted, images abbreviated)."""
+        fmt = response_format if response_format is not None and self.supports_response_format() else None
+        key = self._key()
+        auth = "Bearer ***" if key else (f"Bearer {NO_KEY_PLACEHOLDER} (no key in "
+                                         + " or ".join(API_KEY_ENV_VARS) + ")")
+        headers = {"Content-Type": "application/json", "Authorization": auth}
+        return {"method": "POST", "url": self.url, "headers": headers,
+                "body": abbreviate_images(self._body(messages, fmt))}
+
+    def complete(self, messages: list[dict[str, Any]], key_fields: dict[str, Any],
+                 response_format: dict[str, Any] | None = None) -> Completion:
+        """One logical request: cache, then attempts with retries. Never raises for
+        retryable failures (the Completion carries the error); raises ServiceError for
+        configuration errors (401, 403, 404, a 400 that is not about response_format)."""
+        fields = {"model": self.model, **key_fields}
+        hit = self.cache.get(fields)
+        if hit is not None and isinstance(hit.get("content"), str):
+            return Completion(hit["content"], hit.get("response"), cached=True, attempts=0,
+                              response_format=hit.get("response_format", "text"))
+        secret = self._key()
+        fmt = response_format if response_format is not None and self.supports_response_format() else None
+        out = Completion(None, response_format="json_schema" if fmt is not None else "text")
+        retries = 0
+        while True:
+            out.attempts += 1
+            try:
+                body = self._send(messages, fmt)
+            except _FormatRejected as exc:
+                out.errors.append(scrub(str(exc), secret))
+                out.format_fallback = True
+                fmt = None
+                out.response_format = "text"
+                continue
+            except _Retryable as exc:
+                out.errors.append(scrub(str(exc), secret))
+                if retries >= self.max_retries:
+                    out.error = f"gave up after {out.attempts} attempt(s): {out.errors[-1]}"
+                    out.retries = retries
+                    return out
+                wait = self._backoff(retries, exc.wait_hint_s)
+                out.waits_s.append(wait)
+                retries += 1
+                log.info("VLM request failed (%s); retry %d of %d in %.2f s",
+                         out.errors[-1], retries, self.max_retries, wait)
+                (self.sleep or time.sleep)(wait)
+                continue
+            break
+        if out.format_fallback:
+            self._remember_text_only()
+        out.retries = retries
+        out.response = _scrub_obj(body, secret)
+        out.content = scrub(message_text(body) or "", secret)
+        self.cache.put(fields, {"content": out.content, "response": out.response,
+                                "response_format": out.response_format})
+        return out
+
+    def _backoff(self, retry: int, hint_s: float | None) -> float:
+        delay = min(self.max_delay_s, self.base_delay_s * (2.0 ** retry))
+        delay *= 0.5 + 0.5 * self._rng.random()
+        if hint_s is not None:
+            delay = max(delay, min(hint_s, self.max_retry_after_s))
+        return delay
+
+    def _send(self, messages: list[dict[str, Any]], fmt: dict[str, Any] | None) -> dict[str, Any]:
+        import openai
+
+        client = self._client()
+        body = self._body(messages, fmt)
+        kwargs = {k: v for k, v in body.items() if k not in ("model", "messages")}
+        try:
+            raw = client.chat.completions.with_raw_response.create(
+                model=body["model"], messages=body["messages"], **kwargs)
+            text = raw.text
+        except openai.APITimeoutError as exc:
+            raise _Retryable(f"timeout after {self.timeout_s:g} s") from exc
+        except openai.APIConnectionError as exc:
+            raise _Retryable(f"connection error ({type(exc.__cause__ or exc).__name__})") from exc
+        except openai.APIStatusError as exc:
+            status = exc.status_code
+            detail = _short(exc.response.text if exc.response is not None else str(exc))
+            headers = dict(exc.response.headers) if exc.response is not None else {}
+            if fmt is not None and status in FORMAT_REJECT_STATUSES:
+                raise _FormatRejected(f"HTTP {status} with response_format ({detail}); "
+                                      "retrying as plain text") from exc
+            if status in RETRY_STATUSES or status >= 500:
+                hint = retry_after_s(headers)
+                extra = f", Retry-After {hint:g} s" if hint is not None else ""
+                raise _Retryable(f"HTTP {status}{extra}: {detail}", hint) from exc
+            raise ServiceError(f"the endpoint answered HTTP {status}: {scrub(detail, self._key())}"
+                               + _status_hint(status), allowed="check --vlm-base-url, --vlm-model and the key in "
+                               + " or ".join(API_KEY_ENV_VARS)) from None
+        try:
+            body_json = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise _Retryable(f"response body is not JSON: {_short(text)}") from exc
+        if not isinstance(body_json, dict) or message_text(body_json) is None:
+            raise _Retryable(f"response has no choices[0].message: {_short(text)}")
+        return body_json
+
+
+class _FormatRejected(Exception):
+    pass
+
+
+def _short(text: str) -> str:
+    text = " ".join(str(text).split())
+    return text if len(text) <= MAX_ERROR_CHARS else text[:MAX_ERROR_CHARS] + "..."
+
+
+def _status_hint(status: int) -> str:
+    return {401: " (the key was refused)", 403: " (the key may not use this model)",
+            404: " (wrong base URL or unknown model)"}.get(status, "")
+
+
+def abbreviate_images(obj: Any) -> Any:
+    """A copy with every `data:` URL shortened to its media type and size."""
+    if isinstance(obj, dict):
+        return {k: abbreviate_images(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [abbreviate_images(v) for v in obj]
+    if isinstance(obj, str) and obj.startswith("data:") and ";base64," in obj:
+        head, data = obj.split(";base64,", 1)
+        return f"{head};base64,<{len(data) * 3 // 4} bytes>"
+    return obj

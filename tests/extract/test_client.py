@@ -1,0 +1,166 @@
+"""The chat-completions client against a real local HTTP server: retries, fallback, cache."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from vlm_server import Reply, error, fixture_text, ok
+
+from vsmp_imu.errors import ServiceError
+from vsmp_imu.extract.client import (
+    ENDPOINTS_FILE,
+    VLMClient,
+    abbreviate_images,
+    api_key_from_env,
+    message_text,
+    retry_after_s,
+    scrub,
+)
+
+MESSAGES = [{"role": "user", "content": [{"type": "text", "text": "describe"},
+                                         {"type": "image_url",
+                                          "image_url": {"url": "data:image/jpeg;base64,QUJDRA=="}}]}]
+FORMAT = {"type": "json_schema", "json_schema": {"name": "x", "schema": {"type": "object"}}}
+
+
+class Sleeps:
+    """Records the waits instead of sleeping."""
+
+    def __init__(self) -> None:
+        self.waits: list[float] = []
+
+    def __call__(self, seconds: float) -> None:
+        self.waits.append(seconds)
+
+
+def client(server, tmp_path=None, **kw) -> VLMClient:
+    kw.setdefault("sleep", Sleeps())
+    kw.setdefault("base_delay_s", 0.01)
+    kw.setdefault("timeout_s", 5.0)
+    return VLMClient(server.url, "vlm-test", cache_dir=None if tmp_path is None else tmp_path / "cache", **kw)
+
+
+def test_helpers():
+    assert retry_after_s({"Retry-After": "3"}) == 3.0
+    assert retry_after_s({"retry-after-ms": "1500"}) == 1.5
+    assert retry_after_s({"Retry-After": "Wed, 21 Oct 2015 07:28:00 GMT"}, now=1445412470.0) == 10.0
+    assert retry_after_s({"Retry-After": "soon"}) is None and retry_after_s({}) is None
+    assert scrub("Bearer sk-abc and sk-abc", "sk-abc") == "Bearer *** and ***"
+    assert scrub("text", None) == "text"
+    short = abbreviate_images(MESSAGES)
+    assert short[0]["content"][1]["image_url"]["url"] == "data:image/jpeg;base64,<6 bytes>"
+    assert MESSAGES[0]["content"][1]["image_url"]["url"].endswith("QUJDRA==")  # not mutated
+    assert message_text({"choices": [{"message": {"content": [{"type": "text", "text": "a"},
+                                                               {"type": "text", "text": "b"}]}}]}) == "ab"
+    assert message_text({"choices": []}) is None
+    assert api_key_from_env({"OPENAI_API_KEY": "k2"}) == "k2"
+    assert api_key_from_env({"VSMP_VLM_API_KEY": "k1", "OPENAI_API_KEY": "k2"}) == "k1"
+    assert api_key_from_env({}) is None
+
+
+def test_a_valid_reply_is_returned_with_the_full_body(chat_server):
+    with chat_server([ok("walking_valid_1.json")]) as server:
+        done = client(server).complete(MESSAGES, {"q": 0}, FORMAT)
+    assert done.ok and done.attempts == 1 and done.retries == 0
+    assert json.loads(done.content)["activity_label"] == "walking"
+    assert done.response["object"] == "chat.completion" and "usage" in done.response
+    sent = server.requests[0]
+    assert sent["path"] == "/v1/chat/completions"
+    assert sent["body"]["model"] == "vlm-test" and sent["body"]["response_format"] == FORMAT
+    assert sent["body"]["messages"] == MESSAGES
+
+
+def test_429_with_retry_after_is_honoured_then_succeeds(chat_server):
+    sleeps = Sleeps()
+    with chat_server([error(429, retry_after="2"), ok("walking_valid_1.json")]) as server:
+        done = client(server, sleep=sleeps).complete(MESSAGES, {"q": 0})
+    assert done.ok and done.attempts == 2 and done.retries == 1
+    assert sleeps.waits == done.waits_s and sleeps.waits[0] >= 2.0
+    assert "HTTP 429, Retry-After 2 s" in done.errors[0]
+
+
+def test_5xx_backoff_grows_exponentially_with_jitter(chat_server):
+    sleeps = Sleeps()
+    script = [error(500), error(502), error(503), ok("walking_valid_1.json")]
+    with chat_server(script) as server:
+        done = client(server, sleep=sleeps, base_delay_s=1.0, max_delay_s=100.0).complete(MESSAGES, {})
+    assert done.ok and done.retries == 3
+    for k, wait in enumerate(sleeps.waits):
+        assert 0.5 * 2**k <= wait <= 2**k  # base * 2^k x jitter in [0.5, 1]
+
+
+def test_slow_server_times_out_and_is_retried(chat_server):
+    with chat_server([ok("walking_valid_1.json", delay_s=1.5), ok("walking_valid_2.json")]) as server:
+        done = client(server, timeout_s=0.3).complete(MESSAGES, {})
+    assert done.ok and done.attempts == 2 and "timeout" in done.errors[0]
+    assert json.loads(done.content)["temporal_structure"]["repetition_count"] == 9
+
+
+def test_giving_up_returns_the_error_without_raising(chat_server):
+    with chat_server([], default=error(503)) as server:
+        done = client(server, max_retries=2).complete(MESSAGES, {})
+    assert not done.ok and done.attempts == 3 and done.retries == 2
+    assert done.error.startswith("gave up after 3 attempt(s)") and len(server.requests) == 3
+
+
+@pytest.mark.parametrize("status,hint", [(401, "key was refused"), (404, "wrong base URL")])
+def test_configuration_errors_raise_at_once(chat_server, status, hint):
+    with chat_server([error(status)]) as server, pytest.raises(ServiceError, match=hint):
+        client(server).complete(MESSAGES, {}, FORMAT if status == 401 else None)
+    assert len(server.requests) == 1
+
+
+def test_a_server_rejecting_response_format_falls_back_and_is_remembered(chat_server, tmp_path):
+    script = [ok("walking_valid_1.json"), ok("walking_valid_2.json")]
+    with chat_server(script, reject_response_format=True) as server:
+        c = client(server, tmp_path)
+        first = c.complete(MESSAGES, {"q": 0}, FORMAT)
+        second = c.complete(MESSAGES, {"q": 1}, FORMAT)
+    assert first.ok and first.format_fallback and first.response_format == "text"
+    assert second.ok and not second.format_fallback
+    bodies = [r["body"] for r in server.requests]
+    assert ["response_format" in b for b in bodies] == [True, False, False]
+    saved = json.loads((tmp_path / "cache" / ENDPOINTS_FILE).read_text())
+    assert saved == {f"{server.url} vlm-test": {"response_format": "unsupported"}}
+    # a new client for the same endpoint reads it from the cache folder
+    assert not client(server, tmp_path).supports_response_format()
+
+
+def test_cache_hit_costs_no_request_and_keys_differ_by_fields(chat_server, tmp_path):
+    with chat_server([ok("walking_valid_1.json"), ok("walking_valid_2.json")]) as server:
+        c = client(server, tmp_path)
+        a = c.complete(MESSAGES, {"clip": "h", "query_index": 0})
+        again = client(server, tmp_path).complete(MESSAGES, {"clip": "h", "query_index": 0})
+        other = c.complete(MESSAGES, {"clip": "h", "query_index": 1})
+    assert len(server.requests) == 2
+    assert again.cached and again.content == a.content and again.attempts == 0
+    assert not other.cached and other.content != a.content
+    entries = list((tmp_path / "cache").rglob("*.json"))
+    assert len(entries) == 2
+    stored = json.loads(entries[0].read_text())
+    assert stored["key"]["model"] == "vlm-test" and "content" in stored and "response" in stored
+
+
+def test_a_200_with_an_unreadable_body_is_retried(chat_server):
+    with chat_server([Reply(200, raw_body="<html>gateway</html>"), ok("walking_valid_1.json")]) as server:
+        done = client(server).complete(MESSAGES, {})
+    assert done.ok and "not JSON" in done.errors[0]
+
+
+def test_key_goes_only_into_the_authorization_header(chat_server, monkeypatch, tmp_path):
+    monkeypatch.setenv("VSMP_VLM_API_KEY", "sk-test-SECRET-123")
+    echo = Reply(200, "echo: Bearer sk-test-SECRET-123")  # a server that echoes the key back
+    with chat_server([echo]) as server:
+        c = client(server, tmp_path)
+        done = c.complete(MESSAGES, {})
+        preview = c.preview(MESSAGES, FORMAT)
+    assert server.requests[0]["headers"]["authorization"] == "Bearer sk-test-SECRET-123"
+    assert done.content == "echo: Bearer ***"
+    assert "SECRET" not in json.dumps(done.to_dict()) and "SECRET" not in repr(c)
+    assert preview["headers"]["Authorization"] == "Bearer ***"
+    assert preview["body"]["messages"][0]["content"][1]["image_url"]["url"].endswith("<6 bytes>")
+    for path in (tmp_path / "cache").rglob("*"):
+        if path.is_file():
+            assert "SECRET" not in path.read_text()
+    assert fixture_text("check_yes.json")  # fixtures readable

@@ -1,0 +1,143 @@
+"""Source clip pools: the VLM check through the replay server, the pose check, the manifest."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+from vlm_server import error, ok
+
+from vsmp_imu.errors import InputFileError
+from vsmp_imu.extract.calibrate import motion_track
+from vsmp_imu.extract.client import VLMClient
+from vsmp_imu.extract.frames import FrameSampler
+from vsmp_imu.extract.pool import (
+    MANIFEST_FORMAT,
+    PoseClipChecker,
+    SourcePoolFilter,
+    VLMClipChecker,
+    parse_check_answer,
+    pool_clips,
+    retained_clips,
+)
+from vsmp_imu.motion.procedural import ProceduralBackend
+from vsmp_imu.smp.library import ActivityLibrary
+
+pytest.importorskip("cv2")
+
+
+@pytest.fixture
+def pool(tmp_path, videos):
+    root = tmp_path / "POOL"
+    for rel in ("walking/a.avi", "walking/b.avi", "walking/c.avi", "jumping_jacks/d.avi"):
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        source = {"walking/b.avi": "short", "walking/c.avi": "wide"}.get(rel, "counter")
+        shutil.copy(videos[source], root / rel)  # a and d share bytes, under different activities
+    shutil.copy(videos["corrupt"], root / "jumping_jacks" / "e.mp4")
+    (root / "walking" / "notes.txt").write_text("not a clip")
+    return root
+
+
+def test_parse_check_answer():
+    assert parse_check_answer('{"answer": "yes", "confidence": 0.8, "reason": "r"}') == (True, 0.8, "r")
+    assert parse_check_answer('```json\n{"answer": "No", "confidence": 90}\n```')[:2] == (False, 0.9)
+    assert parse_check_answer('{"answer": true, "confidence": "0.7"}')[:2] == (True, 0.7)
+    assert parse_check_answer("yes!")[0] is None
+    assert parse_check_answer('{"answer": "maybe", "confidence": 0.5}')[0] is None
+
+
+def test_pool_listing(pool, tmp_path):
+    clips = [(a, p.name) for a, p in pool_clips(pool)]
+    assert clips == [("jumping_jacks", "d.avi"), ("jumping_jacks", "e.mp4"), ("walking", "a.avi"),
+                     ("walking", "b.avi"), ("walking", "c.avi")]
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(InputFileError, match="no video clips"):
+        pool_clips(tmp_path / "empty")
+
+
+def test_vlm_checker_manifest(pool, chat_server, tmp_path):
+    # clips in sorted order: jumping_jacks/d, (e corrupt: no request), walking/a, walking/b, walking/c
+    script = [ok("check_unsure.json"), ok("check_yes.json"), ok("check_no.json"), ok("check_garbage.txt")]
+    with chat_server(script) as server:
+        client = VLMClient(server.url, "vlm-test", cache_dir=tmp_path / "cache", sleep=lambda s: None)
+        checker = VLMClipChecker(client, FrameSampler(n_frames=3))
+        data = SourcePoolFilter(checker, threshold=0.6).filter(pool)
+        assert len(server.requests) == 4
+        again = SourcePoolFilter(checker, threshold=0.6).filter(pool)
+        assert len(server.requests) == 4  # cached
+    keys = ("path", "decision", "confidence", "reason")
+    assert [[c[k] for k in keys] for c in again["clips"]] == [[c[k] for k in keys] for c in data["clips"]]
+    assert [c["details"].get("cached") for c in again["clips"]] == [True, None, True, True, True]
+    assert data["format"] == MANIFEST_FORMAT and data["threshold"] == 0.6
+    assert data["counts"] == {"clips": 5, "retained": 1, "rejected": 4}
+    by = {c["path"]: c for c in data["clips"]}
+    assert by["walking/a.avi"]["decision"] == "retained" and by["walking/a.avi"]["confidence"] == 0.9
+    assert by["jumping_jacks/d.avi"]["reason"].startswith("confidence 0.45 below 0.6")
+    assert by["walking/b.avi"]["shows_activity"] is False and "seated man" in by["walking/b.avi"]["reason"]
+    assert by["walking/c.avi"]["reason"].startswith("unreadable answer")
+    assert by["jumping_jacks/e.mp4"]["reason"].startswith("unreadable clip")
+    assert data["activities"]["walking"] == {"retained": ["walking/a.avi"],
+                                             "rejected": ["walking/b.avi", "walking/c.avi"]}
+    assert retained_clips(data) == [("walking", pool / "walking" / "a.avi")]
+    question = server.requests[0]["body"]["messages"][0]["content"][0]["text"]
+    assert 'activity "jumping jacks" as its dominant action' in question
+    assert "response_format" not in server.requests[0]["body"]
+
+
+def test_vlm_checker_request_failure_is_a_rejection(pool, chat_server, tmp_path):
+    with chat_server([], default=error(503)) as server:
+        client = VLMClient(server.url, "m", max_retries=1, base_delay_s=0.0, sleep=lambda s: None)
+        result = VLMClipChecker(client, FrameSampler(n_frames=2)).check(pool / "walking" / "a.avi", "walking")
+    assert result.shows_activity is None and result.reason.startswith("request failed")
+
+
+@pytest.fixture(scope="module")
+def tracks():
+    library = ActivityLibrary.load()
+    backend = ProceduralBackend(library)
+    out = {}
+    for name in ("jumping_jacks", "right_hand_wave", "standing"):
+        out[name] = motion_track(backend.generate(library.get(name).smp, seed=4), px_per_m=250)
+    return library, out
+
+
+def test_pose_checker_accepts_matching_motion_and_rejects_others(tracks):
+    library, t = tracks
+    from vsmp_imu.extract.pose import PoseExtractor
+
+    checker = PoseClipChecker(PoseExtractor(library=library))
+    good = checker.check_track(t["jumping_jacks"], "jumping_jacks")
+    assert good.shows_activity and good.confidence >= 0.8, good.reason
+    wave = checker.check_track(t["right_hand_wave"], "right_hand_wave")
+    assert wave.confidence >= 0.6, wave.reason
+    # jumping jacks moves parts a right-hand wave never involves; standing moves too little
+    assert checker.check_track(t["jumping_jacks"], "right_hand_wave").confidence < 0.6
+    assert checker.check_track(t["standing"], "jumping_jacks").confidence < 0.6
+    assert checker.check_track(t["jumping_jacks"], "standing").confidence < 0.6
+    assert checker.check_track(t["standing"], "standing").confidence >= 0.6
+
+
+def test_pose_checker_on_a_clip_without_a_person(videos):
+    pytest.importorskip("mediapipe")
+    from vsmp_imu.extract.landmarks import MediaPipePoseEstimator
+    from vsmp_imu.extract.pose import PoseExtractor
+
+    checker = PoseClipChecker(PoseExtractor(MediaPipePoseEstimator(max_frames=10)))
+    result = checker.check(videos["counter"], "walking")
+    assert result.shows_activity is False and "found in only 0%" in result.reason
+
+
+def test_cli_video_pool_vlm(pool, chat_server, tmp_path, cli):
+    script = [ok("check_yes.json")] * 4
+    out = tmp_path / "manifest.json"
+    with chat_server(script) as server:
+        code, stdout, stderr = cli("video", "pool", pool, "--checker", "vlm", "--threshold", "0.5",
+                                   "--vlm-base-url", server.url, "--vlm-model", "m", "--n-frames", "2",
+                                   "--cache-dir", tmp_path / "c", "-o", out)
+    assert code == 0, stderr
+    data = json.loads(out.read_text())
+    assert data["counts"] == {"clips": 5, "retained": 4, "rejected": 1}
+    assert "4 of 5 retained" in stdout
+    code, _, err = cli("video", "pool", pool, "--checker", "clip", "-o", out)
+    assert code == 2 and "pose, vlm" in err

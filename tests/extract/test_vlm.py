@@ -1,0 +1,228 @@
+"""The VLM extractor end to end against the replay server: prompt, accounting, cache, CLI."""
+
+from __future__ import annotations
+
+import base64
+import json
+import logging
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from vlm_server import error, ok
+
+from vsmp_imu.extract.client import VLMClient
+from vsmp_imu.extract.frames import FrameSampler
+from vsmp_imu.extract.prompt import PROMPT_TEMPLATE, SCHEMA_TEXT, smp_prompt
+from vsmp_imu.extract.vlm import VLMExtractor
+from vsmp_imu.smp import load_smp
+
+cv2 = pytest.importorskip("cv2")
+
+PAPER = Path(__file__).resolve().parents[2].parent / "shared" / "paper" / "vsmp-imu-paper.tex"
+SECRET = "sk-live-Zq9SECRETkey0000"
+
+
+def extractor(server, tmp_path, n_frames=4, max_retries=2, **kw) -> VLMExtractor:
+    client = VLMClient(server.url, "vlm-test", cache_dir=tmp_path / "cache", base_delay_s=0.001,
+                       max_retries=max_retries, timeout_s=5.0, sleep=lambda s: None)
+    return VLMExtractor(client, sampler=FrameSampler(n_frames=n_frames), **kw)
+
+
+def test_prompt_and_schema_are_the_papers_verbatim():
+    if not PAPER.exists():
+        pytest.skip(f"paper source {PAPER} not present")
+    tex = PAPER.read_text(encoding="utf-8")
+    section = tex[tex.index(r"\label{app:vlm_prompt}"):]
+    quote = section[section.index(r"\begin{quote}") + len(r"\begin{quote}"):section.index(r"\end{quote}")]
+    verbatim = section[section.index(r"\begin{verbatim}") + len(r"\begin{verbatim}"):section.index(r"\end{verbatim}")]
+    assert verbatim.strip("\n") == SCHEMA_TEXT
+    assert quote.strip().replace("$", "") == PROMPT_TEMPLATE
+    json.loads(SCHEMA_TEXT)
+    assert smp_prompt().startswith(PROMPT_TEMPLATE) and smp_prompt().endswith(SCHEMA_TEXT)
+
+
+def test_the_request_carries_prompt_hint_timing_and_frames(chat_server, tmp_path, videos):
+    with chat_server([ok("walking_valid_1.json")] * 5) as server:
+        extractor(server, tmp_path, n_frames=4).extract(videos["counter"], label="walking")
+    assert len(server.requests) == 5
+    body = server.requests[0]["body"]
+    assert body["response_format"]["type"] == "json_schema"
+    assert body["response_format"]["json_schema"]["schema"]["title"] == "Semantic Motion Program"
+    (message,) = body["messages"]
+    assert message["role"] == "user"
+    texts = [p["text"] for p in message["content"] if p["type"] == "text"]
+    images = [p["image_url"]["url"] for p in message["content"] if p["type"] == "image_url"]
+    assert texts[0] == smp_prompt()
+    assert texts[1].startswith('Label hint: the dataset labels this clip "walking"')
+    assert texts[2].startswith("The clip lasts 2.00 s. The 4 frames")
+    assert len(images) == 4
+    jpeg = base64.b64decode(images[0].split(",", 1)[1])
+    frame = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    assert frame.shape == (512, 512, 3)
+    # the five queries are the same request (answers differ by the server's sampling)
+    assert all(r["body"] == body for r in server.requests)
+
+
+def test_mixed_responses_are_repaired_aggregated_refined_and_counted(chat_server, tmp_path, videos):
+    script = [ok("walking_valid_1.json"), ok("walking_fenced.md"), ok("walking_valid_2.json"),
+              ok("walking_wrong_keys.json"), ok("walking_invalid_values.json")]
+    with chat_server(script) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    c = result.counts
+    assert (c.queries, c.valid, c.rejected, c.request_failures) == (5, 5, 0, 0)
+    assert (c.malformed_json, c.missing_mandatory_field, c.invalid_value) == (1, 0, 1)
+    assert c.repaired == 3 and c.schema_repair == 1
+    assert c.five_response_disagreement == 1  # response 2 says fast and 9 repetitions
+    assert not result.discarded and c.discarded == 0
+    smp = result.smp
+    assert smp.activity_label == "walking"
+    assert smp.primitive_sequence == ["left_step", "right_step"]
+    assert smp.execution_attributes.tempo == "medium"  # median of medium x3, fast
+    assert smp.temporal_structure.repetition_count == 8
+    assert result.aggregated_smp is not None and result.refinement["entry"] == "walking"
+    assert result.aggregation["n_valid"] == 5
+    # fast (response 2) and unknown (response 4, reset) differ from the aggregate: 2 of 5
+    assert result.aggregation["disagreement"]["execution_attributes.tempo"] == pytest.approx(0.4)
+    assert len(result.raw_responses) == 5 and result.raw_responses[1].startswith("Here is")
+    json.dumps(result.to_dict())
+
+
+def test_fewer_than_three_valid_responses_discard_the_clip(chat_server, tmp_path, videos):
+    script = [error(429, retry_after="0"), ok("walking_valid_1.json"),  # query 0: retried, valid
+              ok("walking_missing_label.json"),  # query 1: missing mandatory field
+              ok("walking_truncated_early.txt"),  # query 2: malformed and missing primitives
+              ok("prose_refusal.txt"),  # query 3: no JSON
+              error(500), error(500), error(500)]  # query 4: fails after 2 retries
+    with chat_server(script) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    c = result.counts
+    assert result.discarded and result.smp is None and c.discarded == 1
+    assert "only 1 of 5 responses are valid" in result.reason and "1 request(s) failed" in result.reason
+    assert (c.valid, c.rejected, c.request_failures, c.retries) == (1, 3, 1, 3)
+    assert (c.malformed_json, c.missing_mandatory_field, c.invalid_value) == (2, 2, 0)
+    assert result.queries[4]["error"].startswith("gave up after 3 attempt(s)")
+    assert result.repairs[4]["request_failed"] is True
+    assert len(server.requests) == 8
+
+
+def test_exactly_three_valid_responses_are_enough(chat_server, tmp_path, videos):
+    script = [ok("walking_valid_1.json"), ok("prose_refusal.txt"), ok("walking_valid_3.json"),
+              ok("walking_missing_label.json"), ok("walking_truncated_recoverable.txt")]
+    with chat_server(script) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    assert not result.discarded and result.counts.valid == 3 and result.counts.rejected == 2
+    assert result.smp.activity_label == "walking"
+
+
+def test_server_without_structured_output(chat_server, tmp_path, videos):
+    script = [ok(f"walking_valid_{k}.json") for k in (1, 2, 3, 1, 2)]
+    with chat_server(script, reject_response_format=True) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    assert result.counts.valid == 5 and result.counts.format_fallbacks == 1
+    assert [("response_format" in r["body"]) for r in server.requests] == [True] + [False] * 5
+    assert {q["response_format"] for q in result.queries} == {"text"}
+
+
+def test_rerun_is_free_and_a_killed_run_resumes(chat_server, tmp_path, videos):
+    script = [ok(f"walking_valid_{k}.json") for k in (1, 2, 3, 1, 2)]
+
+    class Killed(Exception):
+        pass
+
+    def kill_after_two(done: int, total: int) -> None:
+        if done == 2:
+            raise Killed
+
+    with chat_server(list(script), default=ok("walking_valid_3.json")) as server:
+        ex = extractor(server, tmp_path)
+        with pytest.raises(Killed):
+            ex.extract(videos["counter"], label="walking", progress=kill_after_two)
+        assert len(server.requests) == 2
+        resumed = ex.extract(videos["counter"], label="walking")
+        assert len(server.requests) == 5  # only the three missing queries
+        assert resumed.counts.cached == 2
+        again = ex.extract(videos["counter"], label="walking")
+        assert len(server.requests) == 5 and again.counts.cached == 5
+    assert again.smp == resumed.smp
+    # another label hint is another prompt: not a cache hit
+    with chat_server([], default=ok("walking_valid_1.json")) as server2:
+        ex2 = extractor(server2, tmp_path)
+        ex2.extract(videos["counter"], label="walking in place")
+        assert len(server2.requests) == 5
+
+
+def test_cli_extract_writes_smp_raw_and_report_and_never_the_key(chat_server, tmp_path, videos, cli,
+                                                                monkeypatch, caplog, capfd):
+    monkeypatch.setenv("VSMP_VLM_API_KEY", SECRET)
+    caplog.set_level(logging.DEBUG)
+    script = [ok("walking_valid_1.json"), ok("walking_fenced.md"), error(500), ok("walking_valid_2.json"),
+              ok("walking_invalid_values.json"), ok("walking_valid_3.json")]
+    out = tmp_path / "out" / "clip.json"
+    with chat_server(script) as server:
+        code, stdout, stderr = cli("smp", "extract", videos["counter"], "--label", "walking",
+                                   "--extractor", "vlm", "--n-frames", "4",
+                                   "--vlm-base-url", server.url, "--vlm-model", "vlm-test",
+                                   "--cache-dir", tmp_path / "cache", "-o", out)
+    assert code == 0, stderr
+    assert all(r["headers"]["authorization"] == f"Bearer {SECRET}" for r in server.requests)
+    smp = load_smp(out)
+    assert smp.activity_label == "walking"
+    raw = sorted(p.name for p in (tmp_path / "out" / "clip.raw").iterdir())
+    assert raw == [f"response_{k}.{ext}" for k in range(5) for ext in ("json", "txt")]
+    assert (tmp_path / "out" / "clip.raw" / "response_1.txt").read_text().startswith("Here is")
+    report = json.loads((tmp_path / "out" / "clip.report.json").read_text())
+    assert report["counts"]["valid"] == 5 and report["counts"]["retries"] == 1
+    assert report["smp"] == smp.model_dump(mode="json")
+    assert "5/5 valid responses" in stdout
+    captured = capfd.readouterr()
+    texts = [stdout, stderr, caplog.text, captured.out, captured.err]
+    for path in list(tmp_path.rglob("*")):
+        if path.is_file():
+            texts.append(path.read_bytes().decode("utf-8", "replace"))
+    assert len(texts) > 10 and "Sending HTTP Request" in caplog.text  # the client's debug log was captured
+    assert not [t for t in texts if SECRET in t]
+
+
+def test_cli_dry_run_sends_nothing_and_redacts(chat_server, tmp_path, videos, cli, monkeypatch):
+    monkeypatch.setenv("OPENAI_API_KEY", SECRET)
+    with chat_server([]) as server:
+        code, stdout, stderr = cli("smp", "extract", videos["counter"], "--label", "walking",
+                                   "--extractor", "vlm", "--preset", "utd_mhad", "--dry-run",
+                                   "--vlm-base-url", server.url, "--vlm-model", "vlm-test",
+                                   "--cache-dir", tmp_path / "cache")
+    assert code == 0, stderr
+    assert server.requests == []
+    shown = json.loads(stdout)
+    req = shown["request"]
+    assert req["url"] == server.url + "/chat/completions" and req["method"] == "POST"
+    assert req["headers"]["Authorization"] == "Bearer ***" and SECRET not in stdout
+    content = req["body"]["messages"][0]["content"]
+    urls = [p["image_url"]["url"] for p in content if p["type"] == "image_url"]
+    assert len(urls) == 16 and all(re.fullmatch(r"data:image/jpeg;base64,<\d+ bytes>", u) for u in urls)
+    assert req["body"]["response_format"]["type"] == "json_schema"
+    assert shown["requests_per_clip"] == 5 and shown["clip"]["preset"] == "utd_mhad"
+
+
+def test_cli_discarded_clip_exits_2_and_keeps_the_evidence(chat_server, tmp_path, videos, cli):
+    out = tmp_path / "smp.json"
+    with chat_server([], default=ok("prose_refusal.txt")) as server:
+        code, stdout, stderr = cli("smp", "extract", videos["counter"], "--label", "walking",
+                                   "--n-frames", "2", "--vlm-base-url", server.url,
+                                   "--vlm-model", "vlm-test", "--cache-dir", tmp_path / "c", "-o", out)
+    assert code == 2 and "clip discarded" in stderr and "0 of 5" in stderr
+    assert not out.exists()
+    report = json.loads((tmp_path / "smp.report.json").read_text())
+    assert report["discarded"] and report["counts"]["malformed_json"] == 5
+    assert len(list((tmp_path / "smp.raw").glob("*.txt"))) == 5
+
+
+def test_cli_option_errors(cli, videos, tmp_path):
+    code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "-o", tmp_path / "a.json")
+    assert code == 2 and "--vlm-base-url" in err
+    code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "--extractor", "clip")
+    assert code == 2 and "vlm, pose, fused" in err
+    code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "--n-frames", "4",
+                       "--preset", "mm_fit", "-o", tmp_path / "a.json")
+    assert code == 2 and "not both" in err
