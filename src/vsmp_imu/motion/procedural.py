@@ -47,6 +47,7 @@ from vsmp_imu.motion.dofs import (
     mirror_dofs,
     soft_limit,
 )
+from vsmp_imu.motion.measure import lowpass
 from vsmp_imu.motion.motion import Motion
 from vsmp_imu.motion.quat import forward_kinematics as fast_fk
 from vsmp_imu.motion.recipe import Recipe, recipe_for_entry
@@ -93,6 +94,10 @@ _CLEARANCE_170 = {
 }
 CLEARANCE_170 = np.array([_CLEARANCE_170[j] for j in SMPL22_JOINTS])
 GROUND_SOFTNESS_M = 0.004
+# Locomotion root smoothing: pelvis motion in gait is dominated by the step
+# frequency (about 2 Hz); a 4 Hz low-pass removes the kinks of the stance switch.
+LOCOMOTION_ROOT_CUTOFF_HZ = 4.0
+TRAVEL_FLUCTUATION = 0.5
 CONTACT_SOFTNESS_M = 0.01
 
 
@@ -246,6 +251,9 @@ class ProceduralBackend:
             travel[:, 2] = _stance_travel(pos, lift, s, fps, None if floors is None else floors[:, :2])
         elif recipe.locomotion == "none" and c["drift_m"] > 0:
             travel[:, 2] = c["drift_m"] * minimum_jerk(t / max(t[-1], 1e-9))
+        if recipe.locomotion != "none":
+            travel[:, 2] = _even_travel(travel[:, 2], fps)
+            lift = lowpass(lift, fps, LOCOMOTION_ROOT_CUTOFF_HZ, order=2)
         travel[:, 1] = lift
         pos = pos + travel[:, None, :]
 
@@ -611,6 +619,18 @@ def _ground_offset(heights: np.ndarray, clearance: np.ndarray) -> np.ndarray:
     tau = GROUND_SOFTNESS_M
     return (top + tau * np.log(np.exp((need - top) / tau).sum(axis=1, keepdims=True)))[:, 0] - \
         tau * np.log(2.0)
+
+
+def _even_travel(x: np.ndarray, fps: float) -> np.ndarray:
+    """Forward travel with the stance-locked speed fluctuation damped and smoothed.
+
+    Locking the stance foot makes the pelvis speed swing by about +-40 % within
+    a step; measured pelvis speed varies far less (roughly +-10-15 %), so only a
+    fraction of the fluctuation about the mean speed is kept.
+    """
+    t = np.arange(len(x)) / fps
+    trend = np.polyval(np.polyfit(t, x, 1), t) if len(x) > 2 else x
+    return lowpass(trend + TRAVEL_FLUCTUATION * (x - trend), fps, LOCOMOTION_ROOT_CUTOFF_HZ, order=2)
 
 
 def _stance_travel(pos: np.ndarray, lift: np.ndarray, s: float, fps: float,
