@@ -6,7 +6,7 @@ import copy
 
 import pytest
 import yaml
-from motion_cases import AUTHORED, CONTROLLABILITY, HAPT, SYMMETRY_ACTIVITIES
+from motion_cases import AUTHORED, CONTROLLABILITY, HAPT, MMFIT, SYMMETRY_VARIANT, UTD_MHAD_OTHERS
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.motion.procedural import match_primitives
@@ -15,7 +15,11 @@ from vsmp_imu.smp.bodyparts import BODY_PARTS
 from vsmp_imu.smp.library import ActivityLibrary
 
 PAMAP2 = {"lying": "lying", "sitting": "sitting", "standing": "standing", "walking": "walking",
-          "walking_upstairs": "ascending stairs", "walking_downstairs": "descending stairs"}
+          "walking_upstairs": "ascending stairs", "walking_downstairs": "descending stairs",
+          "running": "running", "cycling": "cycling", "nordic_walking": "Nordic walking",
+          "watching_tv": "watching TV", "computer_work": "computer work", "car_driving": "car driving",
+          "vacuum_cleaning": "vacuum cleaning", "ironing": "ironing", "folding_laundry": "folding laundry",
+          "house_cleaning": "house cleaning", "playing_soccer": "playing soccer", "rope_jumping": "rope jumping"}
 HAPT_LABELS = {"walking": "WALKING", "walking_upstairs": "WALKING_UPSTAIRS",
                "walking_downstairs": "WALKING_DOWNSTAIRS", "sitting": "SITTING", "standing": "STANDING",
                "lying": "LAYING", "stand_to_sit": "STAND_TO_SIT", "sit_to_stand": "SIT_TO_STAND",
@@ -53,11 +57,13 @@ def test_library_file_content(library, name):
     variants = smp.constraints.variant_fields
     side = smp.execution_attributes.dominant_side
     if "dominant_side" in variants:
-        assert side not in ("left", "right") and not name.startswith(("right_", "left_"))
+        # side-agnostic activities only: never a "right-hand ..." (UTD-MHAD) activity; a swap needs a side
+        assert side in ("left", "right") and not name.startswith(("right_", "left_"))
+        assert "utd_mhad" not in entry.datasets
     if "repetition_count" in variants:
         assert smp.temporal_structure.is_repetitive
     if "symmetry" in variants:
-        assert name in SYMMETRY_ACTIVITIES
+        assert name in SYMMETRY_VARIANT
     if smp.temporal_structure.is_repetitive:
         assert smp.temporal_structure.periodicity == "cyclic"
     assert all(0.0 <= v <= 1.0 for v in smp.uncertainty.model_dump().values())
@@ -68,14 +74,19 @@ def test_dataset_labels(library):
         assert library.get(name).datasets["hapt"] == HAPT_LABELS[name]
     for name, label in PAMAP2.items():
         assert library.get(name).datasets["pamap2"] == label
-    for name in CONTROLLABILITY:
+    for name in CONTROLLABILITY + UTD_MHAD_OTHERS:
         assert library.get(name).datasets.get("utd_mhad"), name
+    for name in MMFIT:
+        assert library.get(name).datasets["mmfit"] == name
     assert library.get("sit_to_stand").datasets["utd_mhad"] == "sit to stand"
     assert library.get("stand_to_sit").datasets["utd_mhad"] == "stand to sit"
     # dataset spellings resolve to the activity
     assert library.resolve("WALKING_UPSTAIRS").name == "walking_upstairs"
     assert library.resolve("ascending stairs").name == "walking_upstairs"
     assert library.resolve("LAYING").name == "lying"
+    assert library.resolve("Nordic walking").name == "nordic_walking"
+    assert library.resolve("bowling (right hand)").name == "bowling"
+    assert library.resolve("right hand draw circle (counter clockwise)").name == "right_hand_draw_circle_counter_clockwise"
 
 
 def test_jumping_jacks_keeps_its_smp(library):

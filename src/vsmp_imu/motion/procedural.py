@@ -99,6 +99,8 @@ GROUND_SOFTNESS_M = 0.004
 LOCOMOTION_ROOT_CUTOFF_HZ = 4.0
 TRAVEL_FLUCTUATION = 0.5
 CONTACT_SOFTNESS_M = 0.01
+# flight (both feet off the floor, 1.70 m body): the root keeps its speed (running)
+FLIGHT_START_M, FLIGHT_RAMP_M = 0.01, 0.015
 
 
 def tempo_factor(level: float) -> float:
@@ -463,7 +465,9 @@ def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | N
         segments.append(Segment(matched[i][2], matched[i][1], t, t + base[i], None))
         t += base[i]
     block_start = t
-    for k in range(n_cycles):
+    k = 0
+    # a continuous activity's cycles run to its end even when the jittered cycles are short
+    while k < n_cycles or (count is None and t < total - 1e-9):
         cj = 1.0 + float(np.clip(rng.normal(0.0, CYCLE_JITTER), -2.5 * CYCLE_JITTER, 2.5 * CYCLE_JITTER))
         phase = float(k)
         for j, i in enumerate(cyc):
@@ -471,6 +475,7 @@ def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | N
             segments.append(Segment(matched[i][2], matched[i][1], t, t + d, k, (phase, phase + shares[j])))
             t += d
             phase += shares[j]
+        k += 1
     block_end = t
     if count is None:
         natural = duration_s if duration_s is not None else recipe.default_duration_s
@@ -650,8 +655,24 @@ def _stance_travel(pos: np.ndarray, lift: np.ndarray, s: float, fps: float,
     w = np.exp(-(h - h.min(axis=1, keepdims=True)) / CONTACT_SOFTNESS_M)
     w /= w.sum(axis=1, keepdims=True)
     vel = np.gradient(np.stack(fwd, axis=1), axis=0) * fps
-    root_v = -(w * vel).sum(axis=1)
+    root_v = _hold_in_flight(-(w * vel).sum(axis=1), h.min(axis=1) / s)
     return np.concatenate([[0.0], np.cumsum(0.5 * (root_v[1:] + root_v[:-1]))]) / fps
+
+
+def _hold_in_flight(root_v: np.ndarray, lowest_foot_m: np.ndarray) -> np.ndarray:
+    """Root speed that keeps its value while both feet are off the floor (a running flight phase).
+
+    Contact weight 1 while the lower foot is within FLIGHT_START_M of the floor (every
+    frame of a walk, so walking is unchanged), 0 from FLIGHT_START_M + FLIGHT_RAMP_M up;
+    in between the speed blends from the stance foot's into the last one.
+    """
+    contact = np.clip(1.0 - (lowest_foot_m - FLIGHT_START_M) / FLIGHT_RAMP_M, 0.0, 1.0)
+    if np.all(contact == 1.0):
+        return root_v
+    out = root_v.copy()
+    for i in range(1, len(out)):
+        out[i] = contact[i] * root_v[i] + (1.0 - contact[i]) * out[i - 1]
+    return out
 
 
 # The floor each joint stands on, for stairs: 0 = the left foot's step, 1 = the right foot's, 2 = the lower.
