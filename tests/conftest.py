@@ -15,6 +15,15 @@ SHARED_DIR = REPO_ROOT.parent / "shared"
 VIDEO_DIR = SHARED_DIR / "data" / "videos"
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _private_cache(tmp_path_factory):
+    """Parsed datasets are cached in a temporary folder, never in the user's home."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("VSMP_IMU_CACHE", str(tmp_path_factory.mktemp("vsmp-cache")))
+    yield
+    mp.undo()
+
+
 @pytest.fixture
 def cli():
     """Run `vsmp-imu ARGS...` in-process; returns (exit_code, stdout, stderr)."""

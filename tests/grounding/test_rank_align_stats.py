@@ -236,3 +236,16 @@ def test_target_statistics_fall_back_for_small_classes(rng):
     assert 0 in ts.per_class_ and 1 not in ts.per_class_
     assert ts.for_class(1) is ts.overall_
     assert ts.for_class(0) is not ts.overall_
+
+
+def test_class_balanced_pooling_follows_the_real_class_mix(rng):
+    # real: 90 % class 0 around -3, 10 % class 1 around +3; synthetic has the opposite mix
+    real = np.concatenate([rng.normal(-3, 1, (90, 50, 1)), rng.normal(3, 1, (10, 50, 1))])
+    yr = np.repeat([0, 1], [90, 10])
+    syn = np.concatenate([rng.normal(-3, 1, (10, 50, 1)), rng.normal(3, 1, (90, 50, 1))])
+    ys = np.repeat([0, 1], [10, 90])
+    balanced = RankGrounder().fit(syn, real, ys, yr).transform(syn)
+    plain = RankGrounder(class_balanced=False).fit(syn, real, ys, yr).transform(syn)
+    # balanced: each class keeps its place (class 1 stays positive); plain: class 1 is pushed negative
+    assert balanced[ys == 1].mean() > 2.0 and balanced[ys == 0].mean() < -2.0
+    assert plain[ys == 1].mean() < 0.0

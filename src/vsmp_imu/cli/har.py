@@ -1,9 +1,288 @@
-"""`vsmp-imu` commands of the har room."""
+"""`vsmp-imu evaluate` and `vsmp-imu dataset ...`: the HAR evaluation harness."""
 
 from __future__ import annotations
 
+import importlib
+import json
+from pathlib import Path
+from typing import Any
+
 import typer
+from rich.markup import escape
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from vsmp_imu.cli.common import console, parse_csv
+from vsmp_imu.errors import ConfigError
+
+dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_is_help=True)
+
+# Synthetic sources known to the command line: name -> ("module:attribute", display name).
+# Rooms above har add theirs with `add_method` in their own `register(app)`.
+METHOD_TARGETS: dict[str, tuple[str, str]] = {
+    "classical": ("vsmp_imu.baselines.classical:ClassicalAugmentation", "Classical Aug."),
+}
+PROTOCOL_NAMES = ("lopo", "low-resource", "long-tail")
+BACKBONE_NAMES = ("rf", "dclstm", "dclstm-attn", "bilstm-attn")
+NEURAL = ("dclstm", "dclstm-attn", "bilstm-attn")
+
+
+def add_method(name: str, target: str, display: str | None = None) -> None:
+    """Make a synthetic source available to `--methods` (imported only when used)."""
+    METHOD_TARGETS[name] = (target, display or name)
+
+
+def _fill_method_registry() -> None:
+    from vsmp_imu.har.synthetic import METHODS, register_method
+
+    for name, (target, display) in METHOD_TARGETS.items():
+        if name in METHODS:
+            continue
+        module, attr = target.split(":")
+
+        def factory(_module: str = module, _attr: str = attr, **params: Any):
+            return getattr(importlib.import_module(_module), _attr)(**params)
+
+        register_method(name, factory, display)
+
+
+def _parse_folds(text: str) -> tuple[str, ...] | None:
+    if text.strip().lower() == "all":
+        return None
+    return tuple(parse_csv(text, option="--folds"))
+
+
+def _parse_groups(items: list[str] | None) -> dict[str, tuple[str, ...]]:
+    groups: dict[str, tuple[str, ...]] = {}
+    for item in items or []:
+        for part in item.split(";"):
+            if not part.strip():
+                continue
+            if "=" not in part:
+                raise ConfigError(
+                    f"'{part}' is not NAME=CLASS,CLASS",
+                    field="--report-groups",
+                    allowed="e.g. transitions=STAND_TO_SIT,SIT_TO_STAND",
+                )
+            name, members = part.split("=", 1)
+            groups[name.strip()] = tuple(parse_csv(members, option="--report-groups"))
+    return groups
+
+
+def _positive(value: int | None, option: str) -> None:
+    if value is not None and value < 1:
+        raise ConfigError(f"{value} is out of range", field=option, allowed="an integer >= 1")
+
+
+def evaluate_cmd(
+    dataset: str = typer.Option(
+        ...,
+        "--dataset",
+        "-d",
+        help="hapt, hapt12, mmfit, utd-mhad, mmact, pamap2, had-aw, or a dataset .yaml file",
+    ),
+    protocol: str = typer.Option(
+        "lopo", "--protocol", "-p", help="lopo | low-resource | long-tail"
+    ),
+    budgets: str = typer.Option(
+        None, "--budgets", help="label budgets in percent for low-resource (default 1,5,10,25,50)"
+    ),
+    backbones: str = typer.Option("rf", "--backbones", help="rf,dclstm,dclstm-attn,bilstm-attn"),
+    methods: str = typer.Option(
+        "real", "--methods", help="real,classical (and registered sources)"
+    ),
+    folds: str = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3"),
+    seeds: int = typer.Option(1, "--seeds", help="number of seeds (0..N-1)"),
+    alpha: float = typer.Option(0.5, "--alpha", help="synthetic-to-real ratio, 0.1..2.0"),
+    policy: str = typer.Option(
+        "uniform", "--policy", help="synthetic budget per class: uniform | tail | scarcity"
+    ),
+    rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
+    window_s: float = typer.Option(2.0, "--window-s", help="window length in seconds"),
+    overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
+    data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
+    max_epochs: int = typer.Option(None, "--max-epochs", help="neural backbones: epoch limit"),
+    patience: int = typer.Option(
+        None, "--patience", help="neural backbones: early-stopping patience"
+    ),
+    jobs: int = typer.Option(None, "--jobs", help="CPU threads for RF and PyTorch"),
+    report_groups: list[str] = typer.Option(
+        None, "--report-groups", help="NAME=CLASS,CLASS;... classes reported together"
+    ),
+    output: Path = typer.Option(..., "--output", "-o", help="output folder"),
+) -> None:
+    """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
+    confusion matrices to the output folder (finished folds are not recomputed)."""
+    if protocol not in PROTOCOL_NAMES:
+        raise ConfigError(
+            f"unknown protocol '{protocol}'", field="--protocol", allowed=", ".join(PROTOCOL_NAMES)
+        )
+    if budgets and protocol != "low-resource":
+        raise ConfigError(
+            "label budgets apply to the low-resource protocol only",
+            field="--budgets",
+            allowed="use --protocol low-resource",
+        )
+    _positive(seeds, "--seeds")
+    _positive(max_epochs, "--max-epochs")
+    _positive(patience, "--patience")
+    _positive(jobs, "--jobs")
+    _fill_method_registry()
+    from vsmp_imu.har.backbones import BACKBONES
+    from vsmp_imu.har.datasets import load_dataset
+    from vsmp_imu.har.evaluate import EvalConfig, Evaluation
+    from vsmp_imu.har.protocols import parse_budgets
+    from vsmp_imu.har.report import write_report
+    from vsmp_imu.har.synthetic import METHODS
+    from vsmp_imu.har.windows import window_geometry
+
+    chosen_backbones = parse_csv(backbones, tuple(BACKBONES), "--backbones")
+    chosen_methods = parse_csv(methods, tuple(METHODS), "--methods")
+    neural_params = {
+        k: v
+        for k, v in (("max_epochs", max_epochs), ("patience", patience), ("n_threads", jobs))
+        if v is not None
+    }
+    backbone_params = {
+        b: dict(neural_params) for b in chosen_backbones if b in NEURAL and neural_params
+    }
+    if jobs is not None and "rf" in chosen_backbones:
+        backbone_params["rf"] = {"n_jobs": jobs}
+    ds = load_dataset(dataset, data_dir)
+    window_geometry(ds.info.fs_hz, window_s, overlap)  # range checks before any work
+    config = EvalConfig(
+        dataset=ds.info.name,
+        protocol=protocol,
+        budgets=parse_budgets(budgets, protocol),
+        backbones=tuple(chosen_backbones),
+        methods=tuple(chosen_methods),
+        folds=_parse_folds(folds),
+        seeds=tuple(range(seeds)),
+        alpha=alpha,
+        policy=policy,
+        rho=rho,
+        window_s=window_s,
+        overlap=overlap,
+        backbone_params=backbone_params,
+        report_groups=_parse_groups(report_groups),
+    )
+    evaluation = Evaluation(config, ds, output)
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        transient=False,
+    ) as bar:
+        task = bar.add_task(f"{ds.info.name} {protocol}", total=None)
+
+        def progress(description: str, done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total, description=description)
+
+        results = evaluation.run(progress)
+    written = write_report(results.to_json(), output)
+    _print_summary(results.summary)
+    console.print(
+        f"[green]wrote[/] {output / 'results.json'}, {written[0]} and "
+        f"{len(written) - 1} confusion matrices"
+    )
+
+
+def _pct(mean: float | None, std: float | None) -> str:
+    return "–" if mean is None else f"{100 * mean:.2f} ± {100 * (std or 0):.2f}"
+
+
+def _print_summary(summary: list[dict[str, Any]]) -> None:
+    table = Table(title="Macro-F1 (%) over folds and seeds")
+    for col in ("protocol", "budget", "backbone", "method", "Macro-F1", "Accuracy", "n"):
+        table.add_column(col)
+    for row in summary:
+        table.add_row(
+            row["protocol"],
+            "" if row["budget"] is None else f"{row['budget']:g}%",
+            row["backbone"],
+            row["method"],
+            _pct(row["macro_f1_mean"], row["macro_f1_std"]),
+            _pct(row["accuracy_mean"], row["accuracy_std"]),
+            str(row["n"]),
+        )
+    console.print(table)
+
+
+@dataset_app.command("list")
+def list_cmd() -> None:
+    """The registered dataset names."""
+    from vsmp_imu.har.datasets import DATASETS
+
+    table = Table(title="HAR datasets")
+    table.add_column("name")
+    table.add_column("needs --data-dir")
+    table.add_column("description")
+    for name, (_, needs_dir, description) in DATASETS.items():
+        table.add_row(name, "yes" if needs_dir else "no", description)
+    table.add_row("path/to/dataset.yaml", "no", "your own data in the generic format")
+    console.print(table)
+
+
+@dataset_app.command("info")
+def info_cmd(
+    name: str = typer.Argument(..., help="dataset name or dataset .yaml file"),
+    data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
+    window_s: float = typer.Option(2.0, "--window-s"),
+    overlap: float = typer.Option(0.5, "--overlap"),
+    measure: str = typer.Option(
+        None, "--measure", help="a static class: print its mean acceleration per channel"
+    ),
+    as_json: bool = typer.Option(False, "--json", help="print JSON"),
+) -> None:
+    """Subjects, classes with window counts, channels, rate and declared conventions."""
+    from vsmp_imu.har.dataset import measure_static_gravity
+    from vsmp_imu.har.datasets import load_dataset
+
+    ds = load_dataset(name, data_dir)
+    info = ds.describe(window_s, overlap)
+    if measure:
+        info["measured_mean_acc"] = {
+            "class": measure,
+            **measure_static_gravity(ds.windows(window_s, overlap), measure),
+        }
+    if as_json:
+        typer.echo(json.dumps(info, indent=2))
+        return
+    console.print(f"[bold]{info['name']}[/] — {info['description']}")
+    console.print(f"source: {info['source']}")
+    console.print(
+        f"rate {info['fs_hz']:g} Hz, {len(info['subjects'])} subjects "
+        f"({', '.join(info['subjects'])}), {info['n_recordings']} recordings"
+    )
+    console.print(f"channels: {', '.join(info['channel_names'])}")
+    for loc in info["locations"]:
+        axes = ", ".join(loc["axes"]) if loc["axes"] else "not declared"
+        console.print(
+            f"  [bold]{loc['name']}[/]: axes (x, y, z) = {axes} "
+            f"{escape('[' + loc['axes_source'] + ']')}, "
+            f"gravity {'included' if loc['gravity_included'] else 'removed'}, "
+            f"source units {loc['acc_unit']}, {loc['gyr_unit'] or 'no gyroscope'}"
+            + (f" — {loc['note']}" if loc["note"] else "")
+        )
+    table = Table(title=f"{info['n_windows']} windows of {window_s:g} s, overlap {overlap:g}")
+    table.add_column("class")
+    table.add_column("windows", justify="right")
+    for label, count in info["windows_per_class"].items():
+        table.add_row(label, str(count))
+    console.print(table)
+    for group, members in info["groups"].items():
+        console.print(f"group {group}: {', '.join(members)}")
+    if info.get("measured_mean_acc"):
+        m = info["measured_mean_acc"]
+        values = ", ".join(f"{k} {v:+.2f}" for k, v in m.items() if k != "class")
+        console.print(f"mean acceleration of '{m['class']}' windows (m/s²): {values}")
+    for line in info["skipped"]:
+        console.print(f"[yellow]skipped[/] {line}")
 
 
 def register(app: typer.Typer) -> None:
-    """Attach this module's commands to the main app."""
+    """Attach `evaluate` and the `dataset` group to the main app."""
+    app.command("evaluate")(evaluate_cmd)
+    app.add_typer(dataset_app, name="dataset")

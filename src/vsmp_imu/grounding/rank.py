@@ -18,31 +18,41 @@ from vsmp_imu.errors import ValidationError
 DEFAULT_N_QUANTILES = 4096
 
 
-def _quantile_grid(values: np.ndarray, n_quantiles: int) -> np.ndarray:
-    """Quantiles at mid-rank probabilities of each column: (N, C) -> (Q, C), strictly increasing.
+def _quantile_grid(values: np.ndarray, n_quantiles: int,
+                   weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(probs (Q,), quantiles (Q, C)) of each column at `_probs`, strictly increasing.
 
-    A tiny rank-proportional offset breaks ties (quantized sensors) so the
-    inverse map is strictly monotone and never merges distinct inputs.
+    With `weights` (N,), weighted quantiles. A tiny rank-proportional offset
+    breaks ties (quantized sensors) so the inverse map is strictly monotone and
+    never merges distinct inputs.
     """
     n = values.shape[0]
     probs = _probs(min(n_quantiles, n))
-    grid = np.quantile(values, probs, axis=0, method="hazen")
+    if weights is None:
+        grid = np.quantile(values, probs, axis=0, method="hazen")
+    else:
+        grid = np.empty((len(probs), values.shape[1]))
+        for c in range(values.shape[1]):
+            order = np.argsort(values[:, c], kind="stable")
+            cum = np.cumsum(weights[order])
+            mid = (cum - 0.5 * weights[order]) / cum[-1]
+            grid[:, c] = np.interp(probs, mid, values[order, c])
     span = np.maximum(grid[-1] - grid[0], 1e-9)
-    return grid + np.arange(grid.shape[0])[:, None] * span * 1e-12
+    return probs, grid + np.arange(grid.shape[0])[:, None] * span * 1e-12
 
 
 def _probs(n: int) -> np.ndarray:
-    return (np.arange(n) + 0.5) / n
+    """Mid-rank probabilities plus both ends, so the extremes map too: 0, (k + 0.5) / n, 1."""
+    return np.concatenate([[0.0], (np.arange(n) + 0.5) / n, [1.0]])
 
 
 class _ChannelMap:
     """One pair (F_v, G_r^-1) for C channels."""
 
-    def __init__(self, synthetic: np.ndarray, real: np.ndarray, n_quantiles: int) -> None:
-        self.v_grid = _quantile_grid(synthetic, n_quantiles)
-        self.r_grid = _quantile_grid(real, n_quantiles)
-        self.v_probs = _probs(self.v_grid.shape[0])
-        self.r_probs = _probs(self.r_grid.shape[0])
+    def __init__(self, synthetic: np.ndarray, real: np.ndarray, n_quantiles: int,
+                 synthetic_weights: np.ndarray | None = None) -> None:
+        self.v_probs, self.v_grid = _quantile_grid(synthetic, n_quantiles, synthetic_weights)
+        self.r_probs, self.r_grid = _quantile_grid(real, n_quantiles)
 
     def apply(self, x: np.ndarray) -> np.ndarray:
         flat = x.reshape(-1, x.shape[-1])
@@ -56,14 +66,22 @@ class _ChannelMap:
 class RankGrounder:
     """Channel-wise quantile matching from synthetic to real marginals.
 
-    fit(synthetic, real) with windows (N, T, C) or samples (N, C); labels are
-    needed only with `per_class=True`. transform(x, labels) maps (..., T, C).
+    fit(synthetic, real) with windows (N, T, C) or samples (N, C).
+    transform(x, labels) maps (..., T, C).
+
+    `class_balanced=True` (with labels) weights the synthetic samples so their
+    class mix matches the real one before F_v is taken: the synthetic pool is
+    generated with its own class proportions (rare classes oversampled, motions
+    of different lengths), and an unweighted pooled F_v would shift every
+    class's values. `per_class=True` fits one map per class instead.
     """
 
     def __init__(
-        self, per_class: bool = False, n_quantiles: int = DEFAULT_N_QUANTILES, min_class_samples: int = 200
+        self, per_class: bool = False, n_quantiles: int = DEFAULT_N_QUANTILES, min_class_samples: int = 200,
+        class_balanced: bool = True,
     ) -> None:
         self.per_class = per_class
+        self.class_balanced = class_balanced
         self.n_quantiles = n_quantiles
         self.min_class_samples = min_class_samples
 
@@ -81,7 +99,11 @@ class RankGrounder:
                 f"synthetic has {syn.shape[1]} channels but real has {rea.shape[1]}", field="channels"
             )
         self.n_channels_ = syn.shape[1]
-        self.overall_ = _ChannelMap(syn, rea, self.n_quantiles)
+        weights = None
+        if self.class_balanced and synthetic_labels is not None and real_labels is not None:
+            weights = _balance_weights(_sample_labels(synthetic, synthetic_labels),
+                                       _sample_labels(real, real_labels))
+        self.overall_ = _ChannelMap(syn, rea, self.n_quantiles, weights)
         self.per_class_: dict[int, _ChannelMap] = {}
         if self.per_class:
             if synthetic_labels is None or real_labels is None:
@@ -107,6 +129,19 @@ class RankGrounder:
             mask = labels == cls
             out[mask] = self.per_class_.get(int(cls), self.overall_).apply(x[mask])
         return out
+
+
+def _balance_weights(syn_labels: np.ndarray, real_labels: np.ndarray) -> np.ndarray:
+    """Per-sample weights giving the synthetic pool the real class proportions.
+
+    Classes absent from the real data keep weight 1 relative to their share.
+    """
+    classes, syn_counts = np.unique(syn_labels, return_counts=True)
+    real_share = {c: n / len(real_labels) for c, n in zip(*np.unique(real_labels, return_counts=True),
+                                                            strict=True)}
+    syn_share = syn_counts / len(syn_labels)
+    factor = {c: (real_share.get(c, s) / s) for c, s in zip(classes, syn_share, strict=True)}
+    return np.array([factor[c] for c in syn_labels], dtype=np.float64)
 
 
 def _as_samples(x: np.ndarray, name: str) -> np.ndarray:

@@ -1,0 +1,93 @@
+"""HAR harness benchmarks on HAPT (CPU).
+
+1. HAPT 30-fold LOPO with RF-ECDF, Real-only, 1 seed: wall time (target <= 5 min
+   on 2 cores) and the Macro-F1 it reaches.
+2. One DeepConvLSTM fold (held-out subject 1) with the CPU defaults (AdamW,
+   lr 1e-3, batch 1024, early stopping on validation Macro-F1, max 60 epochs,
+   patience 10): wall time, epochs run, seconds per epoch.
+
+Usage:  .venv/bin/python benchmarks/bench_har.py [--skip-rf] [--skip-dclstm]
+        [--max-epochs N] [--fold S] [--threads N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+from vsmp_imu.har.datasets import load_dataset
+from vsmp_imu.har.evaluate import EvalConfig, Evaluation
+
+RF_TARGET_S = 300.0
+
+
+def bench_rf(threads: int | None) -> None:
+    dataset = load_dataset("hapt")
+    dataset.windows()  # load and cache outside the timing
+    config = EvalConfig(
+        dataset="hapt",
+        backbones=("rf",),
+        methods=("real",),
+        backbone_params={"rf": {"n_jobs": threads or -1}},
+    )
+    start = time.perf_counter()
+    results = Evaluation(config, dataset).run()
+    wall = time.perf_counter() - start
+    (row,) = results.summary
+    print(
+        f"HAPT 30-fold LOPO RF-ECDF (Real-only, 1 seed): wall {wall:.1f} s "
+        f"(target <= {RF_TARGET_S:.0f} s on 2 cores, ratio {wall / RF_TARGET_S:.2f}), "
+        f"{wall / row['n']:.1f} s per fold"
+    )
+    print(
+        f"  Macro-F1 {100 * row['macro_f1_mean']:.2f} ± {100 * row['macro_f1_std']:.2f}, "
+        f"accuracy {100 * row['accuracy_mean']:.2f} ± {100 * row['accuracy_std']:.2f}, "
+        f"n = {row['n']}"
+    )
+
+
+def bench_dclstm(fold: str, max_epochs: int, threads: int | None) -> None:
+    dataset = load_dataset("hapt")
+    params = {"max_epochs": max_epochs, "patience": 10, "verbose": True}
+    if threads:
+        params["n_threads"] = threads
+    config = EvalConfig(
+        dataset="hapt",
+        backbones=("dclstm",),
+        methods=("real",),
+        folds=(fold,),
+        backbone_params={"dclstm": params},
+    )
+    start = time.perf_counter()
+    (record,) = Evaluation(config, dataset).run().records
+    wall = time.perf_counter() - start
+    epochs = record["epochs"]
+    print(
+        f"DeepConvLSTM, HAPT fold {fold} on CPU: wall {wall:.1f} s, {epochs} epochs "
+        f"(best {record['best_epoch']}, limit {max_epochs}, patience 10), "
+        f"{wall / max(epochs, 1):.1f} s per epoch, {record['n_train_real']} training and "
+        f"{record['n_val']} validation windows"
+    )
+    print(f"  Macro-F1 {100 * record['macro_f1']:.2f}, accuracy {100 * record['accuracy']:.2f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--skip-rf", action="store_true")
+    parser.add_argument("--skip-dclstm", action="store_true")
+    parser.add_argument("--max-epochs", type=int, default=60)
+    parser.add_argument("--fold", default="1")
+    parser.add_argument("--threads", type=int, default=None)
+    args = parser.parse_args()
+    print(f"CPU cores available: {len(os.sched_getaffinity(0))}; numpy {np.__version__}")
+    if not args.skip_rf:
+        bench_rf(args.threads)
+    if not args.skip_dclstm:
+        bench_dclstm(args.fold, args.max_epochs, args.threads)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,56 @@
+"""The lightweight HAR validator of the quality filter.
+
+Paper, "Quality filtering": a validator trained only on the fold's real
+training windows, separate from the downstream model. Here it is a small
+multilayer perceptron on the ECDF window features (fast to train on a CPU,
+deterministic), whose last hidden layer is the penultimate-layer embedding
+phi(.) used by the redundancy filter.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.neural_network import MLPClassifier
+from sklearn.preprocessing import StandardScaler
+
+from vsmp_imu.har.features import ecdf_features
+
+
+class HarValidator:
+    """fit(X, y) on real windows (N, T, C); predict_proba, embed (penultimate features)."""
+
+    def __init__(self, hidden: tuple[int, ...] = (64, 32), max_iter: int = 200, seed: int = 0) -> None:
+        self.hidden = hidden
+        self.max_iter = max_iter
+        self.seed = seed
+
+    def fit(self, X: np.ndarray, y: np.ndarray, n_classes: int | None = None) -> HarValidator:
+        y = np.asarray(y)
+        self.n_classes_ = int(n_classes if n_classes is not None else y.max() + 1)
+        feats = ecdf_features(X)
+        self.scaler_ = StandardScaler().fit(feats)
+        self.model_ = MLPClassifier(
+            hidden_layer_sizes=self.hidden, max_iter=self.max_iter, random_state=self.seed,
+            alpha=1e-3, early_stopping=False,
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            self.model_.fit(self.scaler_.transform(feats), y)
+        return self
+
+    def predict_proba(self, X: np.ndarray) -> np.ndarray:
+        """(N, n_classes) probabilities; classes absent from training get 0."""
+        proba = self.model_.predict_proba(self.scaler_.transform(ecdf_features(X)))
+        out = np.zeros((len(proba), self.n_classes_))
+        out[:, self.model_.classes_] = proba
+        return out
+
+    def embed(self, X: np.ndarray) -> np.ndarray:
+        """Last hidden-layer activations (ReLU), (N, hidden[-1])."""
+        h = self.scaler_.transform(ecdf_features(X))
+        for w, b in zip(self.model_.coefs_[:-1], self.model_.intercepts_[:-1], strict=True):
+            h = np.maximum(h @ w + b, 0.0)
+        return h

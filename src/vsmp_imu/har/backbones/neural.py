@@ -1,0 +1,279 @@
+"""Neural HAR backbones on CPU PyTorch: DeepConvLSTM, DeepConvLSTM with attention,
+BiLSTM with attention.
+
+Training follows the paper's implementation details: AdamW, learning rate
+1e-3, batch size 1024, early stopping on validation Macro-F1, up to N epochs
+(the paper uses 500; the CPU default here is 60 with patience 10). Inputs are
+z-scored per channel with statistics of the training windows given to `fit`.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.metrics import f1_score
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.har.normalize import ChannelStandardizer
+
+
+class TorchClassifier(ClassifierMixin, BaseEstimator):
+    """Shared training loop; subclasses build the network in `_build(n_channels, n_classes)`.
+
+    `fit(X, y, X_val, y_val)`: with validation windows the weights of the epoch
+    with the best validation Macro-F1 are kept and training stops after
+    `patience` epochs without improvement; without them it trains
+    `max_epochs` epochs and keeps the last weights. After fitting:
+    `classes_`, `n_epochs_` (epochs run), `best_epoch_`, `history_`
+    (per-epoch training loss and validation Macro-F1).
+    """
+
+    uses_validation = True
+
+    def __init__(
+        self,
+        max_epochs: int = 60,
+        patience: int = 10,
+        batch_size: int = 1024,
+        lr: float = 1e-3,
+        weight_decay: float = 1e-2,
+        random_state: int = 0,
+        n_threads: int | None = None,
+        verbose: bool = False,
+    ) -> None:
+        self.max_epochs = max_epochs
+        self.patience = patience
+        self.batch_size = batch_size
+        self.lr = lr
+        self.weight_decay = weight_decay
+        self.random_state = random_state
+        self.n_threads = n_threads
+        self.verbose = verbose
+
+    @classmethod
+    def _get_test_params(cls) -> dict[str, Any]:
+        return {"max_epochs": 2, "patience": 2, "batch_size": 64, "n_threads": 1}
+
+    def _build(self, n_channels: int, n_classes: int):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    # -- helpers ---------------------------------------------------------------------------
+    def _tensor(self, X: np.ndarray):
+        import torch
+
+        return torch.from_numpy(self.standardizer_.transform(X))
+
+    def _batches(self, n: int, generator=None):
+        import torch
+
+        order = torch.randperm(n, generator=generator) if generator is not None else torch.arange(n)
+        for start in range(0, n, self.batch_size):
+            yield order[start : start + self.batch_size]
+
+    def _forward_all(self, X: np.ndarray, what: str) -> np.ndarray:
+        import torch
+
+        xt = self._tensor(X)
+        self.model_.eval()
+        outs = []
+        with torch.no_grad():
+            for idx in self._batches(len(xt)):
+                out = self.model_(xt[idx]) if what == "logits" else self.model_.features(xt[idx])
+                outs.append(out)
+        if not outs:
+            return np.zeros((0, 0), np.float32)
+        return torch.cat(outs).numpy()
+
+    # -- estimator API ---------------------------------------------------------------------
+    def fit(
+        self,
+        X: np.ndarray,
+        y: np.ndarray,
+        X_val: np.ndarray | None = None,
+        y_val: np.ndarray | None = None,
+    ) -> TorchClassifier:
+        import torch
+
+        X = np.asarray(X, dtype=np.float32)
+        y = np.asarray(y)
+        if X.ndim != 3 or len(X) != len(y) or len(X) == 0:
+            raise ValidationError(
+                f"need (N, T, C) windows and N labels, got {X.shape}, {y.shape}", field="X"
+            )
+        self.classes_ = np.unique(y)
+        y_idx = np.searchsorted(self.classes_, y)
+        use_val = X_val is not None and y_val is not None and len(X_val) > 0
+        threads = torch.get_num_threads()
+        if self.n_threads:
+            torch.set_num_threads(self.n_threads)
+        deterministic = torch.are_deterministic_algorithms_enabled()
+        torch.use_deterministic_algorithms(True, warn_only=True)
+        try:
+            with torch.random.fork_rng(devices=[]):
+                torch.manual_seed(int(self.random_state))
+                self.standardizer_ = ChannelStandardizer().fit(X)
+                self.model_ = self._build(X.shape[2], len(self.classes_))
+                self._train(X, y_idx, X_val if use_val else None, y_val if use_val else None)
+        finally:
+            torch.use_deterministic_algorithms(deterministic)
+            torch.set_num_threads(threads)
+        return self
+
+    def _train(self, X, y_idx, X_val, y_val) -> None:
+        import torch
+
+        xt = self._tensor(X)
+        yt = torch.from_numpy(y_idx.astype(np.int64))
+        optimizer = torch.optim.AdamW(
+            self.model_.parameters(), lr=self.lr, weight_decay=self.weight_decay
+        )
+        loss_fn = torch.nn.CrossEntropyLoss()
+        generator = torch.Generator().manual_seed(int(self.random_state))
+        best_f1, best_state, stale = -1.0, None, 0
+        self.history_: list[dict[str, float]] = []
+        self.best_epoch_ = 0
+        for epoch in range(1, int(self.max_epochs) + 1):
+            self.model_.train()
+            total, count = 0.0, 0
+            for idx in self._batches(len(xt), generator):
+                optimizer.zero_grad()
+                loss = loss_fn(self.model_(xt[idx]), yt[idx])
+                loss.backward()
+                optimizer.step()
+                total += float(loss.detach()) * len(idx)
+                count += len(idx)
+            record = {"epoch": epoch, "train_loss": total / max(count, 1)}
+            if X_val is not None:
+                f1 = f1_score(y_val, self.predict(X_val), average="macro", zero_division=0)
+                record["val_macro_f1"] = float(f1)
+                if f1 > best_f1:
+                    best_f1, stale, self.best_epoch_ = f1, 0, epoch
+                    best_state = copy.deepcopy(self.model_.state_dict())
+                else:
+                    stale += 1
+            else:
+                self.best_epoch_ = epoch
+            self.history_.append(record)
+            self.n_epochs_ = epoch
+            if self.verbose:
+                import sys
+
+                print(
+                    f"epoch {epoch}: "
+                    + ", ".join(f"{k} {v:.4f}" for k, v in record.items() if k != "epoch"),
+                    file=sys.stderr,
+                    flush=True,
+                )
+            if X_val is not None and stale >= self.patience:
+                break
+        if best_state is not None:
+            self.model_.load_state_dict(best_state)
+
+    def predict_proba(self, X: np.ndarray) -> np.ndarray:
+        import torch
+
+        logits = self._forward_all(np.asarray(X, dtype=np.float32), "logits")
+        return torch.softmax(torch.from_numpy(logits), dim=1).numpy().astype(np.float64)
+
+    def predict(self, X: np.ndarray) -> np.ndarray:
+        return self.classes_[np.argmax(self.predict_proba(X), axis=1)]
+
+    def embed(self, X: np.ndarray) -> np.ndarray:
+        """Penultimate features (the input of the classification layer)."""
+        return self._forward_all(np.asarray(X, dtype=np.float32), "features")
+
+
+class DeepConvLSTM(TorchClassifier):
+    """DeepConvLSTM (Ordóñez & Roggen 2016); `attention=True` pools the LSTM outputs with
+    additive attention instead of taking the last step."""
+
+    def __init__(
+        self,
+        n_filters: int = 64,
+        kernel_size: int = 5,
+        n_conv: int = 4,
+        hidden: int = 128,
+        n_lstm: int = 2,
+        dropout: float = 0.5,
+        max_epochs: int = 60,
+        patience: int = 10,
+        batch_size: int = 1024,
+        lr: float = 1e-3,
+        weight_decay: float = 1e-2,
+        random_state: int = 0,
+        n_threads: int | None = None,
+        verbose: bool = False,
+    ) -> None:
+        super().__init__(
+            max_epochs, patience, batch_size, lr, weight_decay, random_state, n_threads, verbose
+        )
+        self.n_filters = n_filters
+        self.kernel_size = kernel_size
+        self.n_conv = n_conv
+        self.hidden = hidden
+        self.n_lstm = n_lstm
+        self.dropout = dropout
+
+    attention = False
+
+    @classmethod
+    def _get_test_params(cls) -> dict[str, Any]:
+        return {**super()._get_test_params(), "n_filters": 8, "hidden": 16, "n_conv": 2}
+
+    def _build(self, n_channels: int, n_classes: int):
+        from vsmp_imu.har.backbones.networks import DeepConvLSTMNet
+
+        return DeepConvLSTMNet(
+            n_channels,
+            n_classes,
+            self.n_filters,
+            self.kernel_size,
+            self.n_conv,
+            self.hidden,
+            self.n_lstm,
+            self.dropout,
+            attention=self.attention,
+        )
+
+
+class DeepConvLSTMAttention(DeepConvLSTM):
+    """DeepConvLSTM with self-attention over the LSTM outputs (Singh et al. 2020)."""
+
+    attention = True
+
+
+class BiLSTMAttention(TorchClassifier):
+    """BiLSTM with attention (Zhang et al. 2023)."""
+
+    def __init__(
+        self,
+        hidden: int = 128,
+        n_lstm: int = 2,
+        dropout: float = 0.5,
+        max_epochs: int = 60,
+        patience: int = 10,
+        batch_size: int = 1024,
+        lr: float = 1e-3,
+        weight_decay: float = 1e-2,
+        random_state: int = 0,
+        n_threads: int | None = None,
+        verbose: bool = False,
+    ) -> None:
+        super().__init__(
+            max_epochs, patience, batch_size, lr, weight_decay, random_state, n_threads, verbose
+        )
+        self.hidden = hidden
+        self.n_lstm = n_lstm
+        self.dropout = dropout
+
+    @classmethod
+    def _get_test_params(cls) -> dict[str, Any]:
+        return {**super()._get_test_params(), "hidden": 16, "n_lstm": 1}
+
+    def _build(self, n_channels: int, n_classes: int):
+        from vsmp_imu.har.backbones.networks import BiLSTMAttentionNet
+
+        return BiLSTMAttentionNet(n_channels, n_classes, self.hidden, self.n_lstm, self.dropout)

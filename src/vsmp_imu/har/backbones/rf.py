@@ -1,0 +1,71 @@
+"""Random Forest on ECDF features (paper: RF backbone, appendix ECDF features)."""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.ensemble import RandomForestClassifier
+
+from vsmp_imu.har.features import N_LEVELS, ecdf_features
+
+
+class RandomForestECDF(ClassifierMixin, BaseEstimator):
+    """scikit-learn Random Forest on K ECDF levels per channel.
+
+    `fit(X, y, X_val=None, y_val=None)`: the validation windows are not needed
+    by a forest and are ignored. `embed(X)` returns the ECDF features, the
+    representation the forest sees. `uses_validation = False`: the harness
+    gives a forest the validation subjects' windows as training data.
+    """
+
+    uses_validation = False
+
+    def __init__(
+        self,
+        n_levels: int = N_LEVELS,
+        n_estimators: int = 100,
+        max_features: str | float = "sqrt",
+        min_samples_leaf: int = 1,
+        class_weight: str | None = None,
+        n_jobs: int | None = -1,
+        random_state: int = 0,
+    ) -> None:
+        self.n_levels = n_levels
+        self.n_estimators = n_estimators
+        self.max_features = max_features
+        self.min_samples_leaf = min_samples_leaf
+        self.class_weight = class_weight
+        self.n_jobs = n_jobs
+        self.random_state = random_state
+
+    @classmethod
+    def _get_test_params(cls) -> dict:
+        return {"n_estimators": 10, "n_jobs": 1}
+
+    def fit(
+        self,
+        X: np.ndarray,
+        y: np.ndarray,
+        X_val: np.ndarray | None = None,
+        y_val: np.ndarray | None = None,
+    ) -> RandomForestECDF:
+        self.forest_ = RandomForestClassifier(
+            n_estimators=self.n_estimators,
+            max_features=self.max_features,
+            min_samples_leaf=self.min_samples_leaf,
+            class_weight=self.class_weight,
+            n_jobs=self.n_jobs,
+            random_state=self.random_state,
+        )
+        self.forest_.fit(self.embed(X), np.asarray(y))
+        self.classes_ = self.forest_.classes_
+        return self
+
+    def embed(self, X: np.ndarray) -> np.ndarray:
+        return ecdf_features(X, self.n_levels)
+
+    def predict_proba(self, X: np.ndarray) -> np.ndarray:
+        return self.forest_.predict_proba(self.embed(X))
+
+    def predict(self, X: np.ndarray) -> np.ndarray:
+        return self.classes_[np.argmax(self.predict_proba(X), axis=1)]

@@ -1,0 +1,43 @@
+"""A small on-disk cache for parsed datasets, keyed by the source file's hash."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import numpy as np
+
+from vsmp_imu.io import atomic_path
+
+
+def cache_dir() -> Path:
+    """`$VSMP_IMU_CACHE`, else `~/.cache/vsmp-imu`."""
+    root = os.environ.get("VSMP_IMU_CACHE")
+    return Path(root) if root else Path.home() / ".cache" / "vsmp-imu"
+
+
+def file_sha256(path: str | Path, chunk: int = 1 << 20) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while block := fh.read(chunk):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def load_npz(path: Path) -> dict[str, np.ndarray] | None:
+    """The arrays of a cached `.npz`, or None when absent or unreadable."""
+    if not path.exists():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            return {k: npz[k] for k in npz.files}
+    except (OSError, ValueError):
+        return None
+
+
+def save_npz(path: Path, arrays: dict[str, np.ndarray]) -> Path:
+    """Write arrays atomically (a reader never sees a partial cache file)."""
+    with atomic_path(path, suffix=".npz") as tmp:
+        np.savez(tmp, **arrays)
+    return path

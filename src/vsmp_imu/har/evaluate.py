@@ -1,0 +1,487 @@
+"""The evaluation harness: protocols x backbones x methods x folds x seeds.
+
+Each (budget, method, backbone, fold, seed) gives one record, written at once
+to `DIR/records/` (atomically), so a run killed midway resumes where it
+stopped and ends with the same `results.json`. Nothing of the held-out
+subject reaches training, normalisation, validation or a synthetic source:
+`protocols.split_fold` keeps its windows in `test` only.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vsmp_imu.errors import ConfigError
+from vsmp_imu.har.backbones import BACKBONES, make_backbone
+from vsmp_imu.har.dataset import HarDataset
+from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std
+from vsmp_imu.har.protocols import (
+    DEFAULT_BUDGETS,
+    DEFAULT_RHO,
+    DEFAULT_VAL_FRACTION,
+    check_protocol,
+    parse_budgets,
+    split_fold,
+)
+from vsmp_imu.har.synthetic import (
+    ALPHA_RANGE,
+    BUDGET_POLICIES,
+    DEFAULT_ALPHA,
+    METHODS,
+    FoldContext,
+    check_synthetic,
+    make_method,
+    mix,
+    synthetic_budget,
+    take_budget,
+)
+from vsmp_imu.har.windows import Windows, concat_windows, natural_key
+from vsmp_imu.io import dumps_json, write_json
+from vsmp_imu.seeding import child_seed, rng_for
+
+RESULT_FIELDS = (
+    "dataset",
+    "protocol",
+    "budget",
+    "backbone",
+    "method",
+    "fold",
+    "seed",
+    "macro_f1",
+    "accuracy",
+    "per_class_f1",
+    "head_macro_f1",
+    "tail_macro_f1",
+)
+SUMMARY_KEYS = ("dataset", "protocol", "budget", "backbone", "method")
+# Bumped whenever the harness changes how a record is computed (invalidates old records).
+HARNESS_VERSION = 1
+
+
+@dataclass
+class EvalConfig:
+    """One evaluation: a dataset under one protocol, several budgets/backbones/methods."""
+
+    dataset: str
+    protocol: str = "lopo"
+    budgets: tuple[float | None, ...] = (None,)
+    backbones: tuple[str, ...] = ("rf",)
+    methods: tuple[str, ...] = ("real",)
+    folds: tuple[str, ...] | None = None
+    seeds: tuple[int, ...] = (0,)
+    alpha: float = DEFAULT_ALPHA
+    policy: str = "uniform"
+    window_s: float = 2.0
+    overlap: float = 0.5
+    rho: float = DEFAULT_RHO
+    val_fraction: float = DEFAULT_VAL_FRACTION
+    backbone_params: dict[str, dict[str, Any]] = field(default_factory=dict)
+    method_params: dict[str, dict[str, Any]] = field(default_factory=dict)
+    report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+    def check(self) -> EvalConfig:
+        check_protocol(self.protocol)
+        if self.protocol != "low-resource":
+            if any(b is not None for b in self.budgets):
+                raise ConfigError(
+                    "label budgets apply to the low-resource protocol only",
+                    field="--budgets",
+                    allowed="use --protocol low-resource",
+                )
+            self.budgets = (None,)
+        elif self.budgets == (None,):
+            self.budgets = DEFAULT_BUDGETS
+        else:
+            self.budgets = parse_budgets(",".join(f"{b:g}" for b in self.budgets), self.protocol)
+        unknown = [b for b in self.backbones if b not in BACKBONES]
+        if unknown:
+            raise ConfigError(
+                f"unknown backbone(s) {', '.join(unknown)}",
+                field="--backbones",
+                allowed=", ".join(BACKBONES),
+            )
+        unknown = [m for m in self.methods if m not in METHODS]
+        if unknown:
+            raise ConfigError(
+                f"unknown method(s) {', '.join(unknown)}",
+                field="--methods",
+                allowed=", ".join(METHODS),
+            )
+        if not ALPHA_RANGE[0] <= self.alpha <= ALPHA_RANGE[1]:
+            raise ConfigError(
+                f"alpha {self.alpha:g} out of range",
+                field="--alpha",
+                allowed=f"{ALPHA_RANGE[0]:g} <= alpha <= {ALPHA_RANGE[1]:g}",
+            )
+        if self.policy not in BUDGET_POLICIES:
+            raise ConfigError(
+                f"unknown budget policy '{self.policy}'",
+                field="--policy",
+                allowed=", ".join(BUDGET_POLICIES),
+            )
+        if not self.seeds:
+            raise ConfigError("need at least one seed", field="--seeds", allowed="N >= 1")
+        if self.rho <= 1:
+            raise ConfigError(f"rho {self.rho:g} out of range", field="--rho", allowed="rho > 1")
+        return self
+
+
+@dataclass
+class EvalResults:
+    records: list[dict[str, Any]]
+    summary: list[dict[str, Any]]
+    class_summary: list[dict[str, Any]]
+    config: dict[str, Any]
+    label_names: tuple[str, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "config": self.config,
+            "label_names": list(self.label_names),
+            "records": self.records,
+            "summary": self.summary,
+            "class_summary": self.class_summary,
+        }
+
+
+Progress = Callable[[str, int, int], None]
+
+
+def _slug(text: Any) -> str:
+    return re.sub(r"[^A-Za-z0-9.=-]+", "-", str(text)).strip("-")
+
+
+def _budget_slug(budget: float | None) -> str:
+    return "full" if budget is None else f"{budget:g}pct"
+
+
+class Evaluation:
+    """Run an `EvalConfig` on a dataset, optionally writing records to `output_dir`.
+
+    `run(progress)` returns `EvalResults`; `progress(description, done, total)`
+    is called after every record (the command line draws a progress bar).
+    """
+
+    def __init__(
+        self, config: EvalConfig, dataset: HarDataset, output_dir: str | Path | None = None
+    ) -> None:
+        self.config = config.check()
+        self.dataset = dataset
+        self.output_dir = Path(output_dir) if output_dir is not None else None
+
+    # -- set-up ----------------------------------------------------------------------------
+    def _groups(self) -> dict[str, tuple[str, ...]]:
+        groups = dict(self.dataset.info.groups)
+        for name, members in self.config.report_groups.items():
+            unknown = [m for m in members if m not in self.dataset.info.label_names]
+            if unknown:
+                raise ConfigError(
+                    f"group '{name}' names unknown classes {', '.join(unknown)}",
+                    field="--report-groups",
+                    allowed=", ".join(self.dataset.info.label_names),
+                )
+            groups[name] = tuple(members)
+        return groups
+
+    def folds(self, windows: Windows) -> list[str]:
+        available = windows.unique_subjects()
+        if self.config.folds is None:
+            return available
+        wanted = [str(f) for f in self.config.folds]
+        bad = [f for f in wanted if f not in available]
+        if bad:
+            raise ConfigError(
+                f"fold(s) {', '.join(bad)} not in dataset '{self.config.dataset}'",
+                field="--folds",
+                allowed="all, or subjects " + ", ".join(available),
+            )
+        return sorted(dict.fromkeys(wanted), key=natural_key)
+
+    def _digest(self, backbone: str, method: str) -> str:
+        """Hash of every setting a record depends on (besides its key)."""
+        c = self.config
+        params = make_backbone(backbone, **c.backbone_params.get(backbone, {})).get_params()
+        params = {k: v for k, v in params.items() if k not in ("n_jobs", "n_threads", "verbose")}
+        payload = {
+            "harness_version": HARNESS_VERSION,
+            "dataset": c.dataset,
+            "info": self.dataset.info.to_dict(),
+            "window_s": c.window_s,
+            "overlap": c.overlap,
+            "alpha": c.alpha,
+            "policy": c.policy,
+            "rho": c.rho,
+            "val_fraction": c.val_fraction,
+            "backbone": backbone,
+            "backbone_params": params,
+            "method": method,
+            "method_params": c.method_params.get(method, {}),
+        }
+        text = json.dumps(payload, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def _record_path(self, budget, method, backbone, fold, seed) -> Path | None:
+        if self.output_dir is None:
+            return None
+        name = "_".join(
+            _slug(p)
+            for p in (
+                self.config.protocol,
+                _budget_slug(budget),
+                method,
+                backbone,
+                f"fold-{fold}",
+                f"seed-{seed}",
+            )
+        )
+        return self.output_dir / "records" / f"{name}.json"
+
+    @staticmethod
+    def _load_record(path: Path | None, digest: str) -> dict[str, Any] | None:
+        if path is None or not path.exists():
+            return None
+        try:
+            record = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError):
+            return None
+        return record if record.get("settings_digest") == digest else None
+
+    # -- running ---------------------------------------------------------------------------
+    def run(self, progress: Progress | None = None) -> EvalResults:
+        c = self.config
+        windows = self.dataset.windows(c.window_s, c.overlap)
+        if len(windows) == 0:
+            raise ConfigError(
+                f"dataset '{c.dataset}' gives no labelled windows of {c.window_s:g} s",
+                field="--window-s",
+            )
+        groups = self._groups()
+        folds = self.folds(windows)
+        digests = {(m, b): self._digest(b, m) for m in c.methods for b in c.backbones}
+        total = len(c.seeds) * len(folds) * len(c.budgets) * len(c.methods) * len(c.backbones)
+        records: list[dict[str, Any]] = []
+        done = 0
+        for seed in c.seeds:
+            for fold in folds:
+                for budget in c.budgets:
+                    split = None
+                    for method in c.methods:
+                        pending = []
+                        for backbone in c.backbones:
+                            path = self._record_path(budget, method, backbone, fold, seed)
+                            record = self._load_record(path, digests[(method, backbone)])
+                            if record is not None:
+                                # groups may differ from the run that wrote the record
+                                record["group_macro_f1"] = group_macro_f1(
+                                    record["confusion"], self.dataset.info.label_names, groups
+                                )
+                                records.append(record)
+                                done += 1
+                                if progress:
+                                    progress(
+                                        f"fold {fold} {method}/{backbone} (cached)", done, total
+                                    )
+                            else:
+                                pending.append((backbone, path))
+                        if not pending:
+                            continue
+                        if split is None:
+                            split = split_fold(
+                                windows, fold, c.protocol, seed, budget, c.rho, c.val_fraction
+                            )
+                        train, n_syn = self._training_windows(split, method, seed, budget)
+                        for backbone, path in pending:
+                            record = self._fit_one(
+                                split, train, n_syn, backbone, method, fold, seed, budget, groups
+                            )
+                            record["settings_digest"] = digests[(method, backbone)]
+                            if path is not None:
+                                write_json(path, record)
+                            records.append(record)
+                            done += 1
+                            if progress:
+                                progress(f"fold {fold} {method}/{backbone}", done, total)
+        results = summarize(records, self.dataset.info.label_names, groups)
+        results.config = self._config_dict()
+        if self.output_dir is not None:
+            write_json(self.output_dir / "results.json", results.to_json())
+        return results
+
+    def _config_dict(self) -> dict[str, Any]:
+        config = asdict(self.config)
+        config["folds"] = list(config["folds"]) if config["folds"] is not None else "all"
+        return json.loads(dumps_json(config))
+
+    def _training_windows(
+        self, split, method: str, seed: int, budget: float | None
+    ) -> tuple[Windows, int]:
+        """The fit windows, mixed with the method's synthetic windows (if any)."""
+        c = self.config
+        source = make_method(method, **c.method_params.get(method, {}))
+        if source is None or len(split.fit) == 0:
+            return split.fit, 0
+        wanted = synthetic_budget(split.fit.class_counts(), c.alpha, c.policy, split.tail)
+        names = split.fit.label_names
+        context = FoldContext(
+            dataset=self.dataset.info,
+            fold=split.fold,
+            held_out_subject=split.fold,
+            train=split.fit,
+            train_subjects=tuple(split.fit.unique_subjects()),
+            seed=seed,
+            budget={names[i]: int(n) for i, n in enumerate(wanted) if n > 0},
+            alpha=c.alpha,
+            protocol=c.protocol,
+            label_budget=budget,
+        )
+        synthetic = source.generate(context)
+        check_synthetic(split.fit, synthetic, method)
+        synthetic = take_budget(synthetic, wanted, rng_for(seed, "take-budget", split.fold, method))
+        return mix(split.fit, synthetic, method), len(synthetic)
+
+    def _fit_one(
+        self,
+        split,
+        train: Windows,
+        n_syn: int,
+        backbone: str,
+        method: str,
+        fold: str,
+        seed: int,
+        budget: float | None,
+        groups,
+    ) -> dict[str, Any]:
+        c = self.config
+        state = int(
+            child_seed(
+                seed, "backbone", backbone, method, fold, _budget_slug(budget)
+            ).generate_state(1)[0]
+        )
+        model = make_backbone(
+            backbone, **{**c.backbone_params.get(backbone, {}), "random_state": state}
+        )
+        val = split.val
+        n_real = len(split.fit)
+        if not getattr(model, "uses_validation", True) and len(val):
+            # a backbone without early stopping trains on the validation subjects too
+            train = concat_windows([train, val.with_meta(source=np.full(len(val), "real"))])
+            n_real += len(val)
+            val = val[:0]
+        start = time.perf_counter()
+        has_val = len(val) > 0
+        model.fit(train.X, train.y, val.X if has_val else None, val.y if has_val else None)
+        fit_s = time.perf_counter() - start
+        y_pred = model.predict(split.test.X)
+        metrics = evaluate_predictions(
+            split.test.y, y_pred, split.test.label_names, groups, split.head, split.tail
+        )
+        names = split.test.label_names
+        return {
+            "dataset": c.dataset,
+            "protocol": c.protocol,
+            "budget": budget,
+            "backbone": backbone,
+            "method": method,
+            "fold": fold,
+            "seed": seed,
+            **metrics,
+            "head_classes": [names[i] for i in split.head] if split.head is not None else None,
+            "tail_classes": [names[i] for i in split.tail] if split.tail is not None else None,
+            "n_train_real": n_real,
+            "n_synthetic": n_syn,
+            "n_val": len(val),
+            "n_test": len(split.test),
+            "val_subjects": list(split.val_subjects),
+            "epochs": getattr(model, "n_epochs_", None),
+            "best_epoch": getattr(model, "best_epoch_", None),
+            "fit_seconds": round(fit_s, 3),
+        }
+
+
+def summarize(
+    records: Sequence[dict[str, Any]],
+    label_names: Sequence[str],
+    groups: dict[str, Sequence[str]] | None = None,
+) -> EvalResults:
+    """Mean +- std over folds and seeds per (dataset, protocol, budget, backbone, method)."""
+    records = sorted(records, key=_record_sort_key)
+    blocks: dict[tuple, list[dict[str, Any]]] = {}
+    for r in records:
+        blocks.setdefault(tuple(r[k] for k in SUMMARY_KEYS), []).append(r)
+    summary, class_summary = [], []
+    for key, rs in blocks.items():
+        row = dict(zip(SUMMARY_KEYS, key, strict=True))
+        for metric in ("macro_f1", "accuracy", "head_macro_f1", "tail_macro_f1"):
+            mean, std, n = mean_std([r.get(metric) for r in rs])
+            row[f"{metric}_mean"], row[f"{metric}_std"] = mean, std
+            if metric == "macro_f1":
+                row["n"] = n
+        group_names = sorted({g for r in rs for g in (r.get("group_macro_f1") or {})})
+        row["group_macro_f1"] = {}
+        for g in group_names:
+            mean, std, n = mean_std([(r.get("group_macro_f1") or {}).get(g) for r in rs])
+            row["group_macro_f1"][g] = {"mean": mean, "std": std, "n": n}
+        summary.append(row)
+        per_class = {}
+        for name in label_names:
+            mean, std, n = mean_std([(r.get("per_class_f1") or {}).get(name) for r in rs])
+            per_class[name] = {"f1_mean": mean, "f1_std": std, "n": n}
+        confusion = np.sum([np.asarray(r["confusion"]) for r in rs if r.get("confusion")], axis=0)
+        class_summary.append(
+            {
+                **dict(zip(SUMMARY_KEYS, key, strict=True)),
+                "per_class": per_class,
+                "confusion": np.asarray(confusion).tolist(),
+            }
+        )
+    public = [{k: r.get(k) for k in RESULT_FIELDS} | _extra_fields(r) for r in records]
+    return EvalResults(
+        records=public,
+        summary=summary,
+        class_summary=class_summary,
+        config={},
+        label_names=tuple(label_names),
+    )
+
+
+def _extra_fields(r: dict[str, Any]) -> dict[str, Any]:
+    # wall times stay in the record files: results.json must not depend on them
+    keep = (
+        "group_macro_f1",
+        "per_class_precision",
+        "per_class_recall",
+        "per_class_support",
+        "confusion",
+        "head_classes",
+        "tail_classes",
+        "n_train_real",
+        "n_synthetic",
+        "n_val",
+        "n_test",
+        "val_subjects",
+        "epochs",
+        "best_epoch",
+    )
+    return {k: r.get(k) for k in keep}
+
+
+def _record_sort_key(r: dict[str, Any]) -> tuple:
+    budget = r["budget"] if r["budget"] is not None else -1.0
+    return (
+        r["dataset"],
+        r["protocol"],
+        budget,
+        r["backbone"],
+        r["method"],
+        natural_key(r["fold"]),
+        r["seed"],
+    )

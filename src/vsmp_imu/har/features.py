@@ -1,0 +1,32 @@
+"""ECDF features for the Random Forest backbone (paper appendix "ECDF Feature
+Extraction for Random Forest")."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vsmp_imu.errors import ValidationError
+
+# K = 15 fixed ECDF levels per channel (paper appendix, ECDF features).
+N_LEVELS = 15
+
+
+def ecdf_levels(n_levels: int = N_LEVELS) -> np.ndarray:
+    """Evenly spaced probability levels strictly inside (0, 1): k / (K + 1), k = 1..K.
+
+    The ends 0 and 1 (window minimum and maximum) are left out: they follow
+    single outlying samples rather than the distribution of the window.
+    """
+    if n_levels < 1:
+        raise ValidationError(f"need at least one ECDF level, got {n_levels}", field="n_levels")
+    return np.arange(1, n_levels + 1) / (n_levels + 1)
+
+
+def ecdf_features(X: np.ndarray, n_levels: int = N_LEVELS) -> np.ndarray:
+    """`(N, T, C)` windows -> `(N, C * K)` features: per channel, the window's empirical
+    quantiles at the K levels, channels concatenated (channel-major)."""
+    X = np.asarray(X, dtype=np.float32)
+    if X.ndim != 3:
+        raise ValidationError(f"windows must be (N, T, C), got shape {X.shape}", field="X")
+    q = np.quantile(X, ecdf_levels(n_levels), axis=1)  # (K, N, C)
+    return np.ascontiguousarray(q.transpose(1, 2, 0).reshape(len(X), -1), dtype=np.float32)

@@ -1,0 +1,182 @@
+"""LOPO protocols (paper, Experimental Setup, Protocols): standard, low-resource and
+long-tail; validation subjects drawn from the training subjects of each fold."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vsmp_imu.errors import ConfigError
+from vsmp_imu.har.windows import Windows, natural_key
+from vsmp_imu.seeding import rng_for
+
+PROTOCOLS = ("lopo", "low-resource", "long-tail")
+# Label budgets of the low-resource protocol, percent of labelled training windows.
+DEFAULT_BUDGETS = (1.0, 5.0, 10.0, 25.0, 50.0)
+# Maximum head-to-tail imbalance ratio of the long-tail protocol.
+DEFAULT_RHO = 10.0
+DEFAULT_VAL_FRACTION = 0.2
+
+
+@dataclass
+class FoldSplit:
+    """The windows of one fold: `fit` (trains the model), `val` (early stopping and
+    threshold selection; subjects disjoint from `fit`), `test` (the held-out subject).
+    `head`/`tail` are class indices (long-tail protocol only)."""
+
+    fold: str
+    fit: Windows
+    val: Windows
+    test: Windows
+    val_subjects: tuple[str, ...]
+    head: tuple[int, ...] | None = None
+    tail: tuple[int, ...] | None = None
+
+
+def check_protocol(protocol: str) -> str:
+    if protocol not in PROTOCOLS:
+        raise ConfigError(
+            f"unknown protocol '{protocol}'", field="protocol", allowed=", ".join(PROTOCOLS)
+        )
+    return protocol
+
+
+def subsample_per_class(windows: Windows, keep: np.ndarray, rng: np.random.Generator) -> Windows:
+    """Keep `keep[c]` windows of each class c, drawn without replacement; order preserved."""
+    chosen = []
+    for c, k in enumerate(keep):
+        idx = np.flatnonzero(windows.y == c)
+        k = int(min(k, len(idx)))
+        if k > 0:
+            chosen.append(rng.choice(idx, size=k, replace=False))
+    sel = np.sort(np.concatenate(chosen)) if chosen else np.zeros(0, np.int64)
+    return windows[sel]
+
+
+def low_resource_counts(counts: np.ndarray, budget_percent: float) -> np.ndarray:
+    """Windows kept per class: round(budget% of the class), at least 1 for present classes."""
+    keep = np.round(counts * budget_percent / 100.0).astype(np.int64)
+    return np.where(counts > 0, np.maximum(keep, 1), 0)
+
+
+def rank_classes(counts: np.ndarray) -> np.ndarray:
+    """Class indices of present classes by decreasing count (ties: lower index first)."""
+    present = np.flatnonzero(counts > 0)
+    order = sorted(present.tolist(), key=lambda c: (-counts[c], c))
+    return np.asarray(order, dtype=np.int64)
+
+
+def long_tail_counts(counts: np.ndarray, rho: float = DEFAULT_RHO) -> np.ndarray:
+    """n_r = n_max * rho^(-(r-1)/(C-1)) for the class of rank r (paper, Long-tail LOPO),
+    rounded, at least 1, never more than the class has."""
+    ranked = rank_classes(counts)
+    keep = np.zeros_like(counts)
+    n_classes = len(ranked)
+    if n_classes == 0:
+        return keep
+    n_max = counts[ranked[0]]
+    for r, c in enumerate(ranked, start=1):
+        exponent = (r - 1) / (n_classes - 1) if n_classes > 1 else 0.0
+        keep[c] = min(counts[c], max(1, int(round(n_max * rho ** (-exponent)))))
+    return keep
+
+
+def head_tail(counts: np.ndarray) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """Head = upper half of the ranked classes (floor(C/2)), tail = the rest."""
+    ranked = rank_classes(counts).tolist()
+    n_head = len(ranked) // 2
+    return tuple(ranked[:n_head]), tuple(ranked[n_head:])
+
+
+def choose_val_subjects(
+    subjects: list[str], seed: int, fold: str, val_fraction: float = DEFAULT_VAL_FRACTION
+) -> tuple[str, ...]:
+    """Validation subjects drawn (seeded) from the training subjects: round(fraction x n),
+    at least 1, never all of them. None when fewer than 2 training subjects."""
+    subjects = sorted(set(subjects), key=natural_key)
+    if len(subjects) < 2 or val_fraction <= 0:
+        return ()
+    n_val = min(len(subjects) - 1, max(1, int(round(val_fraction * len(subjects)))))
+    rng = rng_for(seed, "validation-subjects", fold)
+    return tuple(sorted(rng.choice(subjects, size=n_val, replace=False).tolist(), key=natural_key))
+
+
+def split_fold(
+    windows: Windows,
+    fold: str,
+    protocol: str,
+    seed: int,
+    budget_percent: float | None = None,
+    rho: float = DEFAULT_RHO,
+    val_fraction: float = DEFAULT_VAL_FRACTION,
+) -> FoldSplit:
+    """The windows of one LOPO fold under a protocol.
+
+    1. test = the held-out subject's windows; the pool = every other subject's.
+    2. The protocol subsamples the pool (low-resource: budget% per class;
+       long-tail: n_r per class rank), seeded per (seed, fold, budget).
+    3. Validation subjects are drawn from the pool's subjects; fit = the rest.
+    The held-out subject's windows appear in `test` only.
+    """
+    check_protocol(protocol)
+    fold = str(fold)
+    test = windows.where_subjects([fold])
+    pool = windows.where_subjects([fold], keep=False)
+    head = tail = None
+    counts = pool.class_counts()
+    if protocol == "low-resource":
+        if budget_percent is None or not 0 < budget_percent <= 100:
+            raise ConfigError(
+                f"label budget {budget_percent} out of range",
+                field="budgets",
+                allowed="0 < budget <= 100 (percent)",
+            )
+        rng = rng_for(seed, "low-resource", fold, f"{budget_percent:g}")
+        pool = subsample_per_class(pool, low_resource_counts(counts, budget_percent), rng)
+    elif protocol == "long-tail":
+        rng = rng_for(seed, "long-tail", fold)
+        pool = subsample_per_class(pool, long_tail_counts(counts, rho), rng)
+        head, tail = head_tail(pool.class_counts())
+    val_subjects = choose_val_subjects(pool.unique_subjects(), seed, fold, val_fraction)
+    val = pool.where_subjects(val_subjects)
+    fit = pool.where_subjects(val_subjects, keep=False)
+    return FoldSplit(
+        fold=fold, fit=fit, val=val, test=test, val_subjects=val_subjects, head=head, tail=tail
+    )
+
+
+def parse_budgets(text: str | None, protocol: str) -> tuple[float | None, ...]:
+    """Budgets for a protocol: percent values for low-resource, (None,) otherwise."""
+    if protocol != "low-resource":
+        return (None,)
+    if not text:
+        return DEFAULT_BUDGETS
+    values = []
+    for item in text.split(","):
+        item = item.strip().rstrip("%")
+        if not item:
+            continue
+        try:
+            value = float(item)
+        except ValueError:
+            raise ConfigError(
+                f"'{item}' is not a number",
+                field="--budgets",
+                allowed="percentages in (0, 100], e.g. 1,5,10,25,50",
+            ) from None
+        if not (0 < value <= 100) or math.isnan(value):
+            raise ConfigError(
+                f"label budget {item} out of range",
+                field="--budgets",
+                allowed="percentages in (0, 100], e.g. 1,5,10,25,50",
+            )
+        values.append(value)
+    if not values:
+        raise ConfigError(
+            "no label budget given",
+            field="--budgets",
+            allowed="percentages in (0, 100], e.g. 1,5,10,25,50",
+        )
+    return tuple(dict.fromkeys(values))

@@ -1,0 +1,234 @@
+"""Paper-style result tables (Markdown) and confusion-matrix figures (PNG)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vsmp_imu.har.backbones import DISPLAY_NAMES
+from vsmp_imu.har.synthetic import METHOD_DISPLAY
+from vsmp_imu.io import atomic_path, write_text
+
+
+def _pct(mean: float | None, std: float | None) -> str:
+    if mean is None:
+        return "–"
+    return f"{100 * mean:.2f} ± {100 * (std or 0.0):.2f}"
+
+
+def _bold_best(cells: list[str], values: list[float | None]) -> list[str]:
+    """Bold every cell holding the best (highest) value of the list."""
+    present = [v for v in values if v is not None]
+    if len(present) < 2:
+        return cells
+    best = max(present)
+    return [
+        f"**{c}**" if v is not None and np.isclose(v, best) else c
+        for c, v in zip(cells, values, strict=True)
+    ]
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _method(name: str) -> str:
+    return METHOD_DISPLAY.get(name, name)
+
+
+def _backbone(name: str) -> str:
+    return DISPLAY_NAMES.get(name, name)
+
+
+def _ordered(values: Sequence[Any], order: Sequence[Any] | None) -> list[Any]:
+    seen = list(dict.fromkeys(values))
+    if not order:
+        return seen
+    return [v for v in order if v in seen] + [v for v in seen if v not in order]
+
+
+def results_markdown(results: dict[str, Any]) -> str:
+    """The Markdown report of a `results.json` object: one section per dataset/protocol."""
+    summary = results["summary"]
+    config = results.get("config", {})
+    parts = ["# HAR evaluation results", ""]
+    if config:
+        parts.append(
+            f"Window {config.get('window_s')} s, overlap {config.get('overlap')}, "
+            f"alpha {config.get('alpha')} ({config.get('policy')} budget), "
+            f"seeds {config.get('seeds')}, folds {config.get('folds')}. "
+            "Values: Macro-F1 (%) mean ± std over folds and seeds; best per block in bold."
+        )
+        parts.append("")
+    for dataset in dict.fromkeys(r["dataset"] for r in summary):
+        for protocol in dict.fromkeys(r["protocol"] for r in summary if r["dataset"] == dataset):
+            rows = [r for r in summary if r["dataset"] == dataset and r["protocol"] == protocol]
+            parts.append(f"## {dataset} — {protocol}")
+            parts.append("")
+            if protocol == "low-resource":
+                parts.append(_low_resource(rows, config))
+            elif protocol == "long-tail":
+                parts.append(_long_tail(rows, config))
+            else:
+                parts.append(_standard(rows, config))
+            parts.append("")
+    return "\n".join(parts)
+
+
+def _standard(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
+    groups = sorted({g for r in rows for g in r.get("group_macro_f1", {})})
+    header = (
+        ["Backbone", "Method", "Macro-F1", "Accuracy"] + [f"{g} Macro-F1" for g in groups] + ["n"]
+    )
+    out = []
+    for backbone in _ordered([r["backbone"] for r in rows], config.get("backbones")):
+        block = [r for r in rows if r["backbone"] == backbone]
+        block = sorted(
+            block,
+            key=lambda r: _ordered([b["method"] for b in block], config.get("methods")).index(
+                r["method"]
+            ),
+        )
+        columns = [("macro_f1_mean", "macro_f1_std"), ("accuracy_mean", "accuracy_std")]
+        cells = [[_pct(r[m], r[s]) for r in block] for m, s in columns]
+        values = [[r[m] for r in block] for m, _ in columns]
+        for g in groups:
+            cells.append(
+                [
+                    _pct(
+                        r["group_macro_f1"].get(g, {}).get("mean"),
+                        r["group_macro_f1"].get(g, {}).get("std"),
+                    )
+                    for r in block
+                ]
+            )
+            values.append([r["group_macro_f1"].get(g, {}).get("mean") for r in block])
+        cells = [_bold_best(c, v) for c, v in zip(cells, values, strict=True)]
+        for i, r in enumerate(block):
+            out.append(
+                [_backbone(backbone), _method(r["method"])] + [c[i] for c in cells] + [str(r["n"])]
+            )
+    return _table(header, out)
+
+
+def _low_resource(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
+    methods = _ordered([r["method"] for r in rows], config.get("methods"))
+    header = ["Backbone", "Budget"] + [_method(m) for m in methods]
+    out = []
+    for backbone in _ordered([r["backbone"] for r in rows], config.get("backbones")):
+        budgets = sorted({r["budget"] for r in rows if r["backbone"] == backbone})
+        for budget in budgets:
+            cells, values = [], []
+            for m in methods:
+                match = [
+                    r
+                    for r in rows
+                    if r["backbone"] == backbone and r["budget"] == budget and r["method"] == m
+                ]
+                cells.append(
+                    _pct(match[0]["macro_f1_mean"], match[0]["macro_f1_std"]) if match else "–"
+                )
+                values.append(match[0]["macro_f1_mean"] if match else None)
+            out.append([_backbone(backbone), f"{budget:g}%"] + _bold_best(cells, values))
+    return _table(header, out)
+
+
+def _long_tail(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
+    header = ["Backbone", "Method", "Head Macro-F1", "Tail Macro-F1", "All Macro-F1", "n"]
+    out = []
+    for backbone in _ordered([r["backbone"] for r in rows], config.get("backbones")):
+        block = [r for r in rows if r["backbone"] == backbone]
+        columns = [
+            ("head_macro_f1_mean", "head_macro_f1_std"),
+            ("tail_macro_f1_mean", "tail_macro_f1_std"),
+            ("macro_f1_mean", "macro_f1_std"),
+        ]
+        cells = [
+            _bold_best([_pct(r[m], r[s]) for r in block], [r[m] for r in block]) for m, s in columns
+        ]
+        for i, r in enumerate(block):
+            out.append(
+                [_backbone(backbone), _method(r["method"])] + [c[i] for c in cells] + [str(r["n"])]
+            )
+    return _table(header, out)
+
+
+def confusion_figure(
+    confusion: np.ndarray, label_names: Sequence[str], title: str, path: str | Path
+) -> Path:
+    """A row-normalised confusion matrix (percent of each true class) with counts of
+    windows per true class in the row labels."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    confusion = np.asarray(confusion, dtype=float)
+    n = len(label_names)
+    totals = confusion.sum(axis=1, keepdims=True)
+    share = np.divide(confusion, totals, out=np.zeros_like(confusion), where=totals > 0) * 100
+    size = max(4.5, 0.62 * n + 2.2)
+    fig, ax = plt.subplots(figsize=(size + 1.0, size))
+    image = ax.imshow(share, cmap="Blues", vmin=0, vmax=100)
+    ax.set_xticks(
+        range(n),
+        labels=list(label_names),
+        rotation=45,
+        ha="right",
+        rotation_mode="anchor",
+        fontsize=9,
+    )
+    ax.set_yticks(
+        range(n),
+        labels=[f"{name} ({int(t)})" for name, t in zip(label_names, totals[:, 0], strict=True)],
+        fontsize=9,
+    )
+    ax.set_xlabel("predicted class")
+    ax.set_ylabel("true class (windows)")
+    ax.set_title(title, fontsize=10)
+    font = 9 if n <= 12 else 7 if n <= 20 else 5
+    for i in range(n):
+        for j in range(n):
+            if totals[i, 0] == 0 or (share[i, j] < 0.5 and i != j):
+                continue
+            ax.text(
+                j,
+                i,
+                f"{share[i, j]:.0f}",
+                ha="center",
+                va="center",
+                fontsize=font,
+                color="white" if share[i, j] > 55 else "black",
+            )
+    fig.colorbar(image, ax=ax, fraction=0.046, pad=0.04, label="% of true class")
+    fig.tight_layout()
+    path = Path(path)
+    with atomic_path(path, suffix=".png") as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    return path
+
+
+def write_report(results: dict[str, Any], output_dir: str | Path) -> list[Path]:
+    """`results.md` and one confusion PNG per (protocol, budget, backbone, method)."""
+    output_dir = Path(output_dir)
+    written = [write_text(output_dir / "results.md", results_markdown(results))]
+    labels = results["label_names"]
+    for block in results["class_summary"]:
+        budget = "full" if block["budget"] is None else f"{block['budget']:g}pct"
+        parts = (block["dataset"], block["protocol"], budget, block["backbone"], block["method"])
+        name = "confusion_" + "_".join(parts) + ".png"
+        title = (
+            f"{block['dataset']} {block['protocol']}"
+            + ("" if block["budget"] is None else f" {block['budget']:g}%")
+            + f" — {_backbone(block['backbone'])}, {_method(block['method'])}"
+        )
+        written.append(
+            confusion_figure(np.asarray(block["confusion"]), labels, title, output_dir / name)
+        )
+    return written

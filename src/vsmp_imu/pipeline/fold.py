@@ -1,0 +1,403 @@
+"""Algorithm 1 for one LOPO fold: from base SMPs to the filtered synthetic set.
+
+Everything fitted here (D_stat, D_rank, plausibility thresholds, the
+validator, tau_cls, tau_nn) comes from the fold's real training windows
+only; the held-out subject is never passed in.
+
+Stages:
+1. stratified D_stat / D_rank split of the real training windows;
+2. per class, K constrained SMP variants S(k) ~ A(S) of each base SMP, each
+   realized with its own seed (as many slots as the budget needs);
+3. per sample (executor, cached): verbalize, motion, theta ~ p(theta),
+   kinematics, eta* by CEM against the class's D_stat, A_gamma;
+4. rank grounding per location with F_v from all the fold's synthetic samples
+   and G_r from D_rank;
+5. windows, then the quality filter (motion plausibility, class faithfulness
+   with tau_cls chosen by validation Macro-F1, redundancy);
+6. the per-class budget taken from the retained windows.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vsmp_imu.errors import ConfigError, ValidationError
+from vsmp_imu.filtering.faithfulness import (
+    TAU_DEFAULT,
+    class_verdicts,
+    macro_f1,
+    nn_thresholds,
+    redundancy_verdicts,
+    select_tau,
+)
+from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
+from vsmp_imu.filtering.validator import HarValidator
+from vsmp_imu.filtering.verdict import Verdict
+from vsmp_imu.grounding.align import Convention
+from vsmp_imu.grounding.rank import RankGrounder
+from vsmp_imu.grounding.split import stat_rank_split
+from vsmp_imu.grounding.stats import TargetStatistics
+from vsmp_imu.har.backbones.rf import RandomForestECDF
+from vsmp_imu.har.dataset import DatasetInfo, SensorLocation
+from vsmp_imu.har.synthetic import take_budget
+from vsmp_imu.har.windows import Windows
+from vsmp_imu.pipeline.sample import LocationTask, SampleResult, SampleTask, cached_synthesize
+from vsmp_imu.seeding import rng_for
+from vsmp_imu.smp import SMP
+from vsmp_imu.smp.augment import SMPAugmenter
+from vsmp_imu.smp.refine import Refiner
+from vsmp_imu.smp.verbalize import verbalize
+
+MAX_SLOTS_PER_CLASS_ROUND = 96
+FIRST_ROUND_WINDOWS_PER_SAMPLE = 3.0
+
+
+@dataclass(frozen=True)
+class GenerationConfig:
+    """Switches and sizes of the generation pipeline (defaults: the paper's)."""
+
+    k: int = 4  # SMP variants per base SMP
+    backend: str = "procedural"
+    refine: bool = True
+    uncertainty_conditioned: bool = True
+    sim_in_the_loop: bool = True
+    rank_grounding: bool = True
+    per_class_rank: bool = False
+    quality_filter: bool = True
+    noise: bool = True
+    oversample: float = 2.0  # raw windows generated per budgeted window
+    max_rounds: int = 4
+    hop_fraction: float = 0.5  # synthetic window hop, as a fraction of the window
+    val_fraction: float = 0.2  # training subjects held aside to choose tau_cls
+    duration_s: float | None = None  # None: each activity's natural duration
+    library_dirs: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.k < 1:
+            raise ConfigError(f"k must be >= 1, got {self.k}", field="k")
+        if not self.oversample >= 1.0:
+            raise ConfigError(f"oversample must be >= 1, got {self.oversample}", field="oversample")
+        if not 0 < self.hop_fraction <= 1:
+            raise ConfigError(f"hop_fraction must be in (0, 1], got {self.hop_fraction}", field="hop_fraction")
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass
+class FoldOutput:
+    """The synthetic windows of one fold and the record of every generated window."""
+
+    windows: Windows  # the selected windows (the budget)
+    generated: np.ndarray  # every generated window, (N, T, C); records[:N] describe them
+    records: list[dict[str, Any]] = field(default_factory=list)
+    samples: list[SampleResult] = field(default_factory=list)
+    tasks: list[SampleTask] = field(default_factory=list)
+    summary: dict[str, Any] = field(default_factory=dict)
+
+
+def _location_plan(info: DatasetInfo) -> dict[str, list[SensorLocation]]:
+    """Locations a class's samples are simulated at (UTD-MHAD moves the sensor per class)."""
+    for loc in info.locations:
+        if len(loc.channels) != 6:
+            raise ValidationError(
+                f"location '{loc.name}' has {len(loc.channels)} channels; synthesis needs acc + gyro (6)",
+                field="locations")
+    by_name = {loc.name: loc for loc in info.locations}
+    plan = {}
+    for label in info.label_names:
+        if info.location_by_label and label in info.location_by_label:
+            plan[label] = [by_name[info.location_by_label[label]]]
+        else:
+            plan[label] = list(info.locations)
+    return plan
+
+
+def _convention(loc: SensorLocation) -> tuple[dict[str, Any], bool]:
+    axes = loc.axes or ("left", "up", "forward")
+    conv = Convention(axes=tuple(axes), gravity_included=loc.gravity_included)
+    return conv.as_dict(), loc.axes is not None
+
+
+def _channel_index(info: DatasetInfo, loc: SensorLocation) -> np.ndarray:
+    return np.array([info.channel_names.index(c) for c in loc.channels])
+
+
+def _summary_lists(summary) -> dict[str, list]:
+    return {k: getattr(summary, k).tolist() for k in ("cov", "psd", "norms", "acf")}
+
+
+class FoldGenerator:
+    """Generate the synthetic set of one fold (see module doc).
+
+    `sources` maps class name -> list of (source id, base SMP). `executor` maps
+    tasks (see `vsmp_imu.executor`); `cache_dir` keeps per-sample results so a
+    killed run resumes where it stopped.
+    """
+
+    def __init__(self, config: GenerationConfig, executor, cache_dir: Path | None = None,
+                 motion_dir: Path | None = None, library=None) -> None:
+        self.config = config
+        self.executor = executor
+        self.cache_dir = cache_dir
+        self.motion_dir = motion_dir
+        self.library = library
+
+    # -- stage 2: SMP variants -------------------------------------------------------
+    def _variants(self, base: SMP, seed: int, key: str) -> list[tuple[int, SMP]]:
+        smp = Refiner(self.library).refine(base).smp if self.config.refine else base
+        augmenter = SMPAugmenter(uncertainty_conditioned=self.config.uncertainty_conditioned)
+        return list(enumerate(augmenter.augment(smp, self.config.k, int(rng_for(seed, key).integers(2**31)))))
+
+    def _tasks(self, label: str, label_index: int, bases: list[tuple[str, SMP]], slots: range, seed: int,
+               fold: str, fs_hz: float, locations: tuple[LocationTask, ...]) -> list[SampleTask]:
+        variants = [(src, k, v) for src, smp in bases
+                    for k, v in self._variants(smp, seed, f"{fold}/{label}/{src}")]
+        tasks = []
+        for slot in slots:
+            src, k, smp = variants[slot % len(variants)]
+            tasks.append(SampleTask(
+                key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
+                variant=k, smp_json=smp.canonical_json(), prompt=verbalize(smp),
+                backend=self.config.backend, seed=int(rng_for(seed, fold, label, slot).integers(2**31)),
+                fs_hz=fs_hz, locations=locations, sim_in_the_loop=self.config.sim_in_the_loop,
+                noise=self.config.noise, duration_s=self.config.duration_s,
+                library_dirs=tuple(self.config.library_dirs),
+                motion_dir=str(self.motion_dir) if self.motion_dir else None,
+            ))
+        return tasks
+
+    # -- stage 1 + 3 ---------------------------------------------------------------------
+    def _location_tasks(self, info: DatasetInfo, plan,
+                        stats: dict[str, TargetStatistics]) -> dict[str, tuple[LocationTask, ...]]:
+        out = {}
+        for label, locs in plan.items():
+            tasks = []
+            for loc in locs:
+                conv, declared = _convention(loc)
+                target = None
+                if self.config.sim_in_the_loop and loc.name in stats:
+                    target = _summary_lists(stats[loc.name].for_class(info.label_names.index(label)))
+                tasks.append(LocationTask(loc.name, conv, declared, target))
+            out[label] = tuple(tasks)
+        return out
+
+    def _windows_per_sample(self, results: list[SampleResult], length: int, hop: int) -> float:
+        counts = [len(_starts(next(iter(r.signals.values())).shape[0], length, hop))
+                  for r in results if not r.error and r.signals]
+        return float(np.mean(counts)) if counts else FIRST_ROUND_WINDOWS_PER_SAMPLE
+
+    def _synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop):
+        """Rounds of per-sample synthesis until every class has oversample x budget raw windows."""
+        need = {n: math.ceil(self.config.oversample * budget[i]) for i, n in enumerate(info.label_names)}
+        results: dict[str, list[SampleResult]] = {n: [] for n in info.label_names}
+        all_tasks: list[SampleTask] = []
+        for _ in range(self.config.max_rounds):
+            tasks = []
+            for i, label in enumerate(info.label_names):
+                if need[label] <= 0 or label not in sources:
+                    continue
+                have = sum(len(_starts(next(iter(r.signals.values())).shape[0], length, hop))
+                           for r in results[label] if not r.error and r.signals)
+                missing = need[label] - have
+                if missing <= 0:
+                    continue
+                per = self._windows_per_sample(results[label], length, hop)
+                n_new = min(MAX_SLOTS_PER_CLASS_ROUND, max(1, math.ceil(missing / max(per, 0.5))))
+                if not results[label]:
+                    n_new = max(n_new, self.config.k)
+                start = len(results[label])
+                tasks += self._tasks(label, i, sources[label], range(start, start + n_new), seed, fold,
+                                     info.fs_hz, loc_tasks[label])
+            if not tasks:
+                break
+            cache = str(self.cache_dir) if self.cache_dir else None
+            done = self.executor.map(cached_synthesize, [(t, cache) for t in tasks],
+                                     desc=f"fold {fold}: synthesizing {len(tasks)} samples")
+            for task, result in zip(tasks, done, strict=True):
+                results[task.label].append(result)
+            all_tasks += tasks
+        order = {n: i for i, n in enumerate(info.label_names)}
+        all_tasks.sort(key=lambda t: (order[t.label], t.key))
+        return all_tasks, [r for label in info.label_names for r in results[label]]
+
+    # -- the fold ----------------------------------------------------------------------------
+    def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
+                 budget: np.ndarray, seed: int, fold: str) -> FoldOutput:
+        """The synthetic set for one fold (train: the fold's real training windows only)."""
+        budget = np.asarray(budget, dtype=np.int64)
+        length = train.n_timesteps
+        hop = max(1, int(round(self.config.hop_fraction * length)))
+        plan = _location_plan(info)
+        stat_idx, rank_idx = stat_rank_split(train.y, seed)
+        d_stat, d_rank = train[stat_idx], train[rank_idx]
+        stats = {}
+        for loc in info.locations:
+            cols = _channel_index(info, loc)
+            stats[loc.name] = TargetStatistics(info.fs_hz).fit(d_stat.X[..., cols].astype(np.float64), d_stat.y)
+        loc_tasks = self._location_tasks(info, plan, stats)
+        tasks, results = self._synthesize(info, sources, budget, seed, fold, loc_tasks, length, hop)
+        ok = [r for r in results if not r.error and r.signals]
+        grounded = self._ground(info, ok, d_rank, plan)
+        X, y, records = self._window(info, ok, grounded, length, hop)
+        records += [{"sample": r.key, "label": info.label_names[r.label_index], "window": None,
+                     "error": r.error, "kept": False, "selected": False,
+                     "verdicts": [], "provenance": r.provenance} for r in results if r.error or not r.signals]
+        keep, tau = self._filter(info, train, X, y, records, ok, seed, fold)
+        selected = self._select(info, X, y, keep, budget, seed, fold)
+        for i, rec in enumerate(records[: len(X)]):
+            rec["selected"] = bool(selected[i])
+        windows = Windows(X[selected], y[selected], np.full(int(selected.sum()), "synthetic"),
+                          info.label_names, info.channel_names, info.fs_hz,
+                          meta={"sample": np.array([records[i]["sample"] for i in np.flatnonzero(selected)],
+                                                   dtype=object).astype(str)})
+        summary = _summary(info, results, records, budget, windows, tau, len(d_stat), len(d_rank))
+        return FoldOutput(windows, X, records, results, tasks, summary)
+
+    # -- stage 4 ------------------------------------------------------------------------------
+    def _ground(self, info, ok: list[SampleResult], d_rank: Windows, plan) -> list[dict[str, np.ndarray]]:
+        if not self.config.rank_grounding or not ok:
+            return [dict(r.signals) for r in ok]
+        grounders = {}
+        for loc in info.locations:
+            users = [r for r in ok if loc.name in r.signals]
+            if not users:
+                continue
+            classes = [i for i, n in enumerate(info.label_names) if loc in plan[n]]
+            real = d_rank[np.isin(d_rank.y, classes)]
+            cols = _channel_index(info, loc)
+            syn = np.concatenate([r.signals[loc.name] for r in users])
+            syn_labels = np.concatenate([np.full(len(r.signals[loc.name]), r.label_index) for r in users])
+            grounders[loc.name] = RankGrounder(per_class=self.config.per_class_rank).fit(
+                syn, real.X[..., cols].astype(np.float64), syn_labels, real.y)
+        out = []
+        for r in ok:
+            g = {}
+            for name, sig in r.signals.items():
+                labels = np.full(len(sig), r.label_index)
+                g[name] = grounders[name].transform(sig, labels if self.config.per_class_rank else None)
+            out.append(g)
+        return out
+
+    # -- stage 5 --------------------------------------------------------------------------------
+    def _window(self, info, ok, grounded, length, hop):
+        xs, ys, records = [], [], []
+        for r, sig in zip(ok, grounded, strict=True):
+            n = min(s.shape[0] for s in sig.values())
+            full = np.zeros((n, len(info.channel_names)))
+            for loc in info.locations:
+                if loc.name in sig:
+                    full[:, _channel_index(info, loc)] = sig[loc.name][:n]
+            for w, start in enumerate(_starts(n, length, hop)):
+                xs.append(full[start:start + length])
+                ys.append(r.label_index)
+                records.append({"sample": r.key, "label": info.label_names[r.label_index], "window": w,
+                                "start_s": start / info.fs_hz, "locations": sorted(sig), "error": None,
+                                "kept": True, "selected": False, "verdicts": [], "provenance": r.provenance})
+        if not xs:
+            return np.zeros((0, length, len(info.channel_names)), np.float32), np.zeros(0, np.int64), records
+        return np.stack(xs).astype(np.float32), np.array(ys, dtype=np.int64), records
+
+    def _filter(self, info, train: Windows, X, y, records, ok, seed, fold) -> tuple[np.ndarray, float | None]:
+        keep = np.ones(len(X), dtype=bool)
+        if not self.config.quality_filter or len(X) == 0:
+            return keep, None
+        by_key = {r.key: r for r in ok}
+        plaus = {}
+        for loc in info.locations:
+            cols = _channel_index(info, loc)
+            plaus[loc.name] = (cols, MotionPlausibilityFilter().fit(train.X[..., cols], train.y))
+        for i, rec in enumerate(records[: len(X)]):
+            motion_verdict = Verdict(**by_key[rec["sample"]].provenance["motion_verdict"])
+            verdicts = [motion_verdict]
+            for name in rec["locations"]:
+                cols, f = plaus[name]
+                verdicts.append(f.check_window(X[i][:, cols], int(y[i])))
+            rec["verdicts"] = [v.as_dict() for v in verdicts]
+            keep[i] = all(v.passed for v in verdicts)
+        fit, val = _validation_split(train, self.config.val_fraction, seed, fold)
+        validator = HarValidator(seed=int(rng_for(seed, fold, "validator").integers(2**31)))
+        validator.fit(fit.X, fit.y, n_classes=info.n_classes)
+        proba = validator.predict_proba(X)
+        tau = self._choose_tau(fit, val, X, y, proba, keep, seed, fold)
+        for i, v in enumerate(class_verdicts(proba, y, tau)):
+            records[i]["verdicts"].append(v.as_dict())
+            keep[i] &= v.passed
+        thresholds = nn_thresholds(validator.embed(train.X), train.y)
+        for i, v in enumerate(redundancy_verdicts(validator.embed(X), y, thresholds, eligible=keep)):
+            records[i]["verdicts"].append(v.as_dict())
+            keep[i] &= v.passed
+        for i in range(len(X)):
+            records[i]["kept"] = bool(keep[i])
+        return keep, tau
+
+    def _choose_tau(self, fit: Windows, val: Windows, X, y, proba, keep, seed, fold) -> float:
+        """tau_cls by validation Macro-F1 of a quick model on real + kept synthetic windows."""
+        if len(val) == 0 or len(np.unique(val.y)) < 2 or len(fit) == 0:
+            return TAU_DEFAULT
+
+        def score(mask: np.ndarray) -> float:
+            chosen = keep & mask
+            model = RandomForestECDF(n_estimators=25, n_jobs=1,
+                                     random_state=int(rng_for(seed, fold, "tau").integers(2**31)))
+            model.fit(np.concatenate([fit.X, X[chosen]]), np.concatenate([fit.y, y[chosen]]))
+            return macro_f1(val.y, model.predict(val.X))
+
+        tau, _ = select_tau(proba, y, score)
+        return tau
+
+    # -- stage 6 ---------------------------------------------------------------------------------
+    def _select(self, info, X, y, keep, budget, seed, fold) -> np.ndarray:
+        idx = np.flatnonzero(keep)
+        if len(idx) == 0:
+            return np.zeros(len(X), bool)
+        kept = Windows(X[idx], y[idx], np.full(len(idx), "synthetic"), info.label_names, info.channel_names,
+                       info.fs_hz, meta={"index": idx})
+        chosen = take_budget(kept, budget, rng_for(seed, fold, "budget"))
+        selected = np.zeros(len(X), bool)
+        selected[chosen.meta["index"]] = True
+        return selected
+
+
+def _starts(n: int, length: int, hop: int) -> range:
+    return range(0, n - length + 1, hop) if n >= length else range(0)
+
+
+def _validation_split(train: Windows, fraction: float, seed: int, fold: str) -> tuple[Windows, Windows]:
+    """Training subjects for the validator and validation subjects for tau_cls."""
+    subjects = train.unique_subjects()
+    n_val = int(round(fraction * len(subjects)))
+    if n_val < 1 or len(subjects) - n_val < 1:
+        return train, train[:0]
+    order = rng_for(seed, fold, "validation").permutation(len(subjects))
+    val_subjects = [subjects[i] for i in order[:n_val]]
+    return train.where_subjects(val_subjects, keep=False), train.where_subjects(val_subjects)
+
+
+def _summary(info, results, records, budget, windows, tau, n_stat, n_rank) -> dict[str, Any]:
+    per_class = {}
+    for i, name in enumerate(info.label_names):
+        recs = [r for r in records if r["label"] == name and r["window"] is not None]
+        rejected: dict[str, int] = {}
+        for r in recs:
+            failed = next((v for v in r["verdicts"] if not v["passed"]), None)
+            if failed:
+                rejected[failed["filter"]] = rejected.get(failed["filter"], 0) + 1
+        per_class[name] = {
+            "budget": int(budget[i]),
+            "samples": sum(1 for r in results if r.label_index == i),
+            "failed_samples": sum(1 for r in results if r.label_index == i and r.error),
+            "windows": len(recs),
+            "kept": sum(1 for r in recs if r["kept"]),
+            "selected": int((windows.y == i).sum()),
+            "rejected_by": rejected,
+        }
+    return {"tau_cls": tau, "d_stat_windows": n_stat, "d_rank_windows": n_rank, "per_class": per_class,
+            "shortfall": {n: c["budget"] - c["selected"] for n, c in per_class.items()
+                          if c["selected"] < c["budget"]}}
+

@@ -1,0 +1,220 @@
+"""One synthetic sample of Algorithm 1, up to convention alignment.
+
+For one SMP variant S(k) and seed: verbalize, synthesize the motion M(k),
+sample the nominal sensor theta(k) ~ p(theta) for every target location
+(mounting perturbation from the grounding prior), simulate the segment
+kinematics once, calibrate eta(k)* against D_stat (simulation-in-the-loop),
+and align the optimized signal to the target convention gamma. Rank grounding
+and the quality filter need the whole fold's samples and run afterwards.
+
+`synthesize(task)` is a top-level function of picklable arguments so any
+executor (process pool, Ray) can run it; its result depends on the task only.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
+from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
+from vsmp_imu.grounding.calibrate import SimInTheLoopCalibrator
+from vsmp_imu.grounding.stats import StatSummary
+from vsmp_imu.imu import VirtualSensor, draw_noise, sensor_readings, simulate_kinematics
+from vsmp_imu.io import atomic_path, write_bytes
+from vsmp_imu.motion import Motion
+from vsmp_imu.seeding import rng_for
+from vsmp_imu.smp import SMP
+
+PIPELINE_VERSION = "1"
+
+
+@dataclass(frozen=True)
+class LocationTask:
+    """One target sensor location: its convention and the D_stat target of the sample's class."""
+
+    name: str
+    convention: dict[str, Any]  # Convention.as_dict()
+    axes_declared: bool
+    target: dict[str, list] | None  # StatSummary arrays as lists (None: no calibration)
+
+    def stat_summary(self) -> StatSummary | None:
+        if self.target is None:
+            return None
+        return StatSummary(**{k: np.asarray(v) for k, v in self.target.items()})
+
+
+@dataclass(frozen=True)
+class SampleTask:
+    """Everything one sample depends on (its content hash is the cache key)."""
+
+    key: str  # stable name: fold/class/slot
+    label: str
+    label_index: int
+    source: str  # where the SMP came from (library:<name>, file, clip)
+    variant: int
+    smp_json: str
+    prompt: str
+    backend: str
+    seed: int
+    fs_hz: float
+    locations: tuple[LocationTask, ...]
+    sim_in_the_loop: bool = True
+    noise: bool = True
+    duration_s: float | None = None
+    library_dirs: tuple[str, ...] = ()
+    motion_dir: str | None = None  # where to save the motion (.npz), if anywhere; not hashed
+
+    def content_hash(self) -> str:
+        payload = asdict(self)
+        payload.pop("motion_dir")
+        payload["version"] = PIPELINE_VERSION
+        text = json.dumps(payload, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+@dataclass
+class SampleResult:
+    """Aligned (not yet grounded) signals of one sample and its provenance."""
+
+    key: str
+    label_index: int
+    signals: dict[str, np.ndarray]  # location -> (T, 6) in the target convention
+    provenance: dict[str, Any] = field(default_factory=dict)
+    error: str | None = None
+
+    def to_npz(self, path: Path) -> None:
+        arrays = {f"signal__{k}": v.astype(np.float64) for k, v in self.signals.items()}
+        meta = json.dumps({"key": self.key, "label_index": self.label_index,
+                           "provenance": self.provenance, "error": self.error},
+                          sort_keys=True, default=json_default)
+        with atomic_path(path, suffix=".npz") as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, meta=np.array(meta), **arrays)
+
+    @classmethod
+    def from_npz(cls, path: Path) -> SampleResult:
+        with np.load(path, allow_pickle=False) as npz:
+            meta = json.loads(str(npz["meta"]))
+            signals = {k.split("__", 1)[1]: npz[k] for k in npz.files if k.startswith("signal__")}
+        return cls(meta["key"], meta["label_index"], signals, meta["provenance"], meta["error"])
+
+
+def json_default(value: Any) -> Any:
+    """JSON for numpy scalars and arrays in provenance records."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return str(value)
+
+
+_BACKENDS: dict[tuple, Any] = {}
+
+
+def _backend(name: str, library_dirs: tuple[str, ...]):
+    """One backend per worker process (the library is loaded once)."""
+    key = (name, library_dirs)
+    if key not in _BACKENDS:
+        from vsmp_imu.motion.backends import get_backend
+        from vsmp_imu.smp.library import ActivityLibrary
+
+        library = ActivityLibrary.load([Path(d) for d in library_dirs])
+        _BACKENDS[key] = get_backend(name, library=library)
+    return _BACKENDS[key]
+
+
+def _location_signal(motion: Motion, task: SampleTask, loc: LocationTask) -> tuple[np.ndarray, dict]:
+    """theta ~ p(theta), kinematics once, eta* by CEM, then A_gamma."""
+    rng = rng_for(task.seed, "sensor", loc.name)
+    sensor = VirtualSensor.at(loc.name)
+    perturbation = sample_mounting_perturbation(loc.name, rng)
+    base = perturbation.as_matrix() @ sensor.mounting_matrix()
+    kin = simulate_kinematics(motion, sensor, task.fs_hz)
+    noise = draw_noise(sensor, kin.n_samples, task.fs_hz, task.seed, loc.name) if task.noise else None
+    conv = Convention(**loc.convention)
+    target = loc.stat_summary()
+    record: dict[str, Any] = {
+        "theta": sensor.theta(motion, kin.attachment_m),
+        "mounting_perturbation_xyzw": [float(v) for v in perturbation.as_quat()],
+    }
+    if task.sim_in_the_loop and target is not None:
+        result = SimInTheLoopCalibrator(search_gravity=False).calibrate(
+            kin, target, conv, rng, base_mounting=base, noise=noise)
+        readings, gravity = result.readings, result.gravity
+        record["eta"] = result.as_dict()
+    else:
+        readings = sensor_readings(kin, base, None, None, 1.0, 1.0, True, noise)[0]
+        gravity = kin.grav_seg @ base.T
+        record["eta"] = None
+    record["gamma"] = conv.as_dict()
+    aligned = ConventionAlignment(conv).transform(readings, gravity)
+    return aligned, record
+
+
+def synthesize(task: SampleTask, motion_path: Path | None = None) -> SampleResult:
+    """Run the per-sample part of Algorithm 1; failures become an error string, not an exception.
+
+    The motion is saved to `motion_path` when given.
+    """
+    try:
+        smp = SMP.model_validate_json(task.smp_json)
+        backend = _backend(task.backend, task.library_dirs)
+        motion = backend.generate(smp, task.seed, task.duration_s)
+        motion_verdict = MotionPlausibilityFilter().check_motion(motion)
+        provenance: dict[str, Any] = {
+            "source": task.source, "label": task.label, "variant": task.variant, "smp_id": smp.smp_id,
+            "prompt": task.prompt, "backend": task.backend, "seed": task.seed,
+            "motion": {"fps": motion.fps, "n_frames": motion.n_frames, "duration_s": motion.duration_s,
+                       "body_height_m": motion.body_height_m(),
+                       "controls": motion.meta.get("controls")},
+            "motion_verdict": motion_verdict.as_dict(), "locations": {},
+        }
+        if motion_path is not None:
+            motion.meta.update({"sample_key": task.key, "label": task.label})
+            motion.save(motion_path)
+        signals = {}
+        for loc in task.locations:
+            signals[loc.name], provenance["locations"][loc.name] = _location_signal(motion, task, loc)
+        return SampleResult(task.key, task.label_index, signals, provenance)
+    except Exception as exc:  # a failed sample is recorded and filtered out, never fatal
+        return SampleResult(task.key, task.label_index, {}, {"source": task.source, "label": task.label},
+                            error=f"{type(exc).__name__}: {exc}")
+
+
+def motion_file(task: SampleTask) -> Path | None:
+    if not task.motion_dir:
+        return None
+    return Path(task.motion_dir) / f"{task.key.replace('/', '__')}.npz"
+
+
+def cached_synthesize(args: tuple[SampleTask, str | None]) -> SampleResult:
+    """`synthesize` with an on-disk cache keyed by the task's content hash.
+
+    The cache keeps the result and (when the task saves motions) the motion,
+    so a resumed run writes the same files as an uninterrupted one.
+    """
+    task, cache_dir = args
+    out_motion = motion_file(task)
+    if cache_dir is None:
+        return synthesize(task, out_motion)
+    digest = task.content_hash()
+    path = Path(cache_dir) / f"{digest}.npz"
+    cached_motion = Path(cache_dir) / f"{digest}.motion.npz"
+    if path.exists() and (out_motion is None or cached_motion.exists()):
+        try:
+            result = SampleResult.from_npz(path)
+            if out_motion is not None and not out_motion.exists():
+                write_bytes(out_motion, cached_motion.read_bytes())
+            return result
+        except Exception:  # a damaged cache entry is recomputed
+            path.unlink(missing_ok=True)
+    result = synthesize(task, cached_motion if out_motion is not None else None)
+    if out_motion is not None and cached_motion.exists():
+        write_bytes(out_motion, cached_motion.read_bytes())
+    result.to_npz(path)
+    return result

@@ -1,0 +1,115 @@
+"""Where the base SMPs S of each target class come from.
+
+- `library`: the activity library's reviewed SMP of each class (by the
+  dataset labels the library files declare);
+- `smp:DIR`: the user's SMP files (JSON/YAML), matched to classes by their
+  activity label (dataset label, library name or alias);
+- `video:DIR`: SMPs extracted from clips (see `vsmp_imu.extract`), one folder
+  per class.
+
+A source returns, per dataset class name, a list of (source id, SMP).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from vsmp_imu.errors import ConfigError, ValidationError, VsmpError
+from vsmp_imu.smp import SMP, load_smp
+from vsmp_imu.smp._text import norm_name
+from vsmp_imu.smp.library import ActivityLibrary, LibraryEntry
+
+SOURCE_KINDS = ("library", "smp", "video")
+
+
+def library_key(dataset: str, library: ActivityLibrary) -> str:
+    """The dataset key the library uses ('hapt12' shares the 'hapt' labels)."""
+    known = set(library.datasets())
+    if dataset in known:
+        return dataset
+    stripped = dataset.rstrip("0123456789")
+    if stripped in known:
+        return stripped
+    raise ConfigError(f"the activity library declares no labels for dataset '{dataset}'",
+                      field="dataset", allowed=", ".join(sorted(known)))
+
+
+def entries_for(dataset: str, label_names: Sequence[str], library: ActivityLibrary) -> dict[str, LibraryEntry]:
+    """Library entry of each dataset class (case-insensitive label match)."""
+    by_label = {norm_name(k): e for k, e in library.for_dataset(library_key(dataset, library)).items()}
+    return {name: by_label[norm_name(name)] for name in label_names if norm_name(name) in by_label}
+
+
+class LibrarySmpSource:
+    """One reviewed library SMP per class."""
+
+    name = "library"
+
+    def __init__(self, library: ActivityLibrary) -> None:
+        self.library = library
+
+    def smps(self, dataset: str, label_names: Sequence[str]) -> dict[str, list[tuple[str, SMP]]]:
+        found = entries_for(dataset, label_names, self.library)
+        missing = [n for n in label_names if n not in found]
+        if missing:
+            raise ConfigError(
+                f"no library activity for class(es) {', '.join(missing)} of dataset '{dataset}'; "
+                "add a library file declaring them (see docs/smp.md) and pass --library DIR",
+                field="source")
+        return {name: [(f"library:{entry.name}", entry.smp)] for name, entry in found.items()}
+
+
+class SmpDirSource:
+    """The user's SMP files, assigned to classes by activity label."""
+
+    name = "smp"
+
+    def __init__(self, folder: Path, library: ActivityLibrary) -> None:
+        self.folder = Path(folder)
+        self.library = library
+
+    def _class_of(self, smp: SMP, dataset: str, label_names: Sequence[str]) -> str | None:
+        wanted = {norm_name(n): n for n in label_names}
+        label = norm_name(smp.activity_label)
+        if label in wanted:
+            return wanted[label]
+        try:
+            entry = self.library.resolve(smp.activity_label)
+        except VsmpError:
+            return None
+        declared = entry.datasets.get(library_key(dataset, self.library))
+        return wanted.get(norm_name(declared)) if declared else None
+
+    def smps(self, dataset: str, label_names: Sequence[str]) -> dict[str, list[tuple[str, SMP]]]:
+        if not self.folder.is_dir():
+            raise ConfigError("SMP source folder not found", file=self.folder, field="source")
+        files = sorted(p for p in self.folder.rglob("*") if p.suffix.lower() in (".json", ".yaml", ".yml"))
+        out: dict[str, list[tuple[str, SMP]]] = {}
+        unmatched = []
+        for path in files:
+            smp = load_smp(path)
+            cls = self._class_of(smp, dataset, label_names)
+            if cls is None:
+                unmatched.append(f"{path.name} ('{smp.activity_label}')")
+                continue
+            out.setdefault(cls, []).append((str(path.relative_to(self.folder)), smp))
+        if not out:
+            raise ValidationError(
+                "no SMP file matches a class of the dataset"
+                + (f" (unmatched: {', '.join(unmatched[:5])})" if unmatched else ""),
+                file=self.folder, allowed=", ".join(label_names))
+        return out
+
+
+def parse_source(text: str) -> tuple[str, Path | None]:
+    """'library' | 'smp:DIR' | 'video:DIR' -> (kind, folder)."""
+    kind, _, rest = text.partition(":")
+    kind = kind.strip().lower()
+    if kind not in SOURCE_KINDS:
+        raise ConfigError(f"unknown source '{text}'", field="source", allowed="library, smp:DIR, video:DIR")
+    if kind == "library":
+        return kind, None
+    if not rest:
+        raise ConfigError(f"source '{kind}' needs a folder: {kind}:DIR", field="source")
+    return kind, Path(rest)

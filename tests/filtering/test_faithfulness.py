@@ -1,0 +1,81 @@
+"""Validator, class-faithfulness and redundancy filters."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vsmp_imu.filtering.faithfulness import (
+    class_verdicts,
+    nn_thresholds,
+    redundancy_verdicts,
+    select_tau,
+)
+from vsmp_imu.filtering.validator import HarValidator
+
+
+def _data(rng, n_per_class=40):
+    xs, ys = [], []
+    for cls, freq in enumerate((0.5, 2.0, 4.0)):
+        t = np.arange(100) / 50.0
+        base = np.sin(2 * np.pi * freq * t)[None, :, None] * np.ones((n_per_class, 1, 6))
+        xs.append(base * (1 + cls) + rng.normal(0, 0.3, base.shape))
+        ys.append(np.full(n_per_class, cls))
+    return np.concatenate(xs), np.concatenate(ys)
+
+
+def test_validator_learns_and_embeds():
+    rng = np.random.default_rng(0)
+    X, y = _data(rng)
+    v = HarValidator(seed=1).fit(X, y, n_classes=4)
+    Xt, yt = _data(rng, 10)
+    proba = v.predict_proba(Xt)
+    assert proba.shape == (30, 4)
+    assert np.allclose(proba.sum(1), 1.0)
+    assert (proba[:, 3] == 0).all()  # class absent from training
+    assert (proba.argmax(1) == yt).mean() > 0.9
+    emb = v.embed(Xt)
+    assert emb.shape == (30, 32)
+    again = HarValidator(seed=1).fit(X, y, n_classes=4).predict_proba(Xt)
+    assert np.array_equal(proba, again)
+
+
+def test_class_verdicts_apply_both_conditions():
+    proba = np.array([[0.9, 0.1], [0.55, 0.45], [0.2, 0.8]])
+    verdicts = class_verdicts(proba, np.array([0, 0, 0]), tau=0.6)
+    assert [v.passed for v in verdicts] == [True, False, False]
+    assert "below tau_cls" in verdicts[1].reason
+    assert "predicts class 1" in verdicts[2].reason
+
+
+def test_select_tau_uses_the_validation_score():
+    proba = np.array([[0.52, 0.48], [0.58, 0.42], [0.66, 0.34], [0.9, 0.1]])
+    y = np.zeros(4, int)
+    seen = []
+
+    def score(keep):
+        seen.append(int(keep.sum()))
+        return {4: 0.5, 3: 0.9, 2: 0.7, 1: 0.6, 0: 0.1}[int(keep.sum())]
+
+    tau, scores = select_tau(proba, y, score)
+    assert tau == 0.55 and scores[0.55] == 0.9
+    assert seen == [4, 3, 2, 2, 1]
+
+
+def test_select_tau_tie_prefers_paper_default():
+    tau, _ = select_tau(np.array([[0.9, 0.1]]), np.array([0]), lambda keep: 0.5)
+    assert tau == pytest.approx(0.60)
+
+
+def test_redundancy_threshold_and_greedy_rejection():
+    rng = np.random.default_rng(3)
+    real = rng.normal(size=(50, 8))
+    labels = np.repeat([0, 1], 25)
+    th = nn_thresholds(real, labels)
+    assert set(th) >= {0, 1, -1} and all(v > 0 for v in th.values())
+    base = rng.normal(size=8)
+    syn = np.stack([base, base * 1.0001, -base, base])
+    verdicts = redundancy_verdicts(syn, np.array([0, 0, 0, 1]), th)
+    assert [v.passed for v in verdicts] == [True, False, True, True]
+    skipped = redundancy_verdicts(syn, np.array([0, 0, 0, 1]), th, eligible=np.array([False, True, True, True]))
+    assert [v.passed for v in skipped] == [False, True, True, True]

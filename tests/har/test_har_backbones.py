@@ -1,0 +1,125 @@
+"""One contract suite run over every backbone (aeon/scikit-learn style)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.metrics import f1_score
+
+from vsmp_imu.errors import ConfigError
+from vsmp_imu.har.backbones import BACKBONES, make_backbone
+from vsmp_imu.har.features import ecdf_features, ecdf_levels
+from vsmp_imu.har.normalize import ChannelStandardizer
+
+
+def _toy(n=90, t=40, c=6, n_classes=3, seed=0):
+    rng = np.random.default_rng(seed)
+    y = np.arange(n) % n_classes
+    X = rng.normal(0, 1, (n, t, c)).astype(np.float32)
+    X[:, :, 0] += 3 * y[:, None]  # class shifts channel 0
+    X[:, :, 1] *= 1 + y[:, None]  # and the spread of channel 1
+    return X, y
+
+
+def _make(name, **extra):
+    cls = BACKBONES[name]
+    return cls(**{**cls._get_test_params(), **extra})
+
+
+@pytest.fixture(params=sorted(BACKBONES))
+def name(request):
+    return request.param
+
+
+def test_parameters_are_stored_untouched(name):
+    est = _make(name, random_state=7)
+    params = est.get_params()
+    assert params["random_state"] == 7
+    assert clone(est).get_params() == params
+    assert not [k for k in vars(est) if k.endswith("_")]  # nothing learned before fit
+
+
+def test_fit_predict_shapes_and_probabilities(name):
+    X, y = _toy()
+    est = _make(name)
+    assert est.fit(X[:60], y[:60], X[60:], y[60:]) is est
+    assert est.classes_.tolist() == [0, 1, 2]
+    pred = est.predict(X)
+    proba = est.predict_proba(X)
+    assert pred.shape == (90,) and set(pred) <= {0, 1, 2}
+    assert proba.shape == (90, 3) and np.allclose(proba.sum(axis=1), 1.0)
+    assert (proba >= 0).all()
+    emb = est.embed(X[:5])
+    assert emb.ndim == 2 and emb.shape[0] == 5 and emb.shape[1] > 0 and np.isfinite(emb).all()
+
+
+def test_same_seed_same_model(name):
+    X, y = _toy()
+    a = _make(name, random_state=3).fit(X[:60], y[:60], X[60:], y[60:])
+    b = _make(name, random_state=3).fit(X[:60], y[:60], X[60:], y[60:])
+    assert np.array_equal(a.predict_proba(X), b.predict_proba(X))
+    assert np.array_equal(a.embed(X), b.embed(X))
+
+
+def test_classes_missing_from_training(name):
+    X, y = _toy()
+    keep = y != 1
+    est = _make(name).fit(X[keep], y[keep])
+    assert est.classes_.tolist() == [0, 2]
+    assert set(est.predict(X)) <= {0, 2} and est.predict_proba(X).shape == (90, 2)
+
+
+def test_make_backbone_registry():
+    assert set(BACKBONES) == {"rf", "dclstm", "dclstm-attn", "bilstm-attn"}
+    est = make_backbone("dclstm", max_epochs=3, n_jobs=4)  # n_jobs is not one of its params
+    assert est.max_epochs == 3 and not hasattr(est, "n_jobs")
+    with pytest.raises(ConfigError, match="unknown backbone"):
+        make_backbone("svm")
+
+
+def test_random_forest_learns_the_toy_problem():
+    X, y = _toy(n=300)
+    est = make_backbone("rf", n_estimators=30, n_jobs=1).fit(X[:200], y[:200])
+    assert f1_score(y[200:], est.predict(X[200:]), average="macro") > 0.9
+
+
+def test_neural_early_stopping_keeps_the_best_epoch():
+    X, y = _toy(n=150)
+    est = make_backbone(
+        "dclstm",
+        **{
+            **BACKBONES["dclstm"]._get_test_params(),
+            "max_epochs": 6,
+            "patience": 2,
+            "batch_size": 32,
+        },
+    )
+    est.fit(X[:100], y[:100], X[100:], y[100:])
+    assert 1 <= est.best_epoch_ <= est.n_epochs_ <= 6
+    assert len(est.history_) == est.n_epochs_
+    best = est.history_[est.best_epoch_ - 1]["val_macro_f1"]
+    assert best == max(h["val_macro_f1"] for h in est.history_)
+    assert f1_score(y[100:], est.predict(X[100:]), average="macro") == pytest.approx(best)
+
+
+def test_ecdf_features_are_window_quantiles():
+    levels = ecdf_levels(15)
+    assert levels[0] == pytest.approx(1 / 16) and levels[-1] == pytest.approx(15 / 16)
+    X = np.stack([np.arange(101, dtype=np.float32)[:, None] * [1, -1]])  # one window, 2 channels
+    feats = ecdf_features(X, 15)
+    assert feats.shape == (1, 30)
+    assert np.allclose(feats[0, :15], 100 * levels)  # channel-major, channel 0 first
+    assert np.allclose(feats[0, 15:], -100 * levels[::-1])
+
+
+def test_standardizer_uses_fit_statistics_only():
+    rng = np.random.default_rng(0)
+    train = rng.normal(5, 2, (50, 20, 3))
+    other = rng.normal(-100, 50, (10, 20, 3))
+    norm = ChannelStandardizer().fit(train)
+    z = norm.transform(train)
+    assert np.allclose(z.mean(axis=(0, 1)), 0, atol=1e-5) and np.allclose(
+        z.std(axis=(0, 1)), 1, atol=1e-4
+    )
+    assert np.allclose(norm.transform(other), (other - norm.mean_) / norm.scale_, atol=1e-4)

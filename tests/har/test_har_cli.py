@@ -1,0 +1,128 @@
+"""`vsmp-imu evaluate` and `vsmp-imu dataset ...` on the command line."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+
+def test_dataset_list(cli):
+    code, out, _ = cli("dataset", "list")
+    assert code == 0
+    for name in ("hapt", "hapt12", "mmfit", "utd-mhad", "mmact", "pamap2", "had-aw"):
+        assert name in out
+
+
+def test_dataset_info_hapt(cli):
+    code, out, _ = cli("dataset", "info", "hapt", "--measure", "STANDING")
+    assert code == 0
+    assert "30 subjects" in out and "61 recordings" in out
+    assert "up, forward, left" in out and "[measured]" in out
+    assert "STANDING" in out and "2519" in out  # windows of standing
+    assert "acc_x +9.82" in out
+
+
+def test_dataset_info_json_for_fixture(cli, fixtures_dir):
+    code, out, _ = cli("dataset", "info", "pamap2", "--data-dir", fixtures_dir / "pamap2", "--json")
+    assert code == 0
+    info = json.loads(out)
+    assert info["subjects"] == ["101", "102"] and info["fs_hz"] == 100.0
+    assert info["windows_per_class"]["walking"] == 2
+    assert info["locations"][1]["name"] == "chest" and info["locations"][1]["axes"] is None
+
+
+@pytest.mark.parametrize(
+    "args,option,allowed",
+    [
+        (("--alpha", "5"), "--alpha", "0.1 <= alpha <= 2"),
+        (("--protocol", "low-resource", "--budgets", "0,5"), "--budgets", "(0, 100]"),
+        (("--protocol", "low-resource", "--budgets", "150"), "--budgets", "(0, 100]"),
+        (("--budgets", "5"), "--budgets", "low-resource"),
+        (("--folds", "1,99"), "--folds", "subjects 1, 2, 3"),
+        (("--seeds", "0"), "--seeds", ">= 1"),
+        (("--protocol", "kfold"), "--protocol", "lopo, low-resource, long-tail"),
+        (("--backbones", "rf,svm"), "--backbones", "rf, dclstm, dclstm-attn, bilstm-attn"),
+        (("--methods", "real,magic"), "--methods", "real, classical"),
+        (("--overlap", "1.5"), "overlap", "0 <= overlap < 1"),
+        (("--max-epochs", "0"), "--max-epochs", ">= 1"),
+        (("--policy", "greedy"), "--policy", "uniform, tail, scarcity"),
+        (("--protocol", "long-tail", "--rho", "1"), "--rho", "rho > 1"),
+    ],
+)
+def test_out_of_range_options_exit_2(cli, tmp_path, args, option, allowed):
+    code, _, err = cli("evaluate", "--dataset", "hapt", *args, "-o", tmp_path / "out")
+    assert code == 2
+    assert option in err and allowed in err
+    assert not (tmp_path / "out" / "results.json").exists()
+
+
+def test_unknown_dataset_and_missing_data_dir_exit_2(cli, tmp_path):
+    code, _, err = cli("evaluate", "--dataset", "kinetics", "-o", tmp_path)
+    assert code == 2 and "hapt12" in err
+    code, _, err = cli("dataset", "info", "pamap2")
+    assert code == 2 and "--data-dir" in err
+
+
+def test_long_tail_with_classical_on_generic_data(cli, fixtures_dir, tmp_path):
+    out = tmp_path / "lt"
+    code, stdout, _ = cli(
+        "evaluate",
+        "--dataset",
+        fixtures_dir / "generic" / "dataset.yaml",
+        "--protocol",
+        "long-tail",
+        "--methods",
+        "real,classical",
+        "--policy",
+        "tail",
+        "--rho",
+        "2",
+        "--alpha",
+        "1.0",
+        "--backbones",
+        "rf",
+        "--jobs",
+        "1",
+        "-o",
+        out,
+    )
+    assert code == 0, stdout
+    results = json.loads((out / "results.json").read_text())
+    assert {r["method"] for r in results["records"]} == {"real", "classical"}
+    for r in results["records"]:
+        assert r["head_classes"] == ["walk"] and r["tail_classes"] == ["sit"]
+        assert r["head_macro_f1"] is not None and r["tail_macro_f1"] is not None
+        if r["method"] == "real":
+            assert r["n_synthetic"] == 0
+    classical = [r for r in results["records"] if r["method"] == "classical"]
+    assert all(r["n_synthetic"] > 0 for r in classical)
+    md = (out / "results.md").read_text()
+    assert "Head Macro-F1" in md and "Classical Aug." in md
+
+
+def test_low_resource_table(cli, fixtures_dir, tmp_path):
+    out = tmp_path / "lr"
+    code, stdout, _ = cli(
+        "evaluate",
+        "--dataset",
+        fixtures_dir / "generic" / "dataset.yaml",
+        "--protocol",
+        "low-resource",
+        "--budgets",
+        "25,50",
+        "--seeds",
+        "2",
+        "--backbones",
+        "rf",
+        "--jobs",
+        "1",
+        "-o",
+        out,
+    )
+    assert code == 0, stdout
+    results = json.loads((out / "results.json").read_text())
+    assert sorted({r["budget"] for r in results["records"]}) == [25.0, 50.0]
+    assert {r["seed"] for r in results["records"]} == {0, 1}
+    assert all(s["n"] == 6 for s in results["summary"])  # 3 folds x 2 seeds
+    assert "| RF | 25% |" in (out / "results.md").read_text()

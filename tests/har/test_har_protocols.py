@@ -1,0 +1,116 @@
+"""Protocols (low-resource, long-tail, validation subjects) and synthetic budgets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vsmp_imu.errors import ConfigError
+from vsmp_imu.har.protocols import (
+    choose_val_subjects,
+    head_tail,
+    long_tail_counts,
+    low_resource_counts,
+    parse_budgets,
+    split_fold,
+)
+from vsmp_imu.har.synthetic import apportion, synthetic_budget
+
+
+def test_low_resource_keeps_at_least_one_per_class():
+    counts = np.array([1000, 200, 30, 0])
+    assert low_resource_counts(counts, 1).tolist() == [10, 2, 1, 0]
+    assert low_resource_counts(counts, 50).tolist() == [500, 100, 15, 0]
+
+
+def test_long_tail_follows_the_power_law():
+    counts = np.array([500, 800, 600, 700, 900, 1000])
+    keep = long_tail_counts(counts, rho=10)
+    # rank 1 (class 5) keeps everything, rank C keeps n_max / rho
+    assert keep[5] == 1000 and keep[0] == 100
+    ranked = [5, 4, 1, 3, 2, 0]
+    expected = [min(counts[c], round(1000 * 10 ** (-(r / 5)))) for r, c in enumerate(ranked)]
+    assert [keep[c] for c in ranked] == expected
+    head, tail = head_tail(keep)
+    assert head == (5, 4, 1) and tail == (3, 2, 0)
+
+
+def test_head_tail_with_odd_class_count():
+    head, tail = head_tail(np.array([9, 8, 7, 6, 5]))
+    assert head == (0, 1) and tail == (2, 3, 4)
+
+
+def test_validation_subjects_are_training_subjects():
+    subjects = [str(s) for s in range(2, 31)]
+    val = choose_val_subjects(subjects, seed=0, fold="1")
+    assert len(val) == 6 and set(val) <= set(subjects)
+    assert val == choose_val_subjects(subjects, seed=0, fold="1")
+    assert val != choose_val_subjects(subjects, seed=1, fold="1")
+    assert choose_val_subjects(["2"], seed=0, fold="1") == ()
+
+
+@pytest.mark.parametrize(
+    "protocol,budget", [("lopo", None), ("low-resource", 10.0), ("long-tail", None)]
+)
+def test_split_fold_partitions_subjects(tiny_dataset, protocol, budget):
+    windows = tiny_dataset.windows(window_s=2.0, overlap=0.5)
+    split = split_fold(windows, "3", protocol, seed=0, budget_percent=budget)
+    assert split.test.unique_subjects() == ["3"]
+    assert len(split.test) == int((windows.subjects == "3").sum())
+    fit_subjects, val_subjects = set(split.fit.unique_subjects()), set(split.val.unique_subjects())
+    assert "3" not in fit_subjects | val_subjects
+    assert not fit_subjects & val_subjects and val_subjects == set(split.val_subjects)
+    if protocol == "low-resource":
+        pool = windows.where_subjects(["3"], keep=False).class_counts()
+        kept = split.fit.class_counts() + split.val.class_counts()
+        assert kept.tolist() == low_resource_counts(pool, 10).tolist()
+    if protocol == "long-tail":
+        assert split.head is not None and len(split.head) + len(split.tail) == 4
+    again = split_fold(windows, "3", protocol, seed=0, budget_percent=budget)
+    assert np.array_equal(again.fit.X, split.fit.X)
+
+
+@settings(max_examples=50, deadline=None)
+@given(total=st.integers(0, 5000), weights=st.lists(st.floats(0, 100), min_size=1, max_size=12))
+def test_apportion_sums_exactly(total, weights):
+    out = apportion(total, np.array(weights))
+    if sum(weights) > 0:
+        assert out.sum() == total
+        assert (np.abs(out - total * np.array(weights) / sum(weights)) < 1 + 1e-9).all()
+    else:
+        assert out.sum() == 0
+
+
+def test_synthetic_budget_policies():
+    counts = np.array([600, 300, 100, 0])
+    uniform = synthetic_budget(counts, 0.5, "uniform")
+    assert uniform.tolist() == [300, 150, 50, 0]
+    tail = synthetic_budget(counts, 0.5, "tail")
+    assert tail.sum() == 500 and tail[0] == 0 and tail[2] > 0 and tail[3] == 0
+    scarcity = synthetic_budget(counts, 0.5, "scarcity")
+    assert scarcity.sum() == 500 and scarcity[2] > scarcity[1] > scarcity[0] and scarcity[3] == 0
+    with pytest.raises(ConfigError, match="budget policy"):
+        synthetic_budget(counts, 0.5, "greedy")
+
+
+def test_parse_budgets():
+    assert parse_budgets(None, "low-resource") == (1.0, 5.0, 10.0, 25.0, 50.0)
+    assert parse_budgets("1,5%", "low-resource") == (1.0, 5.0)
+    assert parse_budgets("5", "lopo") == (None,)
+    for bad in ("0", "150", "x", "-1"):
+        with pytest.raises(ConfigError, match="--budgets"):
+            parse_budgets(bad, "low-resource")
+
+
+def test_eval_config_budgets_follow_the_protocol():
+    from vsmp_imu.har.evaluate import EvalConfig
+
+    assert EvalConfig("x", protocol="low-resource").check().budgets == (1.0, 5.0, 10.0, 25.0, 50.0)
+    assert EvalConfig("x", protocol="low-resource", budgets=(5,)).check().budgets == (5.0,)
+    assert EvalConfig("x", protocol="long-tail").check().budgets == (None,)
+    with pytest.raises(ConfigError, match="low-resource protocol only"):
+        EvalConfig("x", protocol="lopo", budgets=(5.0,)).check()
+    with pytest.raises(ConfigError, match="out of range"):
+        EvalConfig("x", protocol="low-resource", budgets=(0.0,)).check()
