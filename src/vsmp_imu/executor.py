@@ -46,7 +46,7 @@ class LocalExecutor:
                     results[i] = fn(task)
                     progress.advance(bar)
                 return results
-            ctx = multiprocessing.get_context("forkserver")
+            ctx = multiprocessing.get_context(_start_method())
             with ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx,
                                      initializer=_limit_threads) as pool:
                 futures = {pool.submit(fn, task): i for i, task in enumerate(tasks)}
@@ -54,6 +54,13 @@ class LocalExecutor:
                     results[futures[future]] = future.result()
                     progress.advance(bar)
         return results
+
+
+def _start_method() -> str:
+    """'fork' where available: scripts need no `if __name__ == "__main__"` guard, and
+    workers start without re-importing the project. Workers never touch torch."""
+    methods = multiprocessing.get_all_start_methods()
+    return "fork" if "fork" in methods else "spawn"
 
 
 def _limit_threads() -> None:

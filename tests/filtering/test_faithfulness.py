@@ -79,3 +79,20 @@ def test_redundancy_threshold_and_greedy_rejection():
     assert [v.passed for v in verdicts] == [True, False, True, True]
     skipped = redundancy_verdicts(syn, np.array([0, 0, 0, 1]), th, eligible=np.array([False, True, True, True]))
     assert [v.passed for v in skipped] == [False, True, True, True]
+
+
+def test_classes_the_validator_cannot_judge_pass_with_a_reason():
+    proba = np.array([[0.9, 0.1], [0.8, 0.2]])
+    verdicts = class_verdicts(proba, np.array([1, 1]), tau=0.6, validated=np.array([True, False]))
+    assert all(v.passed for v in verdicts)
+    assert "not validated" in verdicts[0].reason
+    judged = class_verdicts(proba, np.array([1, 1]), tau=0.6, validated=np.array([True, True]))
+    assert not any(v.passed for v in judged)
+
+
+def test_small_classes_use_the_pooled_nn_threshold():
+    rng = np.random.default_rng(5)
+    real = np.concatenate([rng.normal(size=(40, 8)), rng.normal(size=(3, 8)) * 5])
+    labels = np.repeat([0, 1], [40, 3])
+    th = nn_thresholds(real, labels, min_class_windows=10)
+    assert th[1] == th[-1] and th[0] != th[-1]

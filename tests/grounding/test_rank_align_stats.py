@@ -249,3 +249,16 @@ def test_class_balanced_pooling_follows_the_real_class_mix(rng):
     # balanced: each class keeps its place (class 1 stays positive); plain: class 1 is pushed negative
     assert balanced[ys == 1].mean() > 2.0 and balanced[ys == 0].mean() < -2.0
     assert plain[ys == 1].mean() < 0.0
+
+
+def test_estimate_mounting_recovers_a_hidden_rotation(rng):
+    from vsmp_imu.grounding.mounting import estimate_mounting
+
+    hidden = Rotation.from_euler("zxy", [12.0, -8.0, 29.0], degrees=True)
+    syn = np.array([[0, 9.81, 0], [0, 0.5, 9.8], [0, 8.5, 4.9], [9.8, 0.5, 0.0], [0.0, 0.4, 0.2]])
+    real = hidden.apply(syn) + rng.normal(0, 0.05, syn.shape)
+    rot, rms = estimate_mounting(syn, real, np.array([10, 5, 3, 2, 50]))
+    assert np.degrees((rot * hidden.inv()).magnitude()) < 1.0
+    assert rms < 1.0
+    ident, _ = estimate_mounting(syn[:1], real[:1])
+    assert np.allclose(ident.as_quat(), Rotation.identity().as_quat())

@@ -13,6 +13,7 @@ from vsmp_imu.motion.dofs import (
     BUILTIN_POSES,
     DOF_INDEX,
     N_DOFS,
+    PELVIS_FLEX_SHARE,
     dofs_to_local_quats,
     expand_pose,
     limits_array,
@@ -115,3 +116,34 @@ def test_soft_limit_is_monotonic_and_bounded(pair):
     assert low[col] - 1e-9 <= out[0] <= out[1] <= high[col] + 1e-9
     if pair[1] > pair[0] + 1e-6:
         assert out[1] > out[0] or out[1] >= high[col] - 1e-6
+
+
+def _globals(pose: dict[str, float]) -> np.ndarray:
+    values = pose_vector(pose, np.zeros(N_DOFS))[None]
+    local = dofs_to_local_quats(values)
+    sk = smpl22_skeleton()
+    _, rot = forward_kinematics(sk, local, np.zeros((1, 3)))
+    return rot[0]
+
+
+def test_pelvis_tilt_turns_only_the_pelvis_segment():
+    j = J
+    base = {"hip_flex": 60.0, "hip_abd": 10.0, "trunk_flex": 20.0, "root_roll": 8.0, "knee_flex": 30.0}
+    a = _globals(base)
+    b = _globals({**base, "pelvis_tilt": -20.0})
+    delta = Rotation.from_quat(a[j["pelvis"]]).inv() * Rotation.from_quat(b[j["pelvis"]])
+    assert np.degrees(delta.magnitude()) == pytest.approx(20.0, abs=1e-6)
+    for name in ("left_hip", "right_hip", "left_knee", "spine1", "spine3", "head"):
+        assert np.allclose(a[j[name]], b[j[name]], atol=1e-9) or np.allclose(a[j[name]], -b[j[name]], atol=1e-9)
+
+
+def test_trunk_flexion_is_shared_with_the_pelvis():
+    j = J
+    upright = _globals({})
+    bent = _globals({"trunk_flex": 40.0})
+    tilt = Rotation.from_quat(upright[j["pelvis"]]).inv() * Rotation.from_quat(bent[j["pelvis"]])
+    assert np.degrees(tilt.magnitude()) == pytest.approx(40.0 * PELVIS_FLEX_SHARE, abs=1e-6)
+    # thighs stay vertical; the chest bends by the full trunk flexion
+    assert np.allclose(upright[j["left_hip"]], bent[j["left_hip"]], atol=1e-9)
+    chest = Rotation.from_quat(upright[j["spine3"]]).inv() * Rotation.from_quat(bent[j["spine3"]])
+    assert np.degrees(chest.magnitude()) == pytest.approx(40.0, abs=1e-6)

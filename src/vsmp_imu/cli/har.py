@@ -22,6 +22,8 @@ dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_
 METHOD_TARGETS: dict[str, tuple[str, str]] = {
     "classical": ("vsmp_imu.baselines.classical:ClassicalAugmentation", "Classical Aug."),
 }
+# Generative methods and the options they take from the command line.
+GENERATIVE_PREFIXES = ("vsmp",)
 PROTOCOL_NAMES = ("lopo", "low-resource", "long-tail")
 BACKBONE_NAMES = ("rf", "dclstm", "dclstm-attn", "bilstm-attn")
 NEURAL = ("dclstm", "dclstm-attn", "bilstm-attn")
@@ -109,6 +111,16 @@ def evaluate_cmd(
     report_groups: list[str] = typer.Option(
         None, "--report-groups", help="NAME=CLASS,CLASS;... classes reported together"
     ),
+    source: str = typer.Option(
+        "library", "--source", help="generative methods: library | smp:DIR | video:DIR"
+    ),
+    k: int = typer.Option(4, "--k", help="generative methods: SMP variants per base SMP"),
+    backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | hymotion"),
+    per_class_rank: bool = typer.Option(False, "--per-class-rank", help="rank grounding per class"),
+    workers: int = typer.Option(1, "--workers", help="generation workers"),
+    executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
+    address: str = typer.Option(None, "--address", help="Ray cluster address (--executor ray)"),
+    library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder"),
     output: Path = typer.Option(..., "--output", "-o", help="output folder"),
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
@@ -148,6 +160,16 @@ def evaluate_cmd(
     }
     if jobs is not None and "rf" in chosen_backbones:
         backbone_params["rf"] = {"n_jobs": jobs}
+    _positive(k, "--k")
+    _positive(workers, "--workers")
+    generative = {
+        "source": source, "k": k, "backend": backend, "per_class_rank": per_class_rank,
+        "library_dirs": tuple(str(p) for p in (library or [])), "workers": workers,
+        "executor": executor, "address": address, "cache_dir": str(output / "cache"),
+    }
+    method_params = {
+        m: {"variant": m, **generative} for m in chosen_methods if m.startswith(GENERATIVE_PREFIXES)
+    }
     ds = load_dataset(dataset, data_dir)
     window_geometry(ds.info.fs_hz, window_s, overlap)  # range checks before any work
     config = EvalConfig(
@@ -164,6 +186,7 @@ def evaluate_cmd(
         window_s=window_s,
         overlap=overlap,
         backbone_params=backbone_params,
+        method_params=method_params,
         report_groups=_parse_groups(report_groups),
     )
     evaluation = Evaluation(config, ds, output)
@@ -282,7 +305,15 @@ def info_cmd(
         console.print(f"[yellow]skipped[/] {line}")
 
 
+def _register_generative() -> None:
+    from vsmp_imu.pipeline.variants import ABLATIONS
+
+    for name, (display, _) in ABLATIONS.items():
+        add_method(name, "vsmp_imu.pipeline.method:make_vsmp_method", display)
+
+
 def register(app: typer.Typer) -> None:
     """Attach `evaluate` and the `dataset` group to the main app."""
+    _register_generative()
     app.command("evaluate")(evaluate_cmd)
     app.add_typer(dataset_app, name="dataset")

@@ -24,13 +24,21 @@ TAU_DEFAULT = 0.60
 NN_QUANTILE = 0.05
 
 
-def class_verdicts(proba: np.ndarray, labels: np.ndarray, tau: float) -> list[Verdict]:
-    """One verdict per window from validator probabilities (N, C)."""
+def class_verdicts(proba: np.ndarray, labels: np.ndarray, tau: float,
+                   validated: np.ndarray | None = None) -> list[Verdict]:
+    """One verdict per window from validator probabilities (N, C).
+
+    `validated[c]` False marks a class the validator saw too few real windows
+    of to judge it: its windows pass, with that reason recorded.
+    """
     out = []
     for p, y in zip(proba, np.asarray(labels), strict=True):
         top = int(np.argmax(p))
         values = {"p_max": float(p[top]), "p_label": float(p[int(y)]), "tau_cls": tau}
-        if top != int(y):
+        if validated is not None and not validated[int(y)]:
+            out.append(Verdict(True, "class", "not validated: too few real training windows of the class",
+                               values))
+        elif top != int(y):
             out.append(Verdict(False, "class", f"validator predicts class {top}, not {int(y)}", values))
         elif p[top] < tau:
             out.append(Verdict(False, "class", f"confidence {p[top]:.2f} below tau_cls {tau:.2f}", values))
@@ -44,6 +52,7 @@ def select_tau(
     y_synthetic: np.ndarray,
     score_with: Callable[[np.ndarray], float],
     candidates: tuple[float, ...] = TAU_CANDIDATES,
+    validated: np.ndarray | None = None,
 ) -> tuple[float, dict[float, float]]:
     """Pick tau_cls by validation Macro-F1.
 
@@ -53,7 +62,8 @@ def select_tau(
     """
     scores = {}
     for tau in candidates:
-        keep = np.array([v.passed for v in class_verdicts(proba_synthetic, y_synthetic, tau)], dtype=bool)
+        keep = np.array([v.passed for v in class_verdicts(proba_synthetic, y_synthetic, tau, validated)],
+                        dtype=bool)
         scores[tau] = float(score_with(keep))
     best = max(candidates, key=lambda t: (round(scores[t], 10), -abs(t - TAU_DEFAULT)))
     return best, scores
@@ -68,8 +78,14 @@ def _normalize(z: np.ndarray) -> np.ndarray:
     return z / (np.linalg.norm(z, axis=1, keepdims=True) + 1e-12)
 
 
-def nn_thresholds(real_embeddings: np.ndarray, real_labels: np.ndarray) -> dict[int, float]:
-    """tau_nn(y) per class; classes with one window use the pooled within-class distances."""
+def nn_thresholds(real_embeddings: np.ndarray, real_labels: np.ndarray,
+                  min_class_windows: int = 2) -> dict[int, float]:
+    """tau_nn(y) per class.
+
+    A class with fewer than `min_class_windows` real windows (a 5th percentile
+    of a handful of distances says nothing) uses the pooled within-class
+    nearest-neighbour distances of all classes.
+    """
     z = _normalize(np.asarray(real_embeddings, dtype=np.float64))
     labels = np.asarray(real_labels)
     per_class: dict[int, np.ndarray] = {}
@@ -81,7 +97,8 @@ def nn_thresholds(real_embeddings: np.ndarray, real_labels: np.ndarray) -> dict[
         per_class[int(cls)] = dist[:, 1]  # column 0 is the point itself
     pooled = np.concatenate(list(per_class.values())) if per_class else np.zeros(1)
     fallback = float(np.quantile(pooled, NN_QUANTILE))
-    out = {int(c): float(np.quantile(v, NN_QUANTILE)) for c, v in per_class.items()}
+    out = {int(c): float(np.quantile(v, NN_QUANTILE)) for c, v in per_class.items()
+           if len(v) >= max(2, min_class_windows)}
     for cls in np.unique(labels):
         out.setdefault(int(cls), fallback)
     out[-1] = fallback

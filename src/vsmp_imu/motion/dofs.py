@@ -12,7 +12,13 @@ means arms hanging down):
   ``trunk_flex`` (+ = bend forward), ``trunk_lean`` (+ = to the left),
   ``trunk_twist`` (+ = chest turns left), ``neck_flex``, ``head_flex``
   (+ = chin down), ``head_turn`` (+ = look left), ``head_tilt`` (+ = ear to
-  the left shoulder).
+  the left shoulder), ``pelvis_tilt`` (+ = anterior tilt of the pelvis
+  segment alone; the thighs and the upper body keep their orientation).
+  Trunk flexion is shared between the lumbar spine and the pelvis
+  (lumbopelvic rhythm): the pelvis segment tilts by
+  ``pelvis_tilt + PELVIS_FLEX_SHARE * trunk_flex`` while the hips and the
+  spine compensate exactly, so only the pelvis segment (and a sensor on it)
+  sees the tilt.
 - side DOFs, written ``left_<dof>`` / ``right_<dof>`` (or without the side
   prefix for both sides at once): ``collar_elev`` (shrug), ``collar_protract``
   (shoulder forward), ``shoulder_abd`` (arm raised sideways, 90 = horizontal),
@@ -34,12 +40,13 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from vsmp_imu.motion.quat import euler
+from vsmp_imu.motion.quat import compose, euler
 from vsmp_imu.motion.skeleton import SMPL22_JOINTS
 
 CENTER_DOFS: tuple[str, ...] = (
     "root_pitch", "root_yaw", "root_roll", "root_dx", "root_dy", "root_dz",
     "trunk_flex", "trunk_lean", "trunk_twist", "neck_flex", "head_flex", "head_turn", "head_tilt",
+    "pelvis_tilt",
 )
 SIDE_DOFS: tuple[str, ...] = (
     "collar_elev", "collar_protract", "shoulder_abd", "shoulder_flex", "shoulder_horiz",
@@ -67,7 +74,7 @@ ROTATION_COLUMNS = np.array([i for i, n in enumerate(DOF_NAMES) if n not in TRAN
 # limiting function is strictly increasing, so a larger requested amplitude
 # never gives a smaller excursion.
 LIMITS_DEG: dict[str, tuple[float, float]] = {
-    "trunk_flex": (-40, 110), "trunk_lean": (-45, 45), "trunk_twist": (-70, 70),
+    "trunk_flex": (-40, 110), "trunk_lean": (-45, 45), "trunk_twist": (-70, 70), "pelvis_tilt": (-35, 35),
     "neck_flex": (-50, 60), "head_flex": (-50, 60), "head_turn": (-80, 80), "head_tilt": (-40, 40),
     "collar_elev": (-15, 35), "collar_protract": (-25, 30),
     "shoulder_abd": (-30, 185), "shoulder_flex": (-70, 185), "shoulder_horiz": (-60, 140),
@@ -157,8 +164,9 @@ def mirror_dofs(values: np.ndarray) -> np.ndarray:
 BUILTIN_POSES: dict[str, dict[str, float]] = {
     "tpose": {"shoulder_abd": 90.0},
     "standing": {"shoulder_abd": 8.0, "elbow_flex": 12.0, "wrist_rot": 0.0, "shoulder_rot": 5.0},
-    # on a chair: thighs horizontal, shanks vertical, hands resting on the thighs
-    "sitting": {"hip_flex": 88.0, "knee_flex": 88.0, "hip_abd": 6.0, "trunk_flex": 4.0,
+    # on a chair: thighs horizontal, shanks vertical, hands resting on the thighs; the
+    # pelvis rolls back (posterior tilt, about 15-20 deg relative to standing)
+    "sitting": {"hip_flex": 88.0, "knee_flex": 88.0, "hip_abd": 6.0, "trunk_flex": 4.0, "pelvis_tilt": -20.0,
                 "shoulder_abd": 6.0, "shoulder_flex": 18.0, "elbow_flex": 55.0,
                 "head_flex": 6.0},
     # on the floor with straight legs
@@ -178,6 +186,9 @@ BUILTIN_POSES: dict[str, dict[str, float]] = {
 # -- DOF values -> local joint rotations -------------------------------------------
 _J = {name: i for i, name in enumerate(SMPL22_JOINTS)}
 _SPINE_WEIGHTS = {"spine1": 0.35, "spine2": 0.35, "spine3": 0.30}
+# Share of trunk flexion carried by the pelvis (lumbopelvic rhythm: forward
+# bending is roughly half lumbar flexion, half pelvic rotation about the hips).
+PELVIS_FLEX_SHARE = 0.5
 
 
 def _col(values: np.ndarray, name: str) -> np.ndarray:
@@ -191,8 +202,11 @@ def _mirror_quat(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _side_rotations(values: np.ndarray, side: str) -> dict[str, np.ndarray]:
-    """Local quaternions of one side's joints, written with the left formulas."""
+def _side_rotations(values: np.ndarray, side: str, pelvis_tilt: np.ndarray) -> dict[str, np.ndarray]:
+    """Local quaternions of one side's joints, written with the left formulas.
+
+    The hip flexion absorbs the pelvis tilt so the thigh keeps its orientation.
+    """
     def c(stem: str) -> np.ndarray:
         return _col(values, f"{side}_{stem}")
 
@@ -204,7 +218,7 @@ def _side_rotations(values: np.ndarray, side: str) -> dict[str, np.ndarray]:
                           c("shoulder_rot")),
         "elbow": euler("Y", -c("elbow_flex")),
         "wrist": euler("XZY", c("wrist_rot"), -c("wrist_flex"), c("wrist_dev")),
-        "hip": euler("XZY", -c("hip_flex"), c("hip_abd"), -c("hip_rot")),
+        "hip": euler("XZY", -c("hip_flex") - pelvis_tilt, c("hip_abd"), -c("hip_rot")),
         "knee": euler("X", c("knee_flex")),
         "ankle": euler("XZ", -c("ankle_flex"), -c("ankle_inv")),
         "foot": euler("X", -c("toe_flex")),
@@ -221,15 +235,18 @@ def dofs_to_local_quats(values: np.ndarray) -> np.ndarray:
     t = values.shape[0]
     out = np.zeros((t, len(SMPL22_JOINTS), 4))
     out[..., 3] = 1.0
-    out[:, _J["pelvis"]] = euler("YXZ", _col(values, "root_yaw"), _col(values, "root_pitch"),
-                                 -_col(values, "root_roll"))
     flex, lean, twist = _col(values, "trunk_flex"), _col(values, "trunk_lean"), _col(values, "trunk_twist")
+    tilt = _col(values, "pelvis_tilt") + PELVIS_FLEX_SHARE * flex
+    # the pelvis segment tilts last; spine1 and the hips undo it first (exact compensation)
+    out[:, _J["pelvis"]] = euler("YXZX", _col(values, "root_yaw"), _col(values, "root_pitch"),
+                                 -_col(values, "root_roll"), tilt)
     for joint, w in _SPINE_WEIGHTS.items():
         out[:, _J[joint]] = euler("YXZ", w * twist, w * flex, -w * lean)
+    out[:, _J["spine1"]] = compose(euler("X", -tilt), out[:, _J["spine1"]])
     turn = _col(values, "head_turn")
     out[:, _J["neck"]] = euler("YX", 0.4 * turn, _col(values, "neck_flex"))
     out[:, _J["head"]] = euler("YXZ", 0.6 * turn, _col(values, "head_flex"), -_col(values, "head_tilt"))
     for side in SIDES:
-        for joint, q in _side_rotations(values, side).items():
+        for joint, q in _side_rotations(values, side, tilt).items():
             out[:, _J[joint]] = q
     return out

@@ -38,7 +38,8 @@ from vsmp_imu.filtering.faithfulness import (
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
 from vsmp_imu.filtering.verdict import Verdict
-from vsmp_imu.grounding.align import Convention
+from vsmp_imu.grounding.align import Convention, axes_matrix
+from vsmp_imu.grounding.mounting import estimate_mounting
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.split import stat_rank_split
 from vsmp_imu.grounding.stats import TargetStatistics
@@ -46,7 +47,14 @@ from vsmp_imu.har.backbones.rf import RandomForestECDF
 from vsmp_imu.har.dataset import DatasetInfo, SensorLocation
 from vsmp_imu.har.synthetic import take_budget
 from vsmp_imu.har.windows import Windows
-from vsmp_imu.pipeline.sample import LocationTask, SampleResult, SampleTask, cached_synthesize
+from vsmp_imu.imu import simulate_kinematics
+from vsmp_imu.pipeline.sample import (
+    LocationTask,
+    SampleResult,
+    SampleTask,
+    backend_for,
+    cached_synthesize,
+)
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp import SMP
 from vsmp_imu.smp.augment import SMPAugmenter
@@ -68,6 +76,9 @@ class GenerationConfig:
     sim_in_the_loop: bool = True
     rank_grounding: bool = True
     per_class_rank: bool = False
+    estimate_mounting: bool = True  # nominal dataset mounting frame from D_stat class means
+    # the validator judges a class only after training on at least this many of its real windows
+    min_validator_windows: int = 10
     quality_filter: bool = True
     noise: bool = True
     oversample: float = 2.0  # raw windows generated per budgeted window
@@ -173,8 +184,8 @@ class FoldGenerator:
         return tasks
 
     # -- stage 1 + 3 ---------------------------------------------------------------------
-    def _location_tasks(self, info: DatasetInfo, plan,
-                        stats: dict[str, TargetStatistics]) -> dict[str, tuple[LocationTask, ...]]:
+    def _location_tasks(self, info: DatasetInfo, plan, stats: dict[str, TargetStatistics],
+                        mountings: dict[str, tuple]) -> dict[str, tuple[LocationTask, ...]]:
         out = {}
         for label, locs in plan.items():
             tasks = []
@@ -183,8 +194,34 @@ class FoldGenerator:
                 target = None
                 if self.config.sim_in_the_loop and loc.name in stats:
                     target = _summary_lists(stats[loc.name].for_class(info.label_names.index(label)))
-                tasks.append(LocationTask(loc.name, conv, declared, target))
+                tasks.append(LocationTask(loc.name, conv, declared, target, mountings[loc.name]))
             out[label] = tuple(tasks)
+        return out
+
+    def _nominal_mountings(self, info: DatasetInfo, plan, sources, d_stat: Windows) -> dict[str, tuple]:
+        """R_target per location from one default execution per class vs the real class means."""
+        out: dict[str, tuple] = {}
+        for loc in info.locations:
+            identity = (0.0, 0.0, 0.0, 1.0)
+            if not (self.config.estimate_mounting and loc.gravity_included and loc.axes):
+                out[loc.name] = identity
+                continue
+            cols = _channel_index(info, loc)
+            to_segment = axes_matrix(loc.axes).T  # device axes -> segment frame
+            syn, real, weights = [], [], []
+            for i, label in enumerate(info.label_names):
+                mask = d_stat.y == i
+                if label not in sources or loc not in plan[label] or not mask.any():
+                    continue
+                smp = sources[label][0][1]
+                motion = backend_for(self.config.backend, tuple(self.config.library_dirs)).generate(smp, 0)
+                kin = simulate_kinematics(motion, loc.name, info.fs_hz)
+                syn.append(kin.specific_force_seg().mean(axis=0))
+                real.append(to_segment @ d_stat.X[mask][..., cols[:3]].reshape(-1, 3).mean(axis=0))
+                weights.append(mask.sum())
+            rot, _ = estimate_mounting(np.array(syn), np.array(real), np.array(weights, dtype=float)) \
+                if len(syn) >= 2 else (None, None)
+            out[loc.name] = identity if rot is None else tuple(float(v) for v in rot.as_quat())
         return out
 
     def _windows_per_sample(self, results: list[SampleResult], length: int, hop: int) -> float:
@@ -240,7 +277,8 @@ class FoldGenerator:
         for loc in info.locations:
             cols = _channel_index(info, loc)
             stats[loc.name] = TargetStatistics(info.fs_hz).fit(d_stat.X[..., cols].astype(np.float64), d_stat.y)
-        loc_tasks = self._location_tasks(info, plan, stats)
+        mountings = self._nominal_mountings(info, plan, sources, d_stat)
+        loc_tasks = self._location_tasks(info, plan, stats, mountings)
         tasks, results = self._synthesize(info, sources, budget, seed, fold, loc_tasks, length, hop)
         ok = [r for r in results if not r.error and r.signals]
         grounded = self._ground(info, ok, d_rank, plan)
@@ -286,6 +324,10 @@ class FoldGenerator:
 
     # -- stage 5 --------------------------------------------------------------------------------
     def _window(self, info, ok, grounded, length, hop):
+        """Windows of every sample; a class whose real windows need only a share of the
+        window (transitions) keeps the synthetic windows whose share inside the motion's
+        active span reaches it, like the dataset's own labelling rule."""
+        shares = info.share_vector()
         xs, ys, records = [], [], []
         for r, sig in zip(ok, grounded, strict=True):
             n = min(s.shape[0] for s in sig.values())
@@ -293,7 +335,10 @@ class FoldGenerator:
             for loc in info.locations:
                 if loc.name in sig:
                     full[:, _channel_index(info, loc)] = sig[loc.name][:n]
-            for w, start in enumerate(_starts(n, length, hop)):
+            starts = _starts(n, length, hop)
+            if shares[r.label_index] < 1.0:
+                starts = _covering(starts, length, info.fs_hz, r.provenance, shares[r.label_index])
+            for w, start in enumerate(starts):
                 xs.append(full[start:start + length])
                 ys.append(r.label_index)
                 records.append({"sample": r.key, "label": info.label_names[r.label_index], "window": w,
@@ -324,11 +369,12 @@ class FoldGenerator:
         validator = HarValidator(seed=int(rng_for(seed, fold, "validator").integers(2**31)))
         validator.fit(fit.X, fit.y, n_classes=info.n_classes)
         proba = validator.predict_proba(X)
-        tau = self._choose_tau(fit, val, X, y, proba, keep, seed, fold)
-        for i, v in enumerate(class_verdicts(proba, y, tau)):
+        validated = fit.class_counts() >= self.config.min_validator_windows
+        tau = self._choose_tau(fit, val, X, y, proba, keep, validated, seed, fold)
+        for i, v in enumerate(class_verdicts(proba, y, tau, validated)):
             records[i]["verdicts"].append(v.as_dict())
             keep[i] &= v.passed
-        thresholds = nn_thresholds(validator.embed(train.X), train.y)
+        thresholds = nn_thresholds(validator.embed(train.X), train.y, self.config.min_validator_windows)
         for i, v in enumerate(redundancy_verdicts(validator.embed(X), y, thresholds, eligible=keep)):
             records[i]["verdicts"].append(v.as_dict())
             keep[i] &= v.passed
@@ -336,7 +382,7 @@ class FoldGenerator:
             records[i]["kept"] = bool(keep[i])
         return keep, tau
 
-    def _choose_tau(self, fit: Windows, val: Windows, X, y, proba, keep, seed, fold) -> float:
+    def _choose_tau(self, fit: Windows, val: Windows, X, y, proba, keep, validated, seed, fold) -> float:
         """tau_cls by validation Macro-F1 of a quick model on real + kept synthetic windows."""
         if len(val) == 0 or len(np.unique(val.y)) < 2 or len(fit) == 0:
             return TAU_DEFAULT
@@ -348,7 +394,7 @@ class FoldGenerator:
             model.fit(np.concatenate([fit.X, X[chosen]]), np.concatenate([fit.y, y[chosen]]))
             return macro_f1(val.y, model.predict(val.X))
 
-        tau, _ = select_tau(proba, y, score)
+        tau, _ = select_tau(proba, y, score, validated=validated)
         return tau
 
     # -- stage 6 ---------------------------------------------------------------------------------
@@ -366,6 +412,16 @@ class FoldGenerator:
 
 def _starts(n: int, length: int, hop: int) -> range:
     return range(0, n - length + 1, hop) if n >= length else range(0)
+
+
+def _covering(starts, length: int, fs_hz: float, provenance: dict, share: float) -> list[int]:
+    """Window starts whose overlap with the motion's active span is at least `share` of the window."""
+    span = provenance.get("motion", {}).get("active_span_s")
+    if not span:
+        return list(starts)
+    offset = next(iter(provenance["locations"].values())).get("start_s", 0.0)
+    lo, hi = (span[0] - offset) * fs_hz, (span[1] - offset) * fs_hz
+    return [s for s in starts if min(s + length, hi) - max(s, lo) >= share * length]
 
 
 def _validation_split(train: Windows, fraction: float, seed: int, fold: str) -> tuple[Windows, Windows]:

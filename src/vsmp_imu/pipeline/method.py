@@ -15,6 +15,7 @@ from vsmp_imu.har.synthetic import FoldContext
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.pipeline.fold import FoldGenerator, FoldOutput, GenerationConfig
 from vsmp_imu.pipeline.sources import LibrarySmpSource, SmpDirSource, parse_source
+from vsmp_imu.pipeline.variants import ABLATIONS
 from vsmp_imu.smp.library import ActivityLibrary
 
 
@@ -57,3 +58,19 @@ class VsmpMethod:
                                  fold_key(context))
         self.last_output_ = out
         return out.windows
+
+
+def make_vsmp_method(variant: str = "vsmp", source: str = "library", k: int = 4, backend: str = "procedural",
+                     per_class_rank: bool = False, library_dirs: tuple[str, ...] = (), workers: int = 1,
+                     executor: str = "local", address: str | None = None,
+                     cache_dir: str | None = None) -> VsmpMethod:
+    """A VsmpMethod for one ablation variant, from plain (command-line) parameters."""
+    from vsmp_imu.executor import make_executor
+
+    _, switches = ABLATIONS[variant]
+    config = GenerationConfig(k=k, backend=backend, per_class_rank=per_class_rank,
+                              library_dirs=tuple(library_dirs), **switches)
+    return VsmpMethod(config=config, source=source, name=variant,
+                      executor=make_executor(executor, workers, address, show_progress=False),
+                      cache_dir=Path(cache_dir) if cache_dir else None)
+

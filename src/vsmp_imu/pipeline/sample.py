@@ -13,6 +13,7 @@ executor (process pool, Ray) can run it; its result depends on the task only.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 from dataclasses import asdict, dataclass, field
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
@@ -32,6 +34,21 @@ from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp import SMP
 
 PIPELINE_VERSION = "1"
+# Code whose changes invalidate cached samples (the rooms a sample passes through).
+_CODE_ROOMS = ("smp", "motion", "imu", "grounding", "filtering", "pipeline")
+
+
+@functools.lru_cache(maxsize=1)
+def code_fingerprint() -> str:
+    """A hash of the sources (and activity files) a sample depends on."""
+    root = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256(PIPELINE_VERSION.encode())
+    for room in _CODE_ROOMS:
+        for path in sorted((root / room).rglob("*")):
+            if path.suffix in (".py", ".yaml") and path.is_file():
+                digest.update(str(path.relative_to(root)).encode())
+                digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
 
 
 @dataclass(frozen=True)
@@ -42,6 +59,7 @@ class LocationTask:
     convention: dict[str, Any]  # Convention.as_dict()
     axes_declared: bool
     target: dict[str, list] | None  # StatSummary arrays as lists (None: no calibration)
+    nominal_mounting_xyzw: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
 
     def stat_summary(self) -> StatSummary | None:
         if self.target is None:
@@ -73,7 +91,7 @@ class SampleTask:
     def content_hash(self) -> str:
         payload = asdict(self)
         payload.pop("motion_dir")
-        payload["version"] = PIPELINE_VERSION
+        payload["code"] = code_fingerprint()
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:24]
 
@@ -116,7 +134,7 @@ def json_default(value: Any) -> Any:
 _BACKENDS: dict[tuple, Any] = {}
 
 
-def _backend(name: str, library_dirs: tuple[str, ...]):
+def backend_for(name: str, library_dirs: tuple[str, ...]):
     """One backend per worker process (the library is loaded once)."""
     key = (name, library_dirs)
     if key not in _BACKENDS:
@@ -128,19 +146,38 @@ def _backend(name: str, library_dirs: tuple[str, ...]):
     return _BACKENDS[key]
 
 
+ACTIVE_SPEED_FRACTION = 0.20  # of the peak body speed (appendix: velocity landmarks at 20 %)
+
+
+def active_span(motion: Motion) -> list[float]:
+    """[start, end] seconds between which the body moves (mean joint speed above 20 % of its peak).
+
+    Root translation is removed first, so travelling counts only through the limbs.
+    """
+    rel = motion.positions - motion.positions[:, :1]
+    speed = np.linalg.norm(np.gradient(rel, axis=0), axis=-1).mean(axis=1) * motion.fps
+    moving = np.flatnonzero(speed > ACTIVE_SPEED_FRACTION * speed.max()) if speed.max() > 0 else []
+    if len(moving) == 0:
+        return [0.0, motion.duration_s]
+    return [float(moving[0] / motion.fps), float(moving[-1] / motion.fps)]
+
+
 def _location_signal(motion: Motion, task: SampleTask, loc: LocationTask) -> tuple[np.ndarray, dict]:
     """theta ~ p(theta), kinematics once, eta* by CEM, then A_gamma."""
     rng = rng_for(task.seed, "sensor", loc.name)
     sensor = VirtualSensor.at(loc.name)
     perturbation = sample_mounting_perturbation(loc.name, rng)
-    base = perturbation.as_matrix() @ sensor.mounting_matrix()
+    nominal = Rotation.from_quat(loc.nominal_mounting_xyzw)
+    base = perturbation.as_matrix() @ nominal.as_matrix() @ sensor.mounting_matrix()
     kin = simulate_kinematics(motion, sensor, task.fs_hz)
     noise = draw_noise(sensor, kin.n_samples, task.fs_hz, task.seed, loc.name) if task.noise else None
     conv = Convention(**loc.convention)
     target = loc.stat_summary()
     record: dict[str, Any] = {
+        "start_s": float(kin.times[0]),  # motion time of the first IMU sample
         "theta": sensor.theta(motion, kin.attachment_m),
         "mounting_perturbation_xyzw": [float(v) for v in perturbation.as_quat()],
+        "nominal_mounting_xyzw": list(loc.nominal_mounting_xyzw),
     }
     if task.sim_in_the_loop and target is not None:
         result = SimInTheLoopCalibrator(search_gravity=False).calibrate(
@@ -163,14 +200,14 @@ def synthesize(task: SampleTask, motion_path: Path | None = None) -> SampleResul
     """
     try:
         smp = SMP.model_validate_json(task.smp_json)
-        backend = _backend(task.backend, task.library_dirs)
+        backend = backend_for(task.backend, task.library_dirs)
         motion = backend.generate(smp, task.seed, task.duration_s)
         motion_verdict = MotionPlausibilityFilter().check_motion(motion)
         provenance: dict[str, Any] = {
             "source": task.source, "label": task.label, "variant": task.variant, "smp_id": smp.smp_id,
             "prompt": task.prompt, "backend": task.backend, "seed": task.seed,
             "motion": {"fps": motion.fps, "n_frames": motion.n_frames, "duration_s": motion.duration_s,
-                       "body_height_m": motion.body_height_m(),
+                       "body_height_m": motion.body_height_m(), "active_span_s": active_span(motion),
                        "controls": motion.meta.get("controls")},
             "motion_verdict": motion_verdict.as_dict(), "locations": {},
         }
