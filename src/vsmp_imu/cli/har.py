@@ -21,9 +21,11 @@ dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_
 # Rooms above har add theirs with `add_method` in their own `register(app)`.
 METHOD_TARGETS: dict[str, tuple[str, str]] = {
     "classical": ("vsmp_imu.baselines.classical:ClassicalAugmentation", "Classical Aug."),
+    "imutube": ("vsmp_imu.baselines.generative:ImuTubeMethod", "IMUTube"),
+    "imugpt": ("vsmp_imu.baselines.generative:ImuGptMethod", "IMUGPT 2.0"),
 }
 # Generative methods and the options they take from the command line.
-GENERATIVE_PREFIXES = ("vsmp",)
+GENERATIVE_PREFIXES = ("vsmp", "imutube", "imugpt")
 PROTOCOL_NAMES = ("lopo", "low-resource", "long-tail")
 BACKBONE_NAMES = ("rf", "dclstm", "dclstm-attn", "bilstm-attn")
 NEURAL = ("dclstm", "dclstm-attn", "bilstm-attn")
@@ -167,9 +169,12 @@ def evaluate_cmd(
         "library_dirs": tuple(str(p) for p in (library or [])), "workers": workers,
         "executor": executor, "address": address, "cache_dir": str(output / "cache"),
     }
-    method_params = {
-        m: {"variant": m, **generative} for m in chosen_methods if m.startswith(GENERATIVE_PREFIXES)
-    }
+    method_params = {m: dict(generative) for m in chosen_methods if m.startswith(GENERATIVE_PREFIXES)}
+    for m in method_params:
+        if m.startswith("vsmp"):
+            method_params[m]["variant"] = m
+        else:
+            method_params[m]["k"] = 1  # baselines draw no SMP variants
     ds = load_dataset(dataset, data_dir)
     window_geometry(ds.info.fs_hz, window_s, overlap)  # range checks before any work
     config = EvalConfig(

@@ -19,6 +19,7 @@ Stages:
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -48,6 +49,7 @@ from vsmp_imu.har.dataset import DatasetInfo, SensorLocation
 from vsmp_imu.har.synthetic import take_budget
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.imu import simulate_kinematics
+from vsmp_imu.motion import Motion
 from vsmp_imu.pipeline.sample import (
     LocationTask,
     SampleResult,
@@ -62,6 +64,8 @@ from vsmp_imu.smp.refine import Refiner
 from vsmp_imu.smp.verbalize import verbalize
 
 MAX_SLOTS_PER_CLASS_ROUND = 96
+# What a class's samples are made from: an SMP (augmented), a free-text prompt, or a recorded motion.
+Base = SMP | str | Path
 FIRST_ROUND_WINDOWS_PER_SAMPLE = 3.0
 
 
@@ -79,7 +83,9 @@ class GenerationConfig:
     estimate_mounting: bool = True  # nominal dataset mounting frame from D_stat class means
     # the validator judges a class only after training on at least this many of its real windows
     min_validator_windows: int = 10
-    quality_filter: bool = True
+    quality_filter: bool = True  # all three filters; the two below switch single ones off
+    class_filter: bool = True
+    redundancy_filter: bool = True
     noise: bool = True
     oversample: float = 2.0  # raw windows generated per budgeted window
     max_rounds: int = 4
@@ -160,21 +166,24 @@ class FoldGenerator:
         self.library = library
 
     # -- stage 2: SMP variants -------------------------------------------------------
-    def _variants(self, base: SMP, seed: int, key: str) -> list[tuple[int, SMP]]:
+    def _variants(self, base: Base, seed: int, key: str) -> list[tuple[int, Base]]:
+        """K constrained variants of an SMP; a prompt or a recorded motion is used as is."""
+        if not isinstance(base, SMP):
+            return [(0, base)]
         smp = Refiner(self.library).refine(base).smp if self.config.refine else base
         augmenter = SMPAugmenter(uncertainty_conditioned=self.config.uncertainty_conditioned)
         return list(enumerate(augmenter.augment(smp, self.config.k, int(rng_for(seed, key).integers(2**31)))))
 
-    def _tasks(self, label: str, label_index: int, bases: list[tuple[str, SMP]], slots: range, seed: int,
+    def _tasks(self, label: str, label_index: int, bases: list[tuple[str, Base]], slots: range, seed: int,
                fold: str, fs_hz: float, locations: tuple[LocationTask, ...]) -> list[SampleTask]:
-        variants = [(src, k, v) for src, smp in bases
-                    for k, v in self._variants(smp, seed, f"{fold}/{label}/{src}")]
+        variants = [(src, k, v) for src, base in bases
+                    for k, v in self._variants(base, seed, f"{fold}/{label}/{src}")]
         tasks = []
         for slot in slots:
-            src, k, smp = variants[slot % len(variants)]
+            src, k, base = variants[slot % len(variants)]
             tasks.append(SampleTask(
                 key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
-                variant=k, smp_json=smp.canonical_json(), prompt=verbalize(smp),
+                variant=k, **_payload(base),
                 backend=self.config.backend, seed=int(rng_for(seed, fold, label, slot).integers(2**31)),
                 fs_hz=fs_hz, locations=locations, sim_in_the_loop=self.config.sim_in_the_loop,
                 noise=self.config.noise, duration_s=self.config.duration_s,
@@ -213,8 +222,9 @@ class FoldGenerator:
                 mask = d_stat.y == i
                 if label not in sources or loc not in plan[label] or not mask.any():
                     continue
-                smp = sources[label][0][1]
-                motion = backend_for(self.config.backend, tuple(self.config.library_dirs)).generate(smp, 0)
+                base = sources[label][0][1]
+                motion = Motion.load(base) if isinstance(base, Path) else \
+                    backend_for(self.config.backend, tuple(self.config.library_dirs)).generate(base, 0)
                 kin = simulate_kinematics(motion, loc.name, info.fs_hz)
                 syn.append(kin.specific_force_seg().mean(axis=0))
                 real.append(to_segment @ d_stat.X[mask][..., cols[:3]].reshape(-1, 3).mean(axis=0))
@@ -365,19 +375,23 @@ class FoldGenerator:
                 verdicts.append(f.check_window(X[i][:, cols], int(y[i])))
             rec["verdicts"] = [v.as_dict() for v in verdicts]
             keep[i] = all(v.passed for v in verdicts)
-        fit, val = _validation_split(train, self.config.val_fraction, seed, fold)
-        validator = HarValidator(seed=int(rng_for(seed, fold, "validator").integers(2**31)))
-        validator.fit(fit.X, fit.y, n_classes=info.n_classes)
-        proba = validator.predict_proba(X)
-        validated = fit.class_counts() >= self.config.min_validator_windows
-        tau = self._choose_tau(fit, val, X, y, proba, keep, validated, seed, fold)
-        for i, v in enumerate(class_verdicts(proba, y, tau, validated)):
-            records[i]["verdicts"].append(v.as_dict())
-            keep[i] &= v.passed
-        thresholds = nn_thresholds(validator.embed(train.X), train.y, self.config.min_validator_windows)
-        for i, v in enumerate(redundancy_verdicts(validator.embed(X), y, thresholds, eligible=keep)):
-            records[i]["verdicts"].append(v.as_dict())
-            keep[i] &= v.passed
+        tau = None
+        if self.config.class_filter or self.config.redundancy_filter:
+            fit, val = _validation_split(train, self.config.val_fraction, seed, fold)
+            validator = HarValidator(seed=int(rng_for(seed, fold, "validator").integers(2**31)))
+            validator.fit(fit.X, fit.y, n_classes=info.n_classes)
+        if self.config.class_filter:
+            proba = validator.predict_proba(X)
+            validated = fit.class_counts() >= self.config.min_validator_windows
+            tau = self._choose_tau(fit, val, X, y, proba, keep, validated, seed, fold)
+            for i, v in enumerate(class_verdicts(proba, y, tau, validated)):
+                records[i]["verdicts"].append(v.as_dict())
+                keep[i] &= v.passed
+        if self.config.redundancy_filter:
+            thresholds = nn_thresholds(validator.embed(train.X), train.y, self.config.min_validator_windows)
+            for i, v in enumerate(redundancy_verdicts(validator.embed(X), y, thresholds, eligible=keep)):
+                records[i]["verdicts"].append(v.as_dict())
+                keep[i] &= v.passed
         for i in range(len(X)):
             records[i]["kept"] = bool(keep[i])
         return keep, tau
@@ -408,6 +422,16 @@ class FoldGenerator:
         selected = np.zeros(len(X), bool)
         selected[chosen.meta["index"]] = True
         return selected
+
+
+def _payload(base: Base) -> dict[str, Any]:
+    """SampleTask fields of an SMP variant, a free-text prompt or a recorded motion file."""
+    if isinstance(base, SMP):
+        return {"smp_json": base.canonical_json(), "prompt": verbalize(base)}
+    if isinstance(base, Path):
+        digest = hashlib.sha256(base.read_bytes()).hexdigest()[:24]
+        return {"smp_json": "", "prompt": "", "motion_file": str(base), "motion_digest": digest}
+    return {"smp_json": "", "prompt": str(base)}
 
 
 def _starts(n: int, length: int, hop: int) -> range:

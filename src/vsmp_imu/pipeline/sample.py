@@ -76,8 +76,8 @@ class SampleTask:
     label_index: int
     source: str  # where the SMP came from (library:<name>, file, clip)
     variant: int
-    smp_json: str
-    prompt: str
+    smp_json: str  # the SMP variant; empty when the sample comes from a prompt or a recorded motion
+    prompt: str  # the verbalized SMP, or the free-text prompt to generate from
     backend: str
     seed: int
     fs_hz: float
@@ -86,11 +86,14 @@ class SampleTask:
     noise: bool = True
     duration_s: float | None = None
     library_dirs: tuple[str, ...] = ()
+    motion_file: str | None = None  # a recorded motion (.npz, e.g. from video pose) used as is
+    motion_digest: str | None = None  # content hash of motion_file (what the cache key sees)
     motion_dir: str | None = None  # where to save the motion (.npz), if anywhere; not hashed
 
     def content_hash(self) -> str:
         payload = asdict(self)
         payload.pop("motion_dir")
+        payload.pop("motion_file")
         payload["code"] = code_fingerprint()
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:24]
@@ -193,18 +196,27 @@ def _location_signal(motion: Motion, task: SampleTask, loc: LocationTask) -> tup
     return aligned, record
 
 
+def _motion(task: SampleTask) -> tuple[Motion, str | None]:
+    """The sample's motion: a recorded one, or generated from the SMP variant or the prompt."""
+    if task.motion_file:
+        return Motion.load(task.motion_file), None
+    backend = backend_for(task.backend, task.library_dirs)
+    if task.smp_json:
+        smp = SMP.model_validate_json(task.smp_json)
+        return backend.generate(smp, task.seed, task.duration_s), smp.smp_id
+    return backend.generate(task.prompt, task.seed, task.duration_s), None
+
+
 def synthesize(task: SampleTask, motion_path: Path | None = None) -> SampleResult:
     """Run the per-sample part of Algorithm 1; failures become an error string, not an exception.
 
     The motion is saved to `motion_path` when given.
     """
     try:
-        smp = SMP.model_validate_json(task.smp_json)
-        backend = backend_for(task.backend, task.library_dirs)
-        motion = backend.generate(smp, task.seed, task.duration_s)
+        motion, smp_id = _motion(task)
         motion_verdict = MotionPlausibilityFilter().check_motion(motion)
         provenance: dict[str, Any] = {
-            "source": task.source, "label": task.label, "variant": task.variant, "smp_id": smp.smp_id,
+            "source": task.source, "label": task.label, "variant": task.variant, "smp_id": smp_id,
             "prompt": task.prompt, "backend": task.backend, "seed": task.seed,
             "motion": {"fps": motion.fps, "n_frames": motion.n_frames, "duration_s": motion.duration_s,
                        "body_height_m": motion.body_height_m(), "active_span_s": active_span(motion),
