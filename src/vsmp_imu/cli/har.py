@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import json
 from pathlib import Path
 from typing import Any
@@ -14,40 +13,13 @@ from rich.table import Table
 
 from vsmp_imu.cli.common import console, parse_csv
 from vsmp_imu.errors import ConfigError
+from vsmp_imu.methods import generative_params, register_all
 
 dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_is_help=True)
 
-# Synthetic sources known to the command line: name -> ("module:attribute", display name).
-# Rooms above har add theirs with `add_method` in their own `register(app)`.
-METHOD_TARGETS: dict[str, tuple[str, str]] = {
-    "classical": ("vsmp_imu.baselines.classical:ClassicalAugmentation", "Classical Aug."),
-    "imutube": ("vsmp_imu.baselines.generative:ImuTubeMethod", "IMUTube"),
-    "imugpt": ("vsmp_imu.baselines.generative:ImuGptMethod", "IMUGPT 2.0"),
-}
-# Generative methods and the options they take from the command line.
-GENERATIVE_PREFIXES = ("vsmp", "imutube", "imugpt")
 PROTOCOL_NAMES = ("lopo", "low-resource", "long-tail")
 BACKBONE_NAMES = ("rf", "dclstm", "dclstm-attn", "bilstm-attn")
 NEURAL = ("dclstm", "dclstm-attn", "bilstm-attn")
-
-
-def add_method(name: str, target: str, display: str | None = None) -> None:
-    """Make a synthetic source available to `--methods` (imported only when used)."""
-    METHOD_TARGETS[name] = (target, display or name)
-
-
-def _fill_method_registry() -> None:
-    from vsmp_imu.har.synthetic import METHODS, register_method
-
-    for name, (target, display) in METHOD_TARGETS.items():
-        if name in METHODS:
-            continue
-        module, attr = target.split(":")
-
-        def factory(_module: str = module, _attr: str = attr, **params: Any):
-            return getattr(importlib.import_module(_module), _attr)(**params)
-
-        register_method(name, factory, display)
 
 
 def _parse_folds(text: str) -> tuple[str, ...] | None:
@@ -141,7 +113,7 @@ def evaluate_cmd(
     _positive(max_epochs, "--max-epochs")
     _positive(patience, "--patience")
     _positive(jobs, "--jobs")
-    _fill_method_registry()
+    register_all()
     from vsmp_imu.har.backbones import BACKBONES
     from vsmp_imu.har.datasets import load_dataset
     from vsmp_imu.har.evaluate import EvalConfig, Evaluation
@@ -169,12 +141,7 @@ def evaluate_cmd(
         "library_dirs": tuple(str(p) for p in (library or [])), "workers": workers,
         "executor": executor, "address": address, "cache_dir": str(output / "cache"),
     }
-    method_params = {m: dict(generative) for m in chosen_methods if m.startswith(GENERATIVE_PREFIXES)}
-    for m in method_params:
-        if m.startswith("vsmp"):
-            method_params[m]["variant"] = m
-        else:
-            method_params[m]["k"] = 1  # baselines draw no SMP variants
+    method_params = generative_params(chosen_methods, **generative)
     ds = load_dataset(dataset, data_dir)
     window_geometry(ds.info.fs_hz, window_s, overlap)  # range checks before any work
     config = EvalConfig(
@@ -310,15 +277,7 @@ def info_cmd(
         console.print(f"[yellow]skipped[/] {line}")
 
 
-def _register_generative() -> None:
-    from vsmp_imu.pipeline.variants import ABLATIONS
-
-    for name, (display, _) in ABLATIONS.items():
-        add_method(name, "vsmp_imu.pipeline.method:make_vsmp_method", display)
-
-
 def register(app: typer.Typer) -> None:
     """Attach `evaluate` and the `dataset` group to the main app."""
-    _register_generative()
     app.command("evaluate")(evaluate_cmd)
     app.add_typer(dataset_app, name="dataset")

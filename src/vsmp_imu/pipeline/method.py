@@ -68,8 +68,9 @@ def make_vsmp_method(variant: str = "vsmp", source: str = "library", k: int = 4,
     from vsmp_imu.executor import make_executor
 
     _, switches = ABLATIONS[variant]
-    config = GenerationConfig(k=k, backend=backend, per_class_rank=per_class_rank,
-                              library_dirs=tuple(library_dirs), **switches)
+    settings: dict[str, Any] = {"k": k, "backend": backend, "per_class_rank": per_class_rank,
+                                "library_dirs": tuple(library_dirs)}
+    config = GenerationConfig(**{**settings, **switches})
     return VsmpMethod(config=config, source=source, name=variant,
                       executor=make_executor(executor, workers, address, show_progress=False),
                       cache_dir=Path(cache_dir) if cache_dir else None)

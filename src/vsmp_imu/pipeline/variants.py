@@ -9,4 +9,6 @@ ABLATIONS: dict[str, tuple[str, dict[str, bool]]] = {
     "vsmp-no-filter": ("w/o filtering", {"quality_filter": False}),
     "vsmp-sim-only": ("Simulation-in-the-loop only", {"rank_grounding": False}),
     "vsmp-rank-only": ("Rank-based grounding only", {"sim_in_the_loop": False}),
+    "vsmp-class-rank": ("VSMP-IMU, per-class rank grounding", {"per_class_rank": True}),
+    "vsmp-pooled-rank": ("VSMP-IMU, pooled rank grounding", {"per_class_rank": False}),
 }
