@@ -108,6 +108,12 @@ class RayExecutor:
 
     def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], desc: str = "working") -> list[Any]:
         ray = self._ray()
+        if self.num_gpus_per_task > 0 and ray.cluster_resources().get("GPU", 0) < self.num_gpus_per_task:
+            # a task asking for a GPU no node has would wait forever
+            raise DependencyError(
+                f"the Ray cluster has {ray.cluster_resources().get('GPU', 0):g} GPU(s); each task needs "
+                f"{self.num_gpus_per_task:g}", field="--gpus-per-task",
+                allowed="a cluster with GPU nodes, or --gpus-per-task 0 for CPU-only backends")
         remote = ray.remote(num_cpus=1, num_gpus=self.num_gpus_per_task)(fn)
         refs = [remote.remote(task) for task in tasks]
         index = {ref: i for i, ref in enumerate(refs)}

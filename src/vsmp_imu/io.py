@@ -5,7 +5,10 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
+import socket
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -25,7 +28,8 @@ def atomic_path(path: str | Path, suffix: str | None = None) -> Iterator[Path]:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(
-        prefix=f".{path.name}.", suffix=suffix if suffix is not None else path.suffix + ".tmp",
+        prefix=f".{path.name}.{_writer_tag()}.",
+        suffix=suffix if suffix is not None else path.suffix + ".tmp",
         dir=path.parent,
     )
     os.close(fd)
@@ -38,6 +42,56 @@ def atomic_path(path: str | Path, suffix: str | None = None) -> Iterator[Path]:
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
+
+
+# .<name>.<host>~<pid>.<random><suffix>, as written by atomic_path
+_TEMP_NAME = re.compile(r"^\.(?P<name>.+)\.(?P<host>[A-Za-z0-9_-]*)~(?P<pid>\d+)\.")
+STALE_FOREIGN_TEMP_S = 24 * 3600.0
+
+
+def _writer_tag() -> str:
+    """host~pid of the writing process: tells a dead writer's leftovers from a live one's."""
+    host = re.sub(r"[^A-Za-z0-9_-]", "-", socket.gethostname())[:40]
+    return f"{host}~{os.getpid()}"
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def remove_stale_temps(folder: str | Path, max_foreign_age_s: float = STALE_FOREIGN_TEMP_S) -> list[Path]:
+    """Delete temporary files that `atomic_path` left behind when its process was killed.
+
+    A temp file of this host is stale when its writer process is gone; one
+    written on another host (shared storage) when it is older than
+    `max_foreign_age_s`. Files of live writers are kept. Returns what was removed.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    host, removed = _writer_tag().split("~")[0], []
+    now = time.time()
+    for tmp in folder.rglob(".*~*"):
+        match = _TEMP_NAME.match(tmp.name)
+        if match is None or not tmp.is_file():
+            continue
+        if match["host"] == host:
+            stale = not _pid_alive(int(match["pid"])) or int(match["pid"]) == os.getpid()
+        else:
+            try:
+                stale = now - tmp.stat().st_mtime > max_foreign_age_s
+            except FileNotFoundError:
+                continue
+        if stale:
+            tmp.unlink(missing_ok=True)
+            removed.append(tmp)
+    return removed
 
 
 def _umask() -> int:

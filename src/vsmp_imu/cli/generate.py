@@ -41,6 +41,9 @@ def generate_cmd(
     workers: int = typer.Option(1, "--workers", min=1, max=256, help="Parallel workers"),
     executor: str = typer.Option("local", "--executor", help="local | ray"),
     address: str | None = typer.Option(None, "--address", help="Ray cluster address (with --executor ray)"),
+    gpus_per_task: float | None = typer.Option(
+        None, "--gpus-per-task", min=0.0, max=8.0,
+        help="GPUs a Ray task reserves (default: 1 with --backend hymotion, else 0)"),
     cache_dir: Path | None = typer.Option(None, "--cache-dir", help="Per-sample cache (default: OUT/cache)"),
     save_motions: bool = typer.Option(True, "--save-motions/--no-save-motions", help="Keep the motions"),
     no_sim_loop: bool = typer.Option(False, "--no-sim-loop", help="Ablation: eta* = 0"),
@@ -55,6 +58,7 @@ def generate_cmd(
     from vsmp_imu.executor import make_executor
     from vsmp_imu.har.datasets import load_dataset
     from vsmp_imu.har.synthetic import ALPHA_RANGE, synthetic_budget
+    from vsmp_imu.io import remove_stale_temps
     from vsmp_imu.pipeline.fold import FoldGenerator
     from vsmp_imu.pipeline.method import make_smp_source
     from vsmp_imu.pipeline.output import write_output
@@ -77,8 +81,14 @@ def generate_cmd(
     lib = ActivityLibrary.load(library_dirs(library))
     sources = make_smp_source(source, lib).smps(info.name, info.label_names)
     motion_dir = output / "motions" if save_motions else None
-    generator = FoldGenerator(config, make_executor(executor, workers, address),
-                              cache_dir or output / "cache", motion_dir, library=lib)
+    cache = cache_dir or output / "cache"
+    for folder in (output, cache):  # leftovers of a killed run
+        remove_stale_temps(folder)
+    if gpus_per_task is None:
+        gpus_per_task = 1.0 if backend == "hymotion" and executor == "ray" else 0.0
+    generator = FoldGenerator(config, make_executor(executor, workers, address,
+                                                    num_gpus_per_task=gpus_per_task),
+                              cache, motion_dir, library=lib)
     console.print(f"{info.name}: held-out subject {holdout}; {len(train)} real training windows from "
                   f"{len(subjects) - 1} subjects; synthetic budget {int(budget.sum())} windows", highlight=False)
     t0 = time.perf_counter()
@@ -86,7 +96,7 @@ def generate_cmd(
     elapsed = time.perf_counter() - t0
     write_output(output, out, {
         "dataset": info.name, "holdout": holdout, "alpha": alpha, "policy": policy, "seed": seed,
-        "source": source, "config": config.as_dict(), "elapsed_s": round(elapsed, 2),
+        "source": source, "config": config.as_dict(),
         "train_subjects": [s for s in subjects if s != holdout],
     })
     _print_summary(out.summary)

@@ -28,6 +28,7 @@ def simulate_cmd(
     plot: Path | None = typer.Option(None, "--plot", help="also draw the signals to this PNG"),
 ) -> None:
     """Simulate virtual IMU readings (m/s², rad/s) from a motion file."""
+    from vsmp_imu.errors import ValidationError
     from vsmp_imu.imu import ImuSimulator, get_placement
     from vsmp_imu.motion import Motion
 
@@ -35,7 +36,13 @@ def simulate_cmd(
     placements = [get_placement(n) for n in names]
     motion = Motion.load(motion_file)
     sim = ImuSimulator(fs, noise=not no_noise, seed=seed, smoothing_hz=smoothing_hz or None, trim_s=trim_s)
-    rec = sim.simulate(motion, placements[0]) if len(placements) == 1 else sim.simulate_many(motion, placements)
+    try:
+        rec = sim.simulate(motion, placements[0]) if len(placements) == 1 else \
+            sim.simulate_many(motion, placements)
+    except ValidationError as exc:
+        if exc.file or exc.field != "motion":
+            raise
+        raise ValidationError(exc.message, file=motion_file, field=exc.field) from exc  # name the file
     rec.meta["motion_file"] = str(motion_file)
     rec.save_csv(output)
     console.print(f"[green]wrote[/] {output}: {rec.n_samples} samples at {rec.fs_hz:g} Hz, "

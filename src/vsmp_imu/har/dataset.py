@@ -322,16 +322,19 @@ class HarDataset:
     def _all_recordings(self) -> list[Recording]:
         recs = self._load()
         n_channels = len(self.info.channel_names)
+        # the dataset's folder (or YAML file), so the message names where to look
+        source = getattr(self, "data_dir", None) or getattr(self, "yaml_path", None)
         for rec in recs:
             if rec.data.shape[1] != n_channels:
                 raise ValidationError(
                     f"recording {rec.recording_id} has {rec.data.shape[1]} channels",
+                    file=source,
                     field="channel_names",
                     allowed=str(n_channels),
                 )
             if not np.isfinite(rec.data).all():
                 raise ValidationError(
-                    f"recording {rec.recording_id} has NaN or inf values", field="data"
+                    f"recording {rec.recording_id} has NaN or inf values", file=source, field="data"
                 )
         return sorted(recs, key=lambda r: (natural_key(r.subject), natural_key(r.recording_id)))
 

@@ -45,7 +45,7 @@ from vsmp_imu.har.synthetic import (
     take_budget,
 )
 from vsmp_imu.har.windows import Windows, concat_windows, natural_key
-from vsmp_imu.io import dumps_json, write_json
+from vsmp_imu.io import dumps_json, remove_stale_temps, write_json
 from vsmp_imu.seeding import child_seed, rng_for
 
 RESULT_FIELDS = (
@@ -266,6 +266,8 @@ class Evaluation:
             )
         groups = self._groups()
         folds = self.folds(windows)
+        if self.output_dir is not None:
+            remove_stale_temps(self.output_dir)  # leftovers of a killed run
         digests = {(m, b): self._digest(b, m) for m in c.methods for b in c.backbones}
         total = len(c.seeds) * len(folds) * len(c.budgets) * len(c.methods) * len(c.backbones)
         records: list[dict[str, Any]] = []

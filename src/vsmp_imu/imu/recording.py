@@ -158,6 +158,10 @@ def read_imu_csv(path: str | Path) -> ImuRecording:
         times = frame[TIME_COLUMN].to_numpy(dtype=np.float64)
     except ValueError as exc:
         raise InputFileError(f"non-numeric values ({exc})", file=path) from exc
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1) | ~np.isfinite(times))
+    if len(bad):
+        raise InputFileError(f"NaN or inf values in {len(bad)} row(s), the first at data row {bad[0] + 1}",
+                             file=path)
     if fs_hz is None:
         steps = np.diff(times)
         if len(steps) == 0 or not np.all(steps > 0):

@@ -15,12 +15,15 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import io
 import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 from scipy.spatial.transform import Rotation
 
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
@@ -28,7 +31,7 @@ from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mou
 from vsmp_imu.grounding.calibrate import SimInTheLoopCalibrator
 from vsmp_imu.grounding.stats import StatSummary
 from vsmp_imu.imu import VirtualSensor, draw_noise, sensor_readings, simulate_kinematics
-from vsmp_imu.io import atomic_path, write_bytes
+from vsmp_imu.io import write_bytes
 from vsmp_imu.motion import Motion
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp import SMP
@@ -109,19 +112,33 @@ class SampleResult:
     provenance: dict[str, Any] = field(default_factory=dict)
     error: str | None = None
 
-    def to_npz(self, path: Path) -> None:
-        arrays = {f"signal__{k}": v.astype(np.float64) for k, v in self.signals.items()}
+    def to_parquet(self, path: Path) -> None:
+        """One shard: a row per location (signal as float64 list + shape); meta in the schema."""
+        names = sorted(self.signals)
+        signals = [np.ascontiguousarray(self.signals[k], np.float64) for k in names]
         meta = json.dumps({"key": self.key, "label_index": self.label_index,
                            "provenance": self.provenance, "error": self.error},
                           sort_keys=True, default=json_default)
-        with atomic_path(path, suffix=".npz") as tmp, open(tmp, "wb") as fh:
-            np.savez(fh, meta=np.array(meta), **arrays)
+        table = pa.table({
+            "location": pa.array(names, pa.string()),
+            "n_frames": pa.array([s.shape[0] for s in signals], pa.int64()),
+            "n_channels": pa.array([s.shape[1] if s.ndim == 2 else 0 for s in signals], pa.int64()),
+            "signal": pa.array([s.ravel() for s in signals], pa.list_(pa.float64())),
+        }).replace_schema_metadata({"vsmp_imu.sample": meta})
+        buf = io.BytesIO()
+        pq.write_table(table, buf, compression="zstd")
+        write_bytes(path, buf.getvalue())
 
     @classmethod
-    def from_npz(cls, path: Path) -> SampleResult:
-        with np.load(path, allow_pickle=False) as npz:
-            meta = json.loads(str(npz["meta"]))
-            signals = {k.split("__", 1)[1]: npz[k] for k in npz.files if k.startswith("signal__")}
+    def from_parquet(cls, path: Path) -> SampleResult:
+        table = pq.read_table(path)
+        meta = json.loads(table.schema.metadata[b"vsmp_imu.sample"])
+        cols = table.to_pydict()
+        signals = {
+            loc: np.asarray(sig, np.float64).reshape(n, c) if c else np.asarray(sig, np.float64)
+            for loc, n, c, sig in zip(cols["location"], cols["n_frames"], cols["n_channels"], cols["signal"],
+                                      strict=True)
+        }
         return cls(meta["key"], meta["label_index"], signals, meta["provenance"], meta["error"])
 
 
@@ -244,19 +261,22 @@ def motion_file(task: SampleTask) -> Path | None:
 def cached_synthesize(args: tuple[SampleTask, str | None]) -> SampleResult:
     """`synthesize` with an on-disk cache keyed by the task's content hash.
 
-    The cache keeps the result and (when the task saves motions) the motion,
-    so a resumed run writes the same files as an uninterrupted one.
+    The cache entry is the worker's own Parquet shard (`<content hash>.parquet`,
+    plus the motion when the task saves motions); the fold merges the results in
+    task order, so neither the number of workers nor the order in which they
+    finish changes the output, and a resumed run writes the same files as an
+    uninterrupted one.
     """
     task, cache_dir = args
     out_motion = motion_file(task)
     if cache_dir is None:
         return synthesize(task, out_motion)
     digest = task.content_hash()
-    path = Path(cache_dir) / f"{digest}.npz"
+    path = Path(cache_dir) / f"{digest}.parquet"
     cached_motion = Path(cache_dir) / f"{digest}.motion.npz"
     if path.exists() and (out_motion is None or cached_motion.exists()):
         try:
-            result = SampleResult.from_npz(path)
+            result = SampleResult.from_parquet(path)
             if out_motion is not None and not out_motion.exists():
                 write_bytes(out_motion, cached_motion.read_bytes())
             return result
@@ -265,5 +285,5 @@ def cached_synthesize(args: tuple[SampleTask, str | None]) -> SampleResult:
     result = synthesize(task, cached_motion if out_motion is not None else None)
     if out_motion is not None and cached_motion.exists():
         write_bytes(out_motion, cached_motion.read_bytes())
-    result.to_npz(path)
+    result.to_parquet(path)
     return result

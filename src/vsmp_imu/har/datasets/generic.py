@@ -63,7 +63,7 @@ class GenericSpec(BaseModel):
 
     name: str = Field(min_length=1)
     data: str = Field(min_length=1)
-    fs_hz: float | None = Field(default=None, gt=0)
+    fs_hz: float | None = Field(default=None, gt=0, allow_inf_nan=False)
     time_column: str | None = None
     subject_column: str = "subject"
     label_column: str = "label"

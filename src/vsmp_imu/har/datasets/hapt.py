@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vsmp_imu.errors import DependencyError
+from vsmp_imu.errors import DependencyError, InputFileError
 from vsmp_imu.har.cache import cache_dir, file_sha256, load_npz, save_npz
 from vsmp_imu.har.dataset import (
     DatasetInfo,
@@ -90,14 +90,28 @@ def _parse(path: Path) -> dict[str, np.ndarray]:
     """Parse the pickle into flat arrays: data (raw units), labels, subject and offsets."""
     frames = load_legacy_pickle(path)
     data, labels, subjects, lengths = [], [], [], []
-    for subject in sorted(frames):
-        for frame in frames[subject]:
-            data.append(frame.loc[:, list(SOURCE_COLUMNS)].to_numpy(np.float64))
-            labels.append(frame["label"].to_numpy(np.int64))
-            subjects.append(int(subject))
-            lengths.append(len(frame))
+    try:
+        for subject in sorted(frames):
+            for frame in frames[subject]:
+                data.append(frame.loc[:, list(SOURCE_COLUMNS)].to_numpy(np.float64))
+                labels.append(frame["label"].to_numpy(np.int64))
+                subjects.append(int(subject))
+                lengths.append(len(frame))
+    except (KeyError, ValueError, TypeError, AttributeError, OverflowError) as exc:
+        raise InputFileError(
+            f"not the HAPT layout (a dict of subject -> list of frames with columns "
+            f"{', '.join(SOURCE_COLUMNS)}, label): {type(exc).__name__}: {str(exc)[:200]}",
+            file=path,
+        ) from exc
+    if not data:
+        raise InputFileError("the pickle holds no recordings", file=path)
+    values = np.concatenate(data)
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if len(bad):
+        raise InputFileError(f"NaN or inf sensor values ({len(bad)} rows, the first is row {bad[0]})",
+                             file=path)
     return {
-        "data": np.concatenate(data),
+        "data": values,
         "labels": np.concatenate(labels),
         "subjects": np.asarray(subjects, np.int64),
         "lengths": np.asarray(lengths, np.int64),

@@ -120,10 +120,16 @@ class RestrictedUnpickler(pickle.Unpickler):
             ) from None
 
 
+MAX_ROWS = 50_000_000  # per frame; HAPT's largest has ~20 000 (a damaged file may claim more)
+
+
 def _index_values(index: Any) -> np.ndarray:
     if isinstance(index, _RangeIndex):
         s = index.state
-        return np.arange(s["start"], s["stop"], s.get("step", 1))
+        rows = range(s["start"], s["stop"], s.get("step", 1))
+        if len(rows) > MAX_ROWS:
+            raise InputFileError(f"a RangeIndex of {len(rows)} rows (more than {MAX_ROWS})")
+        return np.arange(rows.start, rows.stop, rows.step)
     if isinstance(index, _Index):
         return np.asarray(index.state["data"])
     raise InputFileError(f"unexpected index object {type(index).__name__}")
@@ -173,11 +179,12 @@ def load_legacy_pickle(path: str | Path) -> Any:
     if raw[:2] == b"\x1f\x8b":
         raw = gzip.decompress(raw)
     try:
-        obj = RestrictedUnpickler(io.BytesIO(raw), source=path).load()
-    except InputFileError:
-        raise
-    except Exception as exc:  # a truncated or foreign pickle
+        return _rebuild(RestrictedUnpickler(io.BytesIO(raw), source=path).load(), path)
+    except InputFileError as exc:
+        if exc.file:
+            raise
+        raise InputFileError(exc.message, file=path, allowed=exc.allowed) from exc
+    except Exception as exc:  # a truncated, damaged or foreign pickle
         raise InputFileError(
-            f"cannot read pickle ({type(exc).__name__}: {exc})", file=path
+            f"cannot read pickle ({type(exc).__name__}: {str(exc)[:200]})", file=path
         ) from exc
-    return _rebuild(obj, path)

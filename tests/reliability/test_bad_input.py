@@ -1,0 +1,226 @@
+"""Every kind of input, made bad: exit code 2 and one message naming the file (or option) and
+the problem, through the real entry point (`vsmp_imu.cli.main`, as the console script runs
+it), never a traceback and never a partial output file."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from reliability_support import leftovers, run_cli
+
+from vsmp_imu.cli import main
+from vsmp_imu.smp.library import ActivityLibrary
+
+
+def run_main(capsys, *argv) -> tuple[int, str]:
+    """(exit code, stdout + stderr) of `vsmp-imu ARGV` run in this process."""
+    try:
+        main([str(a) for a in argv])
+        code = 0
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 1
+    captured = capsys.readouterr()
+    return code, " ".join((captured.out + captured.err).split())
+
+
+@pytest.fixture(scope="module")
+def library():
+    return ActivityLibrary.load()
+
+
+@pytest.fixture(scope="module")
+def good_motion(tmp_path_factory, library):
+    from vsmp_imu.motion.procedural import ProceduralBackend
+
+    return ProceduralBackend(library).generate(library.get("walking").smp, 0, 3.0)
+
+
+def _smp_with(library, tmp_path, change) -> Path:
+    data = library.get("walking").smp.model_dump(mode="json")
+    change(data)
+    path = tmp_path / "smp.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _csv_dataset(tmp_path, rows: list[str], yaml_extra: str = "") -> Path:
+    (tmp_path / "data").mkdir(parents=True)
+    (tmp_path / "data" / "p1.csv").write_text("\n".join(["subject,label,ax,ay,az", *rows]) + "\n")
+    yaml = tmp_path / "dataset.yaml"
+    yaml.write_text("name: mine\ndata: data\nfs_hz: 50\n" + yaml_extra +
+                    "locations:\n  - {name: waist, acc: [ax, ay, az], acc_unit: g}\n")
+    return yaml
+
+
+def case_video(tmp_path, library, motion):
+    clip = tmp_path / "clip.mp4"
+    clip.write_bytes(np.random.default_rng(0).integers(0, 256, 4096, dtype=np.uint8).tobytes())
+    return ["video", "info", clip], clip.name, "cannot open the video"
+
+
+def case_video_extract(tmp_path, library, motion):
+    clip = tmp_path / "empty.mp4"
+    clip.write_bytes(b"")
+    out = tmp_path / "out" / "clip.json"
+    return (["smp", "extract", clip, "--label", "walking", "--extractor", "pose", "-o", out],
+            clip.name, "empty")
+
+
+def case_smp_value(tmp_path, library, motion):
+    path = _smp_with(library, tmp_path, lambda d: d["execution_attributes"].update(tempo="warp"))
+    return ["smp", "validate", path], path.name, "execution_attributes.tempo"
+
+
+def case_smp_missing(tmp_path, library, motion):
+    path = _smp_with(library, tmp_path, lambda d: [d.pop("motion_primitives"), d.pop("primitive_sequence")])
+    return ["smp", "verbalize", path], path.name, "motion_primitives"
+
+
+def case_smp_not_json(tmp_path, library, motion):
+    path = tmp_path / "smp.json"
+    path.write_text('{"activity_label": "walking", ')
+    return ["smp", "refine", path, "-o", tmp_path / "out.json"], path.name, "not valid JSON"
+
+
+def case_vlm_text(tmp_path, library, motion):
+    raw = tmp_path / "response.txt"
+    raw.write_text("I am sorry, I cannot see a person in these frames.")
+    return ["smp", "repair", raw, "-o", tmp_path / "out.json"], raw.name, "no JSON object"
+
+
+def case_vlm_text_no_label(tmp_path, library, motion):
+    raw = tmp_path / "response.txt"
+    raw.write_text('```json\n{"tempo": "fast", "amplitude": "large"}\n```')
+    return ["smp", "repair", raw, "-o", tmp_path / "out.json"], raw.name, "rejected"
+
+
+def case_dataset_yaml(tmp_path, library, motion):
+    yaml = _csv_dataset(tmp_path, ["p1,walk,1,0,0"] * 200, yaml_extra="window: 3\n")
+    return ["dataset", "info", yaml], yaml.name, "'window'"
+
+
+def case_dataset_nan(tmp_path, library, motion):
+    rows = [f"p1,walk,{'nan' if i == 7 else '1.0'},0.1,0.2" for i in range(200)]
+    yaml = _csv_dataset(tmp_path, rows)
+    return ["dataset", "info", yaml], "p1.csv", "first at data row 8"
+
+
+def case_dataset_inf_evaluate(tmp_path, library, motion):
+    rows = [f"p1,walk,1.0,{'inf' if i == 11 else '0.1'},0.2" for i in range(200)]
+    yaml = _csv_dataset(tmp_path, rows)
+    return ["evaluate", "--dataset", yaml, "-o", tmp_path / "run"], "p1.csv", "NaN, inf"
+
+
+def case_dataset_column(tmp_path, library, motion):
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "p1.csv").write_text("subject,label,ax,ay\np1,walk,1,0\n")
+    yaml = tmp_path / "dataset.yaml"
+    yaml.write_text("name: mine\ndata: data\nfs_hz: 50\n"
+                    "locations:\n  - {name: waist, acc: [ax, ay, az], acc_unit: g}\n")
+    return ["dataset", "info", yaml], "p1.csv", "az"
+
+
+def case_library_yaml(tmp_path, library, motion):
+    folder = tmp_path / "lib"
+    folder.mkdir()
+    (folder / "seal_jacks.yaml").write_text("name: seal_jacks\nsmp: {activity_label: seal jacks}\n")
+    return ["smp", "library", "list", "--library", folder], "seal_jacks.yaml", "smp.motion_primitives"
+
+
+def case_config_yaml_syntax(tmp_path, library, motion):
+    yaml = tmp_path / "dataset.yaml"
+    yaml.write_text("name: mine\ndata: [unclosed\n")
+    return ["evaluate", "--dataset", yaml, "-o", tmp_path / "run"], yaml.name, "not valid YAML"
+
+
+@pytest.mark.parametrize("option,value,allowed", [
+    ("--k", "0", "greater than or equal to 1"),
+    ("--alpha", "5", "0.1..2"),
+    ("--alpha", "nan", "0.1..2"),
+    ("--workers", "0", "greater than or equal to 1"),
+    ("--overlap", "0.99", "less than or equal to 0.95"),
+    ("--holdout", "99", "1, 2, 3"),
+    ("--executor", "spark", "local, ray"),
+])
+def test_generate_numbers_out_of_range(capsys, tmp_path, small_dataset, option, value, allowed):
+    args = {"--k": "4", "--alpha": "0.5", "--workers": "1", "--overlap": "0.5", "--holdout": "1",
+            "--executor": "local", "--source": f"smp:{small_dataset.parent / 'smps'}"}
+    args[option] = value
+    flat = [x for kv in args.items() for x in kv]
+    code, text = run_main(capsys, "generate", "--dataset", small_dataset, *flat, "-o", tmp_path / "out")
+    assert code == 2, text
+    assert option.lstrip("-") in text and allowed in text and "Traceback" not in text
+    assert not (tmp_path / "out" / "synthetic.parquet").exists()
+
+
+def case_imu_number(tmp_path, library, motion):
+    path = motion.save(tmp_path / "walk.npz")
+    return ["imu", "simulate", path, "--fs", "-5", "-o", tmp_path / "x.csv"], "fs", "positive"
+
+
+def case_motion_npz(tmp_path, library, motion):
+    path = tmp_path / "motion.npz"
+    path.write_bytes(b"PK\x03\x04 but not a zip archive")
+    return ["imu", "simulate", path, "-o", tmp_path / "x.csv"], path.name, "cannot read motion"
+
+
+def case_motion_keys(tmp_path, library, motion):
+    path = tmp_path / "motion.npz"
+    np.savez(path, positions=np.zeros((3, 22, 3)))
+    return ["motion", "info", path], path.name, "missing key(s) rotations"
+
+
+def case_motion_nan(tmp_path, library, motion):
+    broken = motion.__class__(motion.positions.copy(), motion.rotations, motion.fps, motion.joint_names,
+                              motion.parents, dict(motion.meta))
+    broken.positions[10, 3] = np.nan
+    path = broken.save(tmp_path / "motion.npz")
+    return ["imu", "simulate", path, "-o", tmp_path / "x.csv"], path.name, "non-finite"
+
+
+def case_imu_csv_text(tmp_path, library, motion):
+    path = tmp_path / "imu.csv"
+    path.write_text("time_s,acc_x,acc_y,acc_z,gyr_x,gyr_y,gyr_z\n0,1,2,3,4,5,6\n0.02,1,abc,3,4,5,6\n")
+    return ["imu", "plot", path, "-o", tmp_path / "x.png"], path.name, "non-numeric"
+
+
+def case_imu_csv_inf(tmp_path, library, motion):
+    path = tmp_path / "imu.csv"
+    path.write_text("time_s,acc_x,acc_y,acc_z,gyr_x,gyr_y,gyr_z\n0,1,2,3,4,5,6\n0.02,1,inf,3,4,5,6\n"
+                    "0.04,1,2,3,4,5,6\n")
+    return ["imu", "plot", path, "-o", tmp_path / "x.png"], path.name, "NaN or inf values"
+
+
+def case_imu_csv_time(tmp_path, library, motion):
+    path = tmp_path / "imu.csv"
+    path.write_text("acc_x,acc_y,acc_z\n1,2,3\n")
+    return ["imu", "plot", path, "-o", tmp_path / "x.png"], path.name, "no 'time_s' column"
+
+
+CASES = {name[5:]: fn for name, fn in dict(globals()).items() if name.startswith("case_")}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_bad_input_exits_2_naming_file_and_problem(name, capsys, tmp_path, library, good_motion):
+    argv, names, problem = CASES[name](tmp_path, library, good_motion)
+    code, text = run_main(capsys, *argv)
+    assert code == 2, text
+    assert text.count("error:") == 1 and "Traceback" not in text
+    assert names in text, f"message does not name {names}: {text}"
+    assert problem in text, f"message does not say '{problem}': {text}"
+    written = [p for p in tmp_path.rglob("*") if p.is_file() and p.suffix in (".csv", ".png", ".parquet")
+               and p.name not in {"p1.csv", "imu.csv"}]
+    assert written == [] and leftovers(tmp_path) == []
+
+
+def test_the_console_script_exits_2_with_one_paragraph(tmp_path):
+    """The installed `vsmp-imu` script, as a user runs it."""
+    bad = tmp_path / "motion.npz"
+    bad.write_bytes(b"not a motion")
+    done = run_cli("imu", "simulate", bad, "-o", tmp_path / "x.csv", timeout=120)
+    assert done.returncode == 2
+    assert "motion.npz" in done.stderr and "cannot read motion" in " ".join(done.stderr.split())
+    assert "Traceback" not in done.stderr + done.stdout
