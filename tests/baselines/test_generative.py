@@ -20,9 +20,8 @@ from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.synthetic import FoldContext, synthetic_budget
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "extract"))
+from extract_support import VIDEO_DIR  # noqa: E402
 from vlm_server import ChatServer, Reply  # noqa: E402
-
-from conftest import VIDEO_DIR  # noqa: E402
 
 
 @pytest.fixture(scope="module")

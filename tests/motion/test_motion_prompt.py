@@ -31,6 +31,16 @@ def test_library_captions_resolve_to_their_activity(library, name):
         assert smp_from_prompt(caption, library)[1].name == name, caption
 
 
+@pytest.mark.parametrize("name", AUTHORED)
+def test_captions_with_attribute_phrases_keep_their_activity(library, name):
+    # a caption followed by attribute phrases (IMUGPT-style and C1 prompts) must not
+    # lose to a shorter activity name it contains ("walking upstairs" -> "walking")
+    for caption in library.get(name).captions:
+        for text in (f"{caption} They do this at a fast pace, with a large range of motion.",
+                     f"{caption.rstrip('.')} slowly, with large, energetic movements."):
+            assert smp_from_prompt(text, library)[1].name == name, text
+
+
 @pytest.mark.parametrize(("text", "expected"), [
     ("a person waves quickly 3 times", {"tempo": 2.0, "repetitions": 3}),
     ("do the exercise twice, slowly, with a small range of motion", {"tempo": 0.0, "repetitions": 2,

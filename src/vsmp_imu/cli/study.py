@@ -1,4 +1,5 @@
-"""`vsmp-imu study ...`: the paper's studies (controllability, extraction audit, case study)."""
+"""`vsmp-imu study ...`: the paper's studies (controllability, extraction audit, case study,
+ablations, activity granularity, realism)."""
 
 from __future__ import annotations
 
@@ -13,8 +14,19 @@ from vsmp_imu.cli.common import console, console_err, library_dirs, parse_csv
 from vsmp_imu.errors import ConfigError
 
 study_app = typer.Typer(help="Studies of the paper: end-to-end controllability, SMP extraction "
-                        "audit, qualitative case study.", no_args_is_help=True)
+                        "audit, qualitative case study, ablations, activity granularity, realism.",
+                        no_args_is_help=True)
 LIBRARY_OPTION = typer.Option(None, "--library", help="Extra activity-library folder (repeatable).")
+DATASET_HELP = "hapt, hapt12 (ship offline), utd_mhad, pamap2, mmfit, mmact, had-aw (--data-dir) or a .yaml"
+DATASET_OPTION = typer.Option("hapt12", "--dataset", "-d", help=DATASET_HELP)
+DATA_DIR_OPTION = typer.Option(None, "--data-dir", help="Folder of a downloaded dataset")
+BACKBONE_OPTION = typer.Option("rf", "--backbone", help="rf | dclstm | dclstm-attn | bilstm-attn")
+BACKEND_OPTION = typer.Option("procedural", "--backend", help="Motion backend: procedural | hymotion")
+WORKERS_OPTION = typer.Option(1, "--workers", help="Generation workers")
+MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", help="Neural backbones: epoch limit")
+PATIENCE_OPTION = typer.Option(None, "--patience", help="Neural backbones: early stopping")
+SOURCE_OPTION = typer.Option("library", "--source", help="VSMP source SMPs: library | smp:DIR | video:DIR")
+SEEDS_OPTION = typer.Option(1, "--seeds", help="Seeds 0..N-1")
 
 
 @contextmanager
@@ -41,7 +53,7 @@ def control_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder (report.md, results.json, "
                                 "cases.csv, control_results.png; cache/ makes a rerun fast)"),
     seeds: int = typer.Option(5, "--seeds", help="Generation seeds per level: 0..N-1"),
-    backend: str = typer.Option("procedural", "--backend", help="Motion backend: procedural | hymotion"),
+    backend: str = BACKEND_OPTION,
     data_dir: Path | None = typer.Option(None, "--data-dir", help="UTD-MHAD inertial files: ground "
                                          "to them and validate labels with them (default: ground "
                                          "to HAPT)"),
@@ -132,6 +144,231 @@ def case_cmd(
     for k, var in enumerate(result.variants, start=1):
         console.print(f"variant {k}: {var.variant.title}", highlight=False)
     console.print(f"wrote {paths['figure']}", highlight=False)
+
+
+# -- ablations, granularity, realism -------------------------------------------------------------
+
+
+def _folds(text: str) -> tuple[str, ...] | None:
+    return None if text.strip().lower() == "all" else tuple(parse_csv(text, option="--folds"))
+
+
+def _check_range(value: float | None, low: float, high: float, option: str, low_open: bool = False) -> None:
+    if value is None:
+        return
+    ok = (low < value if low_open else low <= value) and value <= high
+    if not ok:
+        raise ConfigError(f"{value:g} is out of range", field=option,
+                          allowed=f"{low:g} {'<' if low_open else '<='} value <= {high:g}")
+
+
+def _positive(value: int | None, option: str) -> None:
+    if value is not None and value < 1:
+        raise ConfigError(f"{value} is out of range", field=option, allowed="an integer >= 1")
+
+
+def _backbone(name: str, max_epochs: int | None, patience: int | None, jobs: int | None) -> dict:
+    from vsmp_imu.har.backbones import BACKBONES
+
+    parse_csv(name, tuple(BACKBONES), "--backbone")
+    for value, option in ((max_epochs, "--max-epochs"), (patience, "--patience"), (jobs, "--jobs")):
+        _positive(value, option)
+    if name == "rf":
+        return {"n_jobs": jobs} if jobs else {}
+    return {k: v for k, v in (("max_epochs", max_epochs), ("patience", patience), ("n_threads", jobs))
+            if v is not None}
+
+
+def _generation(source: str, k: int, backend: str, workers: int, library: list[Path] | None,
+                clips: Path | None = None):
+    from vsmp_imu.studies.methods import GenerationOptions
+
+    _positive(k, "--k")
+    _positive(workers, "--workers")
+    return GenerationOptions(source=source, k=k, backend=backend, workers=workers,
+                             library_dirs=tuple(str(p) for p in (library or [])),
+                             clips=str(clips) if clips else None)
+
+
+@study_app.command("ablation")
+def ablation_cmd(
+    output: Path = typer.Option(..., "-o", "--output", help="Output folder (report.md, results.json, "
+                                "ablation.png, runs/, cache/)"),
+    dataset: str = DATASET_OPTION,
+    data_dir: Path | None = DATA_DIR_OPTION,
+    protocol: str = typer.Option("low-resource", "--protocol", help="lopo | low-resource | long-tail"),
+    budget: float = typer.Option(5.0, "--budget", help="Label budget in percent (low-resource)"),
+    folds: str = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3,4,5"),
+    seeds: int = SEEDS_OPTION,
+    backbone: str = BACKBONE_OPTION,
+    alpha: float = typer.Option(0.5, "--alpha", help="Synthetic-to-real ratio of the 2x2 and the "
+                                "component ablations (0.1..2.0)"),
+    alphas: str = typer.Option("0.1,0.25,0.5,1.0,2.0", "--alphas", help="Ratios of the alpha part"),
+    parts: str = typer.Option("caption,components,grounding,alpha", "--parts",
+                              help="Subset of caption, components, grounding, alpha"),
+    source: str = typer.Option("library", "--source", help="Source SMPs: library | smp:DIR | video:DIR"),
+    k: int = typer.Option(4, "--k", help="SMP variants (slots) per source SMP, 1..4"),
+    max_rounds: int = typer.Option(6, "--max-rounds", help="Matched 2x2: generation rounds (first "
+                                   "attempt plus replenishments)"),
+    backend: str = BACKEND_OPTION,
+    workers: int = WORKERS_OPTION,
+    max_epochs: int | None = MAX_EPOCHS_OPTION,
+    patience: int | None = PATIENCE_OPTION,
+    jobs: int | None = typer.Option(None, "--jobs", help="CPU threads of the backbone"),
+    library: list[Path] = LIBRARY_OPTION,
+) -> None:
+    """Ablations: matched caption-SMP 2x2, components, sensor grounding, alpha sensitivity."""
+    from vsmp_imu.har.protocols import check_protocol
+    from vsmp_imu.studies.ablation import PARTS, AblationStudy
+    from vsmp_imu.studies.ablation_report import write_ablation_outputs
+
+    check_protocol(protocol)
+    _check_range(budget, 0, 100, "--budget", low_open=True)
+    _check_range(alpha, 0.1, 2.0, "--alpha")
+    try:
+        alpha_values = tuple(float(a) for a in parse_csv(alphas, option="--alphas"))
+    except ValueError:
+        raise ConfigError(f"'{alphas}' is not a list of numbers", field="--alphas") from None
+    for a in alpha_values:
+        _check_range(a, 0.1, 2.0, "--alphas")
+    _positive(seeds, "--seeds")
+    _positive(max_rounds, "--max-rounds")
+    if "caption" in parts and not 1 <= k <= 4:
+        raise ConfigError(f"{k} is out of range", field="--k", allowed="1..4 (the matched 2x2 has four slots)")
+    study = AblationStudy(
+        dataset=dataset, data_dir=data_dir, protocol=protocol, budget=budget, folds=_folds(folds),
+        seeds=seeds, backbone=backbone, alpha=alpha, alphas=alpha_values, max_rounds=max_rounds,
+        parts=tuple(parse_csv(parts, PARTS, "--parts")),
+        options=_generation(source, k, backend, workers, library),
+        backbone_params=_backbone(backbone, max_epochs, patience, jobs))
+    with _progress("ablation") as update:
+        results = study.run(output, progress=update)
+    paths = write_ablation_outputs(results, output)
+    for name, part in results.parts.items():
+        rows = part["rows"].values() if isinstance(part.get("rows"), dict) else part.get("rows", [])
+        text = ", ".join(f"{'alpha ' + format(r['alpha'], 'g') if 'alpha' in r else r['method']} "
+                         f"{100 * r['macro_f1_mean']:.2f}" for r in rows if r.get("macro_f1_mean") is not None)
+        console.print(f"{name}: {text}", highlight=False)
+    console.print(f"wrote {paths['report']} ({results.elapsed_s / 60:.1f} min)", highlight=False)
+
+
+@study_app.command("granularity")
+def granularity_cmd(
+    output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
+    dataset: str = DATASET_OPTION,
+    data_dir: Path | None = DATA_DIR_OPTION,
+    taxonomy: Path | None = typer.Option(None, "--taxonomy", help="YAML: group name -> class labels "
+                                         "(default: the shipped one of UTD-MHAD or HAPT12)"),
+    methods: str = typer.Option("real,imutube,imugpt,vsmp", "--methods", help="Methods to compare"),
+    backbone: str = BACKBONE_OPTION,
+    protocol: str = typer.Option("lopo", "--protocol", help="lopo | low-resource | long-tail"),
+    budget: float | None = typer.Option(None, "--budget", help="Label budget in percent (low-resource)"),
+    folds: str = typer.Option("all", "--folds", help="'all' or held-out subjects"),
+    seeds: int = SEEDS_OPTION,
+    alpha: float = typer.Option(0.5, "--alpha", help="Synthetic-to-real ratio (0.1..2.0)"),
+    clips: Path | None = typer.Option(None, "--clips", help="Source clips for IMUTube (one folder per "
+                                      "activity)"),
+    source: str = SOURCE_OPTION,
+    k: int = typer.Option(4, "--k", help="SMP variants per source SMP"),
+    backend: str = BACKEND_OPTION,
+    workers: int = WORKERS_OPTION,
+    max_epochs: int | None = MAX_EPOCHS_OPTION,
+    patience: int | None = PATIENCE_OPTION,
+    jobs: int | None = typer.Option(None, "--jobs", help="CPU threads of the backbone"),
+    library: list[Path] = LIBRARY_OPTION,
+) -> None:
+    """Per-class precision/recall/F1 and group Macro-F1 under an activity taxonomy."""
+    from vsmp_imu.har.protocols import check_protocol
+    from vsmp_imu.studies.granularity import GranularityStudy
+    from vsmp_imu.studies.granularity_report import write_granularity_outputs
+    from vsmp_imu.studies.methods import method_names
+
+    check_protocol(protocol)
+    if protocol == "low-resource" and budget is None:
+        raise ConfigError("the low-resource protocol needs --budget", field="--budget",
+                          allowed="a percentage in (0, 100]")
+    _check_range(budget, 0, 100, "--budget", low_open=True)
+    _check_range(alpha, 0.1, 2.0, "--alpha")
+    _positive(seeds, "--seeds")
+    study = GranularityStudy(
+        dataset=dataset, data_dir=data_dir, taxonomy=taxonomy,
+        methods=tuple(parse_csv(methods, method_names(), "--methods")), backbone=backbone,
+        protocol=protocol, budget=budget, folds=_folds(folds), seeds=seeds, alpha=alpha,
+        options=_generation(source, k, backend, workers, library, clips),
+        backbone_params=_backbone(backbone, max_epochs, patience, jobs))
+    with _progress("granularity") as update:
+        results = study.run(output, progress=update)
+    paths = write_granularity_outputs(results, output)
+    for m, reason in results.skipped.items():
+        console.print(f"skipped {m}: {reason}", highlight=False)
+    for row in results.groups:
+        if row["macro_f1_mean"] is not None:
+            console.print(f"{row['method']} / {row['group']}: {100 * row['macro_f1_mean']:.2f}", highlight=False)
+    console.print(f"wrote {paths['report']}", highlight=False)
+
+
+@study_app.command("realism")
+def realism_cmd(
+    output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
+    dataset: str = DATASET_OPTION,
+    data_dir: Path | None = DATA_DIR_OPTION,
+    fold: str | None = typer.Option(None, "--fold", help="Held-out subject (default: the first)"),
+    methods: str = typer.Option("vsmp,imugpt,classical", "--methods", help="Synthetic methods"),
+    seed: int = typer.Option(0, "--seed", help="Seed of the split, encoder and generation"),
+    alpha: float = typer.Option(0.5, "--alpha", help="Synthetic windows per real training window"),
+    max_per_class: int = typer.Option(150, "--max-per-class", help="Cap on synthetic windows per class"),
+    epochs: int = typer.Option(8, "--epochs", help="Encoder epochs at most (CPU: keep modest)"),
+    patience: int = typer.Option(3, "--patience", help="Encoder early-stopping patience"),
+    encoder_windows: int = typer.Option(3000, "--encoder-windows", help="Real windows the encoder "
+                                        "trains on (class-stratified subset; 0 = all)"),
+    val_windows: int = typer.Option(1000, "--val-windows", help="Validation windows for early stopping "
+                                    "(class-stratified subset; 0 = all)"),
+    filters: int = typer.Option(64, "--filters", help="Encoder convolution filters (paper: 64)"),
+    hidden: int = typer.Option(128, "--hidden", help="Encoder LSTM units (paper: 128)"),
+    batch_size: int = typer.Option(128, "--batch-size", help="Encoder mini-batch (paper: 1024 on a GPU)"),
+    layer: str = typer.Option("conv", "--layer", help="Embedding: conv (final convolutional layer, "
+                              "time-averaged; the paper's) | lstm (last LSTM state)"),
+    clips: Path | None = typer.Option(None, "--clips", help="Source clips for IMUTube"),
+    source: str = SOURCE_OPTION,
+    k: int = typer.Option(4, "--k", help="SMP variants per source SMP"),
+    backend: str = BACKEND_OPTION,
+    workers: int = WORKERS_OPTION,
+    jobs: int | None = typer.Option(None, "--jobs", help="CPU threads of the encoder"),
+    library: list[Path] = LIBRARY_OPTION,
+) -> None:
+    """Feature-space realism: class-wise centroid distances in DeepConvLSTM embeddings, PCA, KS."""
+    from vsmp_imu.studies.methods import method_names
+    from vsmp_imu.studies.realism import LAYERS, RealismStudy
+    from vsmp_imu.studies.realism_report import write_realism_outputs
+
+    _check_range(alpha, 0.1, 2.0, "--alpha")
+    for value, option in ((max_per_class, "--max-per-class"), (epochs, "--epochs"), (patience, "--patience"),
+                          (jobs, "--jobs"), (filters, "--filters"), (hidden, "--hidden"),
+                          (batch_size, "--batch-size")):
+        _positive(value, option)
+    for value, option in ((encoder_windows, "--encoder-windows"), (val_windows, "--val-windows")):
+        if value < 0:
+            raise ConfigError(f"{value} is out of range", field=option, allowed="0 (all) or a positive integer")
+    parse_csv(layer, LAYERS, "--layer")
+    encoder = {"n_filters": filters, "hidden": hidden, "batch_size": batch_size}
+    if jobs:
+        encoder["n_threads"] = jobs
+    study = RealismStudy(
+        dataset=dataset, data_dir=data_dir, fold=fold,
+        methods=tuple(parse_csv(methods, method_names(), "--methods")), seed=seed, alpha=alpha,
+        max_per_class=max_per_class, epochs=epochs, patience=patience,
+        encoder_windows=encoder_windows or None, val_windows=val_windows or None, layer=layer,
+        encoder_params=encoder, options=_generation(source, k, backend, workers, library, clips))
+    with _progress("realism") as update:
+        results = study.run(output, progress=update)
+    paths = write_realism_outputs(results, output)
+    for m, reason in results.skipped.items():
+        console.print(f"skipped {m}: {reason}", highlight=False)
+    for row in results.methods:
+        d = row["mean_distance"]
+        console.print(f"{row['method']}: mean centroid distance {'n/a' if d is None else f'{d:.3f}'}",
+                      highlight=False)
+    console.print(f"wrote {paths['report']}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -88,12 +88,19 @@ def _key_score(key: str, text: str, text_stems: str) -> float:
     return 0.9 * fuzz.partial_ratio(key, text)
 
 
+def _words(text: str) -> str:
+    """Lower-case words only: punctuation is no word boundary of its own."""
+    return " ".join(re.findall(r"[a-z0-9']+", text.lower()))
+
+
 def resolve_activity(text: str, library: Any) -> tuple[Any, float]:
     """(entry, score) of the activity a prompt names; ValidationError when none scores high enough.
 
     A verbalized prompt ("A person performs <label> ...") resolves by its label;
-    other text by the best of: a library caption (token-sort similarity, 100 for
-    the caption itself) and a name, alias or label found in the text.
+    other text by the best of: a library caption (token-sort similarity; 100
+    when the caption appears word for word, e.g. with attribute phrases
+    appended, the longest such caption winning) and a name, alias or label
+    found in the text.
     """
     match = _PERFORMS.search(text)
     if match:
@@ -106,20 +113,26 @@ def resolve_activity(text: str, library: Any) -> tuple[Any, float]:
                 pass
     norm = norm_name(text)
     norm_stems = _stems(norm)
-    best: tuple[float, str, Any] | None = None
+    words = _words(norm)
+    best: tuple[float, int, str, Any] | None = None
     for entry in library:
         score = max((_key_score(k, norm, norm_stems) for k in _keys(entry)), default=0.0)
+        contained = 0  # length of the longest caption found word for word in the text
         for caption in entry.captions:
-            score = max(score, float(fuzz.token_sort_ratio(norm_name(caption), norm)))
-        if best is None or score > best[0]:
-            best = (score, entry.name, entry)
+            cap = norm_name(caption)
+            score = max(score, float(fuzz.token_sort_ratio(cap, norm)))
+            cap_words = _words(cap)
+            if cap_words and f" {cap_words} " in f" {words} ":
+                score, contained = 100.0, max(contained, len(cap_words))
+        if best is None or (score, contained) > best[:2]:
+            best = (score, contained, entry.name, entry)
     if best is None or best[0] < ACTIVITY_MIN_SCORE:
         names = [e.name for e in library]
         raise ValidationError(
             f"the prompt names no known activity (best match score "
             f"{0 if best is None else best[0]:.0f} < {ACTIVITY_MIN_SCORE:g}): {text[:80]!r}",
             field="prompt", allowed=", ".join(names))
-    return best[2], best[0]
+    return best[3], best[0]
 
 
 def _first(patterns: tuple[tuple[str, Any], ...], text: str) -> Any:

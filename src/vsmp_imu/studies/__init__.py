@@ -6,6 +6,13 @@
   label-retention classifier.
 - `audit`: SMP extraction audit against reference SMPs; `audit_report`.
 - `case`: the qualitative case-study figure of one activity.
+- `ablation`: the strictly matched caption-SMP 2x2 (`matched`), component,
+  sensor-grounding and alpha ablations; `ablation_report`.
+- `granularity`: per-class and per-group results under an activity taxonomy
+  (`taxonomies/*.yaml`); `granularity_report`.
+- `realism`: class-wise centroid distances in DeepConvLSTM embeddings;
+  `realism_report`.
+- `methods`: the synthetic methods as the `evaluate` command registers them.
 - `report`: output helpers shared by every study.
 
 See docs/studies.md.
