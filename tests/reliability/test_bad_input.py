@@ -158,7 +158,7 @@ def test_generate_numbers_out_of_range(capsys, tmp_path, small_dataset, option, 
 
 def case_imu_number(tmp_path, library, motion):
     path = motion.save(tmp_path / "walk.npz")
-    return ["imu", "simulate", path, "--fs", "-5", "-o", tmp_path / "x.csv"], "fs", "positive"
+    return ["imu", "simulate", path, "--fs", "-5", "-o", tmp_path / "x.csv"], "--fs", "1..10000 Hz"
 
 
 def case_motion_npz(tmp_path, library, motion):

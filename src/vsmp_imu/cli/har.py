@@ -68,13 +68,13 @@ def evaluate_cmd(
         "real", "--methods", help="real,classical (and registered sources)"
     ),
     folds: str = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3"),
-    seeds: int = typer.Option(1, "--seeds", help="number of seeds (0..N-1)"),
+    seeds: int = typer.Option(1, "--seeds", max=1000, help="number of seeds (0..N-1)"),
     alpha: float = typer.Option(0.5, "--alpha", help="synthetic-to-real ratio, 0.1..2.0"),
     policy: str = typer.Option(
         "uniform", "--policy", help="synthetic budget per class: uniform | tail | scarcity"
     ),
     rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
-    window_s: float = typer.Option(2.0, "--window-s", help="window length in seconds"),
+    window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0, help="window length in seconds"),
     overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
     max_epochs: int = typer.Option(None, "--max-epochs", help="neural backbones: epoch limit"),
@@ -224,7 +224,7 @@ def list_cmd() -> None:
 def info_cmd(
     name: str = typer.Argument(..., help="dataset name or dataset .yaml file"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
-    window_s: float = typer.Option(2.0, "--window-s"),
+    window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0),
     overlap: float = typer.Option(0.5, "--overlap"),
     measure: str = typer.Option(
         None, "--measure", help="a static class: print its mean acceleration per channel"

@@ -13,23 +13,32 @@ imu_app = typer.Typer(help="Virtual IMUs: simulate accelerometer and gyroscope r
                       "motion, plot them, list the sensor locations.", no_args_is_help=True)
 
 
+MIN_SMOOTHING_HZ = 0.1  # below this the smoothing spline's system is near singular
+
+
 @imu_app.command("simulate")
 def simulate_cmd(
     motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
     output: Path = typer.Option(..., "-o", "--output", help="IMU CSV to write"),
     location: str = typer.Option("waist", "--location", "-l",
                                  help="sensor location(s), comma-separated (see `imu locations`)"),
-    fs: float = typer.Option(50.0, "--fs", help="output rate (Hz)"),
+    fs: float = typer.Option(50.0, "--fs", help="output rate (Hz), 1..10000"),
     no_noise: bool = typer.Option(False, "--no-noise", help="exact kinematics: no white noise, no bias drift"),
     seed: int = typer.Option(0, "--seed", help="noise seed"),
-    smoothing_hz: float = typer.Option(8.0, "--smoothing-hz",
+    smoothing_hz: float = typer.Option(8.0, "--smoothing-hz", min=0.0, max=1000.0,
                                        help="cutoff of the position smoothing spline (Hz; 0 = interpolate)"),
     trim_s: float = typer.Option(0.2, "--trim-s", help="margin dropped at each end (s)"),
     plot: Path | None = typer.Option(None, "--plot", help="also draw the signals to this PNG"),
 ) -> None:
     """Simulate virtual IMU readings (m/s², rad/s) from a motion file."""
-    from vsmp_imu.errors import ValidationError
+    from vsmp_imu.errors import ConfigError, ValidationError
     from vsmp_imu.imu import ImuSimulator, get_placement
+
+    if not 1.0 <= fs <= 10000.0:  # NaN fails too
+        raise ConfigError(f"{fs:g} Hz is not a usable output rate", field="--fs", allowed="1..10000 Hz")
+    if 0 < smoothing_hz < MIN_SMOOTHING_HZ or smoothing_hz != smoothing_hz:
+        raise ConfigError(f"{smoothing_hz:g} Hz is too low for the smoothing spline", field="--smoothing-hz",
+                          allowed=f"0 (interpolate) or {MIN_SMOOTHING_HZ:g}..1000 Hz")
     from vsmp_imu.motion import Motion
 
     names = parse_csv(location, option="--location")

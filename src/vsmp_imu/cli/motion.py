@@ -51,7 +51,7 @@ def synth_cmd(
     backend: str = typer.Option("procedural", "--backend", help="procedural | hymotion"),
     prompt: str = typer.Option(None, "--prompt", help="free-text prompt instead of (or overriding) the SMP"),
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder (repeatable)"),
-    fps: float = typer.Option(30.0, "--fps", help="frame rate of the procedural backend"),
+    fps: float = typer.Option(30.0, "--fps", min=1.0, max=1000.0, help="frame rate of the procedural backend"),
     model_path: str = typer.Option(None, "--model-path", help="HY-Motion checkpoint folder"),
 ) -> None:
     """Generate one motion and write it as .npz."""
@@ -128,7 +128,7 @@ def info_cmd(motion_file: Path = typer.Argument(..., help="motion file (.npz)"))
 @motion_app.command("resample")
 def resample_cmd(
     motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
-    fps: float = typer.Option(..., "--fps", help="new frame rate"),
+    fps: float = typer.Option(..., "--fps", min=1.0, max=1000.0, help="new frame rate"),
     output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
 ) -> None:
     """Write the motion at another frame rate."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import re
 import time
 from collections.abc import Callable, Sequence
@@ -130,8 +131,8 @@ class EvalConfig:
             )
         if not self.seeds:
             raise ConfigError("need at least one seed", field="--seeds", allowed="N >= 1")
-        if self.rho <= 1:
-            raise ConfigError(f"rho {self.rho:g} out of range", field="--rho", allowed="rho > 1")
+        if not self.rho > 1 or not math.isfinite(self.rho):  # NaN fails both
+            raise ConfigError(f"rho {self.rho:g} out of range", field="--rho", allowed="a finite rho > 1")
         return self
 
 

@@ -1,0 +1,816 @@
+"""Every speed figure of the project in one run (`make bench`).
+
+Measured here, each stage in its own subprocess (so its peak memory is its own):
+
+- per-sample stages on one core (BLAS/OpenMP pinned to 1 thread): SMP
+  augmentation, procedural motion, IMU simulation (kinematics + readings, one
+  location), CEM (simulation-in-the-loop, vectorized over the 64 candidates
+  vs the same CEM scoring each candidate in a Python loop: ratio), convention
+  alignment + rank grounding;
+- the whole embedded chain (Algorithm 1 for one HAPT12 LOPO fold: library
+  SMPs, procedural backend, 2 local workers, no cache) with its breakdown
+  (synthesis, rank grounding, windowing, filters, selection) from the same run;
+- worker scaling 1 -> 2 on generation, with the local process pool and with a
+  local Ray instance;
+- HAR training: HAPT 30-fold LOPO RF-ECDF (all folds; `--quick`: 2 folds,
+  extrapolated) and one DeepConvLSTM fold with an epoch cap;
+- the paper's cost comparison: seconds per synthetic sample of Classical Aug,
+  IMUTube-style, IMUGPT-2.0-style and VSMP-IMU on one HAPT12 fold, 1 worker.
+
+Peak memory: the peak resident set (VmHWM, as `ru_maxrss` reports it) of the
+stage's subprocess (the whole process: interpreter, imports, inputs and the
+work; pool workers reported apart as RUSAGE_CHILDREN ru_maxrss, Ray workers not
+included) and the `tracemalloc` peak of one
+untimed extra pass of the stage's unit of work (Python and NumPy allocations
+of that work only).
+
+Usage:  .venv/bin/python benchmarks/run_all.py [--quick] [--stages a,b] [--update]
+        [--json PATH] [--markdown PATH] [--report]
+Writes the figures as JSON (default benchmarks/results/run_all[_quick].json)
+and the table as Markdown (same name, .md), and prints the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import os
+import platform
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import tracemalloc
+from collections import defaultdict
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+VIDEO_DIR = REPO.parent / "shared" / "data" / "videos"
+HOLDOUT = "1"  # the HAPT12 fold used by every generation figure
+CORES = 2
+STAGES = ("smp_augment", "procedural_motion", "imu_simulation", "cem", "align_rank", "chain",
+          "chain_memory", "scaling_local", "scaling_ray", "scaling_ray_nice0", "har_rf", "har_dclstm", "cost")
+# Targets of the issue "Speed, scale and reliability, measured".
+CHAIN_TARGET = 50.0  # synthetic samples/s, whole embedded chain, 2 cores
+RF_TARGET_S = 300.0  # HAPT 30-fold RF-ECDF LOPO
+SCALING_TARGET = 1.8  # 1 -> 2 workers
+PAPER_S_PER_SAMPLE = {"classical": 0.01, "imutube": 2.0, "imugpt": 5.0, "vsmp": 10.0}  # A6000 Ada
+
+
+# --------------------------------------------------------------------------------------------
+# helpers (run inside a stage subprocess)
+# --------------------------------------------------------------------------------------------
+def one_thread() -> None:
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ[var] = "1"
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
+
+
+def timed(fn: Callable[[], object]) -> tuple[float, object]:
+    start = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - start, out
+
+
+def traced_peak_mb(fn: Callable[[], object]) -> float:
+    """tracemalloc peak (MB) of one call of `fn`."""
+    tracemalloc.start()
+    try:
+        fn()
+        return tracemalloc.get_traced_memory()[1] / 2**20
+    finally:
+        tracemalloc.stop()
+
+
+def maxrss_mb() -> dict[str, float]:
+    """Peak resident memory (MB) of this process and of its largest waited-for child.
+
+    The process's own peak is VmHWM (reset at exec); `ru_maxrss` of RUSAGE_SELF
+    would carry the driver's peak over the fork + exec that started the stage.
+    """
+    status = Path("/proc/self/status")
+    own = None
+    if status.exists():
+        for line in status.read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                own = int(line.split()[1]) / 1024
+    if own is None:
+        own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return {"maxrss_mb": own,
+            "children_maxrss_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024}
+
+
+def hapt12_fold(alpha: float):
+    """(info, train windows, library, SMP sources, budget) of the HAPT12 fold HOLDOUT."""
+    from vsmp_imu.har.datasets import load_dataset
+    from vsmp_imu.har.synthetic import synthetic_budget
+    from vsmp_imu.pipeline.sources import LibrarySmpSource
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    ds = load_dataset("hapt12")
+    train = ds.windows().where_subjects([HOLDOUT], keep=False)
+    library = ActivityLibrary.load()
+    sources = LibrarySmpSource(library).smps("hapt12", ds.info.label_names)
+    budget = synthetic_budget(train.class_counts(), alpha)
+    return ds.info, train, library, sources, budget
+
+
+def class_smps(library, info):
+    """The library SMP of every HAPT12 class, refined as the pipeline does."""
+    from vsmp_imu.pipeline.sources import LibrarySmpSource
+    from vsmp_imu.smp.refine import Refiner
+
+    sources = LibrarySmpSource(library).smps("hapt12", info.label_names)
+    return [(label, Refiner(library).refine(sources[label][0][1]).smp) for label in info.label_names]
+
+
+def variants(smps, k: int = 4):
+    from vsmp_imu.smp.augment import SMPAugmenter
+
+    return [(label, v) for i, (label, smp) in enumerate(smps) for v in SMPAugmenter().augment(smp, k, i)]
+
+
+def motions_of(library, items, seed0: int = 0):
+    from vsmp_imu.motion.procedural import ProceduralBackend
+
+    backend = ProceduralBackend(library)
+    return [(label, backend.generate(smp, seed0 + i)) for i, (label, smp) in enumerate(items)]
+
+
+class TimedExecutor:
+    """Wraps an executor; adds the wall time of its `map` calls."""
+
+    def __init__(self, inner) -> None:
+        self.inner = inner
+        self.seconds = 0.0
+        self.tasks = 0
+        self.batches: list[list] = []
+
+    def map(self, fn, tasks, desc: str = "working"):
+        start = time.perf_counter()
+        out = self.inner.map(fn, tasks, desc)
+        self.seconds += time.perf_counter() - start
+        self.tasks += len(tasks)
+        self.batches.append(list(tasks))
+        return out
+
+
+def timed_generator(config, executor, library):
+    """A FoldGenerator whose fold-level steps add their wall time to `.times_`."""
+    from vsmp_imu.pipeline.fold import FoldGenerator
+
+    class Timed(FoldGenerator):
+        times_: dict[str, float] = defaultdict(float)
+
+    for step in ("_nominal_mountings", "_synthesize", "_ground", "_window", "_filter", "_select"):
+        def wrapper(self, *args, _step=step, **kwargs):
+            start = time.perf_counter()
+            try:
+                return getattr(FoldGenerator, _step)(self, *args, **kwargs)
+            finally:
+                self.times_[_step.strip("_")] += time.perf_counter() - start
+
+        setattr(Timed, step, wrapper)
+    gen = Timed(config, TimedExecutor(executor), None, library=library)
+    gen.times_ = defaultdict(float)
+    return gen
+
+
+def run_fold(executor, alpha: float, config=None, batches: list | None = None) -> dict:
+    """Algorithm 1 on the HAPT12 fold; wall time, counts and the per-step breakdown.
+
+    The executor's task lists are appended to `batches` when given."""
+    from vsmp_imu.pipeline.fold import GenerationConfig
+
+    info, train, library, sources, budget = hapt12_fold(alpha)
+    gen = timed_generator(config or GenerationConfig(), executor, library)
+    wall, out = timed(lambda: gen.generate(info, train, sources, budget, 0, f"holdout-{HOLDOUT}"))
+    if batches is not None:
+        batches.extend(gen.executor.batches)
+    return {"alpha": alpha, "wall_s": wall, "samples": len(out.samples), "windows": len(out.generated),
+            "selected": len(out.windows), "budget": int(budget.sum()),
+            "failed_samples": sum(1 for r in out.samples if r.error),
+            "synthesis_map_s": gen.executor.seconds, "steps_s": dict(gen.times_),
+            "samples_per_s": len(out.samples) / wall}
+
+
+def _warm(_):
+    """Load the pipeline in a worker (excluded from the timings)."""
+    import vsmp_imu.pipeline.sample  # noqa: F401
+
+    time.sleep(0.2)
+    return os.nice(0)
+
+
+# --------------------------------------------------------------------------------------------
+# stages: each returns a dict of figures
+# --------------------------------------------------------------------------------------------
+def stage_smp_augment(quick: bool) -> dict:
+    one_thread()
+    from vsmp_imu.har.datasets import load_dataset
+    from vsmp_imu.smp.augment import SMPAugmenter
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    library = ActivityLibrary.load()
+    smps = class_smps(library, load_dataset("hapt12").info)
+    repeats, k = (5 if quick else 50), 4
+
+    def work():
+        for r in range(repeats):
+            for i, (_, smp) in enumerate(smps):
+                SMPAugmenter().augment(smp, k, 1000 * r + i)
+
+    work()  # warm-up
+    wall, _ = timed(work)
+    n = repeats * len(smps) * k
+    return {"unit": "SMP variants", "n": n, "wall_s": wall, "per_s_per_core": n / wall,
+            "tracemalloc_peak_mb": traced_peak_mb(lambda: SMPAugmenter().augment(smps[0][1], k, 0)),
+            "note": f"K={k} variants of each of the 12 HAPT12 library SMPs"}
+
+
+def stage_procedural_motion(quick: bool) -> dict:
+    one_thread()
+    from vsmp_imu.har.datasets import load_dataset
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    library = ActivityLibrary.load()
+    items = variants(class_smps(library, load_dataset("hapt12").info), 1 if quick else 4)
+    motions_of(library, items[:2])  # warm-up
+    wall, motions = timed(lambda: motions_of(library, items, 100))
+    seconds = sum(m.duration_s for _, m in motions)
+    return {"unit": "motions", "n": len(motions), "wall_s": wall, "per_s_per_core": len(motions) / wall,
+            "motion_seconds_per_s": seconds / wall, "mean_duration_s": seconds / len(motions),
+            "tracemalloc_peak_mb": traced_peak_mb(lambda: motions_of(library, items[:1])),
+            "note": "natural duration of each SMP variant, 30 fps SMPL-22"}
+
+
+def _imu_one(motion, fs_hz: float = 50.0):
+    from vsmp_imu.imu import VirtualSensor, draw_noise, sensor_readings, simulate_kinematics
+
+    sensor = VirtualSensor.at("waist")
+    kin = simulate_kinematics(motion, sensor, fs_hz)
+    noise = draw_noise(sensor, kin.n_samples, fs_hz, 0, sensor.name)
+    return kin, noise, sensor_readings(kin, sensor.mounting_matrix(), noise=noise)[0]
+
+
+def stage_imu_simulation(quick: bool) -> dict:
+    one_thread()
+    from vsmp_imu.har.datasets import load_dataset
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    library = ActivityLibrary.load()
+    motions = motions_of(library, variants(class_smps(library, load_dataset("hapt12").info), 1 if quick else 4))
+    repeats = 2 if quick else 5
+    _imu_one(motions[0][1])
+
+    def work():
+        for _ in range(repeats):
+            for _, m in motions:
+                _imu_one(m)
+
+    wall, _ = timed(work)
+    n = repeats * len(motions)
+    return {"unit": "sensor streams", "n": n, "wall_s": wall, "per_s_per_core": n / wall,
+            "tracemalloc_peak_mb": traced_peak_mb(lambda: _imu_one(motions[0][1])),
+            "note": "kinematics + noise + readings, waist, 50 Hz"}
+
+
+def naive_calibrate(cal, kin, target, convention, rng, base, noise) -> dict:
+    """The same bounded CEM as `SimInTheLoopCalibrator.calibrate`, but each candidate is
+    scored on its own: its readings simulated, summarized and compared (no linear moments)."""
+    from vsmp_imu.grounding.align import axes_matrix
+    from vsmp_imu.grounding.calibrate import (
+        ETA_HIGH,
+        ETA_INIT_STD,
+        ETA_LOW,
+        ETA_NOMINAL,
+        MIN_STD_FRACTION,
+        eta_rotation,
+    )
+    from vsmp_imu.grounding.stats import sim_loss, summarize_sequence
+    from vsmp_imu.imu import sensor_readings
+
+    to_target = np.kron(np.eye(2), axes_matrix(convention.axes)).T
+    grav = convention.gravity_included
+
+    def loss(eta: np.ndarray) -> float:
+        mounting = eta_rotation(eta[None])[0] @ base
+        x = sensor_readings(kin, mounting, eta[3:6], eta[6:9], eta[9], eta[10], grav, noise)[0]
+        return float(sim_loss(summarize_sequence(x @ to_target, kin.fs_hz), target))
+
+    n_elite = max(2, int(round(cal.elite_fraction * cal.n_candidates)))
+    mean, std = ETA_NOMINAL.copy(), ETA_INIT_STD.copy()
+    floor = MIN_STD_FRACTION * (ETA_HIGH - ETA_LOW)
+    best_eta, best_loss = ETA_NOMINAL, loss(ETA_NOMINAL)
+    for _ in range(cal.n_iterations):
+        eta = np.clip(mean + std * rng.standard_normal((cal.n_candidates, len(mean))), ETA_LOW, ETA_HIGH)
+        losses = np.array([loss(row) for row in eta])
+        order = np.argsort(losses, kind="stable")
+        mean, std = eta[order[:n_elite]].mean(0), np.maximum(eta[order[:n_elite]].std(0), floor)
+        if losses[order[0]] < best_loss:
+            best_eta, best_loss = eta[order[0]], float(losses[order[0]])
+    return {"eta": best_eta, "loss_final": best_loss}
+
+
+def stage_cem(quick: bool) -> dict:
+    one_thread()
+    from vsmp_imu.grounding.align import Convention
+    from vsmp_imu.grounding.calibrate import ETA_NAMES, SimInTheLoopCalibrator
+    from vsmp_imu.grounding.split import stat_rank_split
+    from vsmp_imu.grounding.stats import TargetStatistics
+    from vsmp_imu.seeding import rng_for
+
+    info, train, library, _, _ = hapt12_fold(0.1)
+    stat_idx, _ = stat_rank_split(train.y, 0)
+    stats = TargetStatistics(info.fs_hz).fit(train[stat_idx].X.astype(np.float64), train[stat_idx].y)
+    loc = info.locations[0]
+    convention = Convention(axes=tuple(loc.axes), gravity_included=loc.gravity_included)
+    items = variants(class_smps(library, info), 1)
+    cases = []
+    for i, (label, m) in enumerate(motions_of(library, items)):
+        kin, noise, _ = _imu_one(m)
+        cases.append((kin, noise, stats.for_class(info.label_names.index(label)), i))
+    cal = SimInTheLoopCalibrator()
+    base = np.eye(3)
+
+    def vectorized(case):
+        kin, noise, target, i = case
+        return cal.calibrate(kin, target, convention, rng_for(0, "cem", i), base_mounting=base, noise=noise)
+
+    vectorized(cases[0])
+    repeats = 1 if quick else 3
+    wall, _ = timed(lambda: [vectorized(c) for _ in range(repeats) for c in cases])
+    n = repeats * len(cases)
+    naive_cases = cases[: 1 if quick else 3]
+    naive_wall, naive = timed(lambda: [naive_calibrate(cal, c[0], c[2], convention, rng_for(0, "cem", c[3]),
+                                                       base, c[1]) for c in naive_cases])
+    vec = [vectorized(c) for c in naive_cases]
+    eta_diff = max(float(np.abs(np.array([r.eta[k] for k in ETA_NAMES]) - nv["eta"]).max())
+                   for r, nv in zip(vec, naive, strict=True))
+    per_vec, per_naive = wall / n, naive_wall / len(naive_cases)
+    return {"unit": "calibrations", "n": n, "wall_s": wall, "per_s_per_core": n / wall,
+            "vectorized_s": per_vec, "naive_loop_s": per_naive, "naive_over_vectorized": per_naive / per_vec,
+            "naive_n": len(naive_cases), "max_abs_eta_difference": eta_diff,
+            "tracemalloc_peak_mb": traced_peak_mb(lambda: vectorized(cases[0])),
+            "note": f"{cal.n_iterations} iterations x {cal.n_candidates} candidates, one waist stream "
+                    "against its class's D_stat; naive = the same CEM scoring each candidate in a loop"}
+
+
+def stage_align_rank(quick: bool) -> dict:
+    one_thread()
+    from vsmp_imu.grounding.align import Convention, ConventionAlignment
+    from vsmp_imu.grounding.rank import RankGrounder
+    from vsmp_imu.grounding.split import stat_rank_split
+
+    info, train, library, _, _ = hapt12_fold(0.1)
+    _, rank_idx = stat_rank_split(train.y, 0)
+    d_rank = train[rank_idx]
+    loc = info.locations[0]
+    alignment = ConventionAlignment(Convention(axes=tuple(loc.axes), gravity_included=loc.gravity_included))
+    items = variants(class_smps(library, info), 2 if quick else 8)
+    streams = []
+    for label, m in motions_of(library, items):
+        kin, _, x = _imu_one(m)
+        streams.append((info.label_names.index(label), x, kin.grav_seg))
+
+    def work():
+        aligned = [alignment.transform(x, g) for _, x, g in streams]
+        syn = np.concatenate(aligned)
+        labels = np.concatenate([np.full(len(a), c) for (c, _, _), a in zip(streams, aligned, strict=True)])
+        grounder = RankGrounder().fit(syn, d_rank.X.astype(np.float64), labels, d_rank.y)
+        return [grounder.transform(a) for a in aligned]
+
+    work()
+    repeats = 1 if quick else 3
+    wall, _ = timed(lambda: [work() for _ in range(repeats)])
+    align_wall, _ = timed(lambda: [alignment.transform(x, g) for _ in range(repeats) for _, x, g in streams])
+    n = repeats * len(streams)
+    return {"unit": "sensor streams", "n": n, "wall_s": wall, "per_s_per_core": n / wall,
+            "alignment_only_per_s": n / align_wall, "d_rank_windows": len(d_rank),
+            "tracemalloc_peak_mb": traced_peak_mb(work),
+            "note": f"{len(streams)} streams per fit: alignment, RankGrounder fit on them + D_rank, transform"}
+
+
+def stage_chain(quick: bool) -> dict:
+    from vsmp_imu.executor import LocalExecutor
+
+    alpha = 0.1 if quick else 0.5
+    fig = run_fold(LocalExecutor(CORES, show_progress=False), alpha)
+    fig.update({"workers": CORES, "per_s_per_core": fig["samples_per_s"] / CORES,
+                "target_samples_per_s": CHAIN_TARGET, "met": fig["samples_per_s"] >= CHAIN_TARGET,
+                "note": f"HAPT12 holdout {HOLDOUT}, library SMPs, procedural, K=4, alpha {alpha}, "
+                        "2 local workers, no cache"})
+    return fig
+
+
+def stage_chain_memory(quick: bool) -> dict:
+    """tracemalloc peaks of the fold-level steps in the driver (a separate run; tracing is on
+    only inside those steps, so the synthesis workers run untraced)."""
+    from vsmp_imu.executor import LocalExecutor
+    from vsmp_imu.pipeline.fold import FoldGenerator, GenerationConfig
+
+    alpha = 0.05 if quick else 0.1
+    info, train, library, sources, budget = hapt12_fold(alpha)
+    peaks: dict[str, float] = {}
+
+    class Traced(FoldGenerator):
+        pass
+
+    for step in ("_ground", "_window", "_filter", "_select"):
+        def wrapper(self, *args, _step=step, **kwargs):
+            tracemalloc.start()
+            try:
+                return getattr(FoldGenerator, _step)(self, *args, **kwargs)
+            finally:
+                peaks[_step.strip("_")] = tracemalloc.get_traced_memory()[1] / 2**20
+                tracemalloc.stop()
+
+        setattr(Traced, step, wrapper)
+    gen = Traced(GenerationConfig(), LocalExecutor(CORES, show_progress=False), None, library=library)
+    gen.generate(info, train, sources, budget, 0, f"holdout-{HOLDOUT}")
+    return {"step_tracemalloc_peak_mb": peaks, "alpha": alpha,
+            "note": "driver-side allocations made during each step (inputs held before it not counted)"}
+
+
+def _started(make, workers: int, niceness: set | None = None):
+    executor = make(workers)
+    nice = executor.map(_warm, list(range(2 * workers)))  # start the workers outside the timings
+    if niceness is not None:
+        niceness.update(nice)
+    return executor
+
+
+def _close(executor) -> None:
+    if hasattr(executor, "close"):
+        executor.close()
+
+
+def _scaling(make, alpha: float, replay_n: int) -> dict:
+    """The fold with 1 then 2 workers; then the synthesis of its first `replay_n` tasks
+    replayed in the order 1, 2, 2, 1 workers (a drifting background load affects both alike)."""
+    from vsmp_imu.pipeline.sample import cached_synthesize
+
+    out, batches, niceness = {}, [], set()
+    for workers in (1, 2):
+        executor = _started(make, workers, niceness)
+        out[str(workers)] = run_fold(executor, alpha, batches=batches if workers == 1 else None)
+        out[str(workers)]["load_avg_after"] = os.getloadavg()
+        _close(executor)
+    tasks = [t for batch in batches for t in batch][:replay_n]
+    replay = []
+    for workers in (1, 2, 2, 1):
+        executor = _started(make, workers)
+        wall, _ = timed(lambda e=executor: e.map(cached_synthesize, tasks))
+        replay.append({"workers": workers, "wall_s": wall, "load_avg_after": os.getloadavg()})
+        _close(executor)
+    one, two = out["1"], out["2"]
+    t1 = sum(r["wall_s"] for r in replay if r["workers"] == 1)
+    t2 = sum(r["wall_s"] for r in replay if r["workers"] == 2)
+    fig = {"runs": out, "alpha": alpha, "replay": replay, "replay_tasks": len(tasks),
+           "speedup_fold": one["wall_s"] / two["wall_s"],
+           "speedup_synthesis": one["synthesis_map_s"] / two["synthesis_map_s"],
+           "speedup_synthesis_abba": t1 / t2, "target": SCALING_TARGET,
+           "worker_niceness": sorted(niceness)}
+    fig["met"] = fig["speedup_fold"] >= SCALING_TARGET
+    fig["met_synthesis"] = fig["speedup_synthesis_abba"] >= SCALING_TARGET
+    return fig
+
+
+def stage_scaling_local(quick: bool) -> dict:
+    """One BLAS thread in the driver too: `--workers 1` runs in-process, where NumPy would
+    otherwise use both cores, while each pool worker is limited to one thread."""
+    from vsmp_imu.executor import LocalExecutor
+
+    one_thread()
+
+    return _scaling(lambda w: LocalExecutor(w, show_progress=False), 0.05 if quick else 0.2,
+                    60 if quick else 240)
+
+
+class _RayPool:
+    """A RayExecutor on a fresh local instance with `workers` CPUs."""
+
+    def __init__(self, workers: int) -> None:
+        import ray
+
+        from vsmp_imu.executor import RayExecutor
+
+        if ray.is_initialized():
+            ray.shutdown()
+        self.inner = RayExecutor(num_cpus=workers, show_progress=False)
+
+    def map(self, fn, tasks, desc: str = "working"):
+        return self.inner.map(fn, tasks, desc)
+
+    def close(self) -> None:
+        import ray
+
+        ray.shutdown()
+
+
+def stage_scaling_ray(quick: bool) -> dict:
+    """Ray's defaults: one CPU (and one BLAS thread) per task, workers at niceness 15."""
+    one_thread()
+    return _scaling(_RayPool, 0.05 if quick else 0.2, 60 if quick else 240)
+
+
+def stage_scaling_ray_nice0(quick: bool) -> dict:
+    """As `scaling_ray`, with Ray's workers at niceness 0 like the driver and a local pool's
+    workers (`RAY_worker_niceness=0`): on a machine shared with other jobs, niceness 15
+    leaves Ray's workers only the CPU time the other jobs do not take."""
+    os.environ["RAY_worker_niceness"] = "0"  # noqa: SIM112 (Ray's own spelling)
+    return stage_scaling_ray(quick)
+
+
+def stage_har_rf(quick: bool) -> dict:
+    import bench_har
+
+    fig = bench_har.bench_rf(CORES, ("1", "2") if quick else None)
+    fig.update({"target_s": RF_TARGET_S, "met": fig["thirty_fold_s"] <= RF_TARGET_S})
+    return fig
+
+
+def stage_har_dclstm(quick: bool) -> dict:
+    import bench_har
+
+    return bench_har.bench_dclstm("1", 1 if quick else 5, CORES, verbose=False)
+
+
+def _context(alpha: float):
+    from vsmp_imu.har.synthetic import FoldContext
+
+    info, train, _, _, budget = hapt12_fold(alpha)
+    names = train.label_names
+    subjects = tuple(train.unique_subjects())
+    return FoldContext(dataset=info, fold=HOLDOUT, held_out_subject=HOLDOUT, train=train,
+                       train_subjects=subjects, seed=0, alpha=alpha, protocol="lopo",
+                       budget={names[i]: int(n) for i, n in enumerate(budget) if n})
+
+
+def _pose_pool(folder: Path, quick: bool) -> dict[str, float]:
+    """Copies of the real clips as a source pool (walking, sitting); pose extraction timed per clip."""
+    from vsmp_imu.baselines.generative import ImuTubeMethod
+
+    clips = [("sitting", "carphone_pristine.mp4")] + ([] if quick else [("walking", "vtest.avi")])
+    seconds = {}
+    for activity, name in clips:
+        (folder / activity).mkdir(parents=True, exist_ok=True)
+        clip = shutil.copy(VIDEO_DIR / name, folder / activity / name)
+        seconds[name], _ = timed(lambda c=clip, a=activity: ImuTubeMethod()._pose_motion(Path(c), a))
+    return seconds
+
+
+def stage_cost(quick: bool) -> dict:
+    from vsmp_imu.baselines.classical import ClassicalAugmentation
+    from vsmp_imu.baselines.generative import ImuGptMethod, ImuTubeMethod
+    from vsmp_imu.pipeline.method import make_vsmp_method
+
+    alpha = 0.1 if quick else 0.2
+    context = _context(alpha)
+    out: dict[str, dict] = {}
+    wall, windows = timed(lambda: ClassicalAugmentation().generate(context))
+    out["classical"] = {"wall_s": wall, "samples": len(windows), "windows": len(windows),
+                        "s_per_sample": wall / max(len(windows), 1),
+                        "note": "a sample is one augmented window"}
+    for name, method in (("imugpt", ImuGptMethod()), ("vsmp", make_vsmp_method("vsmp"))):
+        wall, windows = timed(lambda m=method: m.generate(context))
+        fold = method.last_output_
+        out[name] = {"wall_s": wall, "samples": len(fold.samples), "windows": len(fold.generated),
+                     "selected": len(windows), "s_per_sample": wall / len(fold.samples),
+                     "s_per_selected_window": wall / max(len(windows), 1)}
+    if VIDEO_DIR.exists():
+        with tempfile.TemporaryDirectory() as tmp:
+            pool = Path(tmp) / "pool"
+            pose = _pose_pool(pool, quick)
+            method = ImuTubeMethod(source=f"video:{pool}")
+            wall, windows = timed(lambda: method.generate(context))
+            fold = method.last_output_
+            per_clip = sum(pose.values()) / len(pose)
+            out["imutube"] = {"wall_s": wall, "samples": len(fold.samples), "windows": len(fold.generated),
+                              "selected": len(windows), "pose_s_per_clip": pose,
+                              "pipeline_s_per_sample": wall / len(fold.samples),
+                              "s_per_sample": per_clip + wall / len(fold.samples),
+                              "note": "pose extraction of one clip + the pipeline, per sample "
+                                      f"(classes with a clip only: {', '.join(sorted(set(np.array(context.train.label_names)[np.unique(windows.y)])))})"}
+    else:
+        out["imutube"] = {"skipped": f"{VIDEO_DIR} not found"}
+    for name, fig in out.items():
+        fig["paper_s_per_sample"] = PAPER_S_PER_SAMPLE[name]
+    return {"methods": out, "alpha": alpha, "workers": 1,
+            "note": "HAPT12 holdout 1, embedded default (library SMPs / offline descriptions, procedural "
+                    "backend, CPU), 1 worker; paper: one A6000 Ada GPU with HY-Motion and a VLM"}
+
+
+# --------------------------------------------------------------------------------------------
+# driver
+# --------------------------------------------------------------------------------------------
+def machine() -> dict:
+    def cmd(args):
+        try:
+            return subprocess.run(args, capture_output=True, text=True, timeout=10).stdout
+        except (OSError, subprocess.SubprocessError):
+            return ""
+
+    lscpu = {k.strip(): v.strip() for k, _, v in (line.partition(":") for line in cmd(["lscpu"]).splitlines())}
+    mem = cmd(["free", "-g"]).splitlines()
+    versions = {}
+    for mod in ("numpy", "scipy", "sklearn", "torch", "ray", "pyarrow"):
+        try:
+            versions[mod] = __import__(mod).__version__
+        except ImportError:
+            versions[mod] = None
+    return {"cpu": lscpu.get("Model name"), "cpus": lscpu.get("CPU(s)"),
+            "threads_per_core": lscpu.get("Thread(s) per core"), "affinity_cores": len(os.sched_getaffinity(0)),
+            "memory": mem[1].split()[1] + " GB" if len(mem) > 1 else None,
+            "python": platform.python_version(), "platform": platform.platform(), "versions": versions}
+
+
+def run_stage(name: str, quick: bool) -> dict:
+    """Run one stage in a subprocess; its figures + peak memory + load average at its start."""
+    with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as fh:
+        result_file = Path(fh.name)
+    args = [sys.executable, str(Path(__file__).resolve()), "--stage", name, "--result-file", str(result_file)]
+    load = os.getloadavg()
+    start = time.perf_counter()
+    done = subprocess.run(args + (["--quick"] if quick else []), cwd=REPO, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    try:
+        if done.returncode != 0:
+            return {"error": done.stderr[-3000:], "load_avg_at_start": load, "stage_wall_s": wall}
+        fig = json.loads(result_file.read_text())
+    finally:
+        result_file.unlink(missing_ok=True)
+    fig.update({"load_avg_at_start": load, "stage_wall_s": wall,
+                "finished": dt.datetime.now().isoformat(timespec="seconds")})
+    return fig
+
+
+def _fmt(value, digits: int = 2) -> str:
+    if value is None:
+        return "–"
+    if isinstance(value, float):
+        return f"{value:.{digits}f}" if abs(value) < 1e4 else f"{value:.3g}"
+    return str(value)
+
+
+def table_rows(res: dict) -> list[tuple[str, str, str, str, str]]:
+    """(figure, value, memory, target, status) rows."""
+    rows = []
+    st = res["stages"]
+    rows += [(f"stage {name}", "FAILED", "", "", "see the JSON") for name, fig in st.items() if "error" in fig]
+
+    def mem(fig):
+        if not fig or "maxrss_mb" not in fig:
+            return "–"
+        text = f"{fig['maxrss_mb']:.0f} MB rss"
+        if fig.get("tracemalloc_peak_mb") is not None:
+            text += f", {fig['tracemalloc_peak_mb']:.1f} MB traced"
+        return text
+
+    for key, label in (("smp_augment", "SMP augmentation"), ("procedural_motion", "procedural motion"),
+                       ("imu_simulation", "IMU simulation"), ("cem", "CEM (vectorized)"),
+                       ("align_rank", "alignment + rank grounding")):
+        fig = st.get(key)
+        if fig and "error" not in fig:
+            rows.append((f"{label} [{fig['unit']}/s per core]", _fmt(fig["per_s_per_core"], 1), mem(fig), "", ""))
+    cem = st.get("cem")
+    if cem and "error" not in cem:
+        rows.append(("CEM naive loop / vectorized [ratio]", _fmt(cem["naive_over_vectorized"], 1), "",
+                     "", f"{cem['vectorized_s'] * 1e3:.0f} ms vs {cem['naive_loop_s']:.2f} s per calibration"))
+    chain = st.get("chain")
+    if chain and "error" not in chain:
+        rows.append(("whole embedded chain [samples/s, 2 workers]", _fmt(chain["samples_per_s"], 1),
+                     mem(chain),
+                     f">= {CHAIN_TARGET:g}", "met" if chain["met"] else "NOT met"))
+        rows.append(("  same, per core [samples/s]", _fmt(chain["per_s_per_core"], 1), "", "", ""))
+        peaks = st.get("chain_memory", {}).get("step_tracemalloc_peak_mb", {})
+        for step in ("synthesize", "ground", "window", "filter", "select"):
+            seconds = chain["steps_s"].get(step)
+            if seconds:
+                rate = chain["samples"] / seconds
+                peak = f"{peaks[step]:.0f} MB traced" if step in peaks else ""
+                rows.append((f"  chain step {step} [samples/s; s]", f"{rate:.1f}; {seconds:.1f} s", peak, "", ""))
+    for key, label in (("scaling_local", "local pool"), ("scaling_ray", "local Ray"),
+                       ("scaling_ray_nice0", "local Ray, workers at nice 0")):
+        fig = st.get(key)
+        if fig and "error" not in fig:
+            rows.append((f"1 -> 2 workers, {label}, whole fold [x]", _fmt(fig["speedup_fold"]), "",
+                         f">= {SCALING_TARGET:g}", "met" if fig["met"] else "NOT met"))
+            rows.append((f"1 -> 2 workers, {label}, synthesis step of that fold [x]",
+                         _fmt(fig["speedup_synthesis"]), "", "", ""))
+            if "speedup_synthesis_abba" in fig:
+                rows.append((f"1 -> 2 workers, {label}, synthesis, {fig['replay_tasks']} tasks x 1,2,2,1 [x]",
+                             _fmt(fig["speedup_synthesis_abba"]), "", f">= {SCALING_TARGET:g}",
+                             "met" if fig["met_synthesis"] else "NOT met"))
+    rf = st.get("har_rf")
+    if rf and "error" not in rf:
+        how = "extrapolated" if rf["extrapolated"] else "measured"
+        rows.append((f"HAPT 30-fold RF-ECDF LOPO [s, {how}]", _fmt(rf["thirty_fold_s"], 0), mem(rf),
+                     f"<= {RF_TARGET_S:g}", "met" if rf["met"] else "NOT met"))
+    dcl = st.get("har_dclstm")
+    if dcl and "error" not in dcl:
+        rows.append((f"DeepConvLSTM fold [wall s / epochs, {dcl['epochs']} of cap {dcl['max_epochs']}]",
+                     _fmt(dcl["per_epoch_s"], 1),
+                     mem(dcl), "", f"{dcl['train_windows_per_s']:.0f} training windows/s"))
+    cost = st.get("cost")
+    if cost and "error" not in cost:
+        for name, label in (("classical", "Classical Aug"), ("imutube", "IMUTube-style"),
+                            ("imugpt", "IMUGPT-2.0-style"), ("vsmp", "VSMP-IMU")):
+            fig = cost["methods"].get(name, {})
+            value = _fmt(fig.get("s_per_sample"), 4 if name == "classical" else 3)
+            rows.append((f"cost: {label} [s per synthetic sample]", value, "",
+                         f"paper {PAPER_S_PER_SAMPLE[name]:g} s", fig.get("skipped", "")))
+    return rows
+
+
+def print_table(rows) -> None:
+    widths = [max(len(r[i]) for r in rows + [("figure", "value", "peak memory", "target", "status")])
+              for i in range(5)]
+    for r in [("figure", "value", "peak memory", "target", "status")] + rows:
+        print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)))
+
+
+def markdown(rows) -> str:
+    lines = ["| figure | value | peak memory | target | status |", "| --- | ---: | --- | --- | --- |"]
+    lines += ["| " + " | ".join(c.replace("|", "/") for c in r) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="a short version (minutes): fewer repeats, "
+                        "smaller folds, RF on 2 folds (extrapolated), 1 DeepConvLSTM epoch")
+    parser.add_argument("--stages", default=",".join(STAGES), help="comma-separated subset of: " + ", ".join(STAGES))
+    parser.add_argument("--json", type=Path, default=None, help="where to write the figures")
+    parser.add_argument("--markdown", type=Path, default=None,
+                        help="where to write the table as Markdown (default: the JSON path with .md)")
+    parser.add_argument("--update", action="store_true", help="keep the other stages of an existing JSON")
+    parser.add_argument("--report", action="store_true", help="only print (and --markdown) the table of "
+                        "an existing JSON")
+    parser.add_argument("--stage", help=argparse.SUPPRESS)
+    parser.add_argument("--result-file", type=Path, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+
+    if args.stage:  # inside the subprocess of one stage
+        fig = globals()[f"stage_{args.stage}"](args.quick)
+        fig.update(maxrss_mb())
+        args.result_file.write_text(json.dumps(fig, default=float))
+        return
+
+    chosen = [s.strip() for s in args.stages.split(",") if s.strip()]
+    unknown = [s for s in chosen if s not in STAGES]
+    if unknown:
+        parser.error(f"unknown stage(s) {', '.join(unknown)}; choose from {', '.join(STAGES)}")
+    path = args.json or HERE / "results" / ("run_all_quick.json" if args.quick else "run_all.json")
+    markdown_path = args.markdown or path.with_suffix(".md")
+    if args.report:
+        report(json.loads(path.read_text()), markdown_path)
+        return
+    results = json.loads(path.read_text()) if args.update and path.exists() else {"stages": {}}
+    command = " ".join([Path(sys.executable).name, "benchmarks/run_all.py"] + sys.argv[1:])
+    if args.update:  # the first run's command, date and load stay; this one is added
+        results.setdefault("updates", []).append({"command": command, "load_avg_at_start": os.getloadavg(),
+                                                  "started": dt.datetime.now().isoformat(timespec="seconds")})
+    else:
+        results.update({"command": command, "quick": args.quick, "load_avg_at_start": os.getloadavg(),
+                        "started": dt.datetime.now().isoformat(timespec="seconds")})
+    results["machine"] = machine()
+    for name in chosen:
+        print(f"[{time.strftime('%H:%M:%S')}] {name} (load average {os.getloadavg()[0]:.2f}) ...", flush=True)
+        results["stages"][name] = fig = run_stage(name, args.quick)
+        if "error" in fig:
+            print(f"  FAILED:\n{fig['error']}", flush=True)
+        else:
+            print(f"  done in {fig['stage_wall_s']:.0f} s", flush=True)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(results, indent=2, default=float) + "\n")
+    if not args.update:
+        results["finished"] = dt.datetime.now().isoformat(timespec="seconds")
+        results["load_avg_at_end"] = os.getloadavg()
+    path.write_text(json.dumps(results, indent=2, default=float) + "\n")
+    report(results, markdown_path)
+    print(f"\nfigures: {path}, table: {markdown_path}")
+    failed = [name for name in chosen if "error" in results["stages"][name]]
+    if failed:
+        sys.exit(f"stage(s) failed: {', '.join(failed)}")
+
+
+def report(results: dict, markdown_path: Path | None) -> None:
+    rows = table_rows(results)
+    print()
+    print_table(rows)
+    if markdown_path:
+        markdown_path.write_text(markdown(rows))
+
+
+if __name__ == "__main__":
+    main()
