@@ -17,7 +17,9 @@ SLOW_EXAMPLES = 10_000
 
 
 def fuzz_settings(n: int):
+    # the fast run draws the same cases every time (a reproducible CI); the slow run explores
     return settings(max_examples=n, deadline=None, database=None, print_blob=True,
+                    derandomize=n <= FAST_EXAMPLES,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
                                            HealthCheck.function_scoped_fixture,
                                            HealthCheck.filter_too_much])

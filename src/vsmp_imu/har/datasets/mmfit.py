@@ -15,6 +15,7 @@ with the mapping published in the MM-Fit starter code (EDA notebook).
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
 
 import numpy as np
@@ -85,7 +86,11 @@ DEFAULT_DEVICES = ("sw_l", "sw_r", "sp_r", "eb_l")
 def read_labels(path: Path) -> list[tuple[int, int, int, str]]:
     """(start frame, end frame, repetitions, activity) rows of a `wNN_labels.csv`."""
     rows = []
-    with open(path, newline="", encoding="utf-8") as fh:
+    try:
+        text = Path(path).read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputFileError(f"not UTF-8 text (byte {exc.start})", file=path) from None
+    with io.StringIO(text, newline="") as fh:
         for i, row in enumerate(csv.reader(fh), start=1):
             if not row:
                 continue
