@@ -107,8 +107,9 @@ def read_stream(path: Path) -> np.ndarray:
     """A `(N, 5)` MM-Fit sensor array (frame, timestamp ms, x, y, z)."""
     try:
         arr = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as exc:
-        raise InputFileError(f"not a numpy array file ({exc})", file=path) from exc
+    except Exception as exc:  # a damaged header raises ValueError, SyntaxError or tokenize.TokenError
+        raise InputFileError(f"not a numpy array file ({type(exc).__name__}: {str(exc)[:200]})",
+                             file=path) from exc
     if arr.ndim != 2 or arr.shape[1] != 5:
         raise InputFileError(
             f"expected shape (N, 5), found {arr.shape}",
