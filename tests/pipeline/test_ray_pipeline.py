@@ -81,6 +81,7 @@ def test_a_gpu_task_on_a_cpu_only_ray_instance_is_a_user_error(cli, small_datase
 @pytest.mark.xfail(strict=True, reason="with an unreachable --address, ray.init waits for minutes, or ends "
                    "in ConnectionError (a traceback), instead of a VsmpError naming --address")
 def test_an_unreachable_ray_address_is_a_user_error(small_dataset, tmp_path):
+    pytest.importorskip("ray")
     args = cli_command(*_generate_args(small_dataset, tmp_path / "out", "--executor", "ray",
                                        "--address", "127.0.0.1:9"))  # the discard port: nothing listens
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
