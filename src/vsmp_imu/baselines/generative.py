@@ -86,9 +86,16 @@ class _GenerativeBaseline:
     last_output_: Any = field(default=None, repr=False)
 
     name = "baseline"
+    redundancy_filter = True  # class attribute: the baselines differ only here
 
     def _config(self) -> GenerationConfig:
-        raise NotImplementedError
+        """The baselines' chain: no refinement, no sim-in-the-loop, declared mounting, rank
+        grounding, plausibility filter without the class validator."""
+        return GenerationConfig(
+            k=1, backend=self.backend, refine=False, sim_in_the_loop=False, rank_grounding=True,
+            per_class_rank=self.per_class_rank, estimate_mounting=False, quality_filter=True,
+            class_filter=False, redundancy_filter=self.redundancy_filter,
+            library_dirs=tuple(self.library_dirs))
 
     def _bases(self, context: FoldContext, library: ActivityLibrary) -> dict[str, list[tuple[str, Base]]]:
         raise NotImplementedError
@@ -113,12 +120,6 @@ class ImuGptMethod(_GenerativeBaseline):
     describer_url: str | None = None
     describer_model: str | None = None
     name = "imugpt"
-
-    def _config(self) -> GenerationConfig:
-        return GenerationConfig(
-            k=1, backend=self.backend, refine=False, sim_in_the_loop=False, rank_grounding=True,
-            per_class_rank=self.per_class_rank, estimate_mounting=False, quality_filter=True,
-            class_filter=False, redundancy_filter=True, library_dirs=tuple(self.library_dirs))
 
     def _bases(self, context, library):
         info = context.dataset
@@ -145,12 +146,7 @@ class ImuTubeMethod(_GenerativeBaseline):
     """IMUTube-style synthetic windows from source clips (see module doc)."""
 
     name = "imutube"
-
-    def _config(self) -> GenerationConfig:
-        return GenerationConfig(
-            k=1, backend=self.backend, refine=False, sim_in_the_loop=False, rank_grounding=True,
-            per_class_rank=self.per_class_rank, estimate_mounting=False, quality_filter=True,
-            class_filter=False, redundancy_filter=False, library_dirs=tuple(self.library_dirs))
+    redundancy_filter = False
 
     def _bases(self, context, library):
         from vsmp_imu.pipeline.sources import SmpDirSource

@@ -145,6 +145,28 @@ def _channel_index(info: DatasetInfo, loc: SensorLocation) -> np.ndarray:
     return np.array([info.channel_names.index(c) for c in loc.channels])
 
 
+def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: Windows, plan,
+                       per_class: bool) -> dict[str, RankGrounder]:
+    """Stage 4's rank grounders, one per location: F_v from the samples' signals there, G_r from
+    D_rank's windows of the classes worn there. Locations no sample uses, or without any real
+    window, get none."""
+    grounders = {}
+    for loc in info.locations:
+        users = [r for r in samples if loc.name in r.signals]
+        if not users:
+            continue
+        classes = [i for i, n in enumerate(info.label_names) if loc in plan[n]]
+        real = d_rank[np.isin(d_rank.y, classes)]
+        if len(real) == 0:
+            continue
+        cols = _channel_index(info, loc)
+        syn = np.concatenate([r.signals[loc.name] for r in users])
+        labels = np.concatenate([np.full(len(r.signals[loc.name]), r.label_index) for r in users])
+        grounders[loc.name] = RankGrounder(per_class=per_class).fit(
+            syn, real.X[..., cols].astype(np.float64), labels, real.y)
+    return grounders
+
+
 def _summary_lists(summary) -> dict[str, list]:
     return {k: getattr(summary, k).tolist() for k in ("cov", "psd", "norms", "acf")}
 
@@ -311,18 +333,11 @@ class FoldGenerator:
     def _ground(self, info, ok: list[SampleResult], d_rank: Windows, plan) -> list[dict[str, np.ndarray]]:
         if not self.config.rank_grounding or not ok:
             return [dict(r.signals) for r in ok]
-        grounders = {}
-        for loc in info.locations:
-            users = [r for r in ok if loc.name in r.signals]
-            if not users:
-                continue
-            classes = [i for i, n in enumerate(info.label_names) if loc in plan[n]]
-            real = d_rank[np.isin(d_rank.y, classes)]
-            cols = _channel_index(info, loc)
-            syn = np.concatenate([r.signals[loc.name] for r in users])
-            syn_labels = np.concatenate([np.full(len(r.signals[loc.name]), r.label_index) for r in users])
-            grounders[loc.name] = RankGrounder(per_class=self.config.per_class_rank).fit(
-                syn, real.X[..., cols].astype(np.float64), syn_labels, real.y)
+        grounders = fit_rank_grounders(info, ok, d_rank, plan, self.config.per_class_rank)
+        missing = sorted({name for r in ok for name in r.signals} - set(grounders))
+        if missing:
+            raise ValidationError(f"D_rank has no real window at location(s) {', '.join(missing)}",
+                                  field="d_rank")
         out = []
         for r in ok:
             g = {}

@@ -77,6 +77,7 @@ from vsmp_imu.pipeline.fold import (
     _channel_index,
     _location_plan,
     _validation_split,
+    fit_rank_grounders,
 )
 from vsmp_imu.pipeline.sample import SampleResult, SampleTask, cached_synthesize
 from vsmp_imu.seeding import rng_for
@@ -480,24 +481,6 @@ class MatchedBlockGenerator:
                     duration_s=c.duration_s, library_dirs=tuple(c.library_dirs)))
         return tasks
 
-    def _fit_grounders(self, info, samples: list[SampleResult], d_rank: Windows, plan) -> dict[str, RankGrounder]:
-        """Rank grounders of one condition (as the pipeline's stage 4), fitted once."""
-        grounders = {}
-        for loc in info.locations:
-            users = [r for r in samples if loc.name in r.signals]
-            if not users:
-                continue
-            classes = [i for i, n in enumerate(info.label_names) if loc in plan[n]]
-            real = d_rank[np.isin(d_rank.y, classes)]
-            if len(real) == 0:  # no real window at this location: its samples stay ungrounded
-                continue
-            cols = _channel_index(info, loc)
-            syn = np.concatenate([r.signals[loc.name] for r in users])
-            labels = np.concatenate([np.full(len(r.signals[loc.name]), r.label_index) for r in users])
-            grounders[loc.name] = RankGrounder(per_class=self.config.per_class_rank).fit(
-                syn, real.X[..., cols].astype(np.float64), labels, real.y)
-        return grounders
-
     def _ground(self, samples: list[SampleResult], grounders: dict[str, RankGrounder]):
         out = []
         for r in samples:
@@ -631,7 +614,7 @@ class MatchedBlockGenerator:
             for cond in CONDITIONS:
                 if c.rank_grounding and not grounders.get(cond):  # fitted once, on the first samples
                     ok = [r for r in results[cond].values() if not r.error and r.signals]
-                    grounders[cond] = self._fit_grounders(info, ok, d_rank, loc_plan)
+                    grounders[cond] = fit_rank_grounders(info, ok, d_rank, loc_plan, self.config.per_class_rank)
                 grounders.setdefault(cond, {})
             judged = {cond: self._judge(info, results[cond], grounders[cond], filters, generator, length, hop)
                       for cond in CONDITIONS}
