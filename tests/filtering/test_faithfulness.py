@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from vsmp_imu.filtering.faithfulness import (
+    class_keep_mask,
     class_verdicts,
     nn_thresholds,
     redundancy_verdicts,
@@ -59,7 +60,21 @@ def test_select_tau_uses_the_validation_score():
 
     tau, scores = select_tau(proba, y, score)
     assert tau == 0.55 and scores[0.55] == 0.9
-    assert seen == [4, 3, 2, 2, 1]
+    # 0.60 and 0.65 keep the same two windows: one model scores both
+    assert seen == [4, 3, 2, 1]
+    assert scores[0.60] == scores[0.65] == 0.7
+
+
+def test_keep_mask_agrees_with_the_verdicts():
+    rng = np.random.default_rng(5)
+    proba = rng.dirichlet(np.ones(4), size=300)
+    y = rng.integers(0, 4, 300)
+    validated = np.array([True, False, True, True])
+    for tau in (0.3, 0.5, 0.7):
+        for val in (None, validated):
+            expected = [v.passed for v in class_verdicts(proba, y, tau, val)]
+            assert class_keep_mask(proba, y, tau, val).tolist() == expected
+    assert class_keep_mask(np.zeros((0, 4)), np.zeros(0, int), 0.5).shape == (0,)
 
 
 def test_select_tau_tie_prefers_paper_default():

@@ -83,3 +83,12 @@ def test_cem_is_deterministic_and_returns_x_opt(setup):
     eta = np.array([list(a.eta.values())])
     expect = sensor_readings(kin, eta_rotation(eta), eta[:, 3:6], eta[:, 6:9], eta[:, 9], eta[:, 10], True, noise)
     assert np.allclose(a.readings, expect[0])
+
+
+def test_eta_rotation_is_scipys_extrinsic_zxy():
+    from scipy.spatial.transform import Rotation
+
+    eta = np.random.default_rng(11).uniform(-60, 60, (50, 11))
+    expected = Rotation.from_euler("zxy", eta[:, 0:3], degrees=True).as_matrix()
+    assert np.allclose(eta_rotation(eta), expected, atol=1e-12)
+    assert eta_rotation(eta[0]).shape == (1, 3, 3)

@@ -103,6 +103,25 @@ def test_neural_early_stopping_keeps_the_best_epoch():
     assert f1_score(y[100:], est.predict(X[100:]), average="macro") == pytest.approx(best)
 
 
+@pytest.mark.parametrize("name", ["dclstm", "bilstm-attn"])
+def test_small_training_sets_get_several_steps_per_epoch(name, monkeypatch):
+    est = make_backbone(name, **BACKBONES[name]._get_test_params())
+    est.set_params(batch_size=1024, min_steps=8, max_epochs=2)
+    assert est._batch_size(113) == 15  # a 1 % budget: 8 steps, not 1
+    assert est._batch_size(20000) == 1024  # large sets keep the paper's batch
+    sizes = []
+    original = est._batches
+
+    def spy(n, generator=None, size=None):
+        sizes.append(size)
+        return original(n, generator, size)
+
+    monkeypatch.setattr(est, "_batches", spy)
+    X, y = _toy(n=100)
+    est.fit(X, y)
+    assert sizes[:2] == [13, 13]  # ceil(100 / 8) in both epochs
+
+
 def test_ecdf_features_are_window_quantiles():
     levels = ecdf_levels(15)
     assert levels[0] == pytest.approx(1 / 16) and levels[-1] == pytest.approx(15 / 16)

@@ -18,6 +18,7 @@ from collections import defaultdict
 
 import numpy as np
 import pytest
+from sklearn.ensemble import RandomForestClassifier
 
 import vsmp_imu.pipeline.fold as fold_mod
 from vsmp_imu.executor import LocalExecutor
@@ -25,7 +26,6 @@ from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.stats import TargetStatistics
-from vsmp_imu.har.backbones.rf import RandomForestECDF
 from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
 from vsmp_imu.har.synthetic import METHODS, synthetic_budget
@@ -61,12 +61,13 @@ class SentinelDataset:
         return Windows(X, w.y, w.subjects, w.label_names, w.channel_names, w.fs_hz, meta=dict(w.meta))
 
 
-class SpyForest(RandomForestECDF):
-    """The quick model that scores tau_cls candidates on validation subjects."""
+class SpyForest(RandomForestClassifier):
+    """The quick model that scores tau_cls candidates on validation subjects (on ECDF
+    features: the sentinel channel's quantiles are all the sentinel)."""
 
-    def fit(self, X, y, X_val=None, y_val=None):
+    def fit(self, X, y, sample_weight=None):
         SEEN["tau_model_fit"].append(has_sentinel(X))
-        return super().fit(X, y, X_val, y_val)
+        return super().fit(X, y, sample_weight)
 
     def predict(self, X):
         SEEN["tau_model_predict"].append(has_sentinel(X))
@@ -97,15 +98,15 @@ def instruments(monkeypatch):
     wrap(TargetStatistics, "fit", lambda self, windows, labels: SEEN["d_stat"].append(has_sentinel(windows)))
     wrap(RankGrounder, "fit", lambda self, syn, real, *a, **k: SEEN["d_rank"].append(has_sentinel(real)))
     wrap(MotionPlausibilityFilter, "fit", lambda self, X, y: SEEN["plausibility"].append(has_sentinel(X)))
-    wrap(HarValidator, "fit", lambda self, X, y, **k: SEEN["validator"].append(has_sentinel(X)))
-    embed = HarValidator.embed
+    wrap(HarValidator, "fit_features", lambda self, X, y, *a, **k: SEEN["validator"].append(has_sentinel(X)))
+    embed = HarValidator.embed_features
 
     def spy_embed(self, X):
         out = embed(self, X)
         embedded[id(out)] = has_sentinel(X)
         return out
 
-    monkeypatch.setattr(HarValidator, "embed", spy_embed)
+    monkeypatch.setattr(HarValidator, "embed_features", spy_embed)
     nn = fold_mod.nn_thresholds
 
     def spy_nn(embeddings, labels, *a, **k):
@@ -113,7 +114,7 @@ def instruments(monkeypatch):
         return nn(embeddings, labels, *a, **k)
 
     monkeypatch.setattr(fold_mod, "nn_thresholds", spy_nn)
-    monkeypatch.setattr(fold_mod, "RandomForestECDF", SpyForest)
+    monkeypatch.setattr(fold_mod, "RandomForestClassifier", SpyForest)
     return SEEN
 
 

@@ -47,6 +47,20 @@ def class_verdicts(proba: np.ndarray, labels: np.ndarray, tau: float,
     return out
 
 
+def class_keep_mask(proba: np.ndarray, labels: np.ndarray, tau: float,
+                    validated: np.ndarray | None = None) -> np.ndarray:
+    """Which windows `class_verdicts` passes, without building the verdicts."""
+    proba = np.asarray(proba)
+    labels = np.asarray(labels, dtype=np.int64)
+    if len(proba) == 0:
+        return np.zeros(0, bool)
+    top = np.argmax(proba, axis=1)
+    keep = (top == labels) & (proba[np.arange(len(proba)), top] >= tau)
+    if validated is not None:
+        keep |= ~np.asarray(validated, bool)[labels]
+    return keep
+
+
 def select_tau(
     proba_synthetic: np.ndarray,
     y_synthetic: np.ndarray,
@@ -60,11 +74,14 @@ def select_tau(
     kept synthetic windows and returns its Macro-F1 on the validation subjects.
     Ties go to the candidate closest to the paper's 0.60.
     """
-    scores = {}
+    scores: dict[float, float] = {}
+    by_mask: dict[bytes, float] = {}  # candidates that keep the same windows share one score
     for tau in candidates:
-        keep = np.array([v.passed for v in class_verdicts(proba_synthetic, y_synthetic, tau, validated)],
-                        dtype=bool)
-        scores[tau] = float(score_with(keep))
+        keep = class_keep_mask(proba_synthetic, y_synthetic, tau, validated)
+        key = np.packbits(keep).tobytes()
+        if key not in by_mask:
+            by_mask[key] = float(score_with(keep))
+        scores[tau] = by_mask[key]
     best = max(candidates, key=lambda t: (round(scores[t], 10), -abs(t - TAU_DEFAULT)))
     return best, scores
 

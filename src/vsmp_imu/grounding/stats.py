@@ -121,8 +121,10 @@ class LinearMoments:
 def _summary_arrays(m: LinearMoments, wt: np.ndarray):
     if wt.shape[-1] != 6:
         raise ValueError(f"expected 6 output channels (acc xyz, gyr xyz), got {wt.shape[-1]}")
-    mw = m._stack[None] @ wt[:, None]  # (N, X, F, 6)
-    diag = (mw * wt[:, None]).sum(axis=-2)  # (N, X, 6): diagonal of W^T M W
+    n, f, c = wt.shape
+    cols = np.ascontiguousarray(wt.transpose(0, 2, 1)).reshape(n * c, f)  # one row per (candidate, channel)
+    # diagonal of W^T M W for every moment matrix M: w_c^T M w_c, as one broadcast matmul
+    diag = np.einsum("xkf,kf->kx", cols @ m._stack, cols).reshape(n, c, -1).transpose(0, 2, 1)  # (N, X, 6)
     n_band, n_lag = m.band.shape[0], m.lagged.shape[0]
     energy = diag[:, :n_band].swapaxes(-1, -2)  # (N, 6, B)
     psd = energy / (energy.sum(axis=-1, keepdims=True) + _EPS)
@@ -140,7 +142,7 @@ def _summary_arrays(m: LinearMoments, wt: np.ndarray):
         ],
         axis=-1,
     )
-    cov = wt.swapaxes(-1, -2) @ mw[:, -1]
+    cov = wt.swapaxes(-1, -2) @ (m.cov @ wt)
     return cov, psd, norms, acf
 
 

@@ -21,11 +21,13 @@ from __future__ import annotations
 
 import hashlib
 import math
+import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from sklearn.ensemble import RandomForestClassifier
 
 from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.filtering.faithfulness import (
@@ -44,8 +46,8 @@ from vsmp_imu.grounding.mounting import estimate_mounting
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.split import stat_rank_split
 from vsmp_imu.grounding.stats import TargetStatistics
-from vsmp_imu.har.backbones.rf import RandomForestECDF
 from vsmp_imu.har.dataset import DatasetInfo, SensorLocation
+from vsmp_imu.har.features import ecdf_features
 from vsmp_imu.har.synthetic import take_budget
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.imu import simulate_kinematics
@@ -392,39 +394,49 @@ class FoldGenerator:
             keep[i] = all(v.passed for v in verdicts)
         tau = None
         if self.config.class_filter or self.config.redundancy_filter:
-            fit, val = _validation_split(train, self.config.val_fraction, seed, fold)
+            # ECDF features once per window set; the validator and the tau models all use them
+            f_train, f_syn = ecdf_features(train.X), ecdf_features(X)
+            is_val = _validation_mask(train, self.config.val_fraction, seed, fold)
             validator = HarValidator(seed=int(rng_for(seed, fold, "validator").integers(2**31)))
-            validator.fit(fit.X, fit.y, n_classes=info.n_classes)
+            validator.fit_features(f_train[~is_val], train.y[~is_val], n_classes=info.n_classes)
         if self.config.class_filter:
-            proba = validator.predict_proba(X)
-            validated = fit.class_counts() >= self.config.min_validator_windows
-            tau = self._choose_tau(fit, val, X, y, proba, keep, validated, seed, fold)
+            proba = validator.predict_proba_features(f_syn)
+            counts = np.bincount(train.y[~is_val], minlength=info.n_classes)
+            validated = counts >= self.config.min_validator_windows
+            tau = self._choose_tau(f_train, train.y, is_val, f_syn, y, proba, keep, validated, seed, fold)
             for i, v in enumerate(class_verdicts(proba, y, tau, validated)):
                 records[i]["verdicts"].append(v.as_dict())
                 keep[i] &= v.passed
         if self.config.redundancy_filter:
-            thresholds = nn_thresholds(validator.embed(train.X), train.y, self.config.min_validator_windows)
-            for i, v in enumerate(redundancy_verdicts(validator.embed(X), y, thresholds, eligible=keep)):
+            thresholds = nn_thresholds(validator.embed_features(f_train), train.y,
+                                       self.config.min_validator_windows)
+            embedded = validator.embed_features(f_syn)
+            for i, v in enumerate(redundancy_verdicts(embedded, y, thresholds, eligible=keep)):
                 records[i]["verdicts"].append(v.as_dict())
                 keep[i] &= v.passed
         for i in range(len(X)):
             records[i]["kept"] = bool(keep[i])
         return keep, tau
 
-    def _choose_tau(self, fit: Windows, val: Windows, X, y, proba, keep, validated, seed, fold) -> float:
-        """tau_cls by validation Macro-F1 of a quick model on real + kept synthetic windows."""
-        if len(val) == 0 or len(np.unique(val.y)) < 2 or len(fit) == 0:
+    def _choose_tau(self, f_train, y_train, is_val, f_syn, y, proba, keep, validated, seed, fold) -> float:
+        """tau_cls by validation Macro-F1 of a quick forest on real + kept synthetic ECDF features."""
+        if not is_val.any() or len(np.unique(y_train[is_val])) < 2 or is_val.all():
             return TAU_DEFAULT
+        f_fit, y_fit = f_train[~is_val], y_train[~is_val]
 
         def score(mask: np.ndarray) -> float:
             chosen = keep & mask
-            model = RandomForestECDF(n_estimators=25, n_jobs=1,
-                                     random_state=int(rng_for(seed, fold, "tau").integers(2**31)))
-            model.fit(np.concatenate([fit.X, X[chosen]]), np.concatenate([fit.y, y[chosen]]))
-            return macro_f1(val.y, model.predict(val.X))
+            model = RandomForestClassifier(n_estimators=25, n_jobs=self._threads(),
+                                           random_state=int(rng_for(seed, fold, "tau").integers(2**31)))
+            model.fit(np.concatenate([f_fit, f_syn[chosen]]), np.concatenate([y_fit, y[chosen]]))
+            return macro_f1(y_train[is_val], model.predict(f_train[is_val]))
 
         tau, _ = select_tau(proba, y, score, validated=validated)
         return tau
+
+    def _threads(self) -> int:
+        """Threads for the fold-level steps: the local workers are idle while they run."""
+        return max(1, min(int(getattr(self.executor, "workers", 1)), os.cpu_count() or 1))
 
     # -- stage 6 ---------------------------------------------------------------------------------
     def _select(self, info, X, y, keep, budget, seed, fold) -> np.ndarray:
@@ -463,15 +475,15 @@ def _covering(starts, length: int, fs_hz: float, provenance: dict, share: float)
     return [s for s in starts if min(s + length, hi) - max(s, lo) >= share * length]
 
 
-def _validation_split(train: Windows, fraction: float, seed: int, fold: str) -> tuple[Windows, Windows]:
-    """Training subjects for the validator and validation subjects for tau_cls."""
+def _validation_mask(train: Windows, fraction: float, seed: int, fold: str) -> np.ndarray:
+    """True for the windows of the validation subjects (tau_cls); the rest train the validator."""
     subjects = train.unique_subjects()
     n_val = int(round(fraction * len(subjects)))
     if n_val < 1 or len(subjects) - n_val < 1:
-        return train, train[:0]
+        return np.zeros(len(train), bool)
     order = rng_for(seed, fold, "validation").permutation(len(subjects))
     val_subjects = [subjects[i] for i in order[:n_val]]
-    return train.where_subjects(val_subjects, keep=False), train.where_subjects(val_subjects)
+    return np.isin(train.subjects, np.asarray(val_subjects).astype(str))
 
 
 def _summary(info, results, records, budget, windows, tau, n_stat, n_rank) -> dict[str, Any]:

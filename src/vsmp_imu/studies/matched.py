@@ -76,7 +76,7 @@ from vsmp_imu.pipeline.fold import (
     GenerationConfig,
     _channel_index,
     _location_plan,
-    _validation_split,
+    _validation_mask,
     fit_rank_grounders,
 )
 from vsmp_imu.pipeline.sample import SampleResult, SampleTask, cached_synthesize
@@ -458,7 +458,7 @@ class MatchedBlockGenerator:
         for loc in info.locations:
             cols = _channel_index(info, loc)
             plaus[loc.name] = (cols, MotionPlausibilityFilter().fit(train.X[..., cols], train.y))
-        fit, _ = _validation_split(train, self.config.val_fraction, seed, fold)
+        fit = train[~_validation_mask(train, self.config.val_fraction, seed, fold)]
         validator = HarValidator(seed=int(rng_for(seed, fold, "validator").integers(2**31)))
         validator.fit(fit.X, fit.y, n_classes=info.n_classes)
         validated = fit.class_counts() >= self.config.min_validator_windows
