@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import socket
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
@@ -99,11 +100,18 @@ class RayExecutor:
             kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False,
                                       "configure_logging": False}
             if self.address:
+                check_reachable(self.address)
                 kwargs["address"] = self.address
             elif self.num_cpus:
                 kwargs["num_cpus"] = self.num_cpus
             os.environ.setdefault("RAY_AUTH_MODE", "disabled")
-            ray.init(**kwargs)
+            try:
+                ray.init(**kwargs)
+            except (ConnectionError, TimeoutError, RuntimeError, ValueError) as exc:
+                if not self.address:
+                    raise
+                raise ConfigError(f"cannot join the Ray cluster at '{self.address}': {exc}", field="--address",
+                                  allowed=ADDRESS_HELP) from exc
         return ray
 
     def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], desc: str = "working") -> list[Any]:
@@ -127,6 +135,66 @@ class RayExecutor:
                     results[index[ref]] = ray.get(ref)
                     progress.advance(bar)
         return results
+
+
+ADDRESS_HELP = "'auto' (a cluster started on this machine), HOST:PORT of the head's GCS, or ray://HOST:PORT"
+CONNECT_TIMEOUT_S = 5.0
+DEFAULT_PORTS = {"": 6379, "ray": 10001}  # GCS, Ray client server
+
+
+def check_reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+    """Fail fast, naming --address, when nothing answers at a HOST:PORT cluster address.
+
+    ray.init retries an unreachable head for minutes before it gives up; a TCP
+    connect with a timeout tells the user at once. 'auto' and 'local' are left
+    to Ray (it fails fast when no local instance runs).
+    """
+    if address in ("auto", "local"):
+        return
+    scheme, _, rest = address.rpartition("://")
+    if scheme not in DEFAULT_PORTS:
+        raise ConfigError(f"unknown Ray address scheme '{scheme}://' in '{address}'", field="--address",
+                          allowed=ADDRESS_HELP)
+    host, sep, port_text = rest.rpartition(":")
+    if not sep:
+        host, port_text = rest, str(DEFAULT_PORTS[scheme])
+    try:
+        port = int(port_text)
+        if not host or not 0 < port < 65536:
+            raise ValueError
+    except ValueError:
+        raise ConfigError(f"'{address}' is not a Ray cluster address", field="--address",
+                          allowed=ADDRESS_HELP) from None
+    try:
+        with socket.create_connection((host.strip("[]"), port), timeout=timeout_s) as sock:
+            speaks_grpc = _answers_http2(sock, timeout_s)
+    except OSError as exc:
+        speaks_grpc, reason = False, exc.strerror or str(exc)
+    else:
+        reason = "something listens there, but it is not a Ray GCS or client server"
+    if not speaks_grpc:
+        raise ConfigError(f"no Ray cluster answers at '{address}' ({reason})", field="--address",
+                          allowed="a running Ray head: start one with `ray start --head`, or leave out "
+                                  "--address for a local instance")
+
+
+HTTP2_PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n"
+HTTP2_EMPTY_SETTINGS = b"\x00\x00\x00\x04\x00\x00\x00\x00\x00"
+
+
+def _answers_http2(sock: socket.socket, timeout_s: float) -> bool:
+    """Whether the peer answers an HTTP/2 connection preface with a SETTINGS frame, as
+    every gRPC server (Ray's GCS and client server) does. A silent or non-gRPC port
+    would otherwise keep ray.init retrying for minutes."""
+    sock.settimeout(timeout_s)
+    sock.sendall(HTTP2_PREFACE + HTTP2_EMPTY_SETTINGS)
+    head = b""
+    while len(head) < 9:
+        chunk = sock.recv(9 - len(head))
+        if not chunk:
+            return False
+        head += chunk
+    return head[3] == 0x04  # frame type SETTINGS
 
 
 def make_executor(name: str = "local", workers: int = 1, address: str | None = None,

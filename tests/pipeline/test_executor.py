@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import socket
+import threading
+
 import pytest
 
 from vsmp_imu.errors import ConfigError
-from vsmp_imu.executor import LocalExecutor, make_executor
+from vsmp_imu.executor import LocalExecutor, check_reachable, make_executor
 from vsmp_imu.seeding import key_entropy
 
 # Workers must import the mapped function, so use one of the package's own.
@@ -39,3 +42,57 @@ def test_bad_executor_names():
     with pytest.raises(ConfigError):
         LocalExecutor(0)
     assert isinstance(_work(1), int)
+
+
+def _server(reply: bytes | None):
+    """A local TCP server that accepts and then says `reply` (None: says nothing)."""
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+
+    def serve():
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            if reply is not None:
+                conn.recv(64)
+                conn.sendall(reply)
+            threading.Timer(3.0, conn.close).start()
+
+    threading.Thread(target=serve, daemon=True).start()
+    return srv, f"127.0.0.1:{srv.getsockname()[1]}"
+
+
+@pytest.mark.parametrize("reply", [None, b"HTTP/1.1 400 Bad Request\r\n\r\n"], ids=["silent", "http1"])
+def test_a_port_that_is_not_ray_fails_fast(reply):
+    srv, address = _server(reply)
+    try:
+        with pytest.raises(ConfigError) as err:
+            check_reachable(address, timeout_s=0.5)
+        assert err.value.field == "--address" and address in str(err.value)
+    finally:
+        srv.close()
+
+
+def test_a_grpc_server_passes():
+    srv, address = _server(b"\x00\x00\x00\x04\x00\x00\x00\x00\x00")  # an HTTP/2 SETTINGS frame
+    try:
+        check_reachable(address, timeout_s=2.0)
+        check_reachable("ray://" + address, timeout_s=2.0)
+    finally:
+        srv.close()
+
+
+def test_closed_ports_and_malformed_addresses():
+    closed = socket.socket()
+    closed.bind(("127.0.0.1", 0))
+    port = closed.getsockname()[1]
+    closed.close()  # nothing listens there now
+    for address in (f"127.0.0.1:{port}", f"ray://127.0.0.1:{port}", "host:notaport", "ray://", ":80",
+                    "http://127.0.0.1:80", "127.0.0.1:70000"):
+        with pytest.raises(ConfigError) as err:
+            check_reachable(address, timeout_s=0.5)
+        assert err.value.field == "--address", address
+    check_reachable("auto")  # left to Ray, which fails fast when no local instance runs

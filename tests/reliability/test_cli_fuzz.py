@@ -40,8 +40,9 @@ from vsmp_imu.errors import VsmpError
 COMMANDS = 5
 SLOW_PER_COMMAND = SLOW_EXAMPLES // COMMANDS
 ADDRESS_SPACE_LIMIT = 8 * 2**30
-# Options that are not range-checked and whose large values are valid but heavy (the bounded
-# ones, --fs, --fps, --seeds, are fuzzed over their whole range).
+# Options whose large in-range values are valid but heavy (-k up to 10000 variants, --duration-s
+# up to 600 s of motion); the other bounded ones (--fs, --fps, --seeds, --workers) are fuzzed over
+# their whole range.
 HEAVY_ABOVE = {"-k": 200, "--duration-s": 120.0}
 # Ranges of known, not yet fixed defects, per (command, option).
 KNOWN: dict = {}  # none left: every defect the fuzzing found is fixed and pinned by a test below
@@ -328,3 +329,19 @@ def test_a_nan_imbalance_ratio_is_a_user_error(small_dataset, work):
 def test_an_infinite_window_is_a_user_error(small_dataset, work):
     expect_user_error(["evaluate", "--dataset", small_dataset, "--window-s", "inf",
                        "--folds", "no-such-subject", "-o", _out(work, "e")], "window")
+
+
+@pytest.mark.parametrize("value", ["1e9", "0", "-5"])
+def test_an_out_of_range_motion_duration_is_a_user_error(work, value):
+    expect_user_error(["motion", "synth", "walking", "--seed", "0", "--duration-s", value, "-o",
+                       _out(work, "m.npz")], "--duration-s")
+
+
+def test_a_huge_variant_count_is_a_user_error(work):
+    expect_user_error(["smp", "augment", "jumping_jacks", "-k", "100000000", "-o", _out(work, "v.jsonl")], "-k")
+
+
+@pytest.mark.parametrize("option", ["--workers", "--k", "--jobs", "--max-epochs", "--patience"])
+def test_huge_evaluation_counts_are_user_errors(small_dataset, work, option):
+    expect_user_error(["evaluate", "--dataset", small_dataset, "--folds", "no-such-subject", option,
+                       "10000000", "-o", _out(work, "e")], option)

@@ -77,21 +77,21 @@ def evaluate_cmd(
     window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0, help="window length in seconds"),
     overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
-    max_epochs: int = typer.Option(None, "--max-epochs", help="neural backbones: epoch limit"),
+    max_epochs: int = typer.Option(None, "--max-epochs", max=100000, help="neural backbones: epoch limit"),
     patience: int = typer.Option(
-        None, "--patience", help="neural backbones: early-stopping patience"
+        None, "--patience", max=100000, help="neural backbones: early-stopping patience"
     ),
-    jobs: int = typer.Option(None, "--jobs", help="CPU threads for RF and PyTorch"),
+    jobs: int = typer.Option(None, "--jobs", max=256, help="CPU threads for RF and PyTorch"),
     report_groups: list[str] = typer.Option(
         None, "--report-groups", help="NAME=CLASS,CLASS;... classes reported together"
     ),
     source: str = typer.Option(
         "library", "--source", help="generative methods: library | smp:DIR | video:DIR"
     ),
-    k: int = typer.Option(4, "--k", help="generative methods: SMP variants per base SMP"),
+    k: int = typer.Option(4, "--k", max=64, help="generative methods: SMP variants per base SMP"),
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | hymotion"),
     per_class_rank: bool = typer.Option(False, "--per-class-rank", help="rank grounding per class"),
-    workers: int = typer.Option(1, "--workers", help="generation workers"),
+    workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
     address: str = typer.Option(None, "--address", help="Ray cluster address (--executor ray)"),
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder"),

@@ -204,7 +204,7 @@ def refine_cmd(
 @smp_app.command("augment")
 def augment_cmd(
     file: str = typer.Argument(..., help=SMP_ARG_HELP),
-    k: int = typer.Option(..., "-k", help="Number of variants"),
+    k: int = typer.Option(..., "-k", min=1, max=10000, help="Number of variants, 1..10000"),
     seed: int = typer.Option(0, "--seed", help="Top-level seed"),
     output: Path = typer.Option(..., "-o", "--output", help="Output .jsonl (one SMP per line)"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty",

@@ -22,11 +22,11 @@ DATASET_OPTION = typer.Option("hapt12", "--dataset", "-d", help=DATASET_HELP)
 DATA_DIR_OPTION = typer.Option(None, "--data-dir", help="Folder of a downloaded dataset")
 BACKBONE_OPTION = typer.Option("rf", "--backbone", help="rf | dclstm | dclstm-attn | bilstm-attn")
 BACKEND_OPTION = typer.Option("procedural", "--backend", help="Motion backend: procedural | hymotion")
-WORKERS_OPTION = typer.Option(1, "--workers", help="Generation workers")
-MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", help="Neural backbones: epoch limit")
-PATIENCE_OPTION = typer.Option(None, "--patience", help="Neural backbones: early stopping")
+WORKERS_OPTION = typer.Option(1, "--workers", max=256, help="Generation workers")
+MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", max=100000, help="Neural backbones: epoch limit")
+PATIENCE_OPTION = typer.Option(None, "--patience", max=100000, help="Neural backbones: early stopping")
 SOURCE_OPTION = typer.Option("library", "--source", help="VSMP source SMPs: library | smp:DIR | video:DIR")
-SEEDS_OPTION = typer.Option(1, "--seeds", help="Seeds 0..N-1")
+SEEDS_OPTION = typer.Option(1, "--seeds", max=1000, help="Seeds 0..N-1")
 
 
 @contextmanager
@@ -269,7 +269,7 @@ def granularity_cmd(
     clips: Path | None = typer.Option(None, "--clips", help="Source clips for IMUTube (one folder per "
                                       "activity)"),
     source: str = SOURCE_OPTION,
-    k: int = typer.Option(4, "--k", help="SMP variants per source SMP"),
+    k: int = typer.Option(4, "--k", max=64, help="SMP variants per source SMP"),
     backend: str = BACKEND_OPTION,
     workers: int = WORKERS_OPTION,
     max_epochs: int | None = MAX_EPOCHS_OPTION,
@@ -330,7 +330,7 @@ def realism_cmd(
                               "time-averaged; the paper's) | lstm (last LSTM state)"),
     clips: Path | None = typer.Option(None, "--clips", help="Source clips for IMUTube"),
     source: str = SOURCE_OPTION,
-    k: int = typer.Option(4, "--k", help="SMP variants per source SMP"),
+    k: int = typer.Option(4, "--k", max=64, help="SMP variants per source SMP"),
     backend: str = BACKEND_OPTION,
     workers: int = WORKERS_OPTION,
     jobs: int | None = typer.Option(None, "--jobs", help="CPU threads of the encoder"),
