@@ -163,6 +163,10 @@ class TimedExecutor:
         self.batches.append(list(tasks))
         return out
 
+    def __getattr__(self, name):
+        # the fold asks its executor how many workers it has (threads for its own steps)
+        return getattr(self.inner, name)
+
 
 def timed_generator(config, executor, library):
     """A FoldGenerator whose fold-level steps add their wall time to `.times_`."""
@@ -465,7 +469,7 @@ def _scaling(make, alpha: float, replay_n: int) -> dict:
         out[str(workers)] = run_fold(executor, alpha, batches=batches if workers == 1 else None)
         out[str(workers)]["load_avg_after"] = os.getloadavg()
         _close(executor)
-    tasks = [t for batch in batches for t in batch][:replay_n]
+    tasks = [t for batch in batches for t in batch if isinstance(t, tuple)][:replay_n]  # samples, not the validator
     replay = []
     for workers in (1, 2, 2, 1):
         executor = _started(make, workers)

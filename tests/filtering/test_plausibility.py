@@ -61,6 +61,11 @@ def test_window_verdicts_name_the_rule():
     nan = ok.copy()
     nan[3, 3] = np.nan
     assert not f.check_window(nan, 0).passed
+    # the batch check gives each window the verdict of the single check
+    batch = np.stack([ok, spike, spin, static, nan])
+    singles = [f.check_window(w, 0) for w in batch]
+    assert [v.as_dict() for v in f.check_windows(batch, np.zeros(5, int))] == [v.as_dict() for v in singles]
+    assert [v.passed for v in singles] == [True, False, False, False, False]
 
 
 def test_motion_jump_and_missing_frames():

@@ -97,6 +97,8 @@ def test_a_real_gcs_passes_the_address_check(ray_module):
     """Positive control of `check_reachable`: a local Ray head's GCS answers the HTTP/2 preface."""
     from vsmp_imu.executor import check_reachable
 
+    if ray_module.is_initialized():  # an earlier test's instance
+        ray_module.shutdown()
     ray_module.init(num_cpus=1, include_dashboard=False, log_to_driver=False, configure_logging=False)
     try:
         check_reachable(ray_module.get_runtime_context().gcs_address)

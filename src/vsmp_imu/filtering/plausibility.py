@@ -93,13 +93,23 @@ class MotionPlausibilityFilter:
 
     def check_window(self, window: np.ndarray, label: int) -> Verdict:
         """Inertial magnitudes and motion energy of one grounded window (T, 6)."""
-        window = np.asarray(window, dtype=np.float64)
-        if not np.isfinite(window).all():
+        return self.check_windows(np.asarray(window)[None], np.array([label]))[0]
+
+    def check_windows(self, windows: np.ndarray, labels: np.ndarray) -> list[Verdict]:
+        """`check_window` for windows (N, T, 6), the magnitudes computed for all at once."""
+        windows = np.asarray(windows, dtype=np.float64)
+        finite = np.isfinite(windows).all(axis=(-2, -1))
+        clean = np.where(finite[:, None, None], windows, 0.0)
+        a_all = np.linalg.norm(clean[..., 0:3], axis=-1).max(axis=-1)
+        w_all = np.linalg.norm(clean[..., 3:6], axis=-1).max(axis=-1)
+        e_all = motion_energy(clean)
+        return [self._verdict(bool(ok), float(a), float(w), float(e), int(label))
+                for ok, a, w, e, label in zip(finite, a_all, w_all, e_all, np.asarray(labels), strict=True)]
+
+    def _verdict(self, finite: bool, a: float, w: float, e: float, label: int) -> Verdict:
+        if not finite:
             return Verdict(False, "imu", "non-finite samples")
         th = self.thresholds_for(label)
-        a = float(np.linalg.norm(window[:, 0:3], axis=-1).max())
-        w = float(np.linalg.norm(window[:, 3:6], axis=-1).max())
-        e = float(motion_energy(window))
         values = {"max_acc": a, "max_gyr": w, "energy": e, **th.as_dict()}
         if a > th.a_max:
             return Verdict(False, "imu", f"|a| reaches {a:.2f} m/s^2 (> a_max {th.a_max:.2f})", values)

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 from sklearn.ensemble import RandomForestClassifier
+from threadpoolctl import threadpool_limits
 
 from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.filtering.faithfulness import (
@@ -173,6 +174,49 @@ def _summary_lists(summary) -> dict[str, list]:
     return {k: getattr(summary, k).tolist() for k in ("cov", "psd", "norms", "acf")}
 
 
+@dataclass(frozen=True)
+class FilterJob:
+    """What the quality filter learns from the fold's real training windows: the plausibility
+    thresholds per location, the validator (on the ECDF features of the non-validation
+    subjects) and tau_nn. It is handed to the executor with the first synthesis round, so a
+    worker fits it while the others synthesize (with one worker it simply runs first)."""
+
+    windows: dict[str, np.ndarray]  # real training windows per location
+    labels: np.ndarray
+    features: np.ndarray | None  # ECDF features of all training windows (None: no learned filters)
+    is_val: np.ndarray
+    n_classes: int
+    seed: int
+    min_class_windows: int
+
+
+@dataclass
+class FilterModels:
+    plausibility: dict[str, MotionPlausibilityFilter]
+    validator: HarValidator | None = None
+    nn_thresholds: dict[int, float] | None = None
+
+
+def fit_filters(job: FilterJob) -> FilterModels:
+    # one BLAS thread wherever it runs (driver or worker): the same arithmetic, the same bytes
+    with threadpool_limits(1):
+        plausibility = {name: MotionPlausibilityFilter().fit(w, job.labels) for name, w in job.windows.items()}
+        if job.features is None:
+            return FilterModels(plausibility)
+        fit = ~job.is_val
+        validator = HarValidator(seed=job.seed).fit_features(job.features[fit], job.labels[fit],
+                                                             n_classes=job.n_classes)
+        thresholds = nn_thresholds(validator.embed_features(job.features), job.labels, job.min_class_windows)
+        return FilterModels(plausibility, validator, thresholds)
+
+
+def run_item(item):
+    """One executor item: a (SampleTask, cache folder) pair, or the filter job."""
+    if isinstance(item, FilterJob):
+        return fit_filters(item)
+    return cached_synthesize(item)
+
+
 class FoldGenerator:
     """Generate the synthetic set of one fold (see module doc).
 
@@ -263,11 +307,14 @@ class FoldGenerator:
                   for r in results if not r.error and r.signals]
         return float(np.mean(counts)) if counts else FIRST_ROUND_WINDOWS_PER_SAMPLE
 
-    def _synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop):
-        """Rounds of per-sample synthesis until every class has oversample x budget raw windows."""
+    def _synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
+        """Rounds of per-sample synthesis until every class has oversample x budget raw windows.
+
+        `job` (the filter models) rides along with the first round; its result is returned last."""
         need = {n: math.ceil(self.config.oversample * budget[i]) for i, n in enumerate(info.label_names)}
         results: dict[str, list[SampleResult]] = {n: [] for n in info.label_names}
         all_tasks: list[SampleTask] = []
+        fitted = None
         for _ in range(self.config.max_rounds):
             tasks = []
             for i, label in enumerate(info.label_names):
@@ -288,14 +335,20 @@ class FoldGenerator:
             if not tasks:
                 break
             cache = str(self.cache_dir) if self.cache_dir else None
-            done = self.executor.map(cached_synthesize, [(t, cache) for t in tasks],
-                                     desc=f"fold {fold}: synthesizing {len(tasks)} samples")
+            items: list = [(t, cache) for t in tasks]
+            if job is not None:
+                items.insert(0, job)  # first: the longest item starts at once
+            done = self.executor.map(run_item, items, desc=f"fold {fold}: synthesizing {len(tasks)} samples")
+            if job is not None:
+                fitted, done, job = done[0], done[1:], None
             for task, result in zip(tasks, done, strict=True):
                 results[task.label].append(result)
             all_tasks += tasks
+        if job is not None:  # no round ran
+            fitted = run_item(job)
         order = {n: i for i, n in enumerate(info.label_names)}
         all_tasks.sort(key=lambda t: (order[t.label], t.key))
-        return all_tasks, [r for label in info.label_names for r in results[label]]
+        return all_tasks, [r for label in info.label_names for r in results[label]], fitted
 
     # -- the fold ----------------------------------------------------------------------------
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
@@ -313,14 +366,15 @@ class FoldGenerator:
             stats[loc.name] = TargetStatistics(info.fs_hz).fit(d_stat.X[..., cols].astype(np.float64), d_stat.y)
         mountings = self._nominal_mountings(info, plan, sources, d_stat)
         loc_tasks = self._location_tasks(info, plan, stats, mountings)
-        tasks, results = self._synthesize(info, sources, budget, seed, fold, loc_tasks, length, hop)
+        job = self._filter_job(info, train, seed, fold)
+        tasks, results, models = self._synthesize(info, sources, budget, seed, fold, loc_tasks, length, hop, job)
         ok = [r for r in results if not r.error and r.signals]
         grounded = self._ground(info, ok, d_rank, plan)
         X, y, records = self._window(info, ok, grounded, length, hop)
         records += [{"sample": r.key, "label": info.label_names[r.label_index], "window": None,
                      "error": r.error, "kept": False, "selected": False,
                      "verdicts": [], "provenance": r.provenance} for r in results if r.error or not r.signals]
-        keep, tau = self._filter(info, train, X, y, records, ok, seed, fold)
+        keep, tau = self._filter(info, train, X, y, records, ok, seed, fold, job, models)
         selected = self._select(info, X, y, keep, budget, seed, fold)
         for i, rec in enumerate(records[: len(X)]):
             rec["selected"] = bool(selected[i])
@@ -375,43 +429,48 @@ class FoldGenerator:
             return np.zeros((0, length, len(info.channel_names)), np.float32), np.zeros(0, np.int64), records
         return np.stack(xs).astype(np.float32), np.array(ys, dtype=np.int64), records
 
-    def _filter(self, info, train: Windows, X, y, records, ok, seed, fold) -> tuple[np.ndarray, float | None]:
+    def _filter_job(self, info, train: Windows, seed: int, fold: str) -> FilterJob | None:
+        if not self.config.quality_filter:
+            return None
+        learned = self.config.class_filter or self.config.redundancy_filter
+        return FilterJob(
+            windows={loc.name: train.X[..., _channel_index(info, loc)] for loc in info.locations},
+            labels=train.y,
+            features=ecdf_features(train.X) if learned else None,
+            is_val=_validation_mask(train, self.config.val_fraction, seed, fold),
+            n_classes=info.n_classes,
+            seed=int(rng_for(seed, fold, "validator").integers(2**31)),
+            min_class_windows=self.config.min_validator_windows,
+        )
+
+    def _filter(self, info, train: Windows, X, y, records, ok, seed, fold, job: FilterJob | None,
+                models: FilterModels | None) -> tuple[np.ndarray, float | None]:
         keep = np.ones(len(X), dtype=bool)
-        if not self.config.quality_filter or len(X) == 0:
+        if job is None or len(X) == 0:
             return keep, None
         by_key = {r.key: r for r in ok}
-        plaus = {}
+        imu = {}  # location -> one verdict per window (all windows checked at once)
         for loc in info.locations:
-            cols = _channel_index(info, loc)
-            plaus[loc.name] = (cols, MotionPlausibilityFilter().fit(train.X[..., cols], train.y))
+            imu[loc.name] = models.plausibility[loc.name].check_windows(X[..., _channel_index(info, loc)], y)
         for i, rec in enumerate(records[: len(X)]):
             motion_verdict = Verdict(**by_key[rec["sample"]].provenance["motion_verdict"])
-            verdicts = [motion_verdict]
-            for name in rec["locations"]:
-                cols, f = plaus[name]
-                verdicts.append(f.check_window(X[i][:, cols], int(y[i])))
+            verdicts = [motion_verdict, *(imu[name][i] for name in rec["locations"])]
             rec["verdicts"] = [v.as_dict() for v in verdicts]
             keep[i] = all(v.passed for v in verdicts)
         tau = None
-        if self.config.class_filter or self.config.redundancy_filter:
-            # ECDF features once per window set; the validator and the tau models all use them
-            f_train, f_syn = ecdf_features(train.X), ecdf_features(X)
-            is_val = _validation_mask(train, self.config.val_fraction, seed, fold)
-            validator = HarValidator(seed=int(rng_for(seed, fold, "validator").integers(2**31)))
-            validator.fit_features(f_train[~is_val], train.y[~is_val], n_classes=info.n_classes)
+        validator, is_val = models.validator, job.is_val
+        f_syn = ecdf_features(X) if validator is not None else None
         if self.config.class_filter:
             proba = validator.predict_proba_features(f_syn)
             counts = np.bincount(train.y[~is_val], minlength=info.n_classes)
             validated = counts >= self.config.min_validator_windows
-            tau = self._choose_tau(f_train, train.y, is_val, f_syn, y, proba, keep, validated, seed, fold)
+            tau = self._choose_tau(job.features, train.y, is_val, f_syn, y, proba, keep, validated, seed, fold)
             for i, v in enumerate(class_verdicts(proba, y, tau, validated)):
                 records[i]["verdicts"].append(v.as_dict())
                 keep[i] &= v.passed
         if self.config.redundancy_filter:
-            thresholds = nn_thresholds(validator.embed_features(f_train), train.y,
-                                       self.config.min_validator_windows)
             embedded = validator.embed_features(f_syn)
-            for i, v in enumerate(redundancy_verdicts(embedded, y, thresholds, eligible=keep)):
+            for i, v in enumerate(redundancy_verdicts(embedded, y, models.nn_thresholds, eligible=keep)):
                 records[i]["verdicts"].append(v.as_dict())
                 keep[i] &= v.passed
         for i in range(len(X)):
@@ -435,8 +494,10 @@ class FoldGenerator:
         return tau
 
     def _threads(self) -> int:
-        """Threads for the fold-level steps: the local workers are idle while they run."""
-        return max(1, min(int(getattr(self.executor, "workers", 1)), os.cpu_count() or 1))
+        """Threads for the fold-level steps: the workers of a local pool (or of a private local
+        Ray instance) are idle while they run."""
+        workers = getattr(self.executor, "workers", None) or getattr(self.executor, "num_cpus", None) or 1
+        return max(1, min(int(workers), os.cpu_count() or 1))
 
     # -- stage 6 ---------------------------------------------------------------------------------
     def _select(self, info, X, y, keep, budget, seed, fold) -> np.ndarray:
