@@ -511,6 +511,7 @@ class _RayPool:
         if ray.is_initialized():
             ray.shutdown()
         self.inner = RayExecutor(num_cpus=workers, show_progress=False)
+        self.workers = workers  # what the fold reads to size its own steps' threads
 
     def map(self, fn, tasks, desc: str = "working"):
         return self.inner.map(fn, tasks, desc)
