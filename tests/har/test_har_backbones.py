@@ -142,3 +142,38 @@ def test_standardizer_uses_fit_statistics_only():
         z.std(axis=(0, 1)), 1, atol=1e-4
     )
     assert np.allclose(norm.transform(other), (other - norm.mean_) / norm.scale_, atol=1e-4)
+
+
+def test_device_names_are_checked():
+    from vsmp_imu.har.backbones.neural import resolve_device
+
+    torch = pytest.importorskip("torch")
+    assert resolve_device("cpu") == torch.device("cpu")
+    assert resolve_device("auto").type == ("cuda" if torch.cuda.is_available() else "cpu")
+    for bad in ("tpu9", "", "cuda:99"):
+        with pytest.raises(ConfigError) as err:
+            resolve_device(bad)
+        assert err.value.field == "--device"
+    if not torch.cuda.is_available():
+        with pytest.raises(ConfigError, match="not available"):
+            resolve_device("cuda")
+
+
+def test_auto_device_trains_and_predicts_like_cpu():
+    """On a machine without CUDA, `auto` is the CPU: the same model bit for bit."""
+    torch = pytest.importorskip("torch")
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA device is present: auto is not the CPU here")
+    X, y = _toy(n=60)
+    params = {**BACKBONES["dclstm"]._get_test_params(), "max_epochs": 2}
+    cpu = make_backbone("dclstm", **params, device="cpu").fit(X, y)
+    auto = make_backbone("dclstm", **params, device="auto").fit(X, y)
+    assert np.array_equal(cpu.predict_proba(X), auto.predict_proba(X))
+
+
+@pytest.mark.skipif(not __import__("torch").cuda.is_available(), reason="needs a CUDA device")
+def test_cuda_training_runs_and_predicts():
+    X, y = _toy(n=60)
+    params = {**BACKBONES["dclstm"]._get_test_params(), "max_epochs": 2}
+    gpu = make_backbone("dclstm", **params, device="cuda").fit(X, y)
+    assert gpu.predict_proba(X).shape == (60, len(np.unique(y)))

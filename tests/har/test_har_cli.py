@@ -48,6 +48,7 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
         (("--max-epochs", "0"), "--max-epochs", ">= 1"),
         (("--policy", "greedy"), "--policy", "uniform, tail, scarcity"),
         (("--protocol", "long-tail", "--rho", "1"), "--rho", "rho > 1"),
+        (("--backbones", "dclstm", "--device", "tpu9"), "--device", "cpu, cuda, cuda:N, mps, auto"),
     ],
 )
 def test_out_of_range_options_exit_2(cli, tmp_path, args, option, allowed):
@@ -55,6 +56,15 @@ def test_out_of_range_options_exit_2(cli, tmp_path, args, option, allowed):
     assert code == 2
     assert option in err and allowed in err
     assert not (tmp_path / "out" / "results.json").exists()
+
+
+def test_a_cuda_device_without_cuda_exits_2(cli, tmp_path):
+    torch = pytest.importorskip("torch")
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA device is present here")
+    code, _, err = cli("evaluate", "--dataset", "hapt", "--backbones", "dclstm", "--device", "cuda",
+                       "-o", tmp_path / "out")
+    assert code == 2 and "--device" in err and "0 CUDA device" in err
 
 
 def test_unknown_dataset_and_missing_data_dir_exit_2(cli, tmp_path):

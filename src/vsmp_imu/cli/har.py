@@ -82,6 +82,7 @@ def evaluate_cmd(
         None, "--patience", max=100000, help="neural backbones: early-stopping patience"
     ),
     jobs: int = typer.Option(None, "--jobs", max=256, help="CPU threads for RF and PyTorch"),
+    device: str = typer.Option("cpu", "--device", help="neural backbones: cpu | cuda | cuda:N | mps | auto"),
     report_groups: list[str] = typer.Option(
         None, "--report-groups", help="NAME=CLASS,CLASS;... classes reported together"
     ),
@@ -129,6 +130,12 @@ def evaluate_cmd(
         for k, v in (("max_epochs", max_epochs), ("patience", patience), ("n_threads", jobs))
         if v is not None
     }
+    if any(b in NEURAL for b in chosen_backbones):
+        from vsmp_imu.har.backbones.neural import resolve_device
+
+        resolve_device(device)  # an unknown or absent device fails before any data is loaded
+        if device != "cpu":
+            neural_params["device"] = device
     backbone_params = {
         b: dict(neural_params) for b in chosen_backbones if b in NEURAL and neural_params
     }

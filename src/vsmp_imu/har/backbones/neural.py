@@ -23,8 +23,33 @@ import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.metrics import f1_score
 
-from vsmp_imu.errors import ValidationError
+from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.normalize import ChannelStandardizer
+
+DEVICES = ("cpu", "cuda", "cuda:N", "mps", "auto")
+
+
+def resolve_device(name: str):
+    """The torch device for `--device`: cpu, cuda, cuda:N, mps, or auto (cuda when present)."""
+    import torch
+
+    text = str(name).strip().lower()
+    if text == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    try:
+        device = torch.device(text)
+    except (RuntimeError, ValueError):
+        raise ConfigError(f"unknown device '{name}'", field="--device", allowed=", ".join(DEVICES)) from None
+    if device.type == "cuda":
+        count = torch.cuda.device_count() if torch.cuda.is_available() else 0
+        if count == 0 or (device.index or 0) >= count:
+            raise ConfigError(f"device '{name}' is not available: this PyTorch sees {count} CUDA device(s)",
+                              field="--device", allowed="cpu, auto, or a CUDA machine with a CUDA build of PyTorch")
+    elif device.type == "mps" and not torch.backends.mps.is_available():
+        raise ConfigError(f"device '{name}' is not available here", field="--device", allowed="cpu or auto")
+    elif device.type not in ("cpu", "cuda", "mps"):
+        raise ConfigError(f"unsupported device '{name}'", field="--device", allowed=", ".join(DEVICES))
+    return device
 
 
 class TorchClassifier(ClassifierMixin, BaseEstimator):
@@ -51,11 +76,13 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
         n_threads: int | None = None,
         verbose: bool = False,
         min_steps: int = 8,
+        device: str = "cpu",
     ) -> None:
         self.max_epochs = max_epochs
         self.patience = patience
         self.batch_size = batch_size
         self.min_steps = min_steps
+        self.device = device
         self.lr = lr
         self.weight_decay = weight_decay
         self.random_state = random_state
@@ -73,7 +100,7 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
     def _tensor(self, X: np.ndarray):
         import torch
 
-        return torch.from_numpy(self.standardizer_.transform(X))
+        return torch.from_numpy(self.standardizer_.transform(X)).to(self.device_)
 
     def _batch_size(self, n: int) -> int:
         """The training batch: `batch_size`, but at most 1/`min_steps` of the n windows."""
@@ -84,6 +111,7 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
 
         size = size or self.batch_size
         order = torch.randperm(n, generator=generator) if generator is not None else torch.arange(n)
+        order = order.to(self.device_)
         for start in range(0, n, size):
             yield order[start : start + size]
 
@@ -99,7 +127,7 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
                 outs.append(out)
         if not outs:
             return np.zeros((0, 0), np.float32)
-        return torch.cat(outs).numpy()
+        return torch.cat(outs).cpu().numpy()
 
     # -- estimator API ---------------------------------------------------------------------
     def fit(
@@ -126,10 +154,11 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
         deterministic = torch.are_deterministic_algorithms_enabled()
         torch.use_deterministic_algorithms(True, warn_only=True)
         try:
+            self.device_ = resolve_device(self.device)
             with torch.random.fork_rng(devices=[]):
                 torch.manual_seed(int(self.random_state))
                 self.standardizer_ = ChannelStandardizer().fit(X)
-                self.model_ = self._build(X.shape[2], len(self.classes_))
+                self.model_ = self._build(X.shape[2], len(self.classes_)).to(self.device_)
                 self._train(X, y_idx, X_val if use_val else None, y_val if use_val else None)
         finally:
             torch.use_deterministic_algorithms(deterministic)
@@ -140,7 +169,7 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
         import torch
 
         xt = self._tensor(X)
-        yt = torch.from_numpy(y_idx.astype(np.int64))
+        yt = torch.from_numpy(y_idx.astype(np.int64)).to(self.device_)
         optimizer = torch.optim.AdamW(
             self.model_.parameters(), lr=self.lr, weight_decay=self.weight_decay
         )
@@ -221,9 +250,11 @@ class DeepConvLSTM(TorchClassifier):
         n_threads: int | None = None,
         verbose: bool = False,
         min_steps: int = 8,
+        device: str = "cpu",
     ) -> None:
         super().__init__(
-            max_epochs, patience, batch_size, lr, weight_decay, random_state, n_threads, verbose, min_steps
+            max_epochs, patience, batch_size, lr, weight_decay, random_state, n_threads, verbose, min_steps,
+            device,
         )
         self.n_filters = n_filters
         self.kernel_size = kernel_size
@@ -277,9 +308,11 @@ class BiLSTMAttention(TorchClassifier):
         n_threads: int | None = None,
         verbose: bool = False,
         min_steps: int = 8,
+        device: str = "cpu",
     ) -> None:
         super().__init__(
-            max_epochs, patience, batch_size, lr, weight_decay, random_state, n_threads, verbose, min_steps
+            max_epochs, patience, batch_size, lr, weight_decay, random_state, n_threads, verbose, min_steps,
+            device,
         )
         self.hidden = hidden
         self.n_lstm = n_lstm
