@@ -9,7 +9,9 @@ Stages:
 2. per class, K constrained SMP variants S(k) ~ A(S) of each base SMP, each
    realized with its own seed (as many slots as the budget needs);
 3. per sample (executor, cached): verbalize, motion, theta ~ p(theta),
-   kinematics, eta* by CEM against the class's D_stat, A_gamma;
+   kinematics, eta* by CEM against the class's D_stat, A_gamma; alongside,
+   one executor job fits the filter's real-data models (plausibility
+   thresholds, validator, tau_nn);
 4. rank grounding per location with F_v from all the fold's synthetic samples
    and G_r from D_rank;
 5. windows, then the quality filter (motion plausibility, class faithfulness
