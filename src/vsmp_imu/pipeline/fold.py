@@ -212,6 +212,20 @@ def fit_filters(job: FilterJob) -> FilterModels:
         return FilterModels(plausibility, validator, thresholds)
 
 
+def make_filter_job(info: DatasetInfo, train: Windows, seed: int, fold: str, val_fraction: float,
+                    min_class_windows: int, learned: bool = True) -> FilterJob:
+    """The filter job of one fold's real training windows (`learned`: with the validator and tau_nn)."""
+    return FilterJob(
+        windows={loc.name: train.X[..., _channel_index(info, loc)] for loc in info.locations},
+        labels=train.y,
+        features=ecdf_features(train.X) if learned else None,
+        is_val=_validation_mask(train, val_fraction, seed, fold),
+        n_classes=info.n_classes,
+        seed=int(rng_for(seed, fold, "validator").integers(2**31)),
+        min_class_windows=min_class_windows,
+    )
+
+
 def run_item(item):
     """One executor item: a (SampleTask, cache folder) pair, or the filter job."""
     if isinstance(item, FilterJob):
@@ -434,16 +448,8 @@ class FoldGenerator:
     def _filter_job(self, info, train: Windows, seed: int, fold: str) -> FilterJob | None:
         if not self.config.quality_filter:
             return None
-        learned = self.config.class_filter or self.config.redundancy_filter
-        return FilterJob(
-            windows={loc.name: train.X[..., _channel_index(info, loc)] for loc in info.locations},
-            labels=train.y,
-            features=ecdf_features(train.X) if learned else None,
-            is_val=_validation_mask(train, self.config.val_fraction, seed, fold),
-            n_classes=info.n_classes,
-            seed=int(rng_for(seed, fold, "validator").integers(2**31)),
-            min_class_windows=self.config.min_validator_windows,
-        )
+        return make_filter_job(info, train, seed, fold, self.config.val_fraction, self.config.min_validator_windows,
+                               learned=self.config.class_filter or self.config.redundancy_filter)
 
     def _filter(self, info, train: Windows, X, y, records, ok, seed, fold, job: FilterJob | None,
                 models: FilterModels | None) -> tuple[np.ndarray, float | None]:

@@ -62,22 +62,22 @@ from typing import Any
 import numpy as np
 
 from vsmp_imu.errors import ConfigError, ValidationError
-from vsmp_imu.filtering.faithfulness import TAU_DEFAULT, class_verdicts, nn_thresholds
-from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
-from vsmp_imu.filtering.validator import HarValidator
+from vsmp_imu.filtering.faithfulness import TAU_DEFAULT, class_verdicts
 from vsmp_imu.filtering.verdict import Verdict
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.split import stat_rank_split
 from vsmp_imu.grounding.stats import TargetStatistics
 from vsmp_imu.har.dataset import DatasetInfo
+from vsmp_imu.har.features import ecdf_features
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.pipeline.fold import (
     FoldGenerator,
     GenerationConfig,
     _channel_index,
     _location_plan,
-    _validation_mask,
+    fit_filters,
     fit_rank_grounders,
+    make_filter_job,
 )
 from vsmp_imu.pipeline.sample import SampleResult, SampleTask, cached_synthesize
 from vsmp_imu.seeding import rng_for
@@ -454,17 +454,14 @@ class MatchedBlockGenerator:
 
     # -- set-up -----------------------------------------------------------------------------
     def _filters(self, info: DatasetInfo, train: Windows, seed: int, fold: str) -> dict[str, Any]:
-        plaus = {}
-        for loc in info.locations:
-            cols = _channel_index(info, loc)
-            plaus[loc.name] = (cols, MotionPlausibilityFilter().fit(train.X[..., cols], train.y))
-        fit = train[~_validation_mask(train, self.config.val_fraction, seed, fold)]
-        validator = HarValidator(seed=int(rng_for(seed, fold, "validator").integers(2**31)))
-        validator.fit(fit.X, fit.y, n_classes=info.n_classes)
-        validated = fit.class_counts() >= self.config.min_validator_windows
-        thresholds = nn_thresholds(validator.embed(train.X), train.y, self.config.min_validator_windows)
-        return {"plausibility": plaus, "validator": validator, "validated": validated,
-                "thresholds": thresholds}
+        c = self.config
+        job = make_filter_job(info, train, seed, fold, c.val_fraction, c.min_validator_windows)
+        models = fit_filters(job)
+        counts = np.bincount(job.labels[~job.is_val], minlength=info.n_classes)
+        return {"plausibility": {loc.name: (_channel_index(info, loc), models.plausibility[loc.name])
+                                 for loc in info.locations},
+                "validator": models.validator, "validated": counts >= c.min_validator_windows,
+                "thresholds": models.nn_thresholds}
 
     def _tasks(self, plans: list[SourcePlan], blocks: list[Block], fold: str, fs_hz: float,
                loc_tasks) -> list[SampleTask]:
@@ -511,8 +508,9 @@ class MatchedBlockGenerator:
         by_sample: dict[str, list[int]] = {}
         for i, rec in enumerate(records):
             by_sample.setdefault(rec["sample"], []).append(i)
-        proba = filters["validator"].predict_proba(X) if len(X) else np.zeros((0, info.n_classes))
-        z = _normalize(filters["validator"].embed(X)) if len(X) else np.zeros((0, 1))
+        feats = ecdf_features(X) if len(X) else None  # once, for the probabilities and the embedding
+        proba = filters["validator"].predict_proba_features(feats) if len(X) else np.zeros((0, info.n_classes))
+        z = _normalize(filters["validator"].embed_features(feats)) if len(X) else np.zeros((0, 1))
         class_v = class_verdicts(proba, y, c.tau_cls, filters["validated"]) if len(X) else []
         for r in ok:
             idx = by_sample.get(r.key, [])
