@@ -460,7 +460,8 @@ def _close(executor) -> None:
 
 def _scaling(make, alpha: float, replay_n: int) -> dict:
     """The fold with 1 then 2 workers; then the synthesis of its first `replay_n` tasks
-    replayed in the order 1, 2, 2, 1 workers (a drifting background load affects both alike)."""
+    replayed in the order 1, 2, 2, 1 workers (a drifting background load affects both alike),
+    on workers that have run a few samples before (warm, as in a long run)."""
     from vsmp_imu.pipeline.sample import cached_synthesize
 
     out, batches, niceness = {}, [], set()
@@ -473,6 +474,9 @@ def _scaling(make, alpha: float, replay_n: int) -> dict:
     replay = []
     for workers in (1, 2, 2, 1):
         executor = _started(make, workers)
+        # each worker's first samples load what the pipeline loads lazily (a pool's forked
+        # workers inherit it from the driver, Ray's fresh workers do not): outside the timing
+        executor.map(cached_synthesize, tasks[: 4 * workers])
         wall, _ = timed(lambda e=executor: e.map(cached_synthesize, tasks))
         replay.append({"workers": workers, "wall_s": wall, "load_avg_after": os.getloadavg()})
         _close(executor)

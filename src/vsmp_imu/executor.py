@@ -12,7 +12,7 @@ import multiprocessing
 import os
 import socket
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from typing import Any
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -20,6 +20,15 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from vsmp_imu.errors import ConfigError, DependencyError
 
 EXECUTORS = ("local", "ray")
+
+
+def thread_map(fn: Callable[[Any], Any], items: Sequence[Any], threads: int = 1) -> list[Any]:
+    """`[fn(x) for x in items]`, on `threads` threads when more than one: for the driver's own
+    NumPy steps (sorting, interpolation, FFT, matmul release the GIL) while the workers idle."""
+    if threads <= 1 or len(items) <= 1:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(min(threads, len(items))) as pool:
+        return list(pool.map(fn, items))
 
 
 def _progress(disable: bool) -> Progress:
@@ -122,19 +131,37 @@ class RayExecutor:
                 f"the Ray cluster has {ray.cluster_resources().get('GPU', 0):g} GPU(s); each task needs "
                 f"{self.num_gpus_per_task:g}", field="--gpus-per-task",
                 allowed="a cluster with GPU nodes, or --gpus-per-task 0 for CPU-only backends")
-        remote = ray.remote(num_cpus=1, num_gpus=self.num_gpus_per_task)(fn)
-        refs = [remote.remote(task) for task in tasks]
-        index = {ref: i for i, ref in enumerate(refs)}
-        results: list[Any] = [None] * len(tasks)
-        pending = list(refs)
+        remote = ray.remote(num_cpus=1, num_gpus=self.num_gpus_per_task)(_run_chunk)
+        size = self._chunk_size(ray, len(tasks))
+        chunks = [list(tasks[i:i + size]) for i in range(0, len(tasks), size)]
+        refs = [remote.remote(fn, chunk) for chunk in chunks]
+        results: list[Any] = []
         with _progress(not self.show_progress) as progress:
             bar = progress.add_task(desc, total=len(tasks))
-            while pending:
-                done, pending = ray.wait(pending, num_returns=1)
-                for ref in done:
-                    results[index[ref]] = ray.get(ref)
-                    progress.advance(bar)
+            # in task order: a ray.wait over all pending refs per result would cost the driver
+            # O(n) each time, CPU the workers need on a small machine
+            for ref, chunk in zip(refs, chunks, strict=True):
+                results += ray.get(ref)
+                progress.advance(bar, len(chunk))
         return results
+
+    def _chunk_size(self, ray, n: int) -> int:
+        """Tasks per Ray task: up to MAX_CHUNK (each Ray task costs the driver and the raylet a few
+        ms), but at least CHUNKS_PER_CPU Ray tasks per CPU so the last ones end close together.
+        GPU tasks (one model call each) are never grouped."""
+        if self.num_gpus_per_task > 0:
+            return 1
+        cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
+        return max(1, min(MAX_CHUNK, n // (cpus * CHUNKS_PER_CPU)))
+
+
+MAX_CHUNK = 8
+CHUNKS_PER_CPU = 4
+
+
+def _run_chunk(fn: Callable[[Any], Any], items: list[Any]) -> list[Any]:
+    """One Ray task: `fn` over consecutive items, in order."""
+    return [fn(x) for x in items]
 
 
 ADDRESS_HELP = "'auto' (a cluster started on this machine), HOST:PORT of the head's GCS, or ray://HOST:PORT"

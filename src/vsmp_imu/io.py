@@ -137,6 +137,10 @@ def read_text(path: str | Path) -> str:
         raise InputFileError(f"not UTF-8 text ({exc.reason})", file=path) from exc
 
 
+# libyaml's safe loader where PyYAML was built with it (the wheels are): same documents, ~10x faster
+YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
 def read_structured(path: str | Path) -> Any:
     """Read a JSON or YAML file (chosen by extension; JSON is valid YAML too)."""
     path = Path(path)
@@ -144,7 +148,7 @@ def read_structured(path: str | Path) -> Any:
     try:
         if path.suffix.lower() == ".json":
             return json.loads(text)
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=YAML_LOADER)  # noqa: S506 - a safe loader
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
         raise InputFileError(f"not valid {kind}: {exc}", file=path) from exc

@@ -238,6 +238,33 @@ def test_target_statistics_fall_back_for_small_classes(rng):
     assert ts.for_class(0) is not ts.overall_
 
 
+def test_target_statistics_threads_give_the_same_bytes(rng):
+    w = rng.normal(0, 1, (90, 100, 6))
+    labels = np.repeat([0, 1, 2], 30)
+    one = TargetStatistics(fs_hz=50.0).fit(w, labels)
+    three = TargetStatistics(fs_hz=50.0).fit(w, labels, threads=3)
+    assert sorted(three.per_class_) == [0, 1, 2]
+    for a, b in [(one.overall_, three.overall_)] + [(one.per_class_[c], three.per_class_[c]) for c in range(3)]:
+        assert all(np.array_equal(getattr(a, k), getattr(b, k)) for k in ("cov", "psd", "norms", "acf"))
+
+
+@pytest.mark.parametrize("per_class", [False, True])
+def test_rank_grounding_threads_and_concatenation_give_the_same_bytes(rng, per_class):
+    syn = rng.gamma(2.0, 1.0, size=(300, 40, 6))
+    real = rng.normal(1.0, 2.0, size=(300, 40, 6))
+    ys, yr = np.repeat([0, 1], 150), np.repeat([0, 1], 150)
+    one = RankGrounder(per_class=per_class, min_class_samples=10).fit(syn, real, ys, yr)
+    two = RankGrounder(per_class=per_class, min_class_samples=10, threads=2).fit(syn, real, ys, yr)
+    assert np.array_equal(one.overall_.v_grid, two.overall_.v_grid)
+    # samples of different lengths, one by one vs concatenated rows (above the threading size)
+    samples = [rng.gamma(2.0, 1.0, size=(n, 6)) for n in (2000, 3000, 1500)]
+    labels = [np.full(len(s), i % 2) for i, s in enumerate(samples)]
+    each = [one.transform(s, lab if per_class else None) for s, lab in zip(samples, labels, strict=True)]
+    rows = np.concatenate(samples)
+    together = two.transform(rows, np.concatenate(labels) if per_class else None)
+    assert np.array_equal(np.concatenate(each), together)
+
+
 def test_class_balanced_pooling_follows_the_real_class_mix(rng):
     # real: 90 % class 0 around -3, 10 % class 1 around +3; synthetic has the opposite mix
     real = np.concatenate([rng.normal(-3, 1, (90, 50, 1)), rng.normal(3, 1, (10, 50, 1))])

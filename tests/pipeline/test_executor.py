@@ -8,7 +8,7 @@ import threading
 import pytest
 
 from vsmp_imu.errors import ConfigError
-from vsmp_imu.executor import LocalExecutor, check_reachable, make_executor
+from vsmp_imu.executor import LocalExecutor, check_reachable, make_executor, thread_map
 from vsmp_imu.seeding import key_entropy
 
 # Workers must import the mapped function, so use one of the package's own.
@@ -21,6 +21,13 @@ def test_local_pool_matches_in_process():
     two = LocalExecutor(2, show_progress=False).map(_work, tasks)
     assert one == two
     assert len({r for r in one}) == 12
+
+
+@pytest.mark.parametrize("threads", [1, 2, 8])
+def test_thread_map_keeps_order(threads):
+    items = list(range(20))
+    assert thread_map(_work, items, threads) == [_work(i) for i in items]
+    assert thread_map(_work, [], threads) == []
 
 
 @pytest.mark.ray

@@ -95,7 +95,7 @@ def instruments(monkeypatch):
         SEEN["split_labels"].append(False), split(labels, seed, *a, **k))[1])
     wrap(FoldGenerator, "_nominal_mountings",
          lambda self, info, plan, sources, d_stat: SEEN["mounting_d_stat"].append(has_sentinel(d_stat.X)))
-    wrap(TargetStatistics, "fit", lambda self, windows, labels: SEEN["d_stat"].append(has_sentinel(windows)))
+    wrap(TargetStatistics, "fit", lambda self, windows, labels, *_: SEEN["d_stat"].append(has_sentinel(windows)))
     wrap(RankGrounder, "fit", lambda self, syn, real, *a, **k: SEEN["d_rank"].append(has_sentinel(real)))
     wrap(MotionPlausibilityFilter, "fit", lambda self, X, y: SEEN["plausibility"].append(has_sentinel(X)))
     wrap(HarValidator, "fit_features", lambda self, X, y, *a, **k: SEEN["validator"].append(has_sentinel(X)))

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vsmp_imu.executor import thread_map
+
 COV_WINDOW_S = 2.0
 PSD_BAND_EDGES_HZ = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0)  # last band is (8, fs/2]
 ACF_LAGS = (1, 2, 5, 10, 20, 50)
@@ -185,18 +187,17 @@ class TargetStatistics:
         self.fs_hz = fs_hz
         self.min_windows = min_windows
 
-    def fit(self, windows: np.ndarray, labels: np.ndarray) -> TargetStatistics:
-        """windows: (N, L, 6) real D_stat windows of one sensor location; labels: (N,)."""
+    def fit(self, windows: np.ndarray, labels: np.ndarray, threads: int = 1) -> TargetStatistics:
+        """windows: (N, L, 6) real D_stat windows of one sensor location; labels: (N,).
+        `threads` > 1 summarizes the classes side by side (same result)."""
         windows = np.asarray(windows, dtype=np.float64)
         labels = np.asarray(labels)
         if windows.ndim != 3 or len(windows) != len(labels) or len(windows) == 0:
             raise ValueError("fit needs (N, L, 6) windows and N labels, N > 0")
-        self.overall_ = summarize_windows(windows, self.fs_hz)
-        self.per_class_ = {}
-        for cls in np.unique(labels):
-            mask = labels == cls
-            if mask.sum() >= self.min_windows:
-                self.per_class_[int(cls)] = summarize_windows(windows[mask], self.fs_hz)
+        classes = [int(c) for c in np.unique(labels) if (labels == c).sum() >= self.min_windows]
+        subsets = [windows] + [windows[labels == c] for c in classes]
+        self.overall_, *per_class = thread_map(lambda w: summarize_windows(w, self.fs_hz), subsets, threads)
+        self.per_class_ = dict(zip(classes, per_class, strict=True))
         self.n_windows_ = len(windows)
         return self
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from vsmp_imu.errors import ValidationError
+from vsmp_imu.quantiles import sorted_quantiles
 
 # K = 15 fixed ECDF levels per channel (paper appendix, ECDF features).
 N_LEVELS = 15
@@ -28,5 +29,5 @@ def ecdf_features(X: np.ndarray, n_levels: int = N_LEVELS) -> np.ndarray:
     X = np.asarray(X, dtype=np.float32)
     if X.ndim != 3:
         raise ValidationError(f"windows must be (N, T, C), got shape {X.shape}", field="X")
-    q = np.quantile(X, ecdf_levels(n_levels), axis=1)  # (K, N, C)
+    q = sorted_quantiles(X, ecdf_levels(n_levels), axis=1)  # (K, N, C), as np.quantile
     return np.ascontiguousarray(q.transpose(1, 2, 0).reshape(len(X), -1), dtype=np.float32)

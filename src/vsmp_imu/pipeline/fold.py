@@ -151,10 +151,10 @@ def _channel_index(info: DatasetInfo, loc: SensorLocation) -> np.ndarray:
 
 
 def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: Windows, plan,
-                       per_class: bool) -> dict[str, RankGrounder]:
+                       per_class: bool, threads: int = 1) -> dict[str, RankGrounder]:
     """Stage 4's rank grounders, one per location: F_v from the samples' signals there, G_r from
     D_rank's windows of the classes worn there. Locations no sample uses, or without any real
-    window, get none."""
+    window, get none. `threads` fit the channels side by side (same result)."""
     grounders = {}
     for loc in info.locations:
         users = [r for r in samples if loc.name in r.signals]
@@ -167,7 +167,7 @@ def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: W
         cols = _channel_index(info, loc)
         syn = np.concatenate([r.signals[loc.name] for r in users])
         labels = np.concatenate([np.full(len(r.signals[loc.name]), r.label_index) for r in users])
-        grounders[loc.name] = RankGrounder(per_class=per_class).fit(
+        grounders[loc.name] = RankGrounder(per_class=per_class, threads=threads).fit(
             syn, real.X[..., cols].astype(np.float64), labels, real.y)
     return grounders
 
@@ -379,7 +379,8 @@ class FoldGenerator:
         stats = {}
         for loc in info.locations:
             cols = _channel_index(info, loc)
-            stats[loc.name] = TargetStatistics(info.fs_hz).fit(d_stat.X[..., cols].astype(np.float64), d_stat.y)
+            stats[loc.name] = TargetStatistics(info.fs_hz).fit(d_stat.X[..., cols].astype(np.float64), d_stat.y,
+                                                               self._threads())
         mountings = self._nominal_mountings(info, plan, sources, d_stat)
         loc_tasks = self._location_tasks(info, plan, stats, mountings)
         job = self._filter_job(info, train, seed, fold)
@@ -405,18 +406,19 @@ class FoldGenerator:
     def _ground(self, info, ok: list[SampleResult], d_rank: Windows, plan) -> list[dict[str, np.ndarray]]:
         if not self.config.rank_grounding or not ok:
             return [dict(r.signals) for r in ok]
-        grounders = fit_rank_grounders(info, ok, d_rank, plan, self.config.per_class_rank)
+        grounders = fit_rank_grounders(info, ok, d_rank, plan, self.config.per_class_rank, self._threads())
         missing = sorted({name for r in ok for name in r.signals} - set(grounders))
         if missing:
             raise ValidationError(f"D_rank has no real window at location(s) {', '.join(missing)}",
                                   field="d_rank")
-        out = []
-        for r in ok:
-            g = {}
-            for name, sig in r.signals.items():
-                labels = np.full(len(sig), r.label_index)
-                g[name] = grounders[name].transform(sig, labels if self.config.per_class_rank else None)
-            out.append(g)
+        out: list[dict[str, np.ndarray]] = [{} for _ in ok]
+        for name, grounder in grounders.items():  # all samples of a location mapped at once
+            users = [i for i, r in enumerate(ok) if name in r.signals]
+            signals = [ok[i].signals[name] for i in users]
+            labels = np.concatenate([np.full(len(ok[i].signals[name]), ok[i].label_index) for i in users])
+            mapped = grounder.transform(np.concatenate(signals), labels if self.config.per_class_rank else None)
+            for i, part in zip(users, np.split(mapped, np.cumsum([len(sig) for sig in signals])[:-1]), strict=True):
+                out[i][name] = part
         return out
 
     # -- stage 5 --------------------------------------------------------------------------------

@@ -41,6 +41,7 @@ import pydantic
 import yaml
 from rapidfuzz import fuzz, process
 
+from vsmp_imu.io import YAML_LOADER
 from vsmp_imu.smp._text import NUMBER_WORDS, norm_key, norm_name
 from vsmp_imu.smp.schema import (
     INVARIANT_FIELDS,
@@ -436,7 +437,6 @@ def _repair_loads(text: str) -> Any:
         return None
 
 
-_YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 MAX_YAML_CHARS = 20_000  # key-value answers are short; pure-Python YAML is slow on long text
 
 
@@ -445,7 +445,7 @@ def _yaml_loads(text: str) -> Any:
     if "{" in text or len(text) > MAX_YAML_CHARS:
         return None
     try:
-        return yaml.load(text, Loader=_YAML_LOADER)  # noqa: S506 - a safe loader
+        return yaml.load(text, Loader=YAML_LOADER)  # noqa: S506 - a safe loader
     except Exception:  # noqa: BLE001 - any YAML failure means "not key-value text"
         return None
 
