@@ -445,6 +445,46 @@ def stage_chain_memory(quick: bool) -> dict:
             "note": "driver-side allocations made during each step (inputs held before it not counted)"}
 
 
+def _process_cpu_s() -> dict[int, tuple[str, float]]:
+    """pid -> (role, CPU seconds so far) of this process and the processes that serve it:
+    its children (pool workers, alive or exited), Ray's workers ("ray::..." titles) and
+    Ray's daemons."""
+    tick = os.sysconf("SC_CLK_TCK")
+    me = os.getpid()
+    reaped = resource.getrusage(resource.RUSAGE_CHILDREN)  # a local pool's workers, once they exit
+    out = {-1: ("workers", reaped.ru_utime + reaped.ru_stime)}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            cmd = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        comm = stat[stat.index("(") + 1 : stat.rindex(")")]
+        fields = stat[stat.rindex(")") + 2 :].split()
+        pid, ppid = int(entry.name), int(fields[1])
+        cpu = (int(fields[11]) + int(fields[12])) / tick  # utime + stime
+        if pid == me:
+            role = "driver"
+        elif comm in ("raylet", "gcs_server") or "/ray/" in cmd:  # Ray starts these as children too
+            role = "ray daemons"
+        elif cmd.startswith("ray::") or ppid == me:
+            role = "workers"
+        else:
+            continue
+        out[pid] = (role, cpu)
+    return out
+
+
+def _cpu_delta(before: dict, after: dict) -> dict[str, float]:
+    """CPU seconds per role between two `_process_cpu_s` snapshots (new processes from 0)."""
+    total: dict[str, float] = defaultdict(float)
+    for pid, (role, cpu) in after.items():
+        total[role] += cpu - before.get(pid, (role, 0.0))[1]
+    return {role: round(v, 2) for role, v in sorted(total.items())}
+
+
 def _started(make, workers: int, niceness: set | None = None):
     executor = make(workers)
     nice = executor.map(_warm, list(range(2 * workers)))  # start the workers outside the timings
@@ -467,7 +507,9 @@ def _scaling(make, alpha: float, replay_n: int) -> dict:
     out, batches, niceness = {}, [], set()
     for workers in (1, 2):
         executor = _started(make, workers, niceness)
+        cpu = _process_cpu_s()
         out[str(workers)] = run_fold(executor, alpha, batches=batches if workers == 1 else None)
+        out[str(workers)]["cpu_s"] = _cpu_delta(cpu, _process_cpu_s())  # where the cores' time went
         out[str(workers)]["load_avg_after"] = os.getloadavg()
         _close(executor)
     tasks = [t for batch in batches for t in batch if isinstance(t, tuple)][:replay_n]  # samples, not the validator
