@@ -57,12 +57,14 @@ class LocalExecutor:
                     progress.advance(bar)
                 return results
             ctx = multiprocessing.get_context(_start_method())
+            chunks = _chunks(tasks, self.workers)
             with ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx,
                                      initializer=_limit_threads) as pool:
-                futures = {pool.submit(fn, task): i for i, task in enumerate(tasks)}
+                futures = {pool.submit(_run_chunk, fn, chunk): start for start, chunk in chunks}
                 for future in as_completed(futures):
-                    results[futures[future]] = future.result()
-                    progress.advance(bar)
+                    done = future.result()
+                    results[futures[future]:futures[future] + len(done)] = done
+                    progress.advance(bar, len(done))
         return results
 
 
@@ -132,35 +134,37 @@ class RayExecutor:
                 f"{self.num_gpus_per_task:g}", field="--gpus-per-task",
                 allowed="a cluster with GPU nodes, or --gpus-per-task 0 for CPU-only backends")
         remote = ray.remote(num_cpus=1, num_gpus=self.num_gpus_per_task)(_run_chunk)
-        size = self._chunk_size(ray, len(tasks))
-        chunks = [list(tasks[i:i + size]) for i in range(0, len(tasks), size)]
-        refs = [remote.remote(fn, chunk) for chunk in chunks]
+        # GPU tasks (one model call each) are never grouped
+        cpus = len(tasks) if self.num_gpus_per_task > 0 else int(ray.cluster_resources().get("CPU", 1))
+        chunks = _chunks(tasks, cpus)
+        refs = [remote.remote(fn, chunk) for _, chunk in chunks]
         results: list[Any] = []
         with _progress(not self.show_progress) as progress:
             bar = progress.add_task(desc, total=len(tasks))
             # in task order: a ray.wait over all pending refs per result would cost the driver
             # O(n) each time, CPU the workers need on a small machine
-            for ref, chunk in zip(refs, chunks, strict=True):
-                results += ray.get(ref)
-                progress.advance(bar, len(chunk))
+            for ref in refs:
+                done = ray.get(ref)
+                results += done
+                progress.advance(bar, len(done))
         return results
-
-    def _chunk_size(self, ray, n: int) -> int:
-        """Tasks per Ray task: up to MAX_CHUNK (each Ray task costs the driver and the raylet a few
-        ms), but at least CHUNKS_PER_CPU Ray tasks per CPU so the last ones end close together.
-        GPU tasks (one model call each) are never grouped."""
-        if self.num_gpus_per_task > 0:
-            return 1
-        cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
-        return max(1, min(MAX_CHUNK, n // (cpus * CHUNKS_PER_CPU)))
 
 
 MAX_CHUNK = 8
 CHUNKS_PER_CPU = 4
 
 
+def _chunks(tasks: Sequence[Any], cpus: int) -> list[tuple[int, list[Any]]]:
+    """(start, consecutive tasks) groups sent to a worker as one unit: up to MAX_CHUNK tasks
+    (each unit costs the driver a few ms of pickling and messaging, 10-15 % of a 30 ms
+    procedural sample with one unit per sample), but at least CHUNKS_PER_CPU units per CPU so
+    the last ones end close together."""
+    size = max(1, min(MAX_CHUNK, len(tasks) // (max(1, cpus) * CHUNKS_PER_CPU)))
+    return [(i, list(tasks[i:i + size])) for i in range(0, len(tasks), size)]
+
+
 def _run_chunk(fn: Callable[[Any], Any], items: list[Any]) -> list[Any]:
-    """One Ray task: `fn` over consecutive items, in order."""
+    """One unit of work on a worker: `fn` over consecutive items, in order."""
     return [fn(x) for x in items]
 
 

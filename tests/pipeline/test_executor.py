@@ -8,7 +8,7 @@ import threading
 import pytest
 
 from vsmp_imu.errors import ConfigError
-from vsmp_imu.executor import LocalExecutor, check_reachable, make_executor, thread_map
+from vsmp_imu.executor import LocalExecutor, _chunks, check_reachable, make_executor, thread_map
 from vsmp_imu.seeding import key_entropy
 
 # Workers must import the mapped function, so use one of the package's own.
@@ -21,6 +21,19 @@ def test_local_pool_matches_in_process():
     two = LocalExecutor(2, show_progress=False).map(_work, tasks)
     assert one == two
     assert len({r for r in one}) == 12
+
+
+def test_local_pool_keeps_order_with_chunks():
+    tasks = list(range(101))  # 2 workers: chunks of 8 consecutive tasks, the last one short
+    assert LocalExecutor(2, show_progress=False).map(_work, tasks) == [_work(t) for t in tasks]
+
+
+@pytest.mark.parametrize(("n", "cpus", "size"), [(1, 2, 1), (12, 2, 1), (100, 2, 8), (40, 2, 5), (922, 16, 8), (5, 1, 1)])
+def test_chunks_cover_the_tasks_in_order(n, cpus, size):
+    chunks = _chunks(list(range(n)), cpus)
+    assert [t for _, chunk in chunks for t in chunk] == list(range(n))
+    assert [start for start, _ in chunks] == list(range(0, n, size))
+    assert max(len(c) for _, c in chunks) == size
 
 
 @pytest.mark.parametrize("threads", [1, 2, 8])
