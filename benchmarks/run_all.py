@@ -208,9 +208,13 @@ def run_fold(executor, alpha: float, config=None, batches: list | None = None) -
 
 
 def _warm(_):
-    """Load the pipeline in a worker (excluded from the timings)."""
+    """Load the pipeline and the activity library in a worker (excluded from the timings):
+    once per worker process in a real run, whatever the number of folds. A local pool's
+    workers are forked from a driver that has both loaded already."""
     import vsmp_imu.pipeline.sample  # noqa: F401
+    from vsmp_imu.smp.library import ActivityLibrary
 
+    ActivityLibrary.load()
     time.sleep(0.2)
     return os.nice(0)
 
