@@ -191,6 +191,10 @@ class FilterJob:
     seed: int
     min_class_windows: int
 
+    def validated(self) -> np.ndarray:
+        """Per class: whether the validator trains on enough of its real windows to judge it."""
+        return np.bincount(self.labels[~self.is_val], minlength=self.n_classes) >= self.min_class_windows
+
 
 @dataclass
 class FilterModels:
@@ -472,8 +476,7 @@ class FoldGenerator:
         f_syn = ecdf_features(X) if validator is not None else None
         if self.config.class_filter:
             proba = validator.predict_proba_features(f_syn)
-            counts = np.bincount(train.y[~is_val], minlength=info.n_classes)
-            validated = counts >= self.config.min_validator_windows
+            validated = job.validated()
             tau = self._choose_tau(job.features, train.y, is_val, f_syn, y, proba, keep, validated, seed, fold)
             for i, v in enumerate(class_verdicts(proba, y, tau, validated)):
                 records[i]["verdicts"].append(v.as_dict())

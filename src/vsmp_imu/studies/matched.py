@@ -457,10 +457,9 @@ class MatchedBlockGenerator:
         c = self.config
         job = make_filter_job(info, train, seed, fold, c.val_fraction, c.min_validator_windows)
         models = fit_filters(job)
-        counts = np.bincount(job.labels[~job.is_val], minlength=info.n_classes)
         return {"plausibility": {loc.name: (_channel_index(info, loc), models.plausibility[loc.name])
                                  for loc in info.locations},
-                "validator": models.validator, "validated": counts >= c.min_validator_windows,
+                "validator": models.validator, "validated": job.validated(),
                 "thresholds": models.nn_thresholds}
 
     def _tasks(self, plans: list[SourcePlan], blocks: list[Block], fold: str, fs_hz: float,
