@@ -134,9 +134,9 @@ class RayExecutor:
                 f"{self.num_gpus_per_task:g}", field="--gpus-per-task",
                 allowed="a cluster with GPU nodes, or --gpus-per-task 0 for CPU-only backends")
         remote = ray.remote(num_cpus=1, num_gpus=self.num_gpus_per_task)(_run_chunk)
+        cpus = int(ray.cluster_resources().get("CPU", 1))
         # GPU tasks (one model call each) are never grouped
-        cpus = len(tasks) if self.num_gpus_per_task > 0 else int(ray.cluster_resources().get("CPU", 1))
-        chunks = _chunks(tasks, cpus)
+        chunks = _chunks(tasks, cpus, max_chunk=1 if self.num_gpus_per_task > 0 else MAX_CHUNK)
         refs = [remote.remote(fn, chunk) for _, chunk in chunks]
         results: list[Any] = []
         with _progress(not self.show_progress) as progress:
@@ -154,12 +154,12 @@ MAX_CHUNK = 8
 CHUNKS_PER_CPU = 4
 
 
-def _chunks(tasks: Sequence[Any], cpus: int) -> list[tuple[int, list[Any]]]:
-    """(start, consecutive tasks) groups sent to a worker as one unit: up to MAX_CHUNK tasks
+def _chunks(tasks: Sequence[Any], cpus: int, max_chunk: int = MAX_CHUNK) -> list[tuple[int, list[Any]]]:
+    """(start, consecutive tasks) groups sent to a worker as one unit: up to `max_chunk` tasks
     (each unit costs the driver a few ms of pickling and messaging, 10-15 % of a 30 ms
     procedural sample with one unit per sample), but at least CHUNKS_PER_CPU units per CPU so
     the last ones end close together."""
-    size = max(1, min(MAX_CHUNK, len(tasks) // (max(1, cpus) * CHUNKS_PER_CPU)))
+    size = max(1, min(max_chunk, len(tasks) // (max(1, cpus) * CHUNKS_PER_CPU)))
     return [(i, list(tasks[i:i + size])) for i in range(0, len(tasks), size)]
 
 

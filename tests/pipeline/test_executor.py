@@ -36,6 +36,10 @@ def test_chunks_cover_the_tasks_in_order(n, cpus, size):
     assert max(len(c) for _, c in chunks) == size
 
 
+def test_chunks_of_one_when_asked():
+    assert [len(c) for _, c in _chunks(list(range(100)), 2, max_chunk=1)] == [1] * 100
+
+
 @pytest.mark.parametrize("threads", [1, 2, 8])
 def test_thread_map_keeps_order(threads):
     items = list(range(20))

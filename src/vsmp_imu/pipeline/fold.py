@@ -419,8 +419,11 @@ class FoldGenerator:
         for name, grounder in grounders.items():  # all samples of a location mapped at once
             users = [i for i, r in enumerate(ok) if name in r.signals]
             signals = [ok[i].signals[name] for i in users]
-            labels = np.concatenate([np.full(len(ok[i].signals[name]), ok[i].label_index) for i in users])
-            mapped = grounder.transform(np.concatenate(signals), labels if self.config.per_class_rank else None)
+            labels = None
+            if self.config.per_class_rank:
+                labels = np.concatenate([np.full(len(sig), ok[i].label_index)
+                                         for i, sig in zip(users, signals, strict=True)])
+            mapped = grounder.transform(np.concatenate(signals), labels)
             for i, part in zip(users, np.split(mapped, np.cumsum([len(sig) for sig in signals])[:-1]), strict=True):
                 out[i][name] = part
         return out
