@@ -8,6 +8,7 @@ import pytest
 from vsmp_imu.filtering.faithfulness import (
     class_keep_mask,
     class_verdicts,
+    macro_f1,
     nn_thresholds,
     redundancy_verdicts,
     select_tau,
@@ -63,6 +64,31 @@ def test_select_tau_uses_the_validation_score():
     # 0.60 and 0.65 keep the same two windows: one model scores both
     assert seen == [4, 3, 2, 1]
     assert scores[0.60] == scores[0.65] == 0.7
+
+
+def test_select_tau_on_threads_scores_each_mask_once_with_the_same_choice():
+    from sklearn.ensemble import RandomForestClassifier
+
+    rng = np.random.default_rng(11)
+    proba = rng.dirichlet(np.ones(3), size=120)
+    y = rng.integers(0, 3, 120)
+    f_real, y_real = rng.normal(size=(90, 5)), rng.integers(0, 3, 90)
+    f_syn = rng.normal(size=(120, 5)) + y[:, None] * 0.3
+    calls = []
+
+    def score(keep):
+        calls.append(np.packbits(keep).tobytes())
+        model = RandomForestClassifier(n_estimators=5, n_jobs=2, random_state=0)
+        model.fit(np.concatenate([f_real[:60], f_syn[keep]]), np.concatenate([y_real[:60], y[keep]]))
+        return macro_f1(y_real[60:], model.predict(f_real[60:]))
+
+    serial = select_tau(proba, y, score)
+    n_serial = len(calls)
+    assert n_serial >= 3  # several distinct masks to share out
+    calls.clear()
+    threaded = select_tau(proba, y, score, threads=3)
+    assert threaded == serial
+    assert len(calls) == len(set(calls)) == n_serial
 
 
 def test_keep_mask_agrees_with_the_verdicts():

@@ -17,6 +17,7 @@ import numpy as np
 from sklearn.metrics import f1_score
 from sklearn.neighbors import NearestNeighbors
 
+from vsmp_imu.executor import thread_map
 from vsmp_imu.filtering.verdict import Verdict
 
 TAU_CANDIDATES = (0.50, 0.55, 0.60, 0.65, 0.70)
@@ -67,21 +68,23 @@ def select_tau(
     score_with: Callable[[np.ndarray], float],
     candidates: tuple[float, ...] = TAU_CANDIDATES,
     validated: np.ndarray | None = None,
+    threads: int = 1,
 ) -> tuple[float, dict[float, float]]:
     """Pick tau_cls by validation Macro-F1.
 
     `score_with(keep_mask)` trains a model on the real training windows plus the
     kept synthetic windows and returns its Macro-F1 on the validation subjects.
+    Candidates that keep the same windows share one score; the distinct masks are
+    scored on `threads` threads (`score_with` must not depend on the order).
     Ties go to the candidate closest to the paper's 0.60.
     """
-    scores: dict[float, float] = {}
-    by_mask: dict[bytes, float] = {}  # candidates that keep the same windows share one score
+    keys, masks = [], {}
     for tau in candidates:
         keep = class_keep_mask(proba_synthetic, y_synthetic, tau, validated)
-        key = np.packbits(keep).tobytes()
-        if key not in by_mask:
-            by_mask[key] = float(score_with(keep))
-        scores[tau] = by_mask[key]
+        keys.append(np.packbits(keep).tobytes())
+        masks.setdefault(keys[-1], keep)
+    scored = dict(zip(masks, thread_map(score_with, list(masks.values()), threads), strict=True))
+    scores = {tau: float(scored[key]) for tau, key in zip(candidates, keys, strict=True)}
     best = max(candidates, key=lambda t: (round(scores[t], 10), -abs(t - TAU_DEFAULT)))
     return best, scores
 

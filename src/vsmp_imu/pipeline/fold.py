@@ -506,7 +506,9 @@ class FoldGenerator:
             model.fit(np.concatenate([f_fit, f_syn[chosen]]), np.concatenate([y_fit, y[chosen]]))
             return macro_f1(y_train[is_val], model.predict(f_train[is_val]))
 
-        tau, _ = select_tau(proba, y, score, validated=validated)
+        # the distinct masks' forests on as many threads as each forest has: the last
+        # forests keep both cores busy where one forest's trees end unevenly
+        tau, _ = select_tau(proba, y, score, validated=validated, threads=self._threads())
         return tau
 
     def _threads(self) -> int:
