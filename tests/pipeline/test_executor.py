@@ -24,16 +24,20 @@ def test_local_pool_matches_in_process():
 
 
 def test_local_pool_keeps_order_with_chunks():
-    tasks = list(range(101))  # 2 workers: chunks of 8 consecutive tasks, the last one short
+    tasks = list(range(101))  # 2 workers: chunks of up to 8 consecutive tasks, shrinking to one
     assert LocalExecutor(2, show_progress=False).map(_work, tasks) == [_work(t) for t in tasks]
 
 
-@pytest.mark.parametrize(("n", "cpus", "size"), [(1, 2, 1), (12, 2, 1), (100, 2, 8), (40, 2, 5), (922, 16, 8), (5, 1, 1)])
-def test_chunks_cover_the_tasks_in_order(n, cpus, size):
+@pytest.mark.parametrize(("n", "cpus", "first"), [(1, 2, 1), (12, 2, 2), (100, 2, 8), (40, 2, 5), (922, 16, 8),
+                                                  (5, 1, 2)])
+def test_chunks_cover_the_tasks_in_order_and_shrink_to_one(n, cpus, first):
     chunks = _chunks(list(range(n)), cpus)
     assert [t for _, chunk in chunks for t in chunk] == list(range(n))
-    assert [start for start, _ in chunks] == list(range(0, n, size))
-    assert max(len(c) for _, c in chunks) == size
+    assert [start for start, _ in chunks] == [t for _, chunk in chunks for t in chunk[:1]]
+    sizes = [len(c) for _, c in chunks]
+    assert sizes[0] == first and max(sizes) <= 8
+    assert sizes == sorted(sizes, reverse=True)  # guided: the last units are the smallest
+    assert sizes[-1] == 1
 
 
 def test_chunks_of_one_when_asked():
