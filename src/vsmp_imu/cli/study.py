@@ -27,6 +27,9 @@ MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", max=100000, help="Neural 
 PATIENCE_OPTION = typer.Option(None, "--patience", max=100000, help="Neural backbones: early stopping")
 SOURCE_OPTION = typer.Option("library", "--source", help="VSMP source SMPs: library | smp:DIR | video:DIR")
 SEEDS_OPTION = typer.Option(1, "--seeds", max=1000, help="Seeds 0..N-1")
+JOBS_OPTION = typer.Option(None, "--jobs", help="CPU threads of the backbone")
+FOLDS_OPTION = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3,4,5")
+PROTOCOL_HELP = "lopo | low-resource | long-tail"
 
 
 @contextmanager
@@ -196,9 +199,9 @@ def ablation_cmd(
                                 "ablation.png, runs/, cache/)"),
     dataset: str = DATASET_OPTION,
     data_dir: Path | None = DATA_DIR_OPTION,
-    protocol: str = typer.Option("low-resource", "--protocol", help="lopo | low-resource | long-tail"),
+    protocol: str = typer.Option("low-resource", "--protocol", help=PROTOCOL_HELP),
     budget: float = typer.Option(5.0, "--budget", help="Label budget in percent (low-resource)"),
-    folds: str = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3,4,5"),
+    folds: str = FOLDS_OPTION,
     seeds: int = SEEDS_OPTION,
     backbone: str = BACKBONE_OPTION,
     alpha: float = typer.Option(0.5, "--alpha", help="Synthetic-to-real ratio of the 2x2 and the "
@@ -214,7 +217,7 @@ def ablation_cmd(
     workers: int = WORKERS_OPTION,
     max_epochs: int | None = MAX_EPOCHS_OPTION,
     patience: int | None = PATIENCE_OPTION,
-    jobs: int | None = typer.Option(None, "--jobs", help="CPU threads of the backbone"),
+    jobs: int | None = JOBS_OPTION,
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Ablations: matched caption-SMP 2x2, components, sensor grounding, alpha sensitivity."""
@@ -261,9 +264,9 @@ def granularity_cmd(
                                          "(default: the shipped one of UTD-MHAD or HAPT12)"),
     methods: str = typer.Option("real,imutube,imugpt,vsmp", "--methods", help="Methods to compare"),
     backbone: str = BACKBONE_OPTION,
-    protocol: str = typer.Option("lopo", "--protocol", help="lopo | low-resource | long-tail"),
+    protocol: str = typer.Option("lopo", "--protocol", help=PROTOCOL_HELP),
     budget: float | None = typer.Option(None, "--budget", help="Label budget in percent (low-resource)"),
-    folds: str = typer.Option("all", "--folds", help="'all' or held-out subjects"),
+    folds: str = FOLDS_OPTION,
     seeds: int = SEEDS_OPTION,
     alpha: float = typer.Option(0.5, "--alpha", help="Synthetic-to-real ratio (0.1..2.0)"),
     clips: Path | None = typer.Option(None, "--clips", help="Source clips for IMUTube (one folder per "
@@ -274,7 +277,7 @@ def granularity_cmd(
     workers: int = WORKERS_OPTION,
     max_epochs: int | None = MAX_EPOCHS_OPTION,
     patience: int | None = PATIENCE_OPTION,
-    jobs: int | None = typer.Option(None, "--jobs", help="CPU threads of the backbone"),
+    jobs: int | None = JOBS_OPTION,
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Per-class precision/recall/F1 and group Macro-F1 under an activity taxonomy."""
