@@ -208,13 +208,14 @@ def run_fold(executor, alpha: float, config=None, batches: list | None = None) -
 
 
 def _warm(_):
-    """Load the pipeline and the activity library in a worker (excluded from the timings):
-    once per worker process in a real run, whatever the number of folds. A local pool's
-    workers are forked from a driver that has both loaded already."""
-    import vsmp_imu.pipeline.sample  # noqa: F401
-    from vsmp_imu.smp.library import ActivityLibrary
+    """Load what a worker loads before its first sample (excluded from the timings): the
+    fold module the executor's items unpickle into, and the motion backend with the
+    activity library. Once per worker process in a real run, whatever the number of folds;
+    a local pool's workers are forked from a driver that has all of it loaded already."""
+    import vsmp_imu.pipeline.fold  # noqa: F401
+    from vsmp_imu.pipeline.sample import backend_for
 
-    ActivityLibrary.load()
+    backend_for("procedural", ())
     time.sleep(0.2)
     return os.nice(0)
 
