@@ -15,9 +15,8 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from typing import Any
 
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
 from vsmp_imu.errors import ConfigError, DependencyError
+from vsmp_imu.progress import progress
 
 EXECUTORS = ("local", "ray")
 
@@ -31,13 +30,6 @@ def thread_map(fn: Callable[[Any], Any], items: Sequence[Any], threads: int = 1)
         return list(pool.map(fn, items))
 
 
-def _progress(disable: bool) -> Progress:
-    return Progress(
-        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-        disable=disable, transient=True,
-    )
-
-
 class LocalExecutor:
     """`workers=1` runs in this process; more workers use a process pool."""
 
@@ -49,12 +41,12 @@ class LocalExecutor:
 
     def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], desc: str = "working") -> list[Any]:
         results: list[Any] = [None] * len(tasks)
-        with _progress(not self.show_progress) as progress:
-            bar = progress.add_task(desc, total=len(tasks))
+        finished = 0
+        with progress(desc, len(tasks), disable=not self.show_progress) as update:
             if self.workers == 1 or len(tasks) <= 1:
                 for i, task in enumerate(tasks):
                     results[i] = fn(task)
-                    progress.advance(bar)
+                    update(i + 1)
                 return results
             ctx = multiprocessing.get_context(_start_method())
             chunks = _chunks(tasks, self.workers)
@@ -64,7 +56,8 @@ class LocalExecutor:
                 for future in as_completed(futures):
                     done = future.result()
                     results[futures[future]:futures[future] + len(done)] = done
-                    progress.advance(bar, len(done))
+                    finished += len(done)
+                    update(finished)
         return results
 
 
@@ -139,14 +132,13 @@ class RayExecutor:
         chunks = _chunks(tasks, cpus, max_chunk=1 if self.num_gpus_per_task > 0 else MAX_CHUNK)
         refs = [remote.remote(fn, chunk) for _, chunk in chunks]
         results: list[Any] = []
-        with _progress(not self.show_progress) as progress:
-            bar = progress.add_task(desc, total=len(tasks))
+        with progress(desc, len(tasks), disable=not self.show_progress) as update:
             # in task order: a ray.wait over all pending refs per result would cost the driver
             # O(n) each time, CPU the workers need on a small machine
             for ref in refs:
                 done = ray.get(ref)
                 results += done
-                progress.advance(bar, len(done))
+                update(len(results))
         return results
 
 

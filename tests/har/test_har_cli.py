@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
@@ -136,3 +137,8 @@ def test_low_resource_table(cli, fixtures_dir, tmp_path):
     assert {r["seed"] for r in results["records"]} == {0, 1}
     assert all(s["n"] == 6 for s in results["summary"])  # 3 folds x 2 seeds
     assert "| RF | 25% |" in (out / "results.md").read_text()
+    # outside a terminal (a log file) progress comes as timestamped lines, one per new record
+    lines = [line for line in stdout.splitlines() if line.startswith("[")]
+    assert re.fullmatch(r"\[0:0\d\] my_waist_phone low-resource", lines[0])
+    assert re.fullmatch(r"\[\d+:\d\d\] .*: seed 1 fold p3 50% real/rf: Macro-F1 \d+\.\d\d 12/12", lines[-1])
+    assert len(lines) == 13

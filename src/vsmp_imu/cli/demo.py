@@ -5,10 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from vsmp_imu.cli.common import console, parse_csv
+from vsmp_imu.progress import progress
 
 
 def demo_cmd(
@@ -24,14 +24,8 @@ def demo_cmd(
     cfg = DemoConfig(folds=tuple(parse_csv(folds, option="--folds")), budget_percent=budget, workers=workers)
     console.print(f"VSMP-IMU demo: {cfg.dataset}, held-out subjects {', '.join(cfg.folds)}, "
                   f"{cfg.budget_percent:g} % labels, writing {output}/", highlight=False)
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=console) as bar:
-        task = bar.add_task("evaluation", total=None)
-
-        def progress(description: str, done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total, description=description)
-
-        result = run_demo(output, cfg, progress)
+    with progress("evaluation", console=console, transient=False) as update:
+        result = run_demo(output, cfg, lambda stage, done, total: update(done, total, stage))
     names = {"real": "Real-only", "classical": "Classical Aug.", "vsmp": "VSMP-IMU"}
     table = Table(title=f"Macro-F1 (%), {len(cfg.folds)} folds, {cfg.budget_percent:g} % labels, RF-ECDF")
     for col in ("method", "all 12 classes", "activities", "transitions"):

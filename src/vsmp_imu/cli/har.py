@@ -8,12 +8,12 @@ from typing import Any
 
 import typer
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from vsmp_imu.cli.common import console, parse_csv
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.methods import generative_params, register_all
+from vsmp_imu.progress import progress
 
 dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_is_help=True)
 
@@ -169,20 +169,8 @@ def evaluate_cmd(
         report_groups=_parse_groups(report_groups),
     )
     evaluation = Evaluation(config, ds, output)
-    with Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=console,
-        transient=False,
-    ) as bar:
-        task = bar.add_task(f"{ds.info.name} {protocol}", total=None)
-
-        def progress(description: str, done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total, description=description)
-
-        results = evaluation.run(progress)
+    with progress(f"{ds.info.name} {protocol}", console=console, transient=False) as update:
+        results = evaluation.run(lambda stage, done, total: update(done, total, stage))
     written = write_report(results.to_json(), output)
     _print_summary(results.summary)
     console.print(

@@ -3,15 +3,13 @@ ablations, activity granularity, realism)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from vsmp_imu.cli.common import console, console_err, library_dirs, parse_csv
+from vsmp_imu.cli.common import console, library_dirs, parse_csv
 from vsmp_imu.errors import ConfigError
+from vsmp_imu.progress import progress
 
 study_app = typer.Typer(help="Studies of the paper: end-to-end controllability, SMP extraction "
                         "audit, qualitative case study, ablations, activity granularity, realism.",
@@ -30,19 +28,6 @@ SEEDS_OPTION = typer.Option(1, "--seeds", max=1000, help="Seeds 0..N-1")
 JOBS_OPTION = typer.Option(None, "--jobs", help="CPU threads of the backbone")
 FOLDS_OPTION = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3,4,5")
 PROTOCOL_HELP = "lopo | low-resource | long-tail"
-
-
-@contextmanager
-def _progress(description: str) -> Iterator:
-    """A rich progress bar on stderr; yields a callback(done, total, stage)."""
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TimeElapsedColumn(), console=console_err, transient=True) as bar:
-        task = bar.add_task(description, total=None)
-
-        def update(done: int, total: int, stage: str) -> None:
-            bar.update(task, completed=done, total=total, description=f"{description}: {stage}")
-
-        yield update
 
 
 def _library(library: list[Path] | None):
@@ -78,7 +63,7 @@ def control_cmd(
         activities=parse_csv(activities, option="--activities") if activities else None,
         attributes=parse_csv(controls, ATTRIBUTES, "--controls") if controls else None,
         backend=backend, library=_library(library), noise=not no_noise, data_dir=data_dir)
-    with _progress("controllability") as update:
+    with progress("controllability") as update:
         results = study.run(output, progress=update)
     paths = write_control_outputs(results, output)
     for attribute, s in results.summary.items():
@@ -244,7 +229,7 @@ def ablation_cmd(
         parts=tuple(parse_csv(parts, PARTS, "--parts")),
         options=_generation(source, k, backend, workers, library),
         backbone_params=_backbone(backbone, max_epochs, patience, jobs))
-    with _progress("ablation") as update:
+    with progress("ablation") as update:
         results = study.run(output, progress=update)
     paths = write_ablation_outputs(results, output)
     for name, part in results.parts.items():
@@ -299,7 +284,7 @@ def granularity_cmd(
         protocol=protocol, budget=budget, folds=_folds(folds), seeds=seeds, alpha=alpha,
         options=_generation(source, k, backend, workers, library, clips),
         backbone_params=_backbone(backbone, max_epochs, patience, jobs))
-    with _progress("granularity") as update:
+    with progress("granularity") as update:
         results = study.run(output, progress=update)
     paths = write_granularity_outputs(results, output)
     for m, reason in results.skipped.items():
@@ -362,7 +347,7 @@ def realism_cmd(
         max_per_class=max_per_class, epochs=epochs, patience=patience,
         encoder_windows=encoder_windows or None, val_windows=val_windows or None, layer=layer,
         encoder_params=encoder, options=_generation(source, k, backend, workers, library, clips))
-    with _progress("realism") as update:
+    with progress("realism") as update:
         results = study.run(output, progress=update)
     paths = write_realism_outputs(results, output)
     for m, reason in results.skipped.items():

@@ -8,18 +8,17 @@ from __future__ import annotations
 
 import json
 import os
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from vsmp_imu.cli.common import console, console_err, library_dirs
 from vsmp_imu.cli.smp import smp_app
 from vsmp_imu.errors import ConfigError, ExtractionError
 from vsmp_imu.io import write_json, write_text
+from vsmp_imu.progress import progress
 
 video_app = typer.Typer(help="Video inspection: probe clips, sample frames, pose tracks, "
                         "filter source clip pools.", no_args_is_help=True)
@@ -37,19 +36,6 @@ CACHE_OPTION = typer.Option(None, "--cache-dir", help="VLM response cache (defau
 def default_cache_dir() -> Path:
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "vsmp-imu" / "vlm"
-
-
-@contextmanager
-def _progress(description: str, total: int | None):
-    """A rich progress bar on stderr; yields an update(done, total) callback."""
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TimeElapsedColumn(), console=console_err, transient=True) as bar:
-        task = bar.add_task(description, total=total)
-
-        def update(done: int, total_now: int | None = None, *_: Any) -> None:
-            bar.update(task, completed=done, total=total_now if total_now else total)
-
-        yield update
 
 
 def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
@@ -157,7 +143,7 @@ def extract_cmd(
     report: dict[str, Any] = {}
     smp = None
     if vlm is not None:
-        with _progress(f"VLM queries ({vlm.client.model})", n_queries) as update:
+        with progress(f"VLM queries ({vlm.client.model})", n_queries) as update:
             result = vlm.extract(video, label, progress=update)
         write_raw(raw_dir, result.queries)
         report = result.to_dict()
@@ -179,7 +165,7 @@ def extract_cmd(
         from vsmp_imu.extract.pose import PoseExtractor
 
         pose = PoseExtractor(MediaPipePoseEstimator(max_fps=max_fps), library=lib)
-        with _progress("pose frames", None) as update:
+        with progress("pose frames", None) as update:
             extraction = pose.extract(video, label, base=smp,
                                       mode="replace" if extractor == "pose" else "fuse",
                                       threshold=fuse_threshold, progress=update)
@@ -270,7 +256,7 @@ def pose_cmd(
 
     if window not in ("all", "longest"):
         raise ConfigError(f"unknown window '{window}'", field="--window", allowed="all, longest")
-    with _progress("pose frames", None) as update:
+    with progress("pose frames", None) as update:
         track = MediaPipePoseEstimator(max_fps=max_fps).estimate(video, update)
     if window == "longest":
         run = longest_run(track)
@@ -314,7 +300,7 @@ def pool_cmd(
 
         chk = PoseClipChecker(PoseExtractor(MediaPipePoseEstimator(max_fps=max_fps),
                                             library=_library(library)))
-    with _progress(f"{checker} check", None) as update:
+    with progress(f"{checker} check", None) as update:
         data = SourcePoolFilter(chk, threshold).filter(pool_dir, progress=update)
     write_json(output, data)
     table = Table(title=f"source pool ({data['counts']['retained']} of {data['counts']['clips']} retained)")

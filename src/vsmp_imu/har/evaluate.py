@@ -157,6 +157,12 @@ class EvalResults:
 Progress = Callable[[str, int, int], None]
 
 
+def _run_name(seed: int, fold: str, budget: float | None, method: str, backbone: str) -> str:
+    """'seed 0 fold 3 5% vsmp/dclstm': one record of the evaluation, for progress lines."""
+    share = "" if budget is None else f" {budget:g}%"
+    return f"seed {seed} fold {fold}{share} {method}/{backbone}"
+
+
 def _slug(text: Any) -> str:
     return re.sub(r"[^A-Za-z0-9.=-]+", "-", str(text)).strip("-")
 
@@ -290,9 +296,8 @@ class Evaluation:
                                 records.append(record)
                                 done += 1
                                 if progress:
-                                    progress(
-                                        f"fold {fold} {method}/{backbone} (cached)", done, total
-                                    )
+                                    run = _run_name(seed, fold, budget, method, backbone)
+                                    progress(f"{run} (cached)", done, total)
                             else:
                                 pending.append((backbone, path))
                         if not pending:
@@ -312,7 +317,9 @@ class Evaluation:
                             records.append(record)
                             done += 1
                             if progress:
-                                progress(f"fold {fold} {method}/{backbone}", done, total)
+                                run = _run_name(seed, fold, budget, method, backbone)
+                                f1 = 100 * record["macro_f1"]
+                                progress(f"{run}: Macro-F1 {f1:.2f}", done, total)
         results = summarize(records, self.dataset.info.label_names, groups)
         results.config = self._config_dict()
         if self.output_dir is not None:
