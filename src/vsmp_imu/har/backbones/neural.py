@@ -17,6 +17,7 @@ same compute. Sets of 8192 windows and more keep batches of 1024.
 from __future__ import annotations
 
 import copy
+import os
 from typing import Any
 
 import numpy as np
@@ -35,7 +36,7 @@ def resolve_device(name: str):
 
     text = str(name).strip().lower()
     if text == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+        text = "cuda" if torch.cuda.is_available() else "cpu"
     try:
         device = torch.device(text)
     except (RuntimeError, ValueError):
@@ -45,6 +46,8 @@ def resolve_device(name: str):
         if count == 0 or (device.index or 0) >= count:
             raise ConfigError(f"device '{name}' is not available: this PyTorch sees {count} CUDA device(s)",
                               field="--device", allowed="cpu, auto, or a CUDA machine with a CUDA build of PyTorch")
+        # cuBLAS is deterministic only with a fixed workspace, read when its first handle is made
+        os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
     elif device.type == "mps" and not torch.backends.mps.is_available():
         raise ConfigError(f"device '{name}' is not available here", field="--device", allowed="cpu or auto")
     elif device.type not in ("cpu", "cuda", "mps"):
