@@ -110,6 +110,9 @@ def test_long_tail_with_classical_on_generic_data(cli, fixtures_dir, tmp_path):
     assert all(r["n_synthetic"] > 0 for r in classical)
     md = (out / "results.md").read_text()
     assert "Head Macro-F1" in md and "Classical Aug." in md
+    delivered = md.split("Synthetic windows mixed in")[1]
+    assert "| Classical Aug. |" in delivered and "| 100 % |" in delivered
+    assert "note:" not in stdout  # Classical Aug delivers its whole budget
 
 
 def test_low_resource_table(cli, fixtures_dir, tmp_path):
@@ -142,3 +145,16 @@ def test_low_resource_table(cli, fixtures_dir, tmp_path):
     assert re.fullmatch(r"\[0:0\d\] my_waist_phone low-resource", lines[0])
     assert re.fullmatch(r"\[\d+:\d\d\] .*: seed 1 fold p3 50% real/rf: Macro-F1 \d+\.\d\d 12/12", lines[-1])
     assert len(lines) == 13
+
+
+def test_a_method_short_of_its_budget_is_named():
+    from vsmp_imu.cli.har import _shortfalls
+
+    def row(method, got, asked, budget=None):
+        return {"method": method, "protocol": "long-tail", "budget": budget, "backbone": "dclstm",
+                "n_synthetic_mean": got, "n_synthetic_requested_mean": asked}
+
+    lines = _shortfalls([row("real", 0, 0), row("real", 0, None), row("classical", 4190, 4190),
+                         row("vsmp", 1084.2, 4190.4), row("vsmp", 96, 100, budget=5.0)])
+    assert lines == ["vsmp (long-tail, dclstm) mixed in 1084 of the 4190 synthetic windows asked for "
+                     "per run (26 %)"]

@@ -77,6 +77,18 @@ class CopySource:
         return context.train[np.concatenate(picks)]
 
 
+class HalfSource(CopySource):
+    """Copies half of each class's budget (rounded down): a source that falls short."""
+
+    name = "half"
+
+    def generate(self, context: FoldContext) -> Windows:
+        picks = [
+            np.flatnonzero(context.train.y == c)[: n // 2] for c, n in enumerate(context.budget_vector())
+        ]
+        return context.train[np.concatenate(picks)]
+
+
 class SpyClassical(ClassicalAugmentation):
     def generate(self, context: FoldContext) -> Windows:
         _record_context(context)
@@ -156,3 +168,27 @@ def test_synthetic_windows_respect_the_budget(spies, tiny_dataset):
     )
     for r in Evaluation(config, tiny_dataset).run().records:
         assert r["n_synthetic"] == round(0.5 * r["n_train_real"])
+
+
+def test_a_source_that_falls_short_is_reported(monkeypatch, spies, tiny_dataset):
+    """Records, summary and report say how many synthetic windows each run got of those asked."""
+    from vsmp_imu.har.report import results_markdown
+
+    monkeypatch.setitem(METHODS, "half", HalfSource)
+    config = EvalConfig(dataset="tiny", backbones=("spy-rf",), methods=("real", "copy", "half"),
+                        folds=("2",), alpha=0.5)
+    results = Evaluation(config, tiny_dataset).run()
+    by_method = {r["method"]: r for r in results.records}
+    asked = by_method["copy"]["n_synthetic_requested"]
+    assert asked > 0 and by_method["copy"]["n_synthetic"] == asked
+    assert by_method["half"]["n_synthetic_requested"] == asked
+    assert 0 < by_method["half"]["n_synthetic"] < asked
+    assert by_method["real"]["n_synthetic_requested"] == 0
+    rows = {r["method"]: r for r in results.summary}
+    assert rows["half"]["n_synthetic_mean"] == by_method["half"]["n_synthetic"]
+    assert rows["half"]["n_synthetic_requested_mean"] == asked
+    md = results_markdown(results.to_json())
+    share = round(100 * by_method["half"]["n_synthetic"] / asked)
+    assert f"| half | {by_method['half']['n_synthetic']} | {asked} | {share} % |" in md
+    assert f"| copy | {asked} | {asked} | 100 % |" in md
+    assert "| Real-only |" not in md.split("Synthetic windows mixed in")[1]

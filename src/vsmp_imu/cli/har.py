@@ -183,6 +183,22 @@ def _pct(mean: float | None, std: float | None) -> str:
     return "–" if mean is None else f"{100 * mean:.2f} ± {100 * (std or 0):.2f}"
 
 
+SHORTFALL_NOTE = 0.95  # a method that delivers less than this share of its budget is named
+
+
+def _shortfalls(summary: list[dict[str, Any]]) -> list[str]:
+    """One line per row whose method mixed in clearly fewer synthetic windows than asked for."""
+    lines = []
+    for row in summary:
+        asked = row.get("n_synthetic_requested_mean")
+        if asked and row["n_synthetic_mean"] < SHORTFALL_NOTE * asked:
+            budget = "" if row["budget"] is None else f" {row['budget']:g}%"
+            lines.append(f"{row['method']} ({row['protocol']}{budget}, {row['backbone']}) mixed in "
+                         f"{row['n_synthetic_mean']:.0f} of the {asked:.0f} synthetic windows asked for "
+                         f"per run ({100 * row['n_synthetic_mean'] / asked:.0f} %)")
+    return lines
+
+
 def _print_summary(summary: list[dict[str, Any]]) -> None:
     table = Table(title="Macro-F1 (%) over folds and seeds")
     for col in ("protocol", "budget", "backbone", "method", "Macro-F1", "Accuracy", "n"):
@@ -198,6 +214,8 @@ def _print_summary(summary: list[dict[str, Any]]) -> None:
             str(row["n"]),
         )
     console.print(table)
+    for line in _shortfalls(summary):
+        console.print(f"[yellow]note:[/] {line}", highlight=False)
 
 
 @dataset_app.command("list")

@@ -306,11 +306,12 @@ class Evaluation:
                             split = split_fold(
                                 windows, fold, c.protocol, seed, budget, c.rho, c.val_fraction
                             )
-                        train, n_syn = self._training_windows(split, method, seed, budget)
+                        train, n_syn, n_asked = self._training_windows(split, method, seed, budget)
                         for backbone, path in pending:
                             record = self._fit_one(
                                 split, train, n_syn, backbone, method, fold, seed, budget, groups
                             )
+                            record["n_synthetic_requested"] = n_asked
                             record["settings_digest"] = digests[(method, backbone)]
                             if path is not None:
                                 write_json(path, record)
@@ -333,12 +334,13 @@ class Evaluation:
 
     def _training_windows(
         self, split, method: str, seed: int, budget: float | None
-    ) -> tuple[Windows, int]:
-        """The fit windows, mixed with the method's synthetic windows (if any)."""
+    ) -> tuple[Windows, int, int]:
+        """The fit windows mixed with the method's synthetic windows (if any), the number of
+        synthetic windows mixed in and the number the budget asked for."""
         c = self.config
         source = make_method(method, **c.method_params.get(method, {}))
         if source is None or len(split.fit) == 0:
-            return split.fit, 0
+            return split.fit, 0, 0
         wanted = synthetic_budget(split.fit.class_counts(), c.alpha, c.policy, split.tail)
         names = split.fit.label_names
         context = FoldContext(
@@ -356,7 +358,7 @@ class Evaluation:
         synthetic = source.generate(context)
         check_synthetic(split.fit, synthetic, method)
         synthetic = take_budget(synthetic, wanted, rng_for(seed, "take-budget", split.fold, method))
-        return mix(split.fit, synthetic, method), len(synthetic)
+        return mix(split.fit, synthetic, method), len(synthetic), int(np.sum(wanted))
 
     def _fit_one(
         self,
@@ -435,6 +437,9 @@ def summarize(
             row[f"{metric}_mean"], row[f"{metric}_std"] = mean, std
             if metric == "macro_f1":
                 row["n"] = n
+        asked = [r.get("n_synthetic_requested") for r in rs]  # absent in records of older runs
+        row["n_synthetic_mean"] = mean_std([r.get("n_synthetic") for r in rs])[0]
+        row["n_synthetic_requested_mean"] = None if None in asked else mean_std(asked)[0]
         group_names = sorted({g for r in rs for g in (r.get("group_macro_f1") or {})})
         row["group_macro_f1"] = {}
         for g in group_names:
@@ -475,6 +480,7 @@ def _extra_fields(r: dict[str, Any]) -> dict[str, Any]:
         "tail_classes",
         "n_train_real",
         "n_synthetic",
+        "n_synthetic_requested",
         "n_val",
         "n_test",
         "val_subjects",

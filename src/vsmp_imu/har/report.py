@@ -77,7 +77,29 @@ def results_markdown(results: dict[str, Any]) -> str:
             else:
                 parts.append(_standard(rows, config))
             parts.append("")
+            delivered = _synthetic_counts(rows, config)
+            if delivered:
+                parts += [delivered, ""]
     return "\n".join(parts)
+
+
+def _synthetic_counts(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
+    """Synthetic windows mixed in per run against those the budget asked for: a generator
+    whose filter rejects much can fall short, and then it is compared on fewer windows."""
+    asked = [r for r in rows if r.get("n_synthetic_requested_mean")]
+    if not asked:
+        return ""
+    methods = _ordered([r["method"] for r in asked], config.get("methods"))
+    out = []
+    for backbone in _ordered([r["backbone"] for r in asked], config.get("backbones")):
+        for r in sorted((r for r in asked if r["backbone"] == backbone),
+                        key=lambda r: (r["budget"] or 0, methods.index(r["method"]))):
+            share = r["n_synthetic_mean"] / r["n_synthetic_requested_mean"]
+            out.append([_backbone(backbone), "" if r["budget"] is None else f"{r['budget']:g}%",
+                        _method(r["method"]), f"{r['n_synthetic_mean']:.0f}",
+                        f"{r['n_synthetic_requested_mean']:.0f}", f"{100 * share:.0f} %"])
+    header = ["Backbone", "Budget", "Method", "Synthetic windows per run", "Asked for", "Delivered"]
+    return "Synthetic windows mixed in (mean per run):\n\n" + _table(header, out)
 
 
 def _standard(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
