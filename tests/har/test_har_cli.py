@@ -158,3 +158,22 @@ def test_a_method_short_of_its_budget_is_named():
                          row("vsmp", 1084.2, 4190.4), row("vsmp", 96, 100, budget=5.0)])
     assert lines == ["vsmp (long-tail, dclstm) mixed in 1084 of the 4190 synthetic windows asked for "
                      "per run (26 %)"]
+
+
+def test_refill_reaches_the_vsmp_method_only_when_asked(cli, fixtures_dir, tmp_path, monkeypatch):
+    import vsmp_imu.pipeline.method as method
+
+    seen = []
+
+    def recorder(**params):
+        seen.append(params)
+        raise SystemExit(0)  # stop before any generation: only the parameters matter here
+
+    monkeypatch.setattr(method, "make_vsmp_method", recorder)
+    args = ("evaluate", "--dataset", fixtures_dir / "generic" / "dataset.yaml", "--methods", "vsmp",
+            "--backbones", "rf", "-o", tmp_path / "out")
+    cli(*args, "--refill", "2")
+    cli(*args)
+    assert [p.get("refill") for p in seen] == [2, None]
+    code, _, err = cli(*args, "--refill", "9")
+    assert code == 2 and "--refill" in err

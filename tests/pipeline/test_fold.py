@@ -124,3 +124,30 @@ def test_same_seed_same_bytes_any_worker_count(hapt12, library, tmp_path):
     assert [r["sample"] for r in one.records] == [r["sample"] for r in two.records]
     other, _, _ = _generate(hapt12, library, config, seed=1)
     assert other.windows.X.tobytes() != one.windows.X.tobytes()
+
+
+def test_refill_tops_up_classes_short_of_their_budget(hapt12, library, tmp_path):
+    """A refill pass synthesizes more samples for the classes the filter left short, keeps the
+    first pass's samples, delivers more of the budget, and is the same bytes with 2 workers."""
+    base = dict(k=1, oversample=1.0, max_rounds=1)
+    plain, _, budget = _generate(hapt12, library, GenerationConfig(**base), tmp_path)
+    assert plain.summary["shortfall"], "the test needs a class short of its budget"
+    refilled, _, _ = _generate(hapt12, library, GenerationConfig(**base, refill=1), tmp_path)
+    short = set(plain.summary["shortfall"])
+    for name, counts in refilled.summary["per_class"].items():
+        before = plain.summary["per_class"][name]["samples"]
+        assert (counts["samples"] > before) == (name in short), name
+        assert counts["selected"] <= counts["budget"]
+    assert {r.key for r in plain.samples} <= {r.key for r in refilled.samples}
+    assert len(refilled.windows) > len(plain.windows)
+    assert sum(refilled.summary["shortfall"].values()) < sum(plain.summary["shortfall"].values())
+    two, _, _ = _generate(hapt12, library, GenerationConfig(**base, refill=1), tmp_path, workers=2)
+    assert two.windows.X.tobytes() == refilled.windows.X.tobytes()
+    assert [r["sample"] for r in two.records] == [r["sample"] for r in refilled.records]
+
+
+def test_refill_must_not_be_negative():
+    from vsmp_imu.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="refill"):
+        GenerationConfig(refill=-1)

@@ -14,14 +14,15 @@ SOURCE_HELP = "library | smp:DIR (SMP files) | video:DIR (clips per activity fol
 
 
 def generation_config(k: int, backend: str, no_sim_loop: bool, no_rank: bool, no_filter: bool,
-                      per_class_rank: bool, no_refine: bool, no_uncertainty: bool, library: list[Path]):
+                      per_class_rank: bool, no_refine: bool, no_uncertainty: bool, library: list[Path],
+                      refill: int = 0):
     from vsmp_imu.pipeline.fold import GenerationConfig
 
     return GenerationConfig(
         k=k, backend=backend, sim_in_the_loop=not no_sim_loop, rank_grounding=not no_rank,
         quality_filter=not no_filter, per_class_rank=per_class_rank, refine=not no_refine,
         uncertainty_conditioned=not no_uncertainty,
-        library_dirs=tuple(str(p) for p in library_dirs(library)),
+        library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill,
     )
 
 
@@ -53,6 +54,8 @@ def generate_cmd(
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
     library: list[Path] = typer.Option(None, "--library", help="Extra activity-library folder (repeatable)"),
+    refill: int = typer.Option(0, "--refill", min=0, max=8,
+                               help="Extra passes for classes whose kept windows fall short of the budget"),
 ) -> None:
     """Generate the synthetic set for one LOPO fold (Algorithm 1) and write it to OUT."""
     from vsmp_imu.executor import make_executor
@@ -68,7 +71,7 @@ def generate_cmd(
         raise ConfigError(f"alpha {alpha} out of range", field="--alpha",
                           allowed=f"{ALPHA_RANGE[0]}..{ALPHA_RANGE[1]}")
     config = generation_config(k, backend, no_sim_loop, no_rank, no_filter, per_class_rank, no_refine,
-                               no_uncertainty, library)
+                               no_uncertainty, library, refill)
     ds = load_dataset(dataset, data_dir)
     info = ds.info
     windows = ds.windows(window_s, overlap)

@@ -96,6 +96,8 @@ def evaluate_cmd(
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
     address: str = typer.Option(None, "--address", help="Ray cluster address (--executor ray)"),
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder"),
+    refill: int = typer.Option(0, "--refill", min=0, max=8,
+                               help="VSMP-IMU: extra passes for classes short of their budget after filtering"),
     output: Path = typer.Option(..., "--output", "-o", help="output folder"),
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
@@ -149,6 +151,9 @@ def evaluate_cmd(
         "executor": executor, "address": address, "cache_dir": str(output / "cache"),
     }
     method_params = generative_params(chosen_methods, **generative)
+    for m in method_params:  # only when asked: the records of runs without it keep their digest
+        if refill and m.startswith("vsmp"):
+            method_params[m]["refill"] = refill
     ds = load_dataset(dataset, data_dir)
     window_geometry(ds.info.fs_hz, window_s, overlap)  # range checks before any work
     config = EvalConfig(

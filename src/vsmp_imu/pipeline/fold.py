@@ -69,6 +69,7 @@ from vsmp_imu.smp.refine import Refiner
 from vsmp_imu.smp.verbalize import verbalize
 
 MAX_SLOTS_PER_CLASS_ROUND = 96
+REFILL_MAX_SAMPLES = 2048  # new samples per class and refill pass
 # What a class's samples are made from: an SMP (augmented), a free-text prompt, or a recorded motion.
 Base = SMP | str | Path
 FIRST_ROUND_WINDOWS_PER_SAMPLE = 3.0
@@ -94,6 +95,9 @@ class GenerationConfig:
     noise: bool = True
     oversample: float = 2.0  # raw windows generated per budgeted window
     max_rounds: int = 4
+    # extra passes for classes whose kept windows fall short of their budget: each synthesizes
+    # as many samples as the class's pass rate says it needs, then grounds and filters again
+    refill: int = 0
     hop_fraction: float = 0.5  # synthetic window hop, as a fraction of the window
     val_fraction: float = 0.2  # training subjects held aside to choose tau_cls
     duration_s: float | None = None  # None: each activity's natural duration
@@ -104,6 +108,8 @@ class GenerationConfig:
             raise ConfigError(f"k must be >= 1, got {self.k}", field="k")
         if not self.oversample >= 1.0:
             raise ConfigError(f"oversample must be >= 1, got {self.oversample}", field="oversample")
+        if self.refill < 0:
+            raise ConfigError(f"refill must be >= 0, got {self.refill}", field="refill")
         if not 0 < self.hop_fraction <= 1:
             raise ConfigError(f"hop_fraction must be in (0, 1], got {self.hop_fraction}", field="hop_fraction")
 
@@ -330,7 +336,8 @@ class FoldGenerator:
     def _synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
         """Rounds of per-sample synthesis until every class has oversample x budget raw windows.
 
-        `job` (the filter models) rides along with the first round; its result is returned last."""
+        `job` (the filter models) rides along with the first round. Returns the tasks, the
+        results per class and the fitted filter models."""
         need = {n: math.ceil(self.config.oversample * budget[i]) for i, n in enumerate(info.label_names)}
         results: dict[str, list[SampleResult]] = {n: [] for n in info.label_names}
         all_tasks: list[SampleTask] = []
@@ -354,21 +361,46 @@ class FoldGenerator:
                                      info.fs_hz, loc_tasks[label])
             if not tasks:
                 break
-            cache = str(self.cache_dir) if self.cache_dir else None
-            items: list = [(t, cache) for t in tasks]
+            models = self._run(tasks, results, fold, job)
             if job is not None:
-                items.insert(0, job)  # first: the longest item starts at once
-            done = self.executor.map(run_item, items, desc=f"fold {fold}: synthesizing {len(tasks)} samples")
-            if job is not None:
-                fitted, done, job = done[0], done[1:], None
-            for task, result in zip(tasks, done, strict=True):
-                results[task.label].append(result)
+                fitted, job = models, None
             all_tasks += tasks
         if job is not None:  # no round ran
             fitted = run_item(job)
-        order = {n: i for i, n in enumerate(info.label_names)}
-        all_tasks.sort(key=lambda t: (order[t.label], t.key))
-        return all_tasks, [r for label in info.label_names for r in results[label]], fitted
+        return all_tasks, results, fitted
+
+    def _run(self, tasks: list[SampleTask], results: dict[str, list[SampleResult]], fold: str,
+             job: FilterJob | None = None) -> FilterModels | None:
+        """Synthesize `tasks` (with the filter job first, if any) and append the results per class."""
+        cache = str(self.cache_dir) if self.cache_dir else None
+        items: list = [(t, cache) for t in tasks]
+        if job is not None:
+            items.insert(0, job)  # first: the longest item starts at once
+        done = self.executor.map(run_item, items, desc=f"fold {fold}: synthesizing {len(tasks)} samples")
+        fitted = None
+        if job is not None:
+            fitted, done = done[0], done[1:]
+        for task, result in zip(tasks, done, strict=True):
+            results[task.label].append(result)
+        return fitted
+
+    def _refill(self, info, sources, budget, y, keep, results, seed, fold, loc_tasks) -> list[SampleTask]:
+        """One refill pass: for each class short of its budget, as many new samples as its
+        observed windows per sample and pass rate need (25 % margin, at most REFILL_MAX_SAMPLES)."""
+        tasks = []
+        for i, label in enumerate(info.label_names):
+            kept = int(np.sum(keep & (y == i)))
+            if kept >= budget[i] or label not in sources or not results[label]:
+                continue
+            windows = int(np.sum(y == i))
+            per_sample = windows / len(results[label])
+            rate = max(kept, 1) / max(windows, 1)  # no kept window yet: assume one
+            n_new = math.ceil(1.25 * (budget[i] - kept) / max(per_sample * rate, 1e-3))
+            n_new = min(REFILL_MAX_SAMPLES, n_new)
+            start = len(results[label])
+            tasks += self._tasks(label, i, sources[label], range(start, start + n_new), seed, fold,
+                                 info.fs_hz, loc_tasks[label])
+        return tasks
 
     # -- the fold ----------------------------------------------------------------------------
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
@@ -388,14 +420,24 @@ class FoldGenerator:
         mountings = self._nominal_mountings(info, plan, sources, d_stat)
         loc_tasks = self._location_tasks(info, plan, stats, mountings)
         job = self._filter_job(info, train, seed, fold)
-        tasks, results, models = self._synthesize(info, sources, budget, seed, fold, loc_tasks, length, hop, job)
-        ok = [r for r in results if not r.error and r.signals]
-        grounded = self._ground(info, ok, d_rank, plan)
-        X, y, records = self._window(info, ok, grounded, length, hop)
-        records += [{"sample": r.key, "label": info.label_names[r.label_index], "window": None,
-                     "error": r.error, "kept": False, "selected": False,
-                     "verdicts": [], "provenance": r.provenance} for r in results if r.error or not r.signals]
-        keep, tau = self._filter(info, train, X, y, records, ok, seed, fold, job, models)
+        tasks, by_class, models = self._synthesize(info, sources, budget, seed, fold, loc_tasks, length, hop, job)
+        for attempt in range(self.config.refill + 1):
+            results = [r for label in info.label_names for r in by_class[label]]
+            ok = [r for r in results if not r.error and r.signals]
+            grounded = self._ground(info, ok, d_rank, plan)  # F_v from all samples so far
+            X, y, records = self._window(info, ok, grounded, length, hop)
+            records += [{"sample": r.key, "label": info.label_names[r.label_index], "window": None,
+                         "error": r.error, "kept": False, "selected": False,
+                         "verdicts": [], "provenance": r.provenance} for r in results if r.error or not r.signals]
+            keep, tau = self._filter(info, train, X, y, records, ok, seed, fold, job, models)
+            more = [] if attempt == self.config.refill else self._refill(
+                info, sources, budget, y, keep, by_class, seed, fold, loc_tasks)
+            if not more:
+                break
+            self._run(more, by_class, fold)
+            tasks += more
+        order = {n: i for i, n in enumerate(info.label_names)}
+        tasks.sort(key=lambda t: (order[t.label], t.key))
         selected = self._select(info, X, y, keep, budget, seed, fold)
         for i, rec in enumerate(records[: len(X)]):
             rec["selected"] = bool(selected[i])

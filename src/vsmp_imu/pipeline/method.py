@@ -63,13 +63,13 @@ class VsmpMethod:
 def make_vsmp_method(variant: str = "vsmp", source: str = "library", k: int = 4, backend: str = "procedural",
                      per_class_rank: bool = False, library_dirs: tuple[str, ...] = (), workers: int = 1,
                      executor: str = "local", address: str | None = None,
-                     cache_dir: str | None = None) -> VsmpMethod:
+                     cache_dir: str | None = None, refill: int = 0) -> VsmpMethod:
     """A VsmpMethod for one ablation variant, from plain (command-line) parameters."""
     from vsmp_imu.executor import make_executor
 
     _, switches = ABLATIONS[variant]
     settings: dict[str, Any] = {"k": k, "backend": backend, "per_class_rank": per_class_rank,
-                                "library_dirs": tuple(library_dirs)}
+                                "library_dirs": tuple(library_dirs), "refill": refill}
     config = GenerationConfig(**{**settings, **switches})
     return VsmpMethod(config=config, source=source, name=variant,
                       executor=make_executor(executor, workers, address, show_progress=False),
