@@ -97,6 +97,13 @@ def test_damaged_array_states_are_input_errors(tmp_path, payload, message):
         load_legacy_pickle(_write(tmp_path, payload))
 
 
+def test_a_pickle_that_is_not_the_hapt_layout_is_an_input_error(tmp_path):
+    # a list where the subject dict should be: indexing it by subject fails (found by the fuzz test)
+    path = _write(tmp_path, pickle.dumps([5], protocol=2))
+    with pytest.raises(InputFileError, match="not the HAPT layout"):
+        hapt_module._parse(path)
+
+
 def test_hapt_file_is_found_without_importing_the_package():
     import sys
 

@@ -220,3 +220,22 @@ def test_axis_conventions_are_checked():
         check_axes(["up", "north", "left"])
     with pytest.raises(ValidationError, match="unknown sensor location"):
         SensorLocation("pocket", ("acc_x",), None, True, "g", None)
+
+
+def test_a_damaged_time_column_is_refused_before_resampling():
+    """A timestamp far off the others (found by the generic-dataset fuzz test) would ask the common
+    grid for billions of samples: refused with the file named, like any damaged input."""
+    from vsmp_imu.errors import InputFileError
+    from vsmp_imu.har.datasets.resample import MAX_UPSAMPLING, common_grid
+
+    t = np.arange(100) / 50.0
+    values = np.ones((100, 3))
+    grid, data = common_grid([(t, values), (t, values)], 100.0, "rec.csv")
+    assert len(grid) == 199 and data.shape == (199, 6)
+    far = t.copy()
+    far[-1] = 1e9
+    with pytest.raises(InputFileError, match="timestamps span") as err:
+        common_grid([(far, values)], 100.0, "rec.csv")
+    assert "rec.csv" in err.value.render()
+    slow = np.arange(100) * (MAX_UPSAMPLING / 100.0)  # 1 reading per MAX_UPSAMPLING grid samples: allowed
+    assert len(common_grid([(slow, values)], 100.0, "rec.csv")[0]) == 99 * MAX_UPSAMPLING + 1

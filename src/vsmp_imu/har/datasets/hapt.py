@@ -97,7 +97,7 @@ def _parse(path: Path) -> dict[str, np.ndarray]:
                 labels.append(frame["label"].to_numpy(np.int64))
                 subjects.append(int(subject))
                 lengths.append(len(frame))
-    except (KeyError, ValueError, TypeError, AttributeError, OverflowError) as exc:
+    except (KeyError, IndexError, ValueError, TypeError, AttributeError, OverflowError) as exc:
         raise InputFileError(
             f"not the HAPT layout (a dict of subject -> list of frames with columns "
             f"{', '.join(SOURCE_COLUMNS)}, label): {type(exc).__name__}: {str(exc)[:200]}",

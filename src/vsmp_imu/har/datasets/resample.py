@@ -8,6 +8,9 @@ import numpy as np
 
 from vsmp_imu.errors import InputFileError
 
+# the common grid may hold at most this many samples per reading of the longest stream
+MAX_UPSAMPLING = 100
+
 
 def clean_times(t: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Sort by time and drop repeated timestamps (first kept) and non-finite rows."""
@@ -33,6 +36,14 @@ def common_grid(
     end = min(t[-1] for t, _ in cleaned)
     if end <= start:
         raise InputFileError("the sensor streams do not overlap in time", file=source or None)
-    grid = start + np.arange(int(np.floor((end - start) * fs_hz)) + 1) / fs_hz
+    n_grid = int(np.floor((end - start) * fs_hz)) + 1
+    readings = max(len(t) for t, _ in cleaned)
+    if n_grid > MAX_UPSAMPLING * readings:
+        raise InputFileError(
+            f"the timestamps span {end - start:.6g} s, {n_grid} samples at {fs_hz:g} Hz from at most "
+            f"{readings} readings per stream (a damaged or mis-scaled time column?)",
+            file=source or None,
+        )
+    grid = start + np.arange(n_grid) / fs_hz
     columns = [np.interp(grid, t, v[:, j]) for t, v in cleaned for j in range(v.shape[1])]
     return grid, np.column_stack(columns)
