@@ -7,6 +7,9 @@ Measured here, each stage in its own subprocess (so its peak memory is its own):
   location), CEM (simulation-in-the-loop, vectorized over the 64 candidates
   vs the same CEM scoring each candidate in a Python loop: ratio), convention
   alignment + rank grounding;
+- the post-motion stages of one fold on one core (IMU simulation, CEM,
+  alignment, rank grounding, windowing, quality filter with its per-fold
+  model fits: the fold's wall time minus the time spent making the motions);
 - the whole embedded chain (Algorithm 1 for one HAPT12 LOPO fold: library
   SMPs, procedural backend, 2 local workers, no cache) with its breakdown
   (synthesis, rank grounding, windowing, filters, selection) from the same run;
@@ -55,10 +58,11 @@ REPO = HERE.parent
 VIDEO_DIR = REPO.parent / "shared" / "data" / "videos"
 HOLDOUT = "1"  # the HAPT12 fold used by every generation figure
 CORES = 2
-STAGES = ("smp_augment", "procedural_motion", "imu_simulation", "cem", "align_rank", "chain",
+STAGES = ("smp_augment", "procedural_motion", "imu_simulation", "cem", "align_rank", "post_motion", "chain",
           "chain_memory", "scaling_local", "scaling_ray", "scaling_ray_nice0", "har_rf", "har_dclstm", "cost")
 # Targets of the issue "Speed, scale and reliability, measured".
 CHAIN_TARGET = 50.0  # synthetic samples/s, whole embedded chain, 2 cores
+POST_MOTION_TARGET = 50.0  # samples/s per core, IMU simulation + CEM + alignment + grounding + filter
 RF_TARGET_S = 300.0  # HAPT 30-fold RF-ECDF LOPO
 SCALING_TARGET = 1.8  # 1 -> 2 workers
 PAPER_S_PER_SAMPLE = {"classical": 0.01, "imutube": 2.0, "imugpt": 5.0, "vsmp": 10.0}  # A6000 Ada
@@ -409,6 +413,50 @@ def stage_align_rank(quick: bool) -> dict:
             "note": f"{len(streams)} streams per fit: alignment, RankGrounder fit on them + D_rank, transform"}
 
 
+def stage_post_motion(quick: bool) -> dict:
+    """Everything of one fold after the motions, on one core: IMU simulation, CEM, alignment,
+    rank grounding, windowing and the quality filter, its per-fold model fits included (the
+    fold in this process with one BLAS thread, minus the time spent making the motions)."""
+    one_thread()
+    import vsmp_imu.pipeline.fold as fold
+    import vsmp_imu.pipeline.sample as sample
+    from vsmp_imu.executor import LocalExecutor
+
+    seconds: dict[str, float] = defaultdict(float)
+    originals = [(sample, "_motion", "motions"), (fold, "fit_filters", "filter_fits"),
+                 (fold.FoldGenerator, "_choose_tau", "tau_selection")]
+
+    def timing(fn, name):
+        def wrapper(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                seconds[name] += time.perf_counter() - start
+        return wrapper
+
+    saved = [(owner, attr, getattr(owner, attr)) for owner, attr, _ in originals]
+    for (owner, attr, name), (_, _, fn) in zip(originals, saved, strict=True):
+        setattr(owner, attr, timing(fn, name))
+    try:
+        fig = run_fold(LocalExecutor(1, show_progress=False), 0.1 if quick else 0.5)
+    finally:
+        for owner, attr, fn in saved:
+            setattr(owner, attr, fn)
+    post = fig["wall_s"] - seconds["motions"]
+    per_fold = seconds["filter_fits"] + seconds["tau_selection"]
+    fig.update({"motion_s": seconds["motions"], "post_motion_s": post, "per_fold_fits_s": per_fold,
+                "filter_fits_s": seconds["filter_fits"], "tau_selection_s": seconds["tau_selection"],
+                "per_s_per_core": fig["samples"] / post,
+                "per_sample_per_s_per_core": fig["samples"] / (post - per_fold),
+                "target_samples_per_s": POST_MOTION_TARGET,
+                "met": fig["samples"] / (post - per_fold) >= POST_MOTION_TARGET,
+                "note": "one worker in this process, one BLAS thread; post-motion = fold wall - motion "
+                        "time; per sample = post-motion minus the filter's per-fold fits (validator, "
+                        "plausibility thresholds, tau_nn) and tau_cls selection"})
+    return fig
+
+
 def stage_chain(quick: bool) -> dict:
     from vsmp_imu.executor import LocalExecutor
 
@@ -746,6 +794,15 @@ def table_rows(res: dict) -> list[tuple[str, str, str, str, str]]:
     if cem and "error" not in cem:
         rows.append(("CEM naive loop / vectorized [ratio]", _fmt(cem["naive_over_vectorized"], 1), "",
                      "", f"{cem['vectorized_s'] * 1e3:.0f} ms vs {cem['naive_loop_s']:.2f} s per calibration"))
+    post = st.get("post_motion")
+    if post and "error" not in post:
+        rows.append(("post-motion stages per sample, 1 core [samples/s per core]",
+                     _fmt(post["per_sample_per_s_per_core"], 1), mem(post),
+                     f">= {POST_MOTION_TARGET:g}", "met" if post["met"] else "NOT met"))
+        rows.append(("  same with the fold's filter fits and tau_cls selection [samples/s per core]",
+                     _fmt(post["per_s_per_core"], 1), "", "",
+                     f"{post['samples']} samples; fits {post['filter_fits_s']:.1f} s, "
+                     f"tau_cls {post['tau_selection_s']:.1f} s, motions {post['motion_s']:.1f} s"))
     chain = st.get("chain")
     if chain and "error" not in chain:
         rows.append(("whole embedded chain [samples/s, 2 workers]", _fmt(chain["samples_per_s"], 1),

@@ -26,7 +26,8 @@ import numpy as np
 
 from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding.stats import LinearMoments, StatSummary, sim_loss
-from vsmp_imu.imu import ImuNoise, SegmentKinematics, reading_features, reading_weights
+from vsmp_imu.imu import ImuNoise, SegmentKinematics, reading_features
+from vsmp_imu.imu.readings import fill_weights
 
 # Appendix table "Residual simulator parameters": search ranges.
 ETA_NAMES = (
@@ -52,10 +53,10 @@ def eta_rotation(eta: np.ndarray) -> np.ndarray:
     """
     a = np.deg2rad(np.atleast_2d(np.asarray(eta, dtype=float))[:, 0:3])
     (cz, cx, cy), (sz, sx, sy) = np.cos(a).T, np.sin(a).T
-    one, zero = np.ones_like(cz), np.zeros_like(cz)
-    rz = np.stack([cz, -sz, zero, sz, cz, zero, zero, zero, one], -1).reshape(-1, 3, 3)
-    rx = np.stack([one, zero, zero, zero, cx, -sx, zero, sx, cx], -1).reshape(-1, 3, 3)
-    ry = np.stack([cy, zero, sy, zero, one, zero, -sy, zero, cy], -1).reshape(-1, 3, 3)
+    rz, rx, ry = (np.zeros((len(a), 3, 3)) for _ in range(3))
+    rz[:, 0, 0], rz[:, 0, 1], rz[:, 1, 0], rz[:, 1, 1], rz[:, 2, 2] = cz, -sz, sz, cz, 1.0
+    rx[:, 0, 0], rx[:, 1, 1], rx[:, 1, 2], rx[:, 2, 1], rx[:, 2, 2] = 1.0, cx, -sx, sx, cx
+    ry[:, 0, 0], ry[:, 0, 2], ry[:, 1, 1], ry[:, 2, 0], ry[:, 2, 2] = cy, sy, 1.0, -sy, cy
     return ry @ rx @ rz
 
 
@@ -104,7 +105,7 @@ class SimInTheLoopCalibrator:
     @staticmethod
     def _weights(base, eta, gravity, with_noise) -> np.ndarray:
         mounting = eta_rotation(eta) @ base
-        return reading_weights(mounting, eta[:, 3:6], eta[:, 6:9], eta[:, 9], eta[:, 10], gravity, with_noise)
+        return fill_weights(mounting, eta[:, 3:6], eta[:, 6:9], eta[:, 9], eta[:, 10], gravity, with_noise)
 
     def calibrate(
         self,

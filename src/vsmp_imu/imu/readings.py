@@ -87,8 +87,15 @@ def reading_weights(
     k_a = _as_vector(acc_noise_scale, "acc_noise_scale", float)
     k_w = _as_vector(gyr_noise_scale, "gyr_noise_scale", float)
     grav = _as_vector(gravity_included, "gravity_included", bool)
-    n = _broadcast_n({"mounting": mats, "acc_bias": b_a, "gyr_bias": b_w,
-                      "acc_noise_scale": k_a, "gyr_noise_scale": k_w, "gravity_included": grav})
+    _broadcast_n({"mounting": mats, "acc_bias": b_a, "gyr_bias": b_w,
+                  "acc_noise_scale": k_a, "gyr_noise_scale": k_w, "gravity_included": grav})
+    return fill_weights(mats, b_a, b_w, k_a, k_w, grav, with_noise)
+
+
+def fill_weights(mats, b_a, b_w, k_a, k_w, grav, with_noise: bool) -> np.ndarray:
+    """`reading_weights` on arrays already checked: mats (N|1, 3, 3), biases (N|1, 3),
+    scales and gravity flags (N|1,). The CEM's inner loop calls this directly."""
+    n = max(len(mats), len(b_a), len(b_w), len(k_a), len(k_w), len(grav))
     weights = np.zeros((n, 16 if with_noise else 10, 6))
     mt = np.broadcast_to(mats.transpose(0, 2, 1), (n, 3, 3))  # [n, j, i] = M_n[i, j]
     weights[:, 0:3, 0:3] = mt
