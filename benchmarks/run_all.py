@@ -49,7 +49,9 @@ import time
 import tracemalloc
 from collections import defaultdict
 from collections.abc import Callable
+from contextlib import ExitStack
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 
@@ -423,8 +425,6 @@ def stage_post_motion(quick: bool) -> dict:
     from vsmp_imu.executor import LocalExecutor
 
     seconds: dict[str, float] = defaultdict(float)
-    originals = [(sample, "_motion", "motions"), (fold, "fit_filters", "filter_fits"),
-                 (fold.FoldGenerator, "_choose_tau", "tau_selection")]
 
     def timing(fn, name):
         def wrapper(*args, **kwargs):
@@ -435,22 +435,20 @@ def stage_post_motion(quick: bool) -> dict:
                 seconds[name] += time.perf_counter() - start
         return wrapper
 
-    saved = [(owner, attr, getattr(owner, attr)) for owner, attr, _ in originals]
-    for (owner, attr, name), (_, _, fn) in zip(originals, saved, strict=True):
-        setattr(owner, attr, timing(fn, name))
-    try:
+    with ExitStack() as patches:
+        for owner, attr, name in ((sample, "_motion", "motions"), (fold, "fit_filters", "filter_fits"),
+                                  (fold.FoldGenerator, "_choose_tau", "tau_selection")):
+            patches.enter_context(mock.patch.object(owner, attr, timing(getattr(owner, attr), name)))
         fig = run_fold(LocalExecutor(1, show_progress=False), 0.1 if quick else 0.5)
-    finally:
-        for owner, attr, fn in saved:
-            setattr(owner, attr, fn)
     post = fig["wall_s"] - seconds["motions"]
     per_fold = seconds["filter_fits"] + seconds["tau_selection"]
+    per_sample = fig["samples"] / (post - per_fold)
     fig.update({"motion_s": seconds["motions"], "post_motion_s": post, "per_fold_fits_s": per_fold,
                 "filter_fits_s": seconds["filter_fits"], "tau_selection_s": seconds["tau_selection"],
                 "per_s_per_core": fig["samples"] / post,
-                "per_sample_per_s_per_core": fig["samples"] / (post - per_fold),
+                "per_sample_per_s_per_core": per_sample,
                 "target_samples_per_s": POST_MOTION_TARGET,
-                "met": fig["samples"] / (post - per_fold) >= POST_MOTION_TARGET,
+                "met": per_sample >= POST_MOTION_TARGET,
                 "note": "one worker in this process, one BLAS thread; post-motion = fold wall - motion "
                         "time; per sample = post-motion minus the filter's per-fold fits (validator, "
                         "plausibility thresholds, tau_nn) and tau_cls selection"})
