@@ -13,7 +13,7 @@ uncertainty-aware constraints" ablation).
 | field | rule |
 | --- | --- |
 | tempo, amplitude | +-1 level on the 0..2 ordinal scale, stored as a number |
-| repetition_count | +-5 cycles, integer >= 1, repetitive activities only |
+| repetition_count | +-5 cycles, integer 1..1000, repetitive activities only |
 | primitive_duration | each known duration x Uniform[1 - 0.25, 1 + 0.25]; relative values are renormalized to their original sum; order kept |
 | dominant_side | left <-> right with rho = 0.5, only when the side is left/right |
 | symmetry | symmetric <-> asymmetric with rho = 0.3 |
@@ -35,7 +35,13 @@ from typing import Any
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp._text import norm_name
-from vsmp_imu.smp.schema import SMP, UNKNOWN
+from vsmp_imu.smp.schema import (
+    MAX_DISPLACEMENT_M,
+    MAX_PRIMITIVE_DURATION,
+    MAX_REPETITIONS,
+    SMP,
+    UNKNOWN,
+)
 
 # Appendix "SMP Constraint Rules", table "SMP perturbation ranges".
 TEMPO_MAX_LEVELS = 1.0
@@ -89,7 +95,8 @@ def augment_variant(smp: SMP, seed: int, index: int,
     count = smp.repetition_count()
     if "repetition_count" in variant and smp.temporal_structure.is_repetitive and count is not None:
         radius = (1 - _u(smp, "repetition_count", uncertainty_conditioned)) * REPETITION_MAX_CYCLES
-        lo, hi = max(1, math.ceil(count - radius)), max(1, math.floor(count + radius))
+        lo = min(MAX_REPETITIONS, max(1, math.ceil(count - radius)))
+        hi = min(MAX_REPETITIONS, max(1, math.floor(count + radius)))
         new_count = int(rng("repetition_count").integers(lo, hi + 1))
         record("temporal_structure.repetition_count", count, new_count)
         ts["repetition_count"] = new_count
@@ -116,7 +123,7 @@ def augment_variant(smp: SMP, seed: int, index: int,
     radius = (1 - _u(smp, "global_displacement", uncertainty_conditioned)) * DISPLACEMENT_MAX_FRACTION
     if "global_displacement" in variant and extent is not None and extent > 0 and radius > 0:
         factor = rng("global_displacement").uniform(1 - radius, 1 + radius)
-        new_extent = round(max(MIN_EXTENT_M, extent * factor), DECIMALS)
+        new_extent = round(min(MAX_DISPLACEMENT_M, max(MIN_EXTENT_M, extent * factor)), DECIMALS)
         record("execution_attributes.global_displacement", ea["global_displacement"], new_extent)
         ea["global_displacement"] = new_extent
 
@@ -141,7 +148,7 @@ def _durations(smp: SMP, d: dict[str, Any], radius: float, rng, record) -> None:
         new_sum = sum(float(new[j]) for j in known)
         if new_sum > 0:
             new = [v if v == UNKNOWN else float(v) * old_sum / new_sum for v in new]
-    new = [v if v == UNKNOWN else round(float(v), DECIMALS) for v in new]
+    new = [v if v == UNKNOWN else round(min(MAX_PRIMITIVE_DURATION, float(v)), DECIMALS) for v in new]
     before = {"type": dur["type"], "values": dur["values"]}
     dur["type"], dur["values"] = kind, new
     record("primitive_durations", before, {"type": kind, "values": new})

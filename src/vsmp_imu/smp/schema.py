@@ -17,16 +17,46 @@ import hashlib
 import json
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    StrictBool,
+    StrictInt,
+    field_validator,
+    model_validator,
+)
 
 SCHEMA_VERSION = "1.0"
 
 UNKNOWN = "unknown"
 Unknown = Literal["unknown"]
 
-Unit = Annotated[float, Field(ge=0.0, le=1.0)]
-NonNegFloat = Annotated[float, Field(ge=0.0)]
-OrdinalLevel = Annotated[float, Field(ge=0.0, le=2.0)]
+# Physical bounds of the numeric fields, so that validation, augmentation and synthesis agree
+# on what an SMP may ask for. A motion lasts at most MAX_MOTION_S (the `motion synth
+# --duration-s` limit, the recipes' `default_duration_s` limit), so:
+MAX_MOTION_S = 600.0
+# - a primitive's duration (seconds, or a relative share written as a fraction or a percent)
+#   is at most the whole motion;
+MAX_PRIMITIVE_DURATION = MAX_MOTION_S
+# - a clip holds at most 1000 repetitions: 10 minutes at 1.7 cycles/s, about the cadence of
+#   brisk walking steps; the library counts at most 12 and a counted clip tens;
+MAX_REPETITIONS = 1000
+# - the travelled extent is at most 2000 m: 10 minutes at a running pace of 3.3 m/s (the
+#   library's "large" is 4 m).
+MAX_DISPLACEMENT_M = 2000.0
+MAX_ORDER_INDEX = 1000  # an order position; an SMP has a handful of primitives
+
+
+def _number(lo: float, hi: float):
+    """A finite number in lo..hi; strict: true/false and numeric text are refused, not coerced."""
+    return Annotated[float, Field(ge=lo, le=hi, strict=True, allow_inf_nan=False)]
+
+
+Unit = _number(0.0, 1.0)
+OrdinalLevel = _number(0.0, 2.0)
+Duration = _number(0.0, MAX_PRIMITIVE_DURATION)
+Extent = _number(0.0, MAX_DISPLACEMENT_M)
 
 TEMPO_LEVELS = ("slow", "medium", "fast")
 AMPLITUDE_LEVELS = ("small", "medium", "large")
@@ -82,16 +112,16 @@ class _Strict(BaseModel):
 
 class MotionPrimitive(_Strict):
     name: str = Field(min_length=1)
-    order_index: int = Field(ge=0)
+    order_index: StrictInt = Field(ge=0, le=MAX_ORDER_INDEX)
     description: str = ""
     body_parts: list[str] = Field(default_factory=list)
-    relative_duration: NonNegFloat | Unknown = UNKNOWN
+    relative_duration: Duration | Unknown = UNKNOWN
     contact: list[str] = Field(default_factory=list)
 
 
 class PrimitiveDurations(_Strict):
     type: Literal["absolute", "relative", "unknown"] = UNKNOWN
-    values: list[NonNegFloat | Unknown] = Field(default_factory=list)
+    values: list[Duration | Unknown] = Field(default_factory=list)
 
 
 class BodyParts(_Strict):
@@ -101,8 +131,8 @@ class BodyParts(_Strict):
 
 
 class TemporalStructure(_Strict):
-    is_repetitive: bool = False
-    repetition_count: Annotated[int, Field(ge=0)] | Unknown = UNKNOWN
+    is_repetitive: StrictBool = False
+    repetition_count: Annotated[StrictInt, Field(ge=0, le=MAX_REPETITIONS)] | Unknown = UNKNOWN
     periodicity: Literal["none", "single", "cyclic", "unknown"] = UNKNOWN
     ordering: Literal["ordered", "weakly_ordered", "unordered"] = "ordered"
     transition_type: Literal["discrete", "continuous", "unknown"] = UNKNOWN
@@ -113,7 +143,7 @@ class ExecutionAttributes(_Strict):
     amplitude: Literal["small", "medium", "large", "unknown"] | OrdinalLevel = UNKNOWN
     dominant_side: Literal["left", "right", "bilateral", "none", "unknown"] = UNKNOWN
     symmetry: Literal["symmetric", "asymmetric", "unknown"] = UNKNOWN
-    global_displacement: Literal["stationary", "small", "large", "unknown"] | NonNegFloat = UNKNOWN
+    global_displacement: Literal["stationary", "small", "large", "unknown"] | Extent = UNKNOWN
 
 
 class ObjectContact(_Strict):
@@ -124,13 +154,13 @@ class ObjectContact(_Strict):
 
 
 class ConstraintRules(_Strict):
-    preserve_activity_label: bool = True
-    preserve_core_primitive_order: bool = True
-    preserve_mandatory_body_parts: bool = True
-    preserve_required_contact: bool = True
-    dominant_side_swap_allowed_only_if_side_agnostic: bool = True
-    symmetry_change_allowed_only_if_label_preserving: bool = True
-    global_displacement_change_must_preserve_stationary_or_mobile_semantics: bool = True
+    preserve_activity_label: StrictBool = True
+    preserve_core_primitive_order: StrictBool = True
+    preserve_mandatory_body_parts: StrictBool = True
+    preserve_required_contact: StrictBool = True
+    dominant_side_swap_allowed_only_if_side_agnostic: StrictBool = True
+    symmetry_change_allowed_only_if_label_preserving: StrictBool = True
+    global_displacement_change_must_preserve_stationary_or_mobile_semantics: StrictBool = True
 
 
 class Constraints(_Strict):
