@@ -65,7 +65,7 @@ from vsmp_imu.motion.tracks import (
     smoothstep_ramp,
 )
 from vsmp_imu.seeding import rng_for
-from vsmp_imu.smp.schema import SMP, UNKNOWN
+from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, UNKNOWN
 
 BACKEND_NAME = "procedural"
 TEMPO_RATIO = 1.5  # slow = 1.5x, fast = 1/1.5x the medium duration
@@ -317,9 +317,15 @@ def raw_durations(smp: SMP) -> list[float | None]:
     return [None if by_name.get(n, UNKNOWN) == UNKNOWN else float(by_name[n]) for n in seq]
 
 
-def match_primitives(smp: SMP, recipe: Recipe, file: Any = None) -> list[tuple[int, str, str]]:
-    """[(position, SMP name, recipe primitive)] in the SMP's order; structural names ("repeat") dropped."""
+def match_primitives(smp: SMP, recipe: Recipe, file: Any = None,
+                     activity: str | None = None) -> list[tuple[int, str, str]]:
+    """[(position, SMP name, recipe primitive)] in the SMP's order; structural names ("repeat") dropped.
+    `activity`: the library activity whose recipe it is (named in errors)."""
     from vsmp_imu.smp._text import norm_name
+
+    whose = f"'{smp.activity_label}'"
+    if activity and norm_name(activity) != norm_name(smp.activity_label):
+        whose += f" (library activity '{activity}')"
 
     choices: dict[str, str] = {}
     for name, prim in recipe.primitives.items():
@@ -337,8 +343,8 @@ def match_primitives(smp: SMP, recipe: Recipe, file: Any = None) -> list[tuple[i
         hit = process.extractOne(key, list(choices), scorer=fuzz.WRatio, score_cutoff=PRIMITIVE_MATCH_MIN)
         if hit is None:
             raise ValidationError(
-                f"primitive '{name}' matches no primitive of the procedural recipe of "
-                f"'{smp.activity_label}'", file=file, field=f"primitive_sequence[{i}]",
+                f"primitive '{name}' matches no primitive of the procedural recipe of {whose}",
+                file=file, field=f"primitive_sequence[{i}]",
                 allowed=", ".join(recipe.primitives))
         out.append((i, name, choices[hit[0]]))
     if not out:
@@ -429,7 +435,8 @@ def _split(matched: list[tuple[int, str, str]], cycle: list[str]) -> tuple[list[
 def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | None) -> Plan:
     rng = rng_for(seed, BACKEND_NAME, entry.name, "timing")
     controls = _controls(entry, recipe, smp, rng)
-    matched = match_primitives(smp, recipe, getattr(entry, "path", None))
+    # an error here is about the SMP's own fields: the caller names the SMP's file
+    matched = match_primitives(smp, recipe, activity=entry.name)
     scales = _duration_scales(smp, entry.smp, matched)
     jitter = {p: 1.0 + rng.uniform(-DURATION_JITTER, DURATION_JITTER) for p in recipe.primitives}
     absolute = smp.primitive_durations.type == "absolute"
@@ -459,6 +466,12 @@ def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | N
         n_cycles = max(1, math.ceil((total - rest - lead_in_s) / max(cycle_s, 1e-6) + 1e-9))
     else:
         n_cycles = count
+        needed = lead_in_s + count * cycle_s
+        if needed > MAX_MOTION_S:  # checked before a single frame is drawn
+            raise ValidationError(
+                f"{count} repetition(s) of '{entry.name}' at this tempo need {needed:.0f} s of motion",
+                field="temporal_structure.repetition_count",
+                allowed=f"a count whose motion lasts at most {MAX_MOTION_S:g} s")
     segments: list[Segment] = []
     t = rest
     for i in lead_in:
