@@ -125,33 +125,86 @@ def write_yaml(path: str | Path, obj: Any) -> Path:
     return write_text(path, yaml.safe_dump(obj, sort_keys=False, allow_unicode=True))
 
 
-def read_text(path: str | Path) -> str:
+# Limits checked before a structured file is parsed: the C YAML loader overflows its stack
+# near 50 000 nested brackets and json.loads raises RecursionError near 1000; the files we
+# read (SMPs, dataset and library YAML, configurations) are kilobytes, nested under 10 deep.
+MAX_STRUCTURED_BYTES = 16 * 2**20
+MAX_NESTING = 100
+
+
+def read_text(path: str | Path, max_bytes: int | None = None) -> str:
     path = Path(path)
     if not path.exists():
         raise InputFileError("file not found", file=path)
     if path.is_dir():
         raise InputFileError("expected a file, found a directory", file=path)
+    if max_bytes is not None and path.stat().st_size > max_bytes:
+        raise InputFileError(f"the file has {path.stat().st_size} bytes, more than this kind of file may have",
+                             file=path, allowed=f"at most {max_bytes // 2**20} MiB")
     try:
         return path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise InputFileError(f"not UTF-8 text ({exc.reason})", file=path) from exc
+    except OSError as exc:
+        raise InputFileError(f"cannot read the file ({exc.strerror or exc})", file=path) from exc
 
 
 # libyaml's safe loader where PyYAML was built with it (the wheels are): same documents, ~10x faster
 YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
+_BRACKET = re.compile(r"[\[\]{}]")
+_BLOCK_INDENT = re.compile(r"^[ ?:-]*", re.MULTILINE)
+_OPENS = (yaml.SequenceStartEvent, yaml.MappingStartEvent)
+_CLOSES = (yaml.SequenceEndEvent, yaml.MappingEndEvent)
+
+
+def nesting_depth(text: str, kind: str, stop_above: int | None = None) -> int:
+    """How deeply the JSON or YAML `text` nests lists and mappings, without building them;
+    the count stops once it passes `stop_above`."""
+    if kind == "JSON":
+        events = (1 if ch in "[{" else -1 for ch in _BRACKET.findall(_JSON_STRING.sub("", text)))
+    else:  # events only: libyaml's parser is iterative
+        events = (1 if isinstance(e, _OPENS) else -1 if isinstance(e, _CLOSES) else 0
+                  for e in yaml.parse(text, Loader=YAML_LOADER))
+    depth = deepest = 0
+    for step in events:
+        depth += step
+        deepest = max(deepest, depth)
+        if stop_above is not None and deepest > stop_above:
+            break
+    return deepest
+
+
+def _could_nest_deeper(text: str, limit: int) -> bool:
+    """A cheap upper bound first: every flow level opens a bracket; every block level moves
+    the indentation (or a '- ', '? ', ': ' lead) at least one column, a mapping in a list two."""
+    flow = text.count("[") + text.count("{")
+    block = max((len(m) for m in _BLOCK_INDENT.findall(text)), default=0)
+    return flow + 2 * block + 2 > limit
+
+
+def check_nesting(text: str, kind: str, path: Path, limit: int = MAX_NESTING) -> None:
+    """Refuse a document nested deeper than `limit` before a recursive parser sees it."""
+    if _could_nest_deeper(text, limit) and nesting_depth(text, kind, stop_above=limit) > limit:
+        raise InputFileError(f"the {kind} document nests lists or mappings more than {limit} deep",
+                             file=path, allowed=f"at most {limit} levels")
 
 
 def read_structured(path: str | Path) -> Any:
-    """Read a JSON or YAML file (chosen by extension; JSON is valid YAML too)."""
+    """Read a JSON or YAML file (chosen by extension; JSON is valid YAML too), refusing files
+    larger than MAX_STRUCTURED_BYTES or nested deeper than MAX_NESTING before parsing."""
     path = Path(path)
-    text = read_text(path)
+    text = read_text(path, MAX_STRUCTURED_BYTES)
+    kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
     try:
-        if path.suffix.lower() == ".json":
+        check_nesting(text, kind, path)
+        if kind == "JSON":
             return json.loads(text)
         return yaml.load(text, Loader=YAML_LOADER)  # noqa: S506 - a safe loader
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
-        kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
         raise InputFileError(f"not valid {kind}: {exc}", file=path) from exc
+    except RecursionError as exc:  # pragma: no cover - check_nesting stops this first
+        raise InputFileError(f"the {kind} document nests too deeply", file=path) from exc
 
 
 def write_structured(path: str | Path, obj: Any) -> Path:

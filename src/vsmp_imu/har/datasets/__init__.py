@@ -87,6 +87,9 @@ def load_dataset(name_or_path: str | Path, data_dir: str | Path | None = None) -
 
         if not Path(text).exists():
             raise InputFileError("dataset YAML file not found", file=text)
+        if data_dir is not None:
+            raise ConfigError("a dataset YAML file names its own data folder (its 'data' field)",
+                              field="--data-dir", allowed="leave out --data-dir with a dataset .yaml file")
         return GenericDataset(text)
     if text not in DATASETS:
         raise ConfigError(
@@ -95,6 +98,10 @@ def load_dataset(name_or_path: str | Path, data_dir: str | Path | None = None) -
             allowed=", ".join(DATASETS) + ", or a path to a dataset .yaml file",
         )
     factory, needs_dir, _ = DATASETS[text]
+    if data_dir is not None and not needs_dir:
+        raise ConfigError(f"dataset '{text}' ships with the package and reads no folder", field="--data-dir",
+                          allowed="leave out --data-dir (it names the folder of a downloaded dataset: "
+                                  + ", ".join(n for n, (_, d, _) in DATASETS.items() if d) + ")")
     if needs_dir:
         if data_dir is None:
             raise ConfigError(

