@@ -3,12 +3,16 @@ the logic lives in the rooms. Each sub-module registers its own commands."""
 
 from __future__ import annotations
 
+import errno
+import signal
 import sys
+import threading
 
 import typer
+from rich.markup import escape
 
 from vsmp_imu.cli import demo, generate, har, imu, motion, smp, study, video
-from vsmp_imu.cli.common import console_err
+from vsmp_imu.cli.common import console_err, safe_text
 from vsmp_imu.errors import VsmpError
 
 app = typer.Typer(
@@ -23,11 +27,56 @@ app = typer.Typer(
 for module in (smp, motion, imu, har, generate, video, study, demo):
     module.register(app)
 
+# Errors of the file system around a path the user gave (a folder we may not write in, a disk
+# that is full or read-only): a one-paragraph message and exit 2, as for any user mistake.
+FILE_SYSTEM_ERRNOS = (errno.EACCES, errno.EPERM, errno.EISDIR, errno.ENOTDIR, errno.EEXIST, errno.EROFS,
+                      errno.ENOSPC, errno.EDQUOT, errno.ENAMETOOLONG)
+
+
+def _say(text: str) -> None:
+    console_err.print(f"[bold red]error:[/] {escape(safe_text(text))}", highlight=False, soft_wrap=True)
+
+
+class Interrupted(BaseException):
+    """Ctrl-C (SIGINT) or SIGTERM: unwinds the run like an error, so that atomic writes drop
+    their temporaries and the pool stops its workers; finished work stays for a resume."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise Interrupted(signum)
+
+
+def _handle_stop_signals() -> dict[int, object]:
+    """Route SIGINT and SIGTERM to `Interrupted` (main thread only); the previous handlers."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    return {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
+
 
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point: user mistakes exit 2 with a one-paragraph message."""
+    """Console-script entry point: user mistakes exit 2 with a one-paragraph message; Ctrl-C
+    and SIGTERM stop cleanly with 128 + the signal number."""
+    previous = _handle_stop_signals()
     try:
         app(args=argv, standalone_mode=True)
+    except Interrupted as exc:
+        name = signal.Signals(exc.signum).name
+        console_err.print(f"[bold yellow]stopped[/] by {name}: finished samples and folds are kept; run the "
+                          "same command again to resume.", highlight=False, soft_wrap=True)
+        sys.exit(128 + exc.signum)
     except VsmpError as exc:
-        console_err.print(f"[bold red]error:[/] {exc.render()}", highlight=False, soft_wrap=True)
+        _say(exc.render())
         sys.exit(2)
+    except OSError as exc:
+        if exc.errno not in FILE_SYSTEM_ERRNOS:
+            raise
+        where = f"{exc.filename}: " if exc.filename else ""
+        _say(f"{where}{exc.strerror or exc}. Allowed: a path you may write to, on a disk with room.")
+        sys.exit(2)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

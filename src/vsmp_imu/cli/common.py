@@ -1,15 +1,17 @@
-"""Shared pieces of the command line: consoles and option helpers."""
+"""Shared pieces of the command line: consoles, option helpers and the checks of output paths."""
 
 from __future__ import annotations
 
+import contextlib
+import os
+import re
+from collections.abc import Iterator
 from pathlib import Path
 
-from rich.console import Console
+from rich.console import Console, ConsoleOptions, RenderableType, RenderResult
+from rich.segment import Segment
 
-from vsmp_imu.errors import ConfigError
-
-console = Console()
-console_err = Console(stderr=True)
+from vsmp_imu.errors import ConfigError, VsmpError
 
 
 def parse_csv(value: str, allowed: tuple[str, ...] | None = None, option: str = "") -> list[str]:
@@ -27,3 +29,121 @@ def parse_csv(value: str, allowed: tuple[str, ...] | None = None, option: str = 
 def library_dirs(library: list[Path] | None) -> list[Path]:
     """The user's extra activity-library folders given by --library (repeatable)."""
     return list(library or [])
+
+
+@contextlib.contextmanager
+def naming(file: Path | str | None) -> Iterator[None]:
+    """Errors about an input's fields raised without a file (deep in synthesis, say) name the
+    user's `file`; None: nothing to name (an activity name, a prompt)."""
+    try:
+        yield
+    except VsmpError as exc:
+        if file is None or exc.file is not None:
+            raise
+        raise type(exc)(exc.message, file=file, field=exc.field, allowed=exc.allowed) from exc
+
+
+def executor_options(executor: str, address: str | None) -> None:
+    """`--executor` / `--address` checked before any work (an address without Ray is not ignored)."""
+    from vsmp_imu.executor import check_executor_options
+
+    check_executor_options(executor, address)
+
+
+# -- output paths: checked before any work, so a run never fails at its end ------------------
+def output_file(path: Path | None, option: str = "--output") -> Path | None:
+    """Check that a file can be written at `path` (None: nothing to check)."""
+    if path is None:
+        return None
+    if _is_dir(path, option):
+        raise ConfigError("is a folder, not a file name", file=path, field=option,
+                          allowed="the path of a file to write (a new one, or one to replace)")
+    _check_parent(path, option)
+    return path
+
+
+def output_dir(path: Path | None, option: str = "--output") -> Path | None:
+    """Check that `path` is, or can become, a folder we may write in (None: nothing to check)."""
+    if path is None:
+        return None
+    if _exists(path, option) and not _is_dir(path, option):
+        raise ConfigError("exists and is a file, not a folder", file=path, field=option,
+                          allowed="a folder: a new one, or one of an earlier run to resume")
+    if _is_dir(path, option):
+        _check_writable(path, path, option)
+    else:
+        _check_parent(path, option)
+    return path
+
+
+def _check_parent(path: Path, option: str) -> None:
+    """The nearest existing folder above `path` must be a folder we may write in."""
+    above = path.absolute().parent
+    while not _exists(above, option) and above != above.parent:
+        above = above.parent
+    if not _is_dir(above, option):
+        raise ConfigError(f"'{above}' is a file, so nothing can be written under it", file=path,
+                          field=option, allowed="a path whose parent folders are folders")
+    _check_writable(above, path, option)
+
+
+def _check_writable(folder: Path, path: Path, option: str) -> None:
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ConfigError(f"no permission to write in '{folder}'", file=path, field=option,
+                          allowed="a folder you may write to")
+
+
+def _exists(path: Path, option: str) -> bool:
+    try:
+        return os.path.lexists(path)
+    except OSError as exc:  # pragma: no cover - lexists returns False on most errors
+        raise ConfigError(f"cannot look at the path ({exc.strerror})", file=path, field=option) from exc
+
+
+def _is_dir(path: Path, option: str) -> bool:
+    try:
+        return path.is_dir()
+    except OSError as exc:  # a folder above it that we may not enter
+        raise ConfigError(f"cannot look at the path ({exc.strerror})", file=path, field=option,
+                          allowed="a folder you may enter and write to") from exc
+
+
+# -- untrusted text: printed with its control characters escaped ----------------------------
+_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
+
+
+def safe_text(text: object) -> str:
+    """`text` with terminal control characters (ANSI/OSC escapes, bidi overrides, NUL, ...)
+    shown as \\xNN / \\uNNNN: text from files, labels or model answers cannot drive the terminal.
+    Newlines and tabs stay."""
+    return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), str(text))
+
+
+class _Escaped:
+    """A renderable whose text segments are escaped; rich's own styles and cursor controls
+    (separate segments) pass unchanged."""
+
+    def __init__(self, renderable: RenderableType) -> None:
+        self.renderable = renderable
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
+        for segment in console.render(self.renderable, options):
+            yield segment if segment.control else Segment(safe_text(segment.text), segment.style)
+
+
+class _EscapeHook:
+    """Every console print goes through here: labels, file contents and model answers in
+    messages and tables reach the terminal with their control characters escaped."""
+
+    def process_renderables(self, renderables: list[RenderableType]) -> list[RenderableType]:
+        return [_Escaped(r) for r in renderables]
+
+
+def _console(stderr: bool = False) -> Console:
+    out = Console(stderr=stderr)
+    out.push_render_hook(_EscapeHook())
+    return out
+
+
+console = _console()
+console_err = _console(stderr=True)

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, parse_csv
+from vsmp_imu.cli.common import console, output_dir, parse_csv
 from vsmp_imu.progress import progress
 
 
@@ -19,6 +19,7 @@ def demo_cmd(
 ) -> None:
     """HAPT12, library SMPs, procedural backend, low-resource LOPO, RF-ECDF: Real-only vs Classical
     Aug vs VSMP-IMU; writes the report, traces, filter statistics and a skeleton animation."""
+    output_dir(output)
     from vsmp_imu.demo import DemoConfig, run_demo
 
     cfg = DemoConfig(folds=tuple(parse_csv(folds, option="--folds")), budget_percent=budget, workers=workers)

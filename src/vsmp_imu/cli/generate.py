@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, library_dirs
+from vsmp_imu.cli.common import console, executor_options, library_dirs, output_dir
 from vsmp_imu.errors import ConfigError
 
 SOURCE_HELP = "library | smp:DIR (SMP files) | video:DIR (clips per activity folder, or a pool manifest)"
@@ -58,6 +58,9 @@ def generate_cmd(
                                help="Extra passes for classes whose kept windows fall short of the budget"),
 ) -> None:
     """Generate the synthetic set for one LOPO fold (Algorithm 1) and write it to OUT."""
+    output_dir(output)
+    executor_options(executor, address)
+    output_dir(cache_dir, "--cache-dir")
     from vsmp_imu.executor import make_executor
     from vsmp_imu.har.datasets import load_dataset
     from vsmp_imu.har.synthetic import ALPHA_RANGE, synthetic_budget

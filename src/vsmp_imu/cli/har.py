@@ -10,7 +10,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, parse_csv
+from vsmp_imu.cli.common import console, executor_options, output_dir, parse_csv
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.methods import generative_params, register_all
 from vsmp_imu.progress import progress
@@ -102,6 +102,8 @@ def evaluate_cmd(
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
     confusion matrices to the output folder (finished folds are not recomputed)."""
+    output_dir(output)
+    executor_options(executor, address)
     if protocol not in PROTOCOL_NAMES:
         raise ConfigError(
             f"unknown protocol '{protocol}'", field="--protocol", allowed=", ".join(PROTOCOL_NAMES)

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, parse_csv
+from vsmp_imu.cli.common import console, output_file, parse_csv
 
 imu_app = typer.Typer(help="Virtual IMUs: simulate accelerometer and gyroscope readings from a "
                       "motion, plot them, list the sensor locations.", no_args_is_help=True)
@@ -31,6 +31,8 @@ def simulate_cmd(
     plot: Path | None = typer.Option(None, "--plot", help="also draw the signals to this PNG"),
 ) -> None:
     """Simulate virtual IMU readings (m/s², rad/s) from a motion file."""
+    output_file(output)
+    output_file(plot, "--plot")
     from vsmp_imu.errors import ConfigError, ValidationError
     from vsmp_imu.imu import ImuSimulator, get_placement
 
@@ -70,6 +72,7 @@ def plot_cmd(
     title: str | None = typer.Option(None, "--title", help="figure title"),
 ) -> None:
     """Plot accelerometer and gyroscope panels of one or more IMU CSV files."""
+    output_file(output)
     from vsmp_imu.imu import read_imu_csv
     from vsmp_imu.imu.plot import plot_imu
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, library_dirs
+from vsmp_imu.cli.common import console, library_dirs, naming, output_file
 from vsmp_imu.errors import ConfigError, ValidationError
 
 motion_app = typer.Typer(help="Motions: synthesize from an SMP or a prompt (procedural or HY-Motion), "
@@ -56,6 +56,7 @@ def synth_cmd(
     model_path: str = typer.Option(None, "--model-path", help="HY-Motion checkpoint folder"),
 ) -> None:
     """Generate one motion and write it as .npz."""
+    output_file(output)
     from vsmp_imu.motion import get_backend
 
     if smp is None and prompt is None:
@@ -69,9 +70,10 @@ def synth_cmd(
         kwargs["model_path"] = model_path
     engine = get_backend(backend, **kwargs)
     source = prompt if prompt is not None else _read_smp(smp, lib)
-    with console.status(f"[bold]synthesizing[/] with {engine.name} (seed {seed})..."):
+    smp_file = smp if prompt is None and smp is not None and Path(smp).exists() else None
+    with console.status(f"[bold]synthesizing[/] with {engine.name} (seed {seed})..."), naming(smp_file):
         motion = engine.generate(source, seed=seed, duration_s=duration_s)
-        motion.save(output)
+    motion.save(output)
     console.print(f"[green]wrote[/] {output}: {motion.meta.get('activity', '?')}, "
                   f"{motion.n_frames} frames at {motion.fps:g} fps ({motion.duration_s:.2f} s), "
                   f"backend {motion.meta.get('backend')}, seed {seed}")
@@ -82,11 +84,19 @@ def render_cmd(
     motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
     output: Path = typer.Option(..., "-o", "--output", help="animated GIF to write"),
     keyframes: Path = typer.Option(None, "--keyframes", help="also write a keyframe strip (.png)"),
-    n: int = typer.Option(6, "--n", help="number of keyframes"),
+    n: int = typer.Option(6, "--n", help="number of keyframes, 1..60"),
     view: float = typer.Option(None, "--view", help="camera azimuth in degrees (-90: right side)"),
 ) -> None:
     """Draw the skeleton animation as a GIF (and a keyframe strip)."""
-    from vsmp_imu.motion.render import render_gif, render_keyframes
+    output_file(output)
+    output_file(keyframes, "--keyframes")
+    from vsmp_imu.motion.render import check_render_options, render_gif, render_keyframes
+
+    try:
+        check_render_options(n, view)
+    except ValidationError as exc:
+        option = {"n": "--n", "yaw_deg": "--view"}[exc.field]
+        raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
 
     motion = _load_motion(motion_file)
     with console.status("[bold]rendering[/]..."):
@@ -103,6 +113,7 @@ def bvh_cmd(
     scale: float = typer.Option(1.0, "--scale", help="unit scale (1 = metres, 100 = centimetres)"),
 ) -> None:
     """Export a motion as BVH (opens in Blender)."""
+    output_file(output)
     from vsmp_imu.motion.bvh import write_bvh
 
     motion = _load_motion(motion_file)
@@ -133,6 +144,7 @@ def resample_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
 ) -> None:
     """Write the motion at another frame rate."""
+    output_file(output)
     motion = _load_motion(motion_file).resample(fps)
     motion.save(output)
     console.print(f"[green]wrote[/] {output}: {motion.n_frames} frames at {motion.fps:g} fps")

@@ -12,7 +12,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, library_dirs
+from vsmp_imu.cli.common import console, library_dirs, output_file, safe_text
 from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError, VsmpError
 from vsmp_imu.io import write_json, write_text
 from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
@@ -134,6 +134,7 @@ def library_show_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Print (or write) an activity's library SMP."""
+    output_file(output)
     _write_or_print(_library(library).get(name).smp, output)
 
 
@@ -144,6 +145,8 @@ def repair_cmd(
     report_file: Path | None = typer.Option(None, "--report", help="Write the repair report (JSON)"),
 ) -> None:
     """Parse and repair one raw response; exit 2 with the reason when it is rejected."""
+    output_file(output)
+    output_file(report_file, "--report")
     result = parse_response(_read_raw(raw))
     _print_repair(str(raw), result.report)
     if report_file is not None:
@@ -164,6 +167,8 @@ def aggregate_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Repair each response, aggregate them, then refine (the paper's extraction tail)."""
+    output_file(output)
+    output_file(report_file, "--report")
     results = [parse_response(_read_raw(p)) for p in raws]
     for path, res in zip(raws, results, strict=True):
         _print_repair(str(path), res.report)
@@ -195,6 +200,7 @@ def refine_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Run the four consistency checks and print every correction."""
+    output_file(output)
     result = Refiner(_library(library)).refine(_smp_arg(file, library))
     _print_refine(result)
     if output is not None:
@@ -214,6 +220,8 @@ def augment_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Draw K constrained variants; the same seed gives the same bytes."""
+    output_file(output)
+    output_file(provenance, "--provenance")
     smp = _smp_arg(file, library)
     augmenter = SMPAugmenter(uncertainty_conditioned=not no_uncertainty)
     variants = augmenter.augment(smp, k, seed)
@@ -235,6 +243,7 @@ def intervene_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Change exactly one attribute (controllability interventions)."""
+    output_file(output)
     smp = _smp_arg(file, library)
     _write_or_print(intervene(smp, attribute, level, _central_primitive(smp, library)), output)
 
@@ -259,7 +268,7 @@ def verbalize_cmd(
     """Print the HY-Motion prompt of an SMP."""
     smp = _smp_arg(file, library)
     text = attribute_phrase(smp, phase_durations) if attributes_only else verbalize(smp, phase_durations)
-    typer.echo(text)
+    typer.echo(safe_text(text))
 
 
 def register(app: typer.Typer) -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, library_dirs, parse_csv
+from vsmp_imu.cli.common import console, library_dirs, output_dir, parse_csv
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.progress import progress
 
@@ -53,6 +53,7 @@ def control_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """End-to-end SMP controllability: motion, raw IMU and grounded IMU checkpoints."""
+    output_dir(output)
     from vsmp_imu.studies.control import ATTRIBUTES, ControlStudy
     from vsmp_imu.studies.control_report import write_control_outputs
 
@@ -91,6 +92,7 @@ def audit_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """SMP extraction audit: field accuracy, failure accounting, uncertainty calibration."""
+    output_dir(output)
     from vsmp_imu.studies.audit import ExtractionAudit, load_audit_inputs
     from vsmp_imu.studies.audit_report import write_audit_outputs
 
@@ -120,6 +122,7 @@ def case_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Qualitative case study: source frames, SMP, three controlled variants, motions, IMU."""
+    output_dir(output)
     from vsmp_imu.studies.case import CaseStudy, write_case_outputs
 
     if location is not None:
@@ -206,6 +209,7 @@ def ablation_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Ablations: matched caption-SMP 2x2, components, sensor grounding, alpha sensitivity."""
+    output_dir(output)
     from vsmp_imu.har.protocols import check_protocol
     from vsmp_imu.studies.ablation import PARTS, AblationStudy
     from vsmp_imu.studies.ablation_report import write_ablation_outputs
@@ -266,6 +270,7 @@ def granularity_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Per-class precision/recall/F1 and group Macro-F1 under an activity taxonomy."""
+    output_dir(output)
     from vsmp_imu.har.protocols import check_protocol
     from vsmp_imu.studies.granularity import GranularityStudy
     from vsmp_imu.studies.granularity_report import write_granularity_outputs
@@ -325,6 +330,7 @@ def realism_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Feature-space realism: class-wise centroid distances in DeepConvLSTM embeddings, PCA, KS."""
+    output_dir(output)
     from vsmp_imu.studies.methods import method_names
     from vsmp_imu.studies.realism import LAYERS, RealismStudy
     from vsmp_imu.studies.realism_report import write_realism_outputs

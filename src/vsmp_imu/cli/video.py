@@ -14,7 +14,7 @@ from typing import Any
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, console_err, library_dirs
+from vsmp_imu.cli.common import console, console_err, library_dirs, output_dir, output_file
 from vsmp_imu.cli.smp import smp_app
 from vsmp_imu.errors import ConfigError, ExtractionError
 from vsmp_imu.io import write_json, write_text
@@ -44,7 +44,13 @@ def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
 
     if preset is not None:
         get_preset(preset)  # a clear error for an unknown name
-    return FrameSampler(n_frames=n_frames, preset=preset, size_px=size_px)
+    sampler = FrameSampler(n_frames=n_frames, preset=preset, size_px=size_px)
+    try:
+        sampler.settings()  # range checks before a clip is opened
+    except ConfigError as exc:
+        option = {"n_frames": "--n", "size_px": "--size"}.get(exc.field or "", exc.field)
+        raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
+    return sampler
 
 
 def _client(base_url: str | None, model: str | None, cache_dir: Path | None, no_cache: bool,
@@ -114,6 +120,8 @@ def extract_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Extract the SMP of a video clip with a VLM, from body pose, or both (fused)."""
+    output_file(output)
+    output_file(motion_out, "--motion-out")
     if extractor not in EXTRACTORS:
         raise ConfigError(f"unknown extractor '{extractor}'", field="--extractor",
                           allowed=", ".join(EXTRACTORS))
@@ -226,10 +234,11 @@ def frames_cmd(
     video: Path = typer.Argument(..., help="Video clip"),
     n: int | None = typer.Option(None, "--n", help="Frames to sample (default 16, or the preset's)"),
     preset: str | None = typer.Option(None, "--preset", help="mm_fit, utd_mhad, mmact, pamap2, had_aw"),
-    size_px: int = typer.Option(512, "--size", help="Side of the letterboxed frames (px)"),
+    size_px: int = typer.Option(512, "--size", help="Side of the letterboxed frames (px), 16..2048"),
     output: Path = typer.Option(..., "-o", "--output", help="Folder for the PNGs and contact sheet"),
 ) -> None:
     """Sample frames as the extractor does; write PNGs, a contact sheet and frames.json."""
+    output_dir(output)
     from vsmp_imu.extract.frames import write_frames
 
     sampled = _sampler(n, preset, size_px).sample(video)
@@ -250,6 +259,7 @@ def pose_cmd(
     height_m: float = typer.Option(1.70, "--height-m", help="Body height of the skeleton"),
 ) -> None:
     """MediaPipe pose -> SMPL-22 motion (.npz), gaps marked in its meta."""
+    output_file(output)
     from vsmp_imu.extract.landmarks import MediaPipePoseEstimator
     from vsmp_imu.extract.posemeasure import longest_run
     from vsmp_imu.extract.retarget import track_to_motion
@@ -287,6 +297,7 @@ def pool_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Filter a pool of candidate source clips; write the shared manifest."""
+    output_file(output)
     from vsmp_imu.extract.pool import PoseClipChecker, SourcePoolFilter, VLMClipChecker
 
     if checker not in CHECKERS:

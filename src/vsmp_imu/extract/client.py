@@ -35,7 +35,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from vsmp_imu.errors import DependencyError, ServiceError
+from vsmp_imu.errors import ConfigError, DependencyError, ServiceError
 from vsmp_imu.extract.cache import ResponseCache
 
 log = logging.getLogger(__name__)
@@ -54,8 +54,20 @@ def api_key_from_env(environ: Mapping[str, str] | None = None) -> str | None:
     for name in API_KEY_ENV_VARS:
         value = env.get(name, "").strip()
         if value:
-            return value
+            return check_api_key(value, name)
     return None
+
+
+def check_api_key(key: str, source: str = "api_key") -> str:
+    """The key, when an HTTP header can carry it: printable ASCII without spaces. The message
+    names where the key came from and never shows it."""
+    bad = [i for i, ch in enumerate(key) if not "!" <= ch <= "~"]
+    if bad:
+        raise ConfigError(f"the API key has a character an HTTP header cannot carry (position {bad[0] + 1} "
+                          f"of {len(key)}: a letter with an accent, a space, a control character or a "
+                          "typographic quote pasted with it)", field=source,
+                          allowed="printable ASCII characters only")
+    return key
 
 
 def scrub(text: str, secret: str | None) -> str:
@@ -178,7 +190,9 @@ class VLMClient:
                  sleep: Callable[[float], None] | None = None, seed: int = 0) -> None:
         self.base_url = base_url
         self.model = model
-        self.api_key = api_key
+        self.api_key = check_api_key(api_key) if api_key else api_key
+        if not api_key:
+            api_key_from_env()  # a key the request could not carry fails now, before any work
         self.timeout_s = timeout_s
         self.max_retries = max_retries
         self.base_delay_s = base_delay_s

@@ -53,6 +53,11 @@ PRESETS: dict[str, FramePreset] = {
     )
 }
 DEFAULT_N_FRAMES = 16
+# Bounds of the sampled frames, checked before a clip is decoded: the presets send 8..32 frames
+# of 512 px; 2048 px is four times the paper's side; all frames together stay under 1 GiB.
+MAX_N_FRAMES = 256
+MAX_FRAME_PX = 2048
+MAX_FRAME_BYTES = 2**30
 
 
 def preset(name: str) -> FramePreset:
@@ -244,10 +249,14 @@ class FrameSampler:
         """The resolved sampling settings (used in cache keys)."""
         row = preset(self.preset) if self.preset else None
         n = self.n_frames if self.n_frames is not None else (row.n_frames if row else DEFAULT_N_FRAMES)
-        if n < 1:
-            raise ConfigError(f"n_frames must be at least 1, got {n}", field="n_frames")
-        if self.size_px < 16:
-            raise ConfigError(f"size_px must be at least 16, got {self.size_px}", field="size_px")
+        if not 1 <= n <= MAX_N_FRAMES:
+            raise ConfigError(f"{n} frames cannot be sampled", field="n_frames", allowed=f"1..{MAX_N_FRAMES}")
+        if not 16 <= self.size_px <= MAX_FRAME_PX:
+            raise ConfigError(f"a frame side of {self.size_px} px is out of range", field="size_px",
+                              allowed=f"16..{MAX_FRAME_PX} px")
+        if n * self.size_px**2 * 3 > MAX_FRAME_BYTES:
+            raise ConfigError(f"{n} frames of {self.size_px} px would take {n * self.size_px**2 * 3 / 2**30:.1f} GiB",
+                              field="size_px", allowed="fewer or smaller frames: n x side^2 x 3 bytes <= 1 GiB")
         lo = self.min_duration_s if self.min_duration_s is not None else (row.min_duration_s if row else None)
         hi = self.max_duration_s if self.max_duration_s is not None else (row.max_duration_s if row else None)
         return {"n_frames": int(n), "size_px": int(self.size_px), "preset": row.name if row else None,

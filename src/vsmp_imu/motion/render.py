@@ -19,6 +19,16 @@ CAMERA_YAW_DEG = -45.0  # camera azimuth from the front (+Z) toward the body's l
 CAMERA_ELEVATION_DEG = 15.0
 LEFT_COLOR, RIGHT_COLOR, CENTER_COLOR = "#1f5fbf", "#c8342b", "#333333"
 GIF_MAX_FPS = 15.0
+MAX_KEYFRAMES = 60  # a strip of 60 panels is already 13 200 px wide
+
+
+def check_render_options(n: int | None = None, yaw_deg: float | None = None) -> None:
+    """Range checks of the keyframe count and the camera azimuth, made before anything is drawn."""
+    if n is not None and not 1 <= n <= MAX_KEYFRAMES:
+        raise ValidationError(f"{n} keyframes cannot be drawn", field="n", allowed=f"1..{MAX_KEYFRAMES}")
+    if yaw_deg is not None and not -360.0 <= yaw_deg <= 360.0:  # NaN fails too
+        raise ValidationError(f"{yaw_deg:g} is not a camera azimuth", field="yaw_deg",
+                              allowed="-360..360 degrees")
 
 
 def _camera(yaw_deg: float | None = None, elev_deg: float | None = None) -> np.ndarray:
@@ -139,6 +149,7 @@ def render_gif(motion: Motion, path: str | Path, fps: float | None = None, size_
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     _check(motion)
+    check_render_options(yaw_deg=yaw_deg)
     out_fps = min(motion.fps, GIF_MAX_FPS) if fps is None else float(fps)
     step = max(1, int(round(motion.fps / out_fps)))
     frames = list(range(0, motion.n_frames, step))
@@ -168,8 +179,7 @@ def render_keyframes(motion: Motion, path: str | Path, n: int = 6, panel_px: int
     import matplotlib.pyplot as plt
 
     _check(motion)
-    if n < 1:
-        raise ValidationError(f"n must be at least 1, got {n}", field="n")
+    check_render_options(n, yaw_deg)
     frames = np.linspace(0, motion.n_frames - 1, n).round().astype(int)
     fig, axes = plt.subplots(1, n, figsize=(n * panel_px / 100, 1.25 * panel_px / 100), dpi=100)
     axes = np.atleast_1d(axes)
