@@ -8,9 +8,14 @@ its own seed), never in the executor.
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
+import signal
 import socket
+import sys
+import threading
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from typing import Any
@@ -50,15 +55,73 @@ class LocalExecutor:
                 return results
             ctx = multiprocessing.get_context(_start_method())
             chunks = _chunks(tasks, self.workers)
-            with ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx,
-                                     initializer=_limit_threads) as pool:
-                futures = {pool.submit(_run_chunk, fn, chunk): start for start, chunk in chunks}
+            pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx,
+                                       initializer=_init_worker, initargs=(os.getpid(),))
+            try:
+                # the workers start (fork) during the first submit: with the stop signals blocked
+                # until each has set its own handlers, a Ctrl-C then cannot hit a half-made worker
+                blocked = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+                try:
+                    futures = {pool.submit(_run_chunk, fn, chunk): start for start, chunk in chunks}
+                finally:
+                    signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
                 for future in as_completed(futures):
                     done = future.result()
                     results[futures[future]:futures[future] + len(done)] = done
                     finished += len(done)
                     update(finished)
+            except BaseException:  # Ctrl-C, SIGTERM, a failed task: no worker outlives the run
+                _stop_workers(pool)
+                raise
+            pool.shutdown(wait=True)
         return results
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the workers now (the finished samples are cached)."""
+    processes = list(getattr(pool, "_processes", {}).values())  # no public handle on the workers
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(timeout=5)
+
+
+def _init_worker(driver_pid: int) -> None:
+    """A pool worker: one BLAS thread, Ctrl-C left to the driver, and death with the driver."""
+    _limit_threads()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the driver stops the pool on Ctrl-C
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the driver's handler, inherited by fork
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
+    die_with_parent(driver_pid)
+
+
+STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+PARENT_POLL_S = 1.0
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """End this process when `parent_pid` (its parent) dies, even by SIGKILL: the kernel's
+    parent-death signal on Linux, a thread watching the parent elsewhere."""
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            if libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0:
+                if os.getppid() != parent_pid:  # the parent died before the signal was armed
+                    os._exit(1)
+                return
+        except (OSError, AttributeError):  # pragma: no cover - no prctl: fall back to the watch
+            pass
+    threading.Thread(target=_watch_parent, args=(parent_pid,), daemon=True,
+                     name="vsmp-parent-watch").start()
+
+
+def _watch_parent(parent_pid: int) -> None:
+    while os.getppid() == parent_pid:
+        time.sleep(PARENT_POLL_S)
+    os._exit(1)
 
 
 def _start_method() -> str:
@@ -226,9 +289,19 @@ def _answers_http2(sock: socket.socket, timeout_s: float) -> bool:
     return head[3] == 0x04  # frame type SETTINGS
 
 
+def check_executor_options(name: str, address: str | None) -> None:
+    """`--executor` is known and `--address` goes with `--executor ray` only."""
+    if name not in EXECUTORS:
+        raise ConfigError(f"unknown executor '{name}'", field="--executor", allowed=", ".join(EXECUTORS))
+    if address is not None and name != "ray":
+        raise ConfigError(f"a cluster address ('{address}') needs the Ray executor", field="--address",
+                          allowed="--executor ray --address ADDRESS, or no --address")
+
+
 def make_executor(name: str = "local", workers: int = 1, address: str | None = None,
                   show_progress: bool = True, num_gpus_per_task: float = 0.0):
     """The executor named by `--executor` (local | ray)."""
+    check_executor_options(name, address)
     if name == "local":
         return LocalExecutor(workers, show_progress)
     if name == "ray":
