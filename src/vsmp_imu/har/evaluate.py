@@ -31,6 +31,7 @@ from vsmp_imu.har.protocols import (
     DEFAULT_VAL_FRACTION,
     check_protocol,
     parse_budgets,
+    require_two_subjects,
     split_fold,
 )
 from vsmp_imu.har.synthetic import (
@@ -201,6 +202,7 @@ class Evaluation:
 
     def folds(self, windows: Windows) -> list[str]:
         available = windows.unique_subjects()
+        require_two_subjects(available, self.dataset)
         if self.config.folds is None:
             return available
         wanted = [str(f) for f in self.config.folds]

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vsmp_imu.errors import ConfigError
+from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.windows import Windows, natural_key
 from vsmp_imu.seeding import rng_for
 
@@ -18,6 +18,17 @@ DEFAULT_BUDGETS = (1.0, 5.0, 10.0, 25.0, 50.0)
 # Maximum head-to-tail imbalance ratio of the long-tail protocol.
 DEFAULT_RHO = 10.0
 DEFAULT_VAL_FRACTION = 0.2
+
+
+def require_two_subjects(subjects: list[str], dataset) -> None:
+    """Leave-one-subject-out needs a subject to hold out and at least one to train on."""
+    if len(subjects) < 2:
+        info = dataset.info
+        raise ValidationError(
+            f"dataset '{info.name}' has {len(subjects)} subject(s) with labelled windows "
+            f"({', '.join(subjects) or 'none'}); leave-one-subject-out evaluation holds one out and "
+            "trains on the others", file=getattr(dataset, "yaml_path", None), field="subject",
+            allowed="a dataset with at least 2 subjects")
 
 
 @dataclass
