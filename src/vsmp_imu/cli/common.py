@@ -7,8 +7,10 @@ import os
 import re
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 from rich.console import Console, ConsoleOptions, RenderableType, RenderResult
+from rich.errors import MarkupError
 from rich.segment import Segment
 
 from vsmp_imu.errors import ConfigError, VsmpError
@@ -128,7 +130,13 @@ class _Escaped:
 
     def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
         for segment in console.render(self.renderable, options):
-            yield segment if segment.control else Segment(safe_text(segment.text), segment.style)
+            if segment.control:
+                yield segment
+                continue
+            style = segment.style
+            if style is not None and style.link:  # '[link=...]' in a label: no terminal hyperlink
+                style = style.update_link(None)
+            yield Segment(safe_text(segment.text), style)
 
 
 class _EscapeHook:
@@ -139,8 +147,18 @@ class _EscapeHook:
         return [_Escaped(r) for r in renderables]
 
 
+class _Console(Console):
+    """A label such as '[/x]' inside a message is text, not broken markup: printed plainly."""
+
+    def print(self, *objects: Any, **kwargs: Any) -> None:
+        try:
+            super().print(*objects, **kwargs)
+        except MarkupError:
+            super().print(*objects, **{**kwargs, "markup": False})
+
+
 def _console(stderr: bool = False) -> Console:
-    out = Console(stderr=stderr)
+    out = _Console(stderr=stderr)
     out.push_render_hook(_EscapeHook())
     return out
 

@@ -21,6 +21,9 @@ from vsmp_imu.errors import InputFileError, ValidationError
 from vsmp_imu.io import write_bytes
 from vsmp_imu.motion.skeleton import SMPL22_JOINTS, SMPL22_PARENTS, estimate_height
 
+# The largest motion we write: 600 s at 1000 fps of 22 joints (positions and quaternions) is
+# 0.7 GiB; a motion file that unpacks to more is refused before it is read.
+MAX_NPZ_BYTES = 2**30
 NPZ_KEYS = ("positions", "rotations", "fps", "joint_names", "parents", "meta")
 
 
@@ -142,6 +145,10 @@ class Motion:
             raise InputFileError("file not found", file=path)
         try:
             with np.load(path, allow_pickle=False) as npz:
+                unpacked = sum(info.file_size for info in npz.zip.infolist())
+                if unpacked > MAX_NPZ_BYTES:  # a zip bomb: refused before anything is inflated
+                    raise InputFileError(f"the motion would unpack to {unpacked / 2**20:.0f} MiB", file=path,
+                                         allowed=f"at most {MAX_NPZ_BYTES // 2**20} MiB")
                 missing = [k for k in NPZ_KEYS if k not in npz.files and k != "meta"]
                 if missing:
                     raise InputFileError(
