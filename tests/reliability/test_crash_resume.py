@@ -11,12 +11,26 @@ atomic-write temporary, `*.tmp`) may be left anywhere, cache included.
 
 from __future__ import annotations
 
+import os
 import random
 import shutil
+import signal
+import subprocess
+import sys
 import time
 
 import pytest
-from reliability_support import kill_at, leftovers, run_cli, tree_bytes
+from reliability_support import (
+    alive,
+    children_of,
+    cli_command,
+    descendants_of,
+    kill_at,
+    leftovers,
+    run_cli,
+    tree_bytes,
+    wait_for,
+)
 
 GENERATE_FILES = ("synthetic.parquet", "summary.json", "prompts.jsonl", "smps", "motions")
 FAST_KILLS, SLOW_KILLS = 3, 20
@@ -80,6 +94,89 @@ def test_generate_resumes_byte_identical_after_sigkills(small_dataset, generate_
 @pytest.mark.slow
 def test_generate_resumes_after_twenty_sigkills(small_dataset, generate_reference, tmp_path):
     _check_generate_resume(small_dataset, generate_reference, tmp_path / "out", SLOW_KILLS, seed=1)
+
+
+def _start_with_workers(args: list) -> tuple[subprocess.Popen, list[int]]:
+    """The CLI in its own session, once its two pool workers run; (driver, worker pids)."""
+    proc = subprocess.Popen(cli_command(*args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    workers: set[int] = set()
+
+    def two_workers() -> bool:
+        workers.update(children_of(proc.pid))
+        return len(workers) >= 2 or proc.poll() is not None
+
+    if not wait_for(two_workers, timeout_s=240) or len(workers) < 2:
+        proc.kill()
+        pytest.fail(f"no pool workers appeared: {proc.communicate()[1][-2000:]}")
+    return proc, sorted(workers)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads processes from /proc")
+def test_pool_workers_die_with_a_sigkilled_driver(small_dataset, tmp_path):
+    """SIGKILL of the driver alone (not its group): no worker stays behind as an orphan."""
+    proc, workers = _start_with_workers(_generate_args(small_dataset, tmp_path / "out", 2))
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert wait_for(lambda: not any(alive(w) for w in workers), timeout_s=10), \
+        f"orphaned workers: {[w for w in workers if alive(w)]}"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads processes from /proc")
+def test_ray_processes_die_with_a_sigkilled_driver(small_dataset, tmp_path):
+    """With `--executor ray`, the local instance the driver started (GCS, raylet, workers) goes
+    with a `kill -9` of the driver: Ray arms the same parent-death signal for them."""
+    pytest.importorskip("ray")
+    args = [*_generate_args(small_dataset, tmp_path / "out", 2), "--executor", "ray"]
+    proc = subprocess.Popen(cli_command(*args), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    family: set[int] = set()
+
+    def ray_workers_run() -> bool:
+        family.update(descendants_of(proc.pid))
+        return any("ray::" in _cmdline(p) for p in family) or proc.poll() is not None
+
+    assert wait_for(ray_workers_run, timeout_s=240) and proc.poll() is None, proc.communicate()[1][-2000:]
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert wait_for(lambda: not any(alive(p) for p in family), timeout_s=60), \
+        f"left behind: {[_cmdline(p)[:80] for p in family if alive(p)]}"
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return open(f"/proc/{pid}/cmdline", "rb").read().replace(b"\0", b" ").decode(errors="replace")
+    except OSError:
+        return ""
+
+
+def _stop_with(sig: int, small_dataset, out) -> None:
+    """SIGTERM to the driver, or Ctrl-C (SIGINT to the whole foreground group) once the pool
+    runs: exit 128 + signal, one line saying how to resume, no traceback, no worker left, no
+    partial file."""
+    proc, workers = _start_with_workers(_generate_args(small_dataset, out, 2))
+    (os.killpg if sig == signal.SIGINT else os.kill)(proc.pid, sig)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + sig, err[-3000:]
+    assert "Traceback" not in err and "resume" in err, err[-3000:]
+    assert wait_for(lambda: not any(alive(w) for w in workers), timeout_s=10)
+    assert leftovers(out) == []
+
+
+def test_sigterm_stops_a_run_cleanly(small_dataset, tmp_path):
+    _stop_with(signal.SIGTERM, small_dataset, tmp_path / "out")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_run_stopped_by_sigterm_or_ctrl_c_resumes_byte_identical(small_dataset, generate_reference,
+                                                                   tmp_path, sig):
+    out = tmp_path / "out"
+    _stop_with(sig, small_dataset, out)
+    _timed(_generate_args(small_dataset, out, 2))
+    reference, _ = generate_reference
+    assert tree_bytes(out, GENERATE_FILES) == tree_bytes(reference, GENERATE_FILES)
 
 
 def _check_evaluate_resume(small_dataset, tmp_path, n_kills, seed):
