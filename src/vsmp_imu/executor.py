@@ -79,13 +79,15 @@ class LocalExecutor:
 
 def _stop_workers(pool: ProcessPoolExecutor) -> None:
     """Cancel what has not started and end the workers now (the finished samples are cached)."""
-    processes = list(getattr(pool, "_processes", {}).values())  # no public handle on the workers
-    pool.shutdown(wait=False, cancel_futures=True)
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # no public handle on them
     for process in processes:
         if process.is_alive():
             process.terminate()
     for process in processes:
         process.join(timeout=5)
+    # the pool's manager thread sees its workers gone and ends; waiting for it here leaves no
+    # thread for the interpreter's exit hook to wake through a closed pipe
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _init_worker(driver_pid: int) -> None:
