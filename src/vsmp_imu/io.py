@@ -153,7 +153,7 @@ def read_text(path: str | Path, max_bytes: int | None = None) -> str:
 YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 _JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
 _BRACKET = re.compile(r"[\[\]{}]")
-_BLOCK_INDENT = re.compile(r"^[ ?:-]*", re.MULTILINE)
+_BLOCK_INDENT = re.compile(r"^[ \t?:-]*", re.MULTILINE)
 _OPENS = (yaml.SequenceStartEvent, yaml.MappingStartEvent)
 _CLOSES = (yaml.SequenceEndEvent, yaml.MappingEndEvent)
 

@@ -91,8 +91,8 @@ def _check_parent(path: Path, option: str) -> None:
 
 def _check_writable(folder: Path, path: Path, option: str) -> None:
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise ConfigError(f"no permission to write in '{folder}'", file=path, field=option,
-                          allowed="a folder you may write to")
+        raise ConfigError(f"no permission to write in '{folder}' (or its disk is read-only)", file=path,
+                          field=option, allowed="a folder you may write to")
 
 
 def _exists(path: Path, option: str) -> bool:
