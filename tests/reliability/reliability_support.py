@@ -112,36 +112,48 @@ def _wait_group_gone(pgid: int, timeout_s: float = 10.0) -> None:
         time.sleep(0.02)
 
 
-def children_of(pid: int) -> list[int]:
-    """Live child processes of `pid` (Linux /proc)."""
+def _stat(pid: int) -> list[str] | None:
+    """/proc/PID/stat fields after the command name (state first), or None when gone."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+
+
+def children_of(pid: int) -> list[tuple[int, str]]:
+    """Live child processes of `pid` (Linux /proc), each as (pid, start time): the start time
+    tells the process from a later one that reuses its pid."""
     out = []
     for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:  # the process ended meanwhile
-            continue
-        if int(fields[1]) == pid and fields[0] != "Z":
-            out.append(int(stat.parent.name))
+        child = int(stat.parent.name)
+        fields = _stat(child)
+        if fields is not None and int(fields[1]) == pid and fields[0] != "Z":
+            out.append((child, fields[19]))
     return out
 
 
-def descendants_of(pid: int) -> list[int]:
+def descendants_of(pid: int) -> list[tuple[int, str]]:
     """Live children of `pid`, their children, and so on."""
     found, todo = [], [pid]
     while todo:
         kids = children_of(todo.pop())
         found += kids
-        todo += kids
+        todo += [k for k, _ in kids]
     return found
 
 
-def alive(pid: int) -> bool:
-    """Whether `pid` runs (a zombie waiting for its reaper does not count)."""
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
+def alive(process: tuple[int, str]) -> bool:
+    """Whether the process (pid, start time) still runs; a zombie does not count."""
+    fields = _stat(process[0])
+    return fields is not None and fields[0] != "Z" and fields[19] == process[1]
+
+
+def end(processes) -> list[tuple[int, str]]:
+    """The processes still alive, after killing them (a failing test leaves no orphan behind)."""
+    survivors = [p for p in processes if alive(p)]
+    for pid, _ in survivors:
+        os.kill(pid, signal.SIGKILL)
+    return survivors
 
 
 def wait_for(condition, timeout_s: float, step_s: float = 0.05) -> bool:

@@ -418,3 +418,27 @@ def test_a_label_that_looks_like_console_markup_is_printed_not_parsed(tmp_path):
     done, _ = run_row(Row(["smp", "validate", path], "", ""))
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr[-2000:]
     assert "[/oops] [bold]walking" in " ".join(done.stdout.split())
+
+
+@pytest.mark.parametrize("text", [
+    "- " * DEEP + "x",  # block lists in one line
+    "".join(f"{' ' * i}k{i}:\n" for i in range(150)) + " " * 150 + "v",  # block mappings by indent
+    "{a: " * 200 + "1" + "}" * 200,  # flow mappings
+    "x: [" + '"]]]]", [' * 150 + "]" * 151,  # brackets inside strings cannot hide the depth
+])
+def test_deep_yaml_of_every_form_is_refused_before_parsing(tmp_path, text):
+    from vsmp_imu.errors import InputFileError
+    from vsmp_imu.io import read_structured
+
+    path = tmp_path / "deep.yaml"
+    path.write_text(text)
+    with pytest.raises(InputFileError, match="more than 100 deep"):
+        read_structured(path)
+
+
+def test_shallow_files_are_parsed_as_before(tmp_path):
+    from vsmp_imu.io import read_structured
+
+    path = tmp_path / "ok.yaml"
+    path.write_text("a: [" + '"]]]]", ' * 300 + "[[1]]]\nb:\n  - {c: [d]}\n")
+    assert read_structured(path) == {"a": ["]]]]"] * 300 + [[[1]]], "b": [{"c": ["d"]}]}
