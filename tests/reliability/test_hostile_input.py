@@ -442,3 +442,28 @@ def test_shallow_files_are_parsed_as_before(tmp_path):
     path = tmp_path / "ok.yaml"
     path.write_text("a: [" + '"]]]]", ' * 300 + "[[1]]]\nb:\n  - {c: [d]}\n")
     assert read_structured(path) == {"a": ["]]]]"] * 300 + [[[1]]], "b": [{"c": ["d"]}]}
+
+
+def test_a_file_system_refusal_during_a_command_is_exit_2_naming_the_path(tmp_path, monkeypatch, capsys):
+    """The net under the checks: a refusal that still happens (a disk that fills, a folder whose
+    mode changes mid-run) is one paragraph and exit 2; other OS errors stay bugs."""
+    import errno
+
+    import vsmp_imu.cli.smp as smp_cli
+    from vsmp_imu.cli import main
+
+    def refuse(smp, path):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(smp_cli, "save_smp", refuse)
+    with pytest.raises(SystemExit) as stopped:
+        main(["smp", "library", "show", "walking", "-o", str(tmp_path / "w.json")])
+    text = " ".join(capsys.readouterr().err.split())
+    assert stopped.value.code == 2 and "w.json: No space left on device" in text and "Traceback" not in text
+
+    def reset(smp, path):
+        raise OSError(errno.ECONNRESET, "Connection reset by peer")
+
+    monkeypatch.setattr(smp_cli, "save_smp", reset)
+    with pytest.raises(ConnectionResetError):
+        main(["smp", "library", "show", "walking", "-o", str(tmp_path / "w.json")])
