@@ -90,12 +90,20 @@ def test_bad_duration(backend, library, bad):
         backend.generate(library.get("walking").smp, seed=0, duration_s=bad)
 
 
-def test_unknown_activity_lists_the_library(backend, library):
+def test_unknown_activity_lists_the_library(library):
     smp = _with(library.get("walking").smp, activity_label="underwater basket weaving")
     with pytest.raises(ValidationError) as info:
-        backend.generate(smp, seed=0)
+        ProceduralBackend(library, compile_mode="recipe").generate(smp, seed=0)
     text = info.value.render()
     assert "underwater basket weaving" in text and "walking_upstairs" in text and "jumping_jacks" in text
+
+
+def test_unknown_activity_compiles_from_its_own_smp(backend, library):
+    smp = _with(library.get("walking").smp, activity_label="underwater basket weaving")
+    motion = backend.generate(smp, seed=0)
+    assert motion.meta["motion_source"] == "compiled"
+    assert motion.meta["activity"] == "underwater_basket_weaving"
+    assert motion.meta["kind"] == "periodic"
 
 
 def test_unmatched_primitive_lists_the_recipe_primitives(backend, library):
