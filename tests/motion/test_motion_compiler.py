@@ -50,6 +50,9 @@ def test_every_library_activity_compiles_without_its_recipe(bare_library, name):
     assert motion.meta["motion_source"] == "compiled" and motion.meta["activity"] == name
     assert is_plausible(motion), plausibility(motion)
     assert motion.meta["principal_joints"]
+    hard = intervene(intervene(entry.smp, "tempo", "fast"), "amplitude", "large")
+    fast_large = ProceduralBackend(bare_library).generate(hard, seed=1)
+    assert is_plausible(fast_large), plausibility(fast_large)
 
 
 def test_compiled_motions_move_the_joints_the_recipes_move(library):

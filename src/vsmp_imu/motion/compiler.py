@@ -60,6 +60,10 @@ CIRCLE_DEG = 25.0
 HOP_CROUCH = {"knee_flex": 30.0, "hip_flex": 20.0, "ankle_flex": 15.0}
 CHANGE_DEG = 1.0  # a DOF that moves less than this is "still" (cycle closure, principal joints)
 PRINCIPAL_MIN_DEG = 15.0
+# Mean DOF speed between keys at medium tempo: at fast tempo (x1.5) and large amplitude (x1.4) the
+# minimum-jerk peak (x1.875) of a hand 0.6 m from the shoulder stays under the 0.20 x height per
+# frame plausibility limit at 30 fps.
+MAX_MEAN_DEG_S = 200.0
 _ARM_PARTS = ("upper_arm", "forearm", "hand", "shoulder")
 _LEG_PARTS = ("thigh", "lower_leg", "foot")
 _POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
@@ -76,6 +80,7 @@ class Step:
     keys: list[tuple[float, np.ndarray, str]] = field(default_factory=list)
     duration_s: float = HOLD_S
     movements: tuple[Movement, ...] = ()
+    start: np.ndarray | None = None  # the pose the primitive starts from
 
 
 @dataclass(frozen=True)
@@ -375,6 +380,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         if cycle and i == cycle[0]:
             cycle_start = current.copy()
         before = current.copy()
+        step.start = before
         moves = [m for m in step.movements if m.kind not in ("gait",)]
         hint = _twist_hint(current, smp)
         post = next((m for m in moves if m.kind == "posture"), None)
@@ -508,11 +514,25 @@ def _durations(steps: list[Step], smp: SMP) -> None:
         if any(m.kind == "circle" for m in step.movements):
             step.duration_s = 1.6
     shares = _shares(smp, len(steps))
-    if shares is None or any(s.action == "gait" for s in steps):
-        return
-    total = sum(s.duration_s for s in steps)
-    for step, share in zip(steps, shares, strict=True):
-        step.duration_s = float(np.clip(total * share, 0.15, 60.0))
+    if shares is not None and not any(s.action == "gait" for s in steps):
+        total = sum(s.duration_s for s in steps)
+        for step, share in zip(steps, shares, strict=True):
+            step.duration_s = float(np.clip(total * share, 0.15, 60.0))
+    for step in steps:
+        step.duration_s = max(step.duration_s, _slowest(step))
+
+
+def _slowest(step: Step) -> float:
+    """Shortest duration keeping the mean DOF speed (all DOFs together) between keys under MAX_MEAN_DEG_S."""
+    if step.start is None or not step.keys:
+        return 0.0
+    scale = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)
+    need, prev_at, prev = 0.0, 0.0, step.start
+    for at, vec, _ in step.keys:
+        change = float(np.linalg.norm((vec - prev) * scale))  # DOFs moving together add up
+        need = max(need, change / MAX_MEAN_DEG_S / max(at - prev_at, 1e-3))
+        prev_at, prev = at, vec
+    return need
 
 
 def _shares(smp: SMP, n: int) -> list[float] | None:
