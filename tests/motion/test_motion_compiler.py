@@ -116,6 +116,16 @@ def test_smp_only_activity_file_synthesizes_through_the_cli(cli, tmp_path):
     assert motion.meta["controls"]["repetitions"] == 10
 
 
+def test_a_label_that_only_resembles_a_library_activity_gets_no_other_recipe(library):
+    """A copy of the bicep-curl SMP labelled 'hammer curl with a kettlebell' (fuzzily 'baseball_swing')."""
+    smp = library.get("bicep_curls").smp.model_copy(deep=True)
+    smp.activity_label = "hammer curl with a kettlebell"
+    motion = ProceduralBackend(library).generate(smp, seed=0)
+    assert motion.meta["motion_source"] == "compiled"
+    assert motion.meta["activity"] == "hammer_curl_with_a_kettlebell"
+    assert measure.ranked_joint_planes(motion)[0][0] == ("elbow", "sagittal")
+
+
 # -- the SMP's controls, realized by the compiled motion ---------------------------------------
 def test_repetitions_tempo_and_amplitude(compiled, tests_library):
     smp = tests_library.get("hammer_curl_kettlebell").smp

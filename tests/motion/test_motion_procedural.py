@@ -112,10 +112,13 @@ def test_unmatched_primitive_lists_the_recipe_primitives(backend, library):
     data["primitive_sequence"] = ["stand", "somersault", "jump_close"]
     data["primitive_durations"]["values"] = [0.1, 0.45, 0.45]
     with pytest.raises(ValidationError) as info:
-        backend.generate(SMP.model_validate(data), seed=0)
+        ProceduralBackend(library, compile_mode="recipe").generate(SMP.model_validate(data), seed=0)
     err = info.value
     assert err.field == "primitive_sequence[1]" and "somersault" in err.message
     assert "jump_open" in err.allowed
+    # by default a recipe that cannot perform the SMP gives way to the motion compiled from it
+    motion = backend.generate(SMP.model_validate(data), seed=0)
+    assert motion.meta["motion_source"] == "compiled"
 
 
 def test_fuzzy_primitive_names_and_structural_repeat(backend, library):

@@ -205,7 +205,10 @@ class ProceduralBackend:
         if self.compile_mode == "recipe" or (has_recipe and self.compile_mode == "fallback"):
             if entry is None:
                 return entry, recipe_for_entry(resolve_entry(self._library(), smp.activity_label))
-            return entry, recipe_for_entry(entry)
+            recipe = recipe_for_entry(entry)
+            if self.compile_mode == "recipe" or _performs(smp, recipe):
+                return entry, recipe
+            entry = None  # another activity's recipe (a label that only resembles it): compile the SMP
         from vsmp_imu.motion.compiler import CompiledEntry, compile_recipe, compiled_entry
 
         if entry is None or not _same_primitives(smp, entry.smp):
@@ -338,6 +341,15 @@ def _verbalize(smp: SMP) -> str | None:
         return verbalize(smp)
     except Exception:  # noqa: BLE001 - the prompt is provenance only; synthesis does not need it
         return None
+
+
+def _performs(smp: SMP, recipe: Recipe) -> bool:
+    """Every primitive of the SMP matches a primitive of the recipe."""
+    try:
+        match_primitives(smp, recipe)
+    except ValidationError:
+        return False
+    return True
 
 
 def _same_primitives(smp: SMP, default: SMP) -> bool:
