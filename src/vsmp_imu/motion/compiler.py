@@ -385,10 +385,15 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         hint = _twist_hint(current, smp)
         post = next((m for m in moves if m.kind == "posture"), None)
         if post is not None and post.posture == posture:
-            moves = [m for m in moves if m is not post] + [MOVEMENTS["leg_straighten"], MOVEMENTS["trunk_upright"]]
+            # already there: standing up from a squat straightens the legs; any other posture is kept
+            moves = [m for m in moves if m is not post]
+            if post.posture == "standing":
+                moves += [MOVEMENTS["leg_straighten"], MOVEMENTS["trunk_upright"]]
             post = None
-            if step.action == "hold":
+            if step.action == "hold" and moves:
                 step.action = "go"
+            elif not moves and step.action == "go":
+                step.action = "hold"
         if step.action in ("hold", "gait"):
             step.keys = []
         elif step.action == "return":
@@ -398,8 +403,8 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             current = target
         elif post is not None:
             root_dz = _posture_shift(posture, post.posture, root_dz)
-            target = _apply(_posture_vector(post.posture, root_dz), [m for m in moves if m.kind == "excursion"],
-                            step, smp, hint)
+            upper = [m for m in moves if m.kind == "excursion" and m.limb != "leg"]  # the legs follow the posture
+            target = _apply(_posture_vector(post.posture, root_dz), upper, step, smp, hint)
             via = _via(posture, post.posture, before, moves, step, smp, root_dz)
             step.keys = ([(0.5, via, "smooth")] if via is not None else []) + [(1.0, target, "stop")]
             posture = post.posture or posture
