@@ -181,7 +181,7 @@ def main() -> None:
     ]) + "\n"
     write_text(OUT.with_suffix(".md"), text)
     write_json(OUT.with_suffix(".json"), {"test_activities": rows, "library": lib, "lexicon": lex,
-                                          "median_ms": ms, "seeds": args.seeds})
+                                          "median_ms_per_motion_second": ms, "seeds": args.seeds})
     print(text)
     print(f"({time.perf_counter() - start:.0f} s)")
 
