@@ -90,12 +90,20 @@ def test_bad_duration(backend, library, bad):
         backend.generate(library.get("walking").smp, seed=0, duration_s=bad)
 
 
-def test_unknown_activity_lists_the_library(backend, library):
+def test_unknown_activity_lists_the_library(library):
     smp = _with(library.get("walking").smp, activity_label="underwater basket weaving")
     with pytest.raises(ValidationError) as info:
-        backend.generate(smp, seed=0)
+        ProceduralBackend(library, compile_mode="recipe").generate(smp, seed=0)
     text = info.value.render()
     assert "underwater basket weaving" in text and "walking_upstairs" in text and "jumping_jacks" in text
+
+
+def test_unknown_activity_compiles_from_its_own_smp(backend, library):
+    smp = _with(library.get("walking").smp, activity_label="underwater basket weaving")
+    motion = backend.generate(smp, seed=0)
+    assert motion.meta["motion_source"] == "compiled"
+    assert motion.meta["activity"] == "underwater_basket_weaving"
+    assert motion.meta["kind"] == "periodic"
 
 
 def test_unmatched_primitive_lists_the_recipe_primitives(backend, library):
@@ -104,10 +112,13 @@ def test_unmatched_primitive_lists_the_recipe_primitives(backend, library):
     data["primitive_sequence"] = ["stand", "somersault", "jump_close"]
     data["primitive_durations"]["values"] = [0.1, 0.45, 0.45]
     with pytest.raises(ValidationError) as info:
-        backend.generate(SMP.model_validate(data), seed=0)
+        ProceduralBackend(library, compile_mode="recipe").generate(SMP.model_validate(data), seed=0)
     err = info.value
     assert err.field == "primitive_sequence[1]" and "somersault" in err.message
     assert "jump_open" in err.allowed
+    # by default a recipe that cannot perform the SMP gives way to the motion compiled from it
+    motion = backend.generate(SMP.model_validate(data), seed=0)
+    assert motion.meta["motion_source"] == "compiled"
 
 
 def test_fuzzy_primitive_names_and_structural_repeat(backend, library):

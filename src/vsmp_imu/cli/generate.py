@@ -32,7 +32,7 @@ def generate_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     source: str = typer.Option("library", "--source", help=SOURCE_HELP),
     k: int = typer.Option(4, "--k", min=1, max=64, help="SMP variants per base SMP"),
-    backend: str = typer.Option("procedural", "--backend", help="procedural | hymotion"),
+    backend: str = typer.Option("procedural", "--backend", help="procedural | compiled | hymotion"),
     alpha: float = typer.Option(0.5, "--alpha", help="Synthetic windows = alpha x real training windows"),
     policy: str = typer.Option("uniform", "--policy", help="Budget policy: uniform | tail | scarcity"),
     seed: int = typer.Option(0, "--seed"),

@@ -90,7 +90,7 @@ def evaluate_cmd(
         "library", "--source", help="generative methods: library | smp:DIR | video:DIR"
     ),
     k: int = typer.Option(4, "--k", max=64, help="generative methods: SMP variants per base SMP"),
-    backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | hymotion"),
+    backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     per_class_rank: bool = typer.Option(False, "--per-class-rank", help="rank grounding per class"),
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),

@@ -49,7 +49,7 @@ def synth_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
     duration_s: float = typer.Option(None, "--duration-s", min=0.1, max=600.0,
                                     help="duration in seconds, 0.1..600 (default: natural)"),
-    backend: str = typer.Option("procedural", "--backend", help="procedural | hymotion"),
+    backend: str = typer.Option("procedural", "--backend", help="procedural | compiled | hymotion"),
     prompt: str = typer.Option(None, "--prompt", help="free-text prompt instead of (or overriding) the SMP"),
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder (repeatable)"),
     fps: float = typer.Option(30.0, "--fps", min=1.0, max=1000.0, help="frame rate of the procedural backend"),
@@ -64,7 +64,7 @@ def synth_cmd(
     lib = _library(library)
     name = backend.strip().lower()
     kwargs = {"library": lib}
-    if name == "procedural":
+    if name in ("procedural", "compiled"):
         kwargs["fps"] = fps
     elif model_path is not None:
         kwargs["model_path"] = model_path

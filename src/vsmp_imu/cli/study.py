@@ -19,7 +19,7 @@ DATASET_HELP = "hapt, hapt12 (ship offline), utd_mhad, pamap2, mmfit, mmact, had
 DATASET_OPTION = typer.Option("hapt12", "--dataset", "-d", help=DATASET_HELP)
 DATA_DIR_OPTION = typer.Option(None, "--data-dir", help="Folder of a downloaded dataset")
 BACKBONE_OPTION = typer.Option("rf", "--backbone", help="rf | dclstm | dclstm-attn | bilstm-attn")
-BACKEND_OPTION = typer.Option("procedural", "--backend", help="Motion backend: procedural | hymotion")
+BACKEND_OPTION = typer.Option("procedural", "--backend", help="Motion backend: procedural | compiled | hymotion")
 WORKERS_OPTION = typer.Option(1, "--workers", max=256, help="Generation workers")
 MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", max=100000, help="Neural backbones: epoch limit")
 PATIENCE_OPTION = typer.Option(None, "--patience", max=100000, help="Neural backbones: early stopping")

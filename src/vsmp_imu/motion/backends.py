@@ -8,7 +8,7 @@ from vsmp_imu.errors import ConfigError
 from vsmp_imu.motion.motion import Motion
 from vsmp_imu.smp.schema import SMP
 
-BACKENDS = ("procedural", "hymotion")
+BACKENDS = ("procedural", "compiled", "hymotion")
 
 
 @runtime_checkable
@@ -23,12 +23,21 @@ class MotionBackend(Protocol):
 
 
 def get_backend(name: str, **kwargs: Any) -> MotionBackend:
-    """A backend by name ('procedural' or 'hymotion'); keyword arguments go to its constructor."""
+    """A backend by name; keyword arguments go to its constructor.
+
+    'procedural': library recipes, SMPs without one compiled; 'compiled': the
+    procedural backend with every motion compiled from its SMP (recipes ignored);
+    'hymotion': HY-Motion 1.0.
+    """
     key = str(name).strip().lower().replace("-", "").replace("_", "")
     if key == "procedural":
         from vsmp_imu.motion.procedural import ProceduralBackend
 
         return ProceduralBackend(**kwargs)
+    if key == "compiled":
+        from vsmp_imu.motion.procedural import ProceduralBackend
+
+        return ProceduralBackend(compile_mode="always", **kwargs)
     if key in ("hymotion", "hymotion1", "hymotion10"):
         from vsmp_imu.motion.hymotion import HYMotionBackend
 

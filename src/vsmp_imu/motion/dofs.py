@@ -25,7 +25,9 @@ means arms hanging down):
   ``shoulder_flex`` (arm raised forward, 90 = horizontal, 180 = overhead),
   ``shoulder_horiz`` (arm swung across the body), ``shoulder_rot`` (internal
   rotation), ``elbow_flex``, ``wrist_flex`` (palm side), ``wrist_dev``
-  (radial deviation), ``wrist_rot`` (pronation), ``hip_flex`` (thigh forward),
+  (radial deviation), ``wrist_rot`` (forearm pronation: turns the
+  forearm segment about its long axis, so a wrist-worn sensor turns with it),
+  ``hip_flex`` (thigh forward),
   ``hip_abd`` (thigh outwards), ``hip_rot`` (internal rotation), ``knee_flex``,
   ``ankle_flex`` (dorsiflexion, toes up), ``ankle_inv`` (inversion),
   ``toe_flex`` (toes up).
@@ -40,8 +42,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from vsmp_imu.motion.quat import compose, euler
-from vsmp_imu.motion.skeleton import SMPL22_JOINTS
+from vsmp_imu.motion.quat import compose, euler, multiply
+from vsmp_imu.motion.skeleton import SMPL22_JOINTS, SMPL22_OFFSETS_170
 
 CENTER_DOFS: tuple[str, ...] = (
     "root_pitch", "root_yaw", "root_roll", "root_dx", "root_dy", "root_dz",
@@ -195,6 +197,34 @@ def _col(values: np.ndarray, name: str) -> np.ndarray:
     return np.radians(values[:, DOF_INDEX[name]])
 
 
+def _unit(v: np.ndarray) -> np.ndarray:
+    return np.asarray(v, dtype=float) / np.linalg.norm(v)
+
+
+# The forearm's long axis (elbow -> wrist) in the forearm frame, written for the
+# left formulas: the right side's axis is its mirror image, so that after
+# mirroring it is the right forearm's own bone. Pronation turns the forearm
+# about this axis (a watch on the forearm turns with it); the hand is turned
+# back by the same twist, so hand orientation and joint positions are those of
+# a pronation carried by the wrist alone.
+_MIRROR = np.array([-1.0, 1.0, 1.0])
+FOREARM_AXIS = {
+    "left": _unit(SMPL22_OFFSETS_170[SMPL22_JOINTS.index("left_wrist")]),
+    "right": _unit(_MIRROR * SMPL22_OFFSETS_170[SMPL22_JOINTS.index("right_wrist")]),
+}
+
+
+def _twist(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Quaternions (T, 4) of rotations by `angle` (rad) about a unit `axis`."""
+    q = np.zeros(angle.shape + (4,))
+    q[..., :3] = np.sin(0.5 * angle)[..., None] * axis
+    q[..., 3] = np.cos(0.5 * angle)
+    return q
+
+
+_INVERSE = np.array([-1.0, -1.0, -1.0, 1.0])  # conjugate of a unit quaternion
+
+
 def _mirror_quat(q: np.ndarray) -> np.ndarray:
     out = q.copy()
     out[:, 1] *= -1.0
@@ -211,13 +241,15 @@ def _side_rotations(values: np.ndarray, side: str, pelvis_tilt: np.ndarray) -> d
         return _col(values, f"{side}_{stem}")
 
     half_pi = np.pi / 2.0
+    pronation = _twist(FOREARM_AXIS[side], c("wrist_rot"))
     quats = {
         "collar": euler("YZ", -c("collar_protract"), c("collar_elev")),
         # horizontal swing, forward flexion, abduction from hanging, then axial twist
         "shoulder": euler("YXZX", -c("shoulder_horiz"), -c("shoulder_flex"), c("shoulder_abd") - half_pi,
                           c("shoulder_rot")),
-        "elbow": euler("Y", -c("elbow_flex")),
-        "wrist": euler("XZY", c("wrist_rot"), -c("wrist_flex"), c("wrist_dev")),
+        # the forearm carries pronation; the wrist undoes it before its own rotation
+        "elbow": multiply(euler("Y", -c("elbow_flex")), pronation),
+        "wrist": multiply(pronation * _INVERSE, euler("XZY", c("wrist_rot"), -c("wrist_flex"), c("wrist_dev"))),
         "hip": euler("XZY", -c("hip_flex") - pelvis_tilt, c("hip_abd"), -c("hip_rot")),
         "knee": euler("X", c("knee_flex")),
         "ankle": euler("XZ", -c("ankle_flex"), -c("ankle_inv")),

@@ -299,3 +299,58 @@ def classify_symmetry(score: float, threshold: float = SYMMETRY_THRESHOLD) -> st
 def tempo_measure(motion: Motion, joints: Sequence[str], periodic: bool) -> float:
     """Cycle frequency (Hz) for periodic actions, mean angular speed (rad/s) for discrete ones."""
     return cycle_frequency_hz(motion, joints) if periodic else mean_joint_speed(motion, joints)
+
+
+# -- joint angular ranges per anatomical plane ---------------------------------------------
+# measured joint -> (segment joint, parent joint, reference joint whose frame names the planes)
+_PLANE_SEGMENTS: dict[str, tuple[str, str | None, str | None]] = {
+    "shoulder": ("{s}_shoulder", "spine3", "spine3"), "elbow": ("{s}_elbow", "{s}_shoulder", "spine3"),
+    "wrist": ("{s}_wrist", "{s}_elbow", "spine3"), "hip": ("{s}_hip", "pelvis", "pelvis"),
+    "knee": ("{s}_knee", "{s}_hip", "pelvis"), "ankle": ("{s}_ankle", "{s}_knee", "pelvis"),
+    "trunk": ("spine3", "pelvis", "pelvis"), "neck": ("head", "spine3", "spine3"), "body": ("pelvis", None, None),
+}  # fmt: skip
+# axis of the reference frame (x left, y up, z forward) -> anatomical plane of a rotation about it
+_AXIS_PLANES = ("sagittal", "transverse", "frontal")
+
+
+def joint_plane_ranges(motion: Motion) -> dict[tuple[str, str], float]:
+    """Angular range (degrees) of every joint in every anatomical plane, the larger side for limbs.
+
+    A joint's rotation relative to its parent segment, taken from the first
+    frame, is expressed in a body frame (the chest for arms and head, the
+    pelvis for legs and trunk, the world for the whole body) and split on its
+    axes: about left-right = sagittal, about up = transverse, about forward =
+    frontal. The forearm's axial twist at the elbow (about its long axis, which
+    hangs vertical in the anatomical position) is reported as ("forearm",
+    "transverse"): pronation / supination.
+    """
+    out: dict[tuple[str, str], float] = {}
+    for joint, (seg, parent, ref) in _PLANE_SEGMENTS.items():
+        sides = ("left", "right") if "{s}" in seg else ("",)
+        for side in sides:
+            spans = _plane_spans(motion, seg.format(s=side), parent and parent.format(s=side),
+                                 ref and ref.format(s=side))
+            for axis, span in enumerate(spans):
+                plane = _AXIS_PLANES[axis]
+                name = "forearm" if joint == "elbow" and plane == "transverse" else joint
+                out[(name, plane)] = max(out.get((name, plane), 0.0), span)
+    return out
+
+
+def _plane_spans(motion: Motion, seg: str, parent: str | None, ref: str | None) -> np.ndarray:
+    r_seg = Rotation.from_quat(motion.rotations[:, motion.joint_index(seg)])
+    r_par = Rotation.from_quat(motion.rotations[:, motion.joint_index(parent)]) if parent else None
+    r_ref = Rotation.from_quat(motion.rotations[:, motion.joint_index(ref)]) if ref else None
+    local = r_seg if r_par is None else r_par.inv() * r_seg
+    change = local * local[0].inv()  # rotation in the parent frame since the first frame
+    vec = change.as_rotvec()
+    if r_par is not None:
+        vec = (r_ref.inv() * r_par).apply(vec)
+    vec = np.degrees(vec)
+    return vec.max(axis=0) - vec.min(axis=0)
+
+
+def ranked_joint_planes(motion: Motion) -> list[tuple[tuple[str, str], float]]:
+    """(joint, plane) pairs by angular range, largest first (ties by name)."""
+    ranges = joint_plane_ranges(motion)
+    return sorted(ranges.items(), key=lambda item: (-item[1], item[0]))

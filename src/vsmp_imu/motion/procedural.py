@@ -1,7 +1,9 @@
 """The procedural motion backend: an SMP (or a prompt) -> a 3D body motion, on CPU, no weights.
 
 The SMP's primitives, in the SMP's order and with its relative durations,
-are animated with the activity's library recipe (`recipe.py`): keyframe
+are animated with the activity's library recipe (`recipe.py`) or, for an
+activity without one (or with `compile_mode="always"`), with a recipe
+compiled from the SMP itself (`compiler.py`): keyframe
 poses joined by minimum-jerk-like curves, repeated cycles, periodic waves
 for gait-like motion, holds with idle micro-motion. The SMP's execution
 attributes are realized as follows (docs/motion.md, "Controls"):
@@ -68,6 +70,9 @@ from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, UNKNOWN
 
 BACKEND_NAME = "procedural"
+# recipe: library recipes only; fallback: the recipe where the activity has one, else the motion
+# compiled from the SMP; always: every motion compiled from its SMP (recipes ignored)
+COMPILE_MODES = ("recipe", "fallback", "always")
 TEMPO_RATIO = 1.5  # slow = 1.5x, fast = 1/1.5x the medium duration
 AMPLITUDE_SLOPE = 0.4  # factor 0.6 / 1.0 / 1.4 at small / medium / large
 PRIMITIVE_MATCH_MIN = 80.0  # rapidfuzz WRatio for an SMP primitive name to match a recipe primitive
@@ -138,6 +143,7 @@ class Plan:
     cycle_s: float
     controls: dict[str, Any] = field(default_factory=dict)
     central_primitive: str | None = None  # the library entry's principal phase
+    entry: Any = None  # the library entry (or the compiled stand-in) the plan was made for
 
 
 class ProceduralBackend:
@@ -149,9 +155,13 @@ class ProceduralBackend:
 
     name = BACKEND_NAME
 
-    def __init__(self, library: Any = None, fps: float = 30.0) -> None:
+    def __init__(self, library: Any = None, fps: float = 30.0, compile_mode: str = "fallback") -> None:
+        if compile_mode not in COMPILE_MODES:
+            raise ValidationError(f"unknown compile_mode '{compile_mode}'", field="compile_mode",
+                                  allowed=", ".join(COMPILE_MODES))
         self.library = library
         self.fps = fps
+        self.compile_mode = compile_mode
 
     # -- public verb ------------------------------------------------------------
     def generate(self, smp_or_prompt: SMP | str, seed: int, duration_s: float | None = None) -> Motion:
@@ -171,18 +181,42 @@ class ProceduralBackend:
         if not isinstance(smp_or_prompt, SMP):
             raise ValidationError(f"expected an SMP or a prompt string, got {type(smp_or_prompt).__name__}",
                                   field="smp")
-        entry = resolve_entry(library, smp_or_prompt.activity_label)
+        try:
+            entry = resolve_entry(library, smp_or_prompt.activity_label)
+        except ValidationError:
+            if self.compile_mode == "recipe":
+                raise
+            entry = None  # an activity the library does not know: compiled from its own SMP
         return smp_or_prompt, entry, _verbalize(smp_or_prompt)
 
     def plan(self, smp: SMP, seed: int, duration_s: float | None = None, entry: Any = None) -> Plan:
         """The timeline and realized controls of `smp` (no curves yet)."""
         if entry is None:
-            entry = resolve_entry(self._library(), smp.activity_label)
+            entry = self.resolve(smp)[1]
         if duration_s is not None and not (duration_s > 0 and math.isfinite(duration_s)):
             raise ValidationError(f"duration_s must be a positive number of seconds, got {duration_s}",
                                   field="duration_s")
-        recipe = recipe_for_entry(entry)
+        entry, recipe = self._recipe(smp, entry)
         return _plan(entry, recipe, smp, seed, duration_s)
+
+    def _recipe(self, smp: SMP, entry: Any) -> tuple[Any, Recipe]:
+        """The library recipe, or one compiled from the SMP (`compile_mode`, docs/motion.md)."""
+        has_recipe = entry is not None and "procedural" in getattr(entry, "extras", {})
+        if self.compile_mode == "recipe" or (has_recipe and self.compile_mode == "fallback"):
+            if entry is None:
+                return entry, recipe_for_entry(resolve_entry(self._library(), smp.activity_label))
+            recipe = recipe_for_entry(entry)
+            if self.compile_mode == "recipe" or _performs(smp, recipe):
+                return entry, recipe
+            entry = None  # another activity's recipe (a label that only resembles it): compile the SMP
+        from vsmp_imu.motion.compiler import CompiledEntry, compile_recipe, compiled_entry
+
+        if entry is None or not _same_primitives(smp, entry.smp):
+            entry = compiled_entry(smp, entry.name if entry is not None else None,
+                                   getattr(entry, "path", None))
+        else:
+            entry = CompiledEntry(entry.name, entry.smp, entry.path, entry.central_primitive)
+        return entry, compile_recipe(entry.smp)
 
     def _library(self) -> Any:
         if self.library is None:
@@ -282,6 +316,8 @@ class ProceduralBackend:
                 for seg in plan.segments
             ],
         }
+        if getattr(plan.entry, "compiled", False):
+            meta["motion_source"] = "compiled"
         return Motion(pos, rot, fps, SMPL22_JOINTS, SMPL22_PARENTS, meta)
 
 
@@ -305,6 +341,23 @@ def _verbalize(smp: SMP) -> str | None:
         return verbalize(smp)
     except Exception:  # noqa: BLE001 - the prompt is provenance only; synthesis does not need it
         return None
+
+
+def _performs(smp: SMP, recipe: Recipe) -> bool:
+    """Every primitive of the SMP matches a primitive of the recipe."""
+    try:
+        match_primitives(smp, recipe)
+    except ValidationError:
+        return False
+    return True
+
+
+def _same_primitives(smp: SMP, default: SMP) -> bool:
+    """The SMP performs the library SMP's primitives (an intervention), not a sequence of its own."""
+    from vsmp_imu.smp._text import norm_name
+
+    names = {norm_name(p) for p in default.primitive_sequence}
+    return all(norm_name(p) in names for p in smp.primitive_sequence)
 
 
 def raw_durations(smp: SMP) -> list[float | None]:
@@ -397,6 +450,8 @@ def _controls(entry: Any, recipe: Recipe, smp: SMP, rng: np.random.Generator) ->
         symmetry = "symmetric"
     extent = smp.displacement_extent_m()
     default_extent = default.displacement_extent_m()
+    if getattr(entry, "compiled", False) and recipe.locomotion == "none":
+        default_extent = 0.0  # compiled keyframes travel nowhere: the whole extent drifts forward
     if extent is None:
         extent = default_extent if default_extent is not None else 0.0
     stride, drift = 1.0, 0.0
@@ -512,7 +567,7 @@ def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | N
     )
     return Plan(entry.name, recipe, segments, float(total), float(natural),
                 (block_start, block_end) if cyc else None, cycle_s, controls,
-                getattr(entry, "central_primitive", None))
+                getattr(entry, "central_primitive", None), entry)
 
 
 # -- curves -----------------------------------------------------------------------------

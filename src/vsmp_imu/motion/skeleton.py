@@ -68,6 +68,7 @@ _SMPL22_OFFSETS_170 = np.array(
         [-0.2553, 0.0078, -0.0056],
     ]
 )
+SMPL22_OFFSETS_170 = _SMPL22_OFFSETS_170  # read-only use: bone directions of the default body
 DEFAULT_HEIGHT_M = 1.70
 # Height of the pelvis joint above the floor in the rest pose (ankle ~0.08 m up).
 _PELVIS_HEIGHT_170 = 0.0914 + 0.3752 + 0.3980 + 0.08

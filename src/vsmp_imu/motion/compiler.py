@@ -1,0 +1,635 @@
+"""SMP -> parametric motion: compile an SMP into a procedural recipe, no hand keyframes.
+
+`compile_recipe(smp)` reads every primitive with the lexicon
+(`motion.lexicon`), turns the movements it names into target poses on the
+procedural DOFs (`motion.anatomy`, normative ranges of motion), and writes a
+`Recipe` (the same type as a library `procedural:` section), which the
+procedural backend then times and realizes exactly as a hand-written one:
+order and relative durations of the primitives, repetitions, tempo,
+amplitude, dominant side, symmetry and displacement all go through the same
+controls (`motion.procedural`).
+
+How a sequence becomes keyframes:
+
+- the first primitive (or the contacts: chair, bed, bicycle...) sets the start
+  posture; movements held meanwhile ("keeping the arms extended", "while bent
+  forward") join the base pose;
+- an outward primitive (curl up, raise the arms, squat down) reaches its
+  movements' targets and remembers where it started; a returning one (lower,
+  straighten back, return, uncross) goes back there; "... and back" goes out
+  and comes back within the primitive; a primitive naming no movement holds;
+- sit / stand / lie transitions reach their posture (the seat behind the
+  feet, via sitting between standing and lying);
+- gait, running and stairs drive periodic waves and locomotion; jumps add a
+  hop; circles trace the arm around; alternating left / right primitives each
+  go out and back;
+- a repeated cycle is the sequence without its set-up and its final return
+  (raise the guard ... lower the guard), and always ends where it started.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vsmp_imu.motion.anatomy import MOVEMENTS, PLANK_POSE, SEAT_SHIFT_M, Movement
+from vsmp_imu.motion.dofs import (
+    BUILTIN_POSES,
+    DOF_INDEX,
+    DOF_NAMES,
+    N_DOFS,
+    SIDE_DOFS,
+    pose_vector,
+)
+from vsmp_imu.motion.lexicon import Reading, read_primitive
+from vsmp_imu.motion.recipe import Recipe, parse_recipe
+from vsmp_imu.smp._text import norm_name
+from vsmp_imu.smp.bodyparts import normalize_body_part, side_of
+from vsmp_imu.smp.schema import SMP, UNKNOWN
+
+STRUCTURAL = ("repeat", "repetition", "repeat cycle", "loop", "repeat sequence")
+SEAT_WORDS = ("chair", "seat", "bench", "sofa", "couch", "stool", "wheelchair", "car seat", "saddle", "bicycle",
+              "bike", "desk")
+HOLD_S, STATIC_HOLD_S, RETURN_S = 0.5, 3.0, 0.9
+CIRCLE_DEG = 25.0
+HOP_CROUCH = {"knee_flex": 30.0, "hip_flex": 20.0, "ankle_flex": 15.0}
+CHANGE_DEG = 1.0  # a DOF that moves less than this is "still" (cycle closure, principal joints)
+PRINCIPAL_MIN_DEG = 15.0
+# Mean DOF speed between keys at medium tempo: at fast tempo (x1.5) and large amplitude (x1.4) the
+# minimum-jerk peak (x1.875) of a hand 0.6 m from the shoulder stays under the 0.20 x height per
+# frame plausibility limit at 30 fps.
+MAX_MEAN_DEG_S = 200.0
+_ARM_PARTS = ("upper_arm", "forearm", "hand", "shoulder")
+_LEG_PARTS = ("thigh", "lower_leg", "foot")
+_POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
+
+
+@dataclass
+class Step:
+    """One primitive of the sequence, as compiled."""
+
+    name: str
+    reading: Reading
+    parts: tuple[str, ...]
+    action: str = "hold"  # hold | go | return | back | gait
+    keys: list[tuple[float, np.ndarray, str]] = field(default_factory=list)
+    duration_s: float = HOLD_S
+    movements: tuple[Movement, ...] = ()
+    start: np.ndarray | None = None  # the pose the primitive starts from
+
+
+@dataclass(frozen=True)
+class CompiledEntry:
+    """A library-entry stand-in for a compiled SMP (what the procedural planner reads)."""
+
+    name: str
+    smp: SMP
+    path: Path = Path()
+    central_primitive: str | None = None
+    compiled: bool = True
+    extras: dict[str, Any] = field(default_factory=dict)
+
+
+# -- public ----------------------------------------------------------------------------
+def compile_recipe(smp: SMP) -> Recipe:
+    """The procedural recipe of `smp`, compiled from its primitives (cached by content)."""
+    return _compile_cached(smp.canonical_json())
+
+
+@functools.lru_cache(maxsize=256)
+def _compile_cached(text: str) -> Recipe:
+    import json
+
+    smp = SMP.model_validate(json.loads(text))
+    return parse_recipe(compile_recipe_data(smp))
+
+
+def compile_recipe_data(smp: SMP) -> dict[str, Any]:
+    """The `procedural:` mapping compiled from `smp` (validated by `compile_recipe`)."""
+    steps = _steps(smp)
+    posture = _start_posture(smp, steps)
+    base = _posture_vector(posture, 0.0)
+    for step in steps:
+        for m in step.reading.context:
+            base = _apply(base, [MOVEMENTS[m]], step, smp, 0)
+    if steps and _sets_start(steps[0]):
+        base = _apply(base, [MOVEMENTS[m] for m in steps[0].reading.movements
+                             if MOVEMENTS[m].kind == "excursion"], steps[0], smp, 0)
+        steps[0].action = "hold"
+    periodic = _periodic(smp, steps)
+    gait = [s for s in steps if s.action == "gait"]
+    for step in gait[:1]:
+        base = pose_vector({k: v for m in step.movements if m.kind == "gait" for k, v in m.pose.items()}, base)
+    lead, cycle, _ = _cycle_span(steps) if periodic else ([], list(range(len(steps))), [])
+    _keyframes(steps, base, posture, smp, cycle if periodic else [])
+    _durations(steps, smp)
+    kind = "periodic" if periodic else ("static" if _static(smp, steps) else "discrete")
+    data: dict[str, Any] = {
+        "kind": kind,
+        "side": _authored_side(steps, base),
+        "base_pose": _pose_dict(base),
+        "poses": {},
+        "primitives": {},
+        "rest_s": 0.0 if (kind == "static" or (periodic and smp.repetition_count() is None)) else 0.3,
+    }
+    for i, step in enumerate(steps):
+        keys = []
+        for at, vec, ease in step.keys:
+            pname = f"k{i}_{len(keys)}"
+            data["poses"][pname] = _pose_dict(vec)
+            keys.append([at, pname, ease])
+        data["primitives"].setdefault(step.name, {"duration_s": round(step.duration_s, 4), "keys": keys})
+    if periodic:
+        cyc = [steps[i].name for i in cycle]
+        data["cycle"] = {"primitives": list(dict.fromkeys(cyc)), "ramp": 0.0 if gait else 0.25}
+        if gait:
+            data["cycle"].update(_gait_waves(gait))
+        if smp.repetition_count() is None:
+            data["continuous"] = True
+    elif kind == "static":
+        data["continuous"] = True
+    loco = next((m.locomotion for s in gait for m in s.movements if m.locomotion != "none"), "none")
+    data["locomotion"] = loco
+    if loco == "stairs_up":
+        data["stair_swing"] = (0.5, 0.7)
+    joints = _principal_joints(data, base, steps)
+    data["principal_joints"] = joints
+    data["symmetry_joints"] = _paired(joints)
+    data["amplitude_exempt"] = list(_POSTURE_LIFT) if _changes_posture(steps) else []
+    if data["side"] in ("left", "right"):
+        data["asymmetry"] = {"lag_s": 0.0, "imbalance": 1.0}
+    return data
+
+
+def compiled_entry(smp: SMP, name: str | None = None, path: Path | None = None) -> CompiledEntry:
+    """A stand-in library entry whose defaults are `smp` itself."""
+    return CompiledEntry(name or _slug(smp.activity_label), smp, path or Path())
+
+
+def _slug(label: str) -> str:
+    return norm_name(label).replace(" ", "_") or "activity"
+
+
+# -- readings and actions ------------------------------------------------------------
+def _steps(smp: SMP) -> list[Step]:
+    prims = {p.name: p for p in smp.motion_primitives}
+    steps: list[Step] = []
+    for name in smp.primitive_sequence:
+        if norm_name(name) in STRUCTURAL:
+            continue
+        prim = prims.get(name)
+        desc = prim.description if prim is not None else ""
+        parts = tuple(p for raw in (prim.body_parts if prim is not None else []) for p in normalize_body_part(raw))
+        reading = read_primitive(name, desc)
+        moves = tuple(m for m in (MOVEMENTS[n] for n in reading.movements) if _limb_named(m, parts))
+        steps.append(Step(name, reading, parts, movements=moves))
+    for step in steps:
+        step.action = _action(step)
+    _alternate(steps)
+    return steps
+
+
+def _limb_named(move: Movement, parts: tuple[str, ...]) -> bool:
+    """A limb movement needs that limb among the primitive's body parts (when it lists any)."""
+    if not parts or move.limb == "none" or move.kind != "excursion":
+        return True
+    limb = _LEG_PARTS if move.limb == "leg" else _ARM_PARTS
+    return any(p.split("_", 1)[-1] in limb or p in limb for p in parts)
+
+
+def _action(step: Step) -> str:
+    r = step.reading
+    if any(m.kind == "gait" for m in step.movements):
+        return "gait"
+    if r.returns:
+        return "return"
+    if not step.movements:
+        return "hold"
+    return "back" if r.there_and_back else "go"
+
+
+def _alternate(steps: list[Step]) -> None:
+    """Left and right versions of one movement (pedal strokes, knee lifts) each go out and back."""
+    for i, step in enumerate(steps):
+        side = step.reading.leg_side or step.reading.arm_side
+        if step.action != "go" or side is None:
+            continue
+        names = set(step.reading.movements)
+        for j, other in enumerate(steps):
+            o_side = other.reading.leg_side or other.reading.arm_side
+            if j != i and o_side not in (None, side) and set(other.reading.movements) == names:
+                step.action = "back"
+                break
+
+
+def _sets_start(step: Step) -> bool:
+    """The first primitive names the posture the activity starts in (lie on the back, sit upright...)."""
+    if step.action == "hold" or any(m.kind == "posture" and m.posture != "standing" for m in step.movements):
+        return True
+    return step.reading.posture is not None and all(m.kind == "reset" for m in step.movements)
+
+
+def _start_posture(smp: SMP, steps: list[Step]) -> str:
+    if steps:
+        first = steps[0]
+        named = [m.posture for m in first.movements if m.kind == "posture"]
+        if named and named[0]:
+            return named[0]
+        if _sets_start(first) and first.reading.posture:
+            return first.reading.posture
+    if any(s.action == "gait" for s in steps):
+        return "standing"
+    contacts = " ".join(smp.object_contact.environment_contact + smp.object_contact.objects).lower()
+    if any(w in contacts for w in SEAT_WORDS) and not any(
+            m.kind == "posture" for s in steps for m in s.movements):
+        return "sitting"
+    return "standing"
+
+
+def _periodic(smp: SMP, steps: list[Step]) -> bool:
+    ts = smp.temporal_structure
+    count = smp.repetition_count()
+    return bool(ts.is_repetitive or ts.periodicity == "cyclic" or (count is not None and count > 1)
+                or any(s.action == "gait" for s in steps))
+
+
+def _static(smp: SMP, steps: list[Step]) -> bool:
+    """A held posture with small movements (sitting, typing): no count, no cycle, no change of support."""
+    ts = smp.temporal_structure
+    return ts.periodicity in ("none", UNKNOWN) and smp.repetition_count() is None and not (
+        _changes_posture(steps) or _periodic(smp, steps))
+
+
+def _cycle_span(steps: list[Step]) -> tuple[list[int], list[int], list[int]]:
+    """(lead-in, cycle, lead-out) indices: set-up and final return peeled off the repeated cycle."""
+    if any(s.action == "gait" for s in steps):
+        idx = [i for i, s in enumerate(steps) if s.action == "gait"]
+        return list(range(idx[0])), list(range(idx[0], idx[-1] + 1)), list(range(idx[-1] + 1, len(steps)))
+    match = _matches(steps)
+    lo, hi = 0, len(steps) - 1
+    while hi - lo >= 1:
+        if steps[lo].action == "hold" and hi - lo >= 1:
+            lo += 1
+        elif hi - lo >= 2 and steps[lo].action == "go" and match.get(lo) == hi:
+            lo, hi = lo + 1, hi - 1
+        elif steps[hi].action == "hold" and hi - lo >= 2 and lo > 0:
+            hi -= 1
+        else:
+            break
+    return list(range(lo)), list(range(lo, hi + 1)), list(range(hi + 1, len(steps)))
+
+
+def _matches(steps: list[Step]) -> dict[int, int]:
+    """Outward primitive -> the returning primitive that undoes it (a stack, as the words nest)."""
+    stack: list[int] = []
+    out: dict[int, int] = {}
+    for i, s in enumerate(steps):
+        if s.action == "go":
+            stack.append(i)
+        elif s.action == "return" and stack:
+            out[stack.pop()] = i
+    return out
+
+
+# -- poses ---------------------------------------------------------------------------------
+def _posture_vector(posture: str, root_dz: float) -> np.ndarray:
+    if posture == "plank":
+        values = {k: float(v) for k, v in PLANK_POSE.items() if k != "like"}
+        vec = pose_vector(values, pose_vector(BUILTIN_POSES["lying_prone"]))
+    else:
+        vec = pose_vector(BUILTIN_POSES.get(posture, BUILTIN_POSES["standing"]))
+    vec[DOF_INDEX["root_dz"]] = root_dz
+    return vec
+
+
+def _limb_sides(move: Movement, step: Step, smp: SMP) -> tuple[str, ...]:
+    explicit = step.reading.leg_side if move.limb == "leg" else step.reading.arm_side
+    if explicit:
+        return (explicit,)
+    limb = _LEG_PARTS if move.limb == "leg" else _ARM_PARTS
+    sides = {side_of(p) for p in step.parts if p.split("_", 1)[-1] in limb and side_of(p)}
+    if not sides:
+        dominant = [normalize_body_part(p) for p in smp.body_parts.dominant_moving_segments]
+        sides = {side_of(p) for ps in dominant for p in ps if p.split("_", 1)[-1] in limb and side_of(p)}
+    if len(sides) == 1:
+        return (sides.pop(),)
+    ea = smp.execution_attributes
+    if not sides and ea.dominant_side in ("left", "right") and ea.symmetry == "asymmetric":
+        return (ea.dominant_side,)
+    return ("left", "right")
+
+
+def _apply(current: np.ndarray, moves: list[Movement], step: Step, smp: SMP, direction_hint: int) -> np.ndarray:
+    """`current` with the movements' targets set (their first DOF last, so it wins)."""
+    out = current.copy()
+    for primary in (False, True):
+        for move in moves:
+            items = list(move.pose.items())[:1] if primary else list(move.pose.items())
+            for stem, value in items:
+                if move.kind == "reset":
+                    continue
+                for col, val in _targets(move, stem, value, step, smp, out, direction_hint):
+                    out[col] = val
+    return out
+
+
+def _targets(move: Movement, stem: str, value: float, step: Step, smp: SMP, current: np.ndarray,
+             hint: int) -> list[tuple[int, float]]:
+    if stem in SIDE_DOFS:
+        sides = _limb_sides(move, step, smp) if move.sided else ("left", "right")
+        if move.name == "lunge":
+            return _lunge(stem, value, sides[0])
+        return [(DOF_INDEX[f"{s}_{stem}"], float(value)) for s in sides]
+    col = DOF_INDEX[stem]
+    if stem in ("trunk_twist", "trunk_lean", "root_yaw", "head_turn"):
+        sign = step.reading.direction or hint or 1
+        return [(col, float(value) * sign)]
+    if stem in ("root_dz", "root_dy"):
+        return [(col, current[col] + float(value))]
+    return [(col, float(value))]
+
+
+def _lunge(stem: str, value: float, front: str) -> list[tuple[int, float]]:
+    """The front leg flexes hip and knee; the rear leg extends at the hip and bends the knee."""
+    back = "right" if front == "left" else "left"
+    rear = {"hip_flex": -15.0, "knee_flex": 85.0, "ankle_flex": -20.0}
+    return [(DOF_INDEX[f"{front}_{stem}"], float(value)), (DOF_INDEX[f"{back}_{stem}"], rear.get(stem, 0.0))]
+
+
+def _reset(current: np.ndarray, moves: list[Movement], base: np.ndarray) -> np.ndarray:
+    out = current.copy()
+    for move in moves:
+        if move.kind == "reset":
+            for stem in move.pose:
+                cols = [DOF_INDEX[f"{s}_{stem}"] for s in ("left", "right")] if stem in SIDE_DOFS else [
+                    DOF_INDEX[stem]]
+                out[cols] = base[cols]
+    return out
+
+
+# -- keyframes ----------------------------------------------------------------------------------
+def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycle: list[int]) -> None:
+    current, stack, root_dz = base.copy(), [], 0.0
+    cycle_start = None
+    for i, step in enumerate(steps):
+        if cycle and i == cycle[0]:
+            cycle_start = current.copy()
+        before = current.copy()
+        step.start = before
+        moves = [m for m in step.movements if m.kind not in ("gait",)]
+        hint = _twist_hint(current, smp)
+        post = next((m for m in moves if m.kind == "posture"), None)
+        if post is not None and post.posture == posture:
+            # already there: standing up from a squat straightens the legs; any other posture is kept
+            moves = [m for m in moves if m is not post]
+            if post.posture == "standing":
+                moves += [MOVEMENTS["leg_straighten"], MOVEMENTS["trunk_upright"]]
+            post = None
+            if step.action == "hold" and moves:
+                step.action = "go"
+            elif not moves and step.action == "go":
+                step.action = "hold"
+        if step.action in ("hold", "gait"):
+            step.keys = []
+        elif step.action == "return":
+            target = stack.pop() if stack else base.copy()
+            jumps = any(m.kind == "jump" for m in moves)
+            step.keys = _hop(before, target) if jumps else [(1.0, target, "stop")]
+            current = target
+        elif post is not None:
+            root_dz = _posture_shift(posture, post.posture, root_dz)
+            upper = [m for m in moves if m.kind == "excursion" and m.limb != "leg"]  # the legs follow the posture
+            target = _apply(_posture_vector(post.posture, root_dz), upper, step, smp, hint)
+            via = _via(posture, post.posture, before, moves, step, smp, root_dz)
+            step.keys = ([(0.5, via, "smooth")] if via is not None else []) + [(1.0, target, "stop")]
+            posture = post.posture or posture
+            stack.append(before)
+            current = target
+        else:
+            target = _apply(_reset(before, moves, base),
+                            [m for m in moves if m.kind in ("excursion", "swing", "circle", "jump")], step, smp, hint)
+            step.keys = _shape(step, moves, before, target)
+            if step.action == "go":
+                stack.append(before)
+                current = target
+        if cycle and i == cycle[-1] and cycle_start is not None:
+            _close(step, before, current, cycle_start)
+            current = cycle_start
+
+
+def _twist_hint(current: np.ndarray, smp: SMP) -> int:
+    """Sign of a turn or twist whose words give no side: back through the middle, else toward the dominant side."""
+    twist = current[DOF_INDEX["trunk_twist"]]
+    if abs(twist) > CHANGE_DEG:
+        return -int(np.sign(twist))
+    return -1 if smp.execution_attributes.dominant_side == "right" else 1
+
+
+def _shape(step: Step, moves: list[Movement], before: np.ndarray, target: np.ndarray) -> list[tuple]:
+    kinds = {m.kind for m in moves}
+    if "circle" in kinds:
+        return _circle(step, before)
+    if "jump" in kinds:
+        keys = _hop(before, target)
+        return keys + [(1.0, before, "stop")] if step.action == "back" else keys
+    if step.action == "back" or "swing" in kinds and step.action != "go":
+        return [(0.5, target, "stop"), (1.0, before, "stop")]
+    return [(1.0, target, "stop")]
+
+
+def _hop(before: np.ndarray, target: np.ndarray) -> list[tuple[float, np.ndarray, str]]:
+    crouch = 0.7 * before + 0.3 * target  # the limbs move through the whole hop
+    for stem, extra in HOP_CROUCH.items():
+        crouch[[DOF_INDEX[f"left_{stem}"], DOF_INDEX[f"right_{stem}"]]] += extra
+    air = 0.2 * before + 0.8 * target
+    air[DOF_INDEX["root_dy"]] += MOVEMENTS["jump"].pose["root_dy"]
+    air[[DOF_INDEX["left_ankle_flex"], DOF_INDEX["right_ankle_flex"]]] -= 25.0
+    return [(0.3, crouch, "stop"), (0.6, air, "smooth"), (1.0, target, "stop")] if not np.allclose(
+        target, before) else [(0.3, crouch, "stop"), (0.6, air, "smooth"), (0.99, target, "stop")]
+
+
+def _circle(step: Step, before: np.ndarray) -> list[tuple[float, np.ndarray, str]]:
+    sides = [s for s in ("left", "right") if s in {side_of(p) for p in step.parts}] or ["right"]
+    if step.reading.arm_side:
+        sides = [step.reading.arm_side]
+    sign = -1.0 if step.reading.counter_clockwise else 1.0
+    keys = []
+    for k in (1, 2, 3, 4):
+        phi = k * math.pi / 2.0
+        vec = before.copy()
+        for s in sides:
+            vec[DOF_INDEX[f"{s}_shoulder_flex"]] += sign * CIRCLE_DEG * math.sin(phi)
+            vec[DOF_INDEX[f"{s}_shoulder_abd"]] += CIRCLE_DEG * (1.0 - math.cos(phi))
+        keys.append((k / 4.0, vec, "stop" if k == 4 else "smooth"))
+    return keys
+
+
+def _posture_shift(src: str, dst: str | None, root_dz: float) -> float:
+    """Pelvis travel that keeps the feet in place: onto a seat behind them, back up over them."""
+    seated = ("sitting", "lying")
+    if src in ("standing", "kneeling") and dst in seated:
+        return root_dz + SEAT_SHIFT_M
+    if src in seated and dst in ("standing", "kneeling"):
+        return root_dz - SEAT_SHIFT_M
+    return root_dz
+
+
+def _via(src: str, dst: str | None, before: np.ndarray, moves: list[Movement], step: Step, smp: SMP,
+         root_dz: float) -> np.ndarray | None:
+    """A pose passed through: sitting between standing and lying, a crouch before a seat."""
+    if {src, dst} == {"standing", "lying"}:
+        return _posture_vector("sitting", root_dz if dst == "lying" else root_dz + SEAT_SHIFT_M)
+    if src == "standing" and dst == "sitting" or src == "sitting" and dst == "standing":
+        crouch = _apply(before, [MOVEMENTS["squat"]], step, smp, 0)
+        crouch[DOF_INDEX["root_dz"]] = 0.5 * (before[DOF_INDEX["root_dz"]] + root_dz)
+        return crouch
+    return None
+
+
+def _close(step: Step, before: np.ndarray, current: np.ndarray, start: np.ndarray) -> None:
+    """Make the last primitive of a cycle end where the cycle started."""
+    if np.abs(current - start).max() <= CHANGE_DEG * 0.01 and (not step.keys or np.allclose(step.keys[-1][1], start)):
+        return
+    if step.action == "gait":
+        return
+    if step.action == "go" and step.keys:
+        step.keys = [(0.5, step.keys[-1][1], "stop"), (1.0, start, "stop")]
+    elif step.keys:
+        step.keys = [*step.keys[:-1], (step.keys[-1][0], start, "stop")]
+    else:
+        step.keys = [(1.0, start, "stop")]
+
+
+# -- timing, sides, joints ---------------------------------------------------------------------
+def _durations(steps: list[Step], smp: SMP) -> None:
+    static = _static(smp, steps)
+    for step in steps:
+        nominal = max((m.nominal_s for m in step.movements), default=RETURN_S)
+        if step.action == "hold":
+            step.duration_s = STATIC_HOLD_S if static else HOLD_S
+        elif step.action == "back":
+            step.duration_s = 2.0 * nominal if nominal >= 0.6 else 1.6 * nominal
+        else:
+            step.duration_s = nominal
+        if any(m.kind == "circle" for m in step.movements):
+            step.duration_s = 1.6
+    shares = _shares(smp, len(steps))
+    if shares is not None and not any(s.action == "gait" for s in steps):
+        total = sum(s.duration_s for s in steps)
+        for step, share in zip(steps, shares, strict=True):
+            step.duration_s = float(np.clip(total * share, 0.15, 60.0))
+    for step in steps:
+        step.duration_s = max(step.duration_s, _slowest(step))
+
+
+def _slowest(step: Step) -> float:
+    """Shortest duration keeping the mean DOF speed (all DOFs together) between keys under MAX_MEAN_DEG_S."""
+    if step.start is None or not step.keys:
+        return 0.0
+    scale = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)
+    need, prev_at, prev = 0.0, 0.0, step.start
+    for at, vec, _ in step.keys:
+        change = float(np.linalg.norm((vec - prev) * scale))  # DOFs moving together add up
+        need = max(need, change / MAX_MEAN_DEG_S / max(at - prev_at, 1e-3))
+        prev_at, prev = at, vec
+    return need
+
+
+def _shares(smp: SMP, n: int) -> list[float] | None:
+    from vsmp_imu.motion.procedural import raw_durations
+
+    raw = [v for name, v in zip(smp.primitive_sequence, raw_durations(smp), strict=True)
+           if norm_name(name) not in STRUCTURAL]
+    if len(raw) != n or any(v is None or v <= 0 for v in raw):
+        return None
+    total = float(sum(raw))  # type: ignore[arg-type]
+    return [float(v) / total for v in raw]  # type: ignore[arg-type]
+
+
+def _authored_side(steps: list[Step], base: np.ndarray) -> str:
+    moved = _moved_columns(steps, base)
+    left = any(DOF_NAMES[c].startswith("left_") for c in moved)
+    right = any(DOF_NAMES[c].startswith("right_") for c in moved)
+    if left and right:
+        return "bilateral"
+    if left or right:
+        return "left" if left else "right"
+    return "none"
+
+
+def _moved_columns(steps: list[Step], base: np.ndarray, threshold: float = CHANGE_DEG) -> dict[int, float]:
+    """DOF column -> largest excursion from the base over all keys (only columns that move)."""
+    span = np.zeros(N_DOFS)
+    for step in steps:
+        for _, vec, _ in step.keys:
+            span = np.maximum(span, np.abs(vec - base))
+    return {c: float(span[c]) for c in range(N_DOFS) if span[c] > threshold}
+
+
+_JOINT_OF = {
+    "shoulder_flex": "shoulder", "shoulder_abd": "shoulder", "shoulder_horiz": "shoulder", "shoulder_rot": "shoulder",
+    "collar_elev": "collar", "collar_protract": "collar", "elbow_flex": "elbow", "wrist_rot": "elbow",
+    "wrist_flex": "wrist", "wrist_dev": "wrist", "hip_flex": "hip", "hip_abd": "hip", "hip_rot": "hip",
+    "knee_flex": "knee", "ankle_flex": "ankle", "ankle_inv": "ankle", "toe_flex": "foot",
+}  # fmt: skip
+_CENTER_JOINT = {"trunk_flex": "spine3", "trunk_lean": "spine3", "trunk_twist": "spine3", "root_pitch": "pelvis",
+                 "root_yaw": "pelvis", "root_roll": "pelvis", "root_dy": "pelvis", "root_dz": "pelvis",
+                 "root_dx": "pelvis", "head_flex": "head", "head_turn": "head", "neck_flex": "head",
+                 "head_tilt": "head", "pelvis_tilt": "pelvis"}
+
+
+def _joint(dof: str) -> str:
+    for side in ("left", "right"):
+        if dof.startswith(side + "_"):
+            return f"{side}_{_JOINT_OF[dof[len(side) + 1:]]}"
+    return _CENTER_JOINT[dof]
+
+
+def _principal_joints(data: dict[str, Any], base: np.ndarray, steps: list[Step]) -> list[str]:
+    """The joints the compiled motion moves most (keys and waves), largest first."""
+    moved = _moved_columns(steps, base)
+    for dof, keys in data.get("cycle", {}).get("wave", {}).items():
+        values = [v for _, v in keys]
+        cols = [DOF_INDEX[f"{s}_{dof}"] for s in ("left", "right")] if dof in SIDE_DOFS else [DOF_INDEX[dof]]
+        for c in cols:
+            moved[c] = max(moved.get(c, 0.0), float(max(values) - min(values)))
+    score: dict[str, float] = {}
+    for col, deg in moved.items():
+        name = DOF_NAMES[col]
+        deg = deg * 100.0 if name.startswith("root_d") else deg  # metres -> comparable to degrees
+        joint = _joint(name)
+        score[joint] = max(score.get(joint, 0.0), deg)
+    ranked = sorted(score, key=lambda j: (-score[j], j))
+    strong = [j for j in ranked if score[j] >= PRINCIPAL_MIN_DEG]
+    return strong or ranked[:4] or ["pelvis"]
+
+
+def _paired(joints: list[str]) -> list[str]:
+    out = []
+    for j in joints:
+        for a, b in (("left_", "right_"), ("right_", "left_")):
+            if j.startswith(a) and j.replace(a, b, 1) not in out:
+                out += [j, j.replace(a, b, 1)] if j not in out else []
+    return list(dict.fromkeys(out))
+
+
+def _changes_posture(steps: list[Step]) -> bool:
+    return any(m.kind == "posture" for s in steps[1:] for m in s.movements)
+
+
+def _gait_waves(gait: list[Step]) -> dict[str, Any]:
+    move = next(m for s in gait for m in s.movements if m.kind == "gait")
+    return {"wave": {k: [list(p) for p in v] for k, v in move.waves.items()}, "alternate": True}
+
+
+def _pose_dict(vec: np.ndarray) -> dict[str, float]:
+    """Every DOF written out (so no `like` chain is needed)."""
+    return {name: round(float(v), 4) for name, v in zip(DOF_NAMES, vec, strict=True)}
+
+
+__all__ = ["CompiledEntry", "compile_recipe", "compile_recipe_data", "compiled_entry"]

@@ -1,0 +1,281 @@
+"""The lexicon: words of an SMP primitive (its name and description) -> anatomical movements.
+
+`read_primitive(name, description)` returns a `Reading`: the movements of
+`motion.anatomy` the words name (in the action part of the sentence), the
+movements held meanwhile (after "while", "keeping", "with the", "holding"),
+whether the primitive returns to where the body was (lower, return, back
+to...), goes out and back within itself (... and back, back and forth), or
+holds, the side it names (left / right limb) and the direction of a turn,
+twist or side bend (+1 = to the left). Rules are regular expressions over the
+lower-cased text with underscores read as spaces; every rule is listed in
+`RULES` with the movement it gives, so docs/motion.md can print the table.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from vsmp_imu.motion.anatomy import MOVEMENTS
+
+_ARM = r"(arms?|hands?|fists?|elbows?|forearms?|wrists?|dumbbells?|weights?|kettlebells?|bar|ball|racket|bat|club)"
+_ANY = r"[a-z ,'-]*?"
+
+# (pattern, movement): a movement is read when its pattern occurs in the action part
+RULES: tuple[tuple[str, str], ...] = (
+    # locomotion and whole-body movements
+    (r"\b(walk|walks|walking|stroll|march(es|ing)? forward)\b|\bstep(s|ping)? forward onto the (left|right) heel"
+     r"|\bland(s|ing)? on the (left|right) heel", "walk"),
+    (r"\b(run|runs|running|jog|jogs|jogging|sprint\w*)\b|\bshort flight", "run"),
+    (r"\b(upstairs|up the stairs|up a flight|next higher step|step(s|ping)? up|climb\w*)\b", "stairs_up"),
+    (r"\b(downstairs|down the stairs|next lower step|step(s|ping)? down|descend\w* the stairs)\b", "stairs_down"),
+    (r"\blunge|\bstep\w* forward " + _ANY + r"\b(lower|bend|descend)", "lunge"),
+    (r"\b(squat\w*|crouch\w*)\b|\bbend\w* (the |both )?(hips and (the )?knees|knees and (the )?hips)"
+     r"|\blower\w* the (body|hips)\b", "squat"),
+    (r"\bbend\w* (the |both )?knees\b|\bknees? bend", "knee_bend"),
+    (r"\b(jump\w*|hop|hops|hopping|bounc\w*|leap\w*)\b", "jump"),
+    (r"\bsit(s|ting)? (down|back|on (a|the) (chair|seat|bench|bed|sofa|couch))\b|\bonto the (seat|chair|bench|bed)"
+     r"|\bseated posture|\bto sit\b|\bsit on the edge|\bedge of the (bed|chair)", "sit_down"),
+    (r"\bsit(s|ting)? (down )?on the floor|\bsit on the ground", "sit_down_floor"),
+    (r"\bsit(s|ting)? up\b|\b(raise|lift)\w* the trunk( and head)? (up )?(from|off)", "sit_down"),
+    (r"\bstand(s|ing)? (back )?up\b|\bget(s|ting)? up\b|\brises?\b(?! onto)(?! on )|\bto standing\b"
+     r"|\bextend\w* the hips and knees", "stand_up"),
+    (r"\blie(s)? (down|flat|back)\b|\blying down\b|\brecline\w*|\blie(s)? (still )?on the back|\bflat on the back",
+     "lie_down"),
+    (r"\bplank\b|\bpush[- ]?up position|\bon the hands and toes", "plank"),
+    (r"\bface down\b|\bprone\b|\bon the (belly|stomach)\b", "lie_prone"),
+    (r"\bkneel\w*", "kneel"),
+    (r"\bturn(s|ing)? (the body |around|about)|\bturn(s|ing)? to face|\bpivot\w*|(?<!trunk )(?<!torso )\bturn(s|ing)? (left|right)\b"
+     r"(?! ?(the )?(trunk|torso|chest|head|wheel|palm|hand|forearm|wrist))", "turn"),
+    # trunk and neck
+    (r"\bside bend|\bbend\w* (the (trunk|torso|body|upper body) )?(sideways|to the (left|right)( side)?|to (one|the) side)"
+     r"|\blateral(ly)? flex|\blean\w* (the (trunk|torso|body) )?(sideways|to the (left|right)|to one side)"
+     r"|\bshift the weight to one side|\btilt\w* the (trunk|torso)", "trunk_side_bend"),
+    (r"\b(twist|rotat|turn)\w* (the |his |her )?(trunk|torso|upper body|shoulders|hips|chest|body)\b"
+     r"|\btrunk (rotation|twist)|\btwist\w*|\bwoodchop|\b(trunk|torso|hips|shoulders) (turn|rotat|twist)\w*"
+     r"|\bswing\w* (the )?(bat|racket|club|golf)|\bfollow\w* through|\bfinish\w* over", "trunk_rotation"),
+    (r"\b(bend|lean|hinge|bow|tip|fold)\w* (the (trunk|torso|upper body|body|chest) )?(forward|over|down)\b"
+     r"|\bbent (forward|over)|\bforward bend|\bgood morning|\btouch\w* the toes|\btoe touch|\bhinge\w*"
+     r"|\bcurl\w* the trunk|\breach\w* (down )?to the (floor|ground|table)|\bpick\w* up", "trunk_flexion"),
+    (r"\b(lean|arch|bend|tilt)\w* (the (trunk|torso|upper body|body) )?back(ward)?s?\b|\bback extension"
+     , "trunk_extension"),
+    (r"\bstraighten\w* (the )?(trunk|back|up)|\b(stand|sit)\w* (up )?(upright|straight|tall)", "trunk_upright"),
+    (r"\bstraighten\w* (the |both )?legs|\bextend\w* (the |both )?(legs|knees)\b", "leg_straighten"),
+    (r"\bnod\w*|\blook\w* down|\bchin (down|to the chest)|\bbow the head", "neck_flexion"),
+    (r"\b(turn|rotat|shak)\w* the head|\blook\w* (to the )?(left|right|around|over the shoulder)", "neck_rotation"),
+    # arms
+    (r"\bcurl\w*\b(?! the trunk)(?! (the |both )?wrists?)|\bhammer|\bbend\w* (the |both |each |one )?(left |right )?(elbows?|arms?)"
+     r"|\bflex\w* (the |both )?(left |right )?elbows?|\b(hands?|fists?|dumbbells?) (up )?to the shoulders?"
+     r"|\bwith the elbows? bent|\bguard\b|\bpull\w* (it |them |the \w+ )?in\b|\bto the chest|\bover the chest"
+     r"|\bbehind the head|\bbeside the head|\bin front of the (chest|chin|face)|\bpull\w* " + _ANY + r"\bup\b"
+     r"|\brow\b|\brow(s|ing)\b|\bsteer\w*|\bwheel\b", "elbow_flexion"),
+    (r"\bstraighten\w* (the |both |each )?(left |right )?(elbows?|arms?)|\bextend\w* (the |both |each |one )?"
+     r"(left |right )?(elbows?|arms?|fists?|hands?)|\bpunch\w*|\bjab\w*|\bthrust\w*|\bpush\w* (forward|up|away|out)"
+     r"|\barms? (straight|extended)|\bat full reach|\bwhip\w*|\bthrow\w*|\brelease", "elbow_extension"),
+    (r"\bpunch\w*|\bjab\w*|\bstraight forward|\bwhip\w*|\bthrow\w*|\bwheel\b|\bsteer\w*|\b(raise|lift|reach|extend|hold|bring|push|swing|slide)\w* "
+     + _ANY + r"\b(forward|in front|to the front)\b|\bfront raise|\bat chest height|\bchest height"
+     r"|\bforward and up|\btoward the door", "shoulder_flexion"),
+    (r"\boverhead\b|\babove the head|\bup high|\breach\w* up\b|(?<!rope )\bover the head|\btoward the ceiling"
+     r"|\bskyward|\bbehind the head|\boverhand|\bto the top\b|\bupper left|\bstraight up\b|\bbeside the head"
+     r"|\b(draw|move|trace)\w* " + _ANY + r"\bup\b", "shoulder_flexion_overhead"),
+    (r"\b(draw|move|trace)\w* " + _ANY + r"\bdown\b", "shoulder_flexion"),
+    (r"\bout to the sides?\b|\b(raise|lift|spread|extend)\w* " + _ANY + r"\bto the sides?\b|\bsideways\b"
+     r"|\blateral raise|\bspread\w* (the |both )?arms|\bout to the (left|right)"
+     r"|\babduct\w*|\barms? (out|wide)\b|\b(raise|lift)\w* (the |both )?(left |right )?arms? out", "shoulder_abduction"),
+    (r"\bacross (the|his|her) (body|chest)|\bcross\w* (them|the arms|both arms|the forearms)|\bhug\w*"
+     r"|\bswing\w* " + _ANY + r"\bto the left|\bsweep\w* " + _ANY + r"\b(across|inward|to the left)"
+     r"|\bbring the hands together|\bhands together|\bpalms together|\bclap\w*|\bfly\b|\bflyes?\b"
+     r"|\bforehand|\bacross\b|\b(draw|move|slide|trace|swipe)\w* " + _ANY + r"\bto the left", "shoulder_horizontal_adduction"),
+    (r"\b(draw|pull|drive|row)\w* " + _ANY + r"\bback\b|\brow(s|ing)?\b|\bbackswing|\bwind\w* up\b|\bcock\w*"
+     r"|\bswing\w* (the |both )?(left |right )?(arms?|bat|racket|club|hands?|ball) back\b|\belbows? back|\bto the waist|\btoward the waist|\bbehind the (body|shoulder)"
+     r"|\btake\w* " + _ANY + r"\bback\b|\btoward the body", "shoulder_extension"),
+    (r"\bsweep\w* " + _ANY + r"\b(out|outward|to the right|away)\b|\bopen\w* the arms|\breverse fly|\bout to the right"
+     r"|\b(draw|move|slide|trace|swipe)\w* " + _ANY + r"\bto the right",
+     "shoulder_horizontal_abduction"),
+    (r"\binternal(ly)? rotat|\brotate\w* the (upper )?arms? in(ward)?\b", "shoulder_internal_rotation"),
+    (r"\bexternal(ly)? rotat|\brotate\w* the (upper )?arms? out(ward)?\b", "shoulder_external_rotation"),
+    (r"\bshrug\w*|\b(raise|lift|elevate)\w* the shoulders", "shoulder_elevation"),
+    (r"\bpronat\w*|\bpalms? (facing |face |turned )?down|\bturn\w* the palms? down|\bknuckles up"
+     r"|\b(rotate|turn|twist)\w* (the |both )?(left |right )?(forearms?|wrists?|hands?|doorknob|knob|key|screwdriver)\b"
+     r"|\bforearm rotation", "forearm_pronation"),
+    (r"\bsupinat\w*|\bpalms? (facing |face |turned )?up\b|\bturn\w* the palms? up", "forearm_supination"),
+    (r"\bwrist curl|\bflex\w* the wrists?|\bwrists? flexed|\bcurl\w* the wrists?|\bsnap\w* the wrists?"
+     r"|\bwrists? (swing|flick)|\bflick\w*|\btyp\w*|\bkeyboard", "wrist_flexion"),
+    (r"\bextend\w* the wrists?|\breverse wrist curl|\bcock\w* the wrists?", "wrist_extension"),
+    (r"\bcircle\w*|\bcircular\b|\bcircumduct\w*|\bwindmill", "arm_circumduction"),
+    (r"\bswing\w* (the |both |his |her )?(left |right )?arms?\b|\barms? swings?|\bpendulum|\bsweep\w* "
+     + _ANY + r"\b(left|right) and back|\bwave\w*|\bsweep\w* the (cloth|hand)", "arm_pendulum_swing"),
+    # legs
+    (r"\b(lift|raise|drive)\w* (the |both |each |one )?(left |right )?(knees?|legs?|thighs?)\b"
+     r"(?! (out|to the side|sideways|back))|\bknee raise|\bhigh knees"
+     r"|\bmarch\w*|\bleg raise|\bpedal", "hip_flexion"),
+    (r"\bkick\w*", "leg_kick"),
+    (r"\b(legs?|feet) apart|\bspread\w* (the |both )?legs|\bleg (out )?to the side|\bstep\w* (out )?to the side",
+     "hip_abduction"),
+    (r"\bon (the |his |her )?(toes|tiptoes?|balls of the feet)|\b(calf|heel) raise|\brise\w* onto|\bpush\w* off"
+     r"|\blift\w* the heels|\bheels? (up|off)",
+     "ankle_plantarflexion"),
+)
+_COMPILED = tuple((re.compile(p), m) for p, m in RULES)
+
+RETURN_WORDS = re.compile(
+    r"\b(lower|lowers|lowering|lowered|return|returns|returning|back to(?! the (left|right))|back down"
+    r"|back inward|back overhead|relax\w*|uncross\w*|recover\w*|come back|comes back|drop|drops"
+    r"|put \w+ (\w+ )?down|release it|let go|apart again|separate\w*)\b")
+THERE_AND_BACK = re.compile(
+    r"\band (back|return\w*|release\w*( it)?)\b|\band (pull|bring|draw|push|put|step|swing|come|settle)"
+    r"\w* (\w+ ){0,3}back\b|\bback and forth|\bto and fro|\bup and down|\band back\b")
+HOLD_WORDS = re.compile(r"\b(hold|holds|holding|stay|stays|still|pause|pauses|remain\w*|rest)\b")
+# the rest of the sentence describes a held posture ("keeping the arms extended", "while bent forward")
+HELD_SPLIT = re.compile(r"\b(keeping|holding (the|both)|while (bent|seated|sitting|standing|lying|kneeling|bending))\b")
+# the other limbs of gait ("while the right arm swings forward"): realized by the gait waves
+OTHER_LIMB = re.compile(r"\bwhile the (left|right) (arm|leg|foot|hand)\b.*$")
+# a posture named by a holding primitive or the first one
+POSTURE_WORDS: tuple[tuple[str, str], ...] = (
+    ("plank", r"\bplank\b|\bpush[- ]?up position|\bon the hands and toes"),
+    ("lying_prone", r"\bface down\b|\bprone\b|\bon the (belly|stomach)\b"),
+    ("lying", r"\b(lie|lies|lying)\b|\bon the back\b|\bsupine\b"),
+    ("kneeling", r"\bkneel\w*"),
+    ("sitting", r"\b(sit|sits|sitting|seated)\b"),
+    ("standing", r"\b(stand|stands|standing)\b"),
+)
+GUARD_WORDS = re.compile(r"\b(punch\w*|jab\w*|box\w*|uppercut\w*|hook punch\w*)\b")
+_LIMB_SIDE = re.compile(r"\b(left|right) (arm|hand|fist|elbow|forearm|wrist|shoulder|palm|leg|foot|knee|heel"
+                        r"|thigh|hip|pedal|pole|toe)")
+_DIRECTION = re.compile(r"\b(to the|toward the|towards the|over the) (left|right)\b|\b(left|right)ward"
+                        r"|\bturn\w* (left|right)\b|\b(to|toward) the (left|right) (side|shoulder)")
+_COUNTER = re.compile(r"\bcounter[- ]?clockwise|\banti[- ]?clockwise")
+_LEG_PARTS = ("leg", "foot", "knee", "heel", "thigh", "hip", "pedal", "toe")
+
+
+
+@dataclass(frozen=True)
+class Reading:
+    """What the lexicon reads in one primitive."""
+
+    movements: tuple[str, ...]  # action movements, in rule order
+    context: tuple[str, ...]  # movements held meanwhile ("while bent forward")
+    returns: bool  # goes back to where the body was before the last outward primitive
+    there_and_back: bool  # goes out and comes back within the primitive
+    hold: bool  # names no movement: hold the current pose
+    arm_side: str | None  # "left" / "right" when the words name one arm
+    leg_side: str | None  # "left" / "right" when the words name one leg
+    direction: int  # +1 left, -1 right, 0 unnamed (turns, twists, side bends, sweeps)
+    counter_clockwise: bool
+    posture: str | None  # the posture its words name (sit, lie, stand...), for holds and the start
+
+    def all_movements(self) -> tuple[str, ...]:
+        return tuple(dict.fromkeys(self.movements + self.context))
+
+
+def normalize_text(text: str) -> str:
+    """Lower case, underscores and hyphens as spaces, single spaces."""
+    return re.sub(r"\s+", " ", re.sub(r"[_\-/]", " ", text.lower())).strip()
+
+
+def movements_in(text: str) -> tuple[str, ...]:
+    """Movements named anywhere in `text`, in rule order, redundant ones removed."""
+    key = normalize_text(text)
+    found = [m for rx, m in _COMPILED if rx.search(key)]
+    return _prune(found)
+
+
+def _prune(found: list[str]) -> tuple[str, ...]:
+    out = list(dict.fromkeys(found))
+    # a squat or lunge already bends the knees; running is not also walking
+    if "squat" in out or "lunge" in out:
+        out = [m for m in out if m != "knee_bend"]
+    if any(m in out for m in ("run", "stairs_up", "stairs_down")):
+        out = [m for m in out if m != "walk"]
+    if "shoulder_flexion_overhead" in out:
+        out = [m for m in out if m != "shoulder_flexion"]
+    posture = [m for m in out if MOVEMENTS[m].kind == "posture"]
+    if posture:
+        # a change of support includes its own trunk and leg movements
+        out = [m for m in out if m not in ("trunk_flexion", "trunk_extension", "knee_bend", "trunk_upright")]
+        out = [m for m in out if MOVEMENTS[m].kind != "posture" or m == posture[-1]]
+    return tuple(out)
+
+
+def read_primitive(name: str, description: str = "") -> Reading:
+    """The lexicon's reading of one primitive (its name and its description)."""
+    text = OTHER_LIMB.sub("", normalize_text(f"{name} . {description}"))
+    hit = HELD_SPLIT.search(text)
+    action, context_text = (text[:hit.start()], text[hit.start():]) if hit else (text, "")
+    back = THERE_AND_BACK.search(action)
+    outward = action[:back.start()] if back else action
+    action_moves = _ordered(outward)
+    context = tuple(m for m in _ordered(context_text) if m not in action_moves
+                    and MOVEMENTS[m].kind == "excursion")
+    if GUARD_WORDS.search(text) and "guard" not in action_moves:
+        context = (*context, "guard")  # punches start from and return to a guard
+    returns = bool(RETURN_WORDS.search(action)) and not _outward_lowering(action, action_moves)
+    there_back = bool(THERE_AND_BACK.search(text))
+    if there_back and action_moves:
+        returns = False
+    hold = not action_moves and not returns
+    arm_side, leg_side = _sides(action or text)
+    return Reading(action_moves, context, returns, there_back, hold, arm_side, leg_side,
+                   _direction(action), bool(_COUNTER.search(text)), _posture(text))
+
+
+def _ordered(text: str) -> tuple[str, ...]:
+    """Movements in `text`; when both elbow movements match, the one named first wins."""
+    found: list[tuple[int, str]] = []
+    for rx, m in _COMPILED:
+        hit = rx.search(text)
+        if hit:
+            found.append((hit.start(), m))
+    names = [m for _, m in found]
+    if "elbow_flexion" in names and "elbow_extension" in names:
+        pos = {m: p for p, m in found}
+        drop = "elbow_extension" if pos["elbow_flexion"] <= pos["elbow_extension"] else "elbow_flexion"
+        names.remove(drop)
+    names = list(_prune(names))
+    return tuple(names)
+
+
+def _outward_lowering(action: str, moves: tuple[str, ...]) -> bool:
+    """'lower the body into a squat', 'bend the elbows to lower the chest': lowering that goes out."""
+    outward = {"squat", "knee_bend", "lunge", "elbow_flexion", "trunk_flexion", "sit_down", "sit_down_floor",
+               "lie_down", "lie_prone", "kneel", "jump", "walk", "run", "stairs_down", "stairs_up"}
+    if not any(m in outward for m in moves):
+        return False
+    return not re.search(r"\b(back (to|down|up|in)|again|return\w*)\b", action)
+
+
+def _posture(text: str) -> str | None:
+    for posture, pattern in POSTURE_WORDS:
+        if re.search(pattern, text):
+            return posture
+    return None
+
+
+def _sides(text: str) -> tuple[str | None, str | None]:
+    arm, leg = set(), set()
+    for side, part in _LIMB_SIDE.findall(text):
+        (leg if part in _LEG_PARTS else arm).add(side)
+    # "... while the right arm swings forward": the side named first is the actor's
+    first_arm = _first_side(text, leg=False)
+    first_leg = _first_side(text, leg=True)
+    return (first_arm if arm else None), (first_leg if leg else None)
+
+
+def _first_side(text: str, leg: bool) -> str | None:
+    for m in _LIMB_SIDE.finditer(text):
+        if (m.group(2) in _LEG_PARTS) == leg:
+            return m.group(1)
+    return None
+
+
+def _direction(text: str) -> int:
+    m = _DIRECTION.search(text)
+    if not m:
+        return 0
+    word = next(g for g in m.groups() if g in ("left", "right"))
+    return 1 if word == "left" else -1
+
+
+def lexicon_table() -> list[tuple[str, str]]:
+    """(movement, pattern) rows for the docs."""
+    return [(m, p) for p, m in RULES]

@@ -1,0 +1,114 @@
+"""The lexicon (words -> anatomical movements) and the normative range-of-motion table."""
+
+from __future__ import annotations
+
+import pytest
+
+from vsmp_imu.motion.anatomy import MOVEMENTS, ROM_DEG
+from vsmp_imu.motion.lexicon import movements_in, read_primitive
+from vsmp_imu.smp.library import ActivityLibrary
+
+# recipe principal joint (side removed) -> the lexicon joints that move it
+_JOINTS = {"shoulder": {"shoulder"}, "collar": {"shoulder"}, "elbow": {"elbow", "forearm"},
+           "wrist": {"wrist", "forearm"}, "hip": {"hip"}, "knee": {"knee"}, "ankle": {"ankle"},
+           "foot": {"ankle"}, "spine1": {"trunk"}, "spine2": {"trunk"}, "spine3": {"trunk"},
+           "pelvis": {"hip", "trunk", "body"}, "head": {"neck"}, "neck": {"neck"}}
+
+
+@pytest.fixture(scope="module")
+def library():
+    return ActivityLibrary.load()
+
+
+def _joints(moves) -> set[str]:
+    return {MOVEMENTS[m].joint for m in moves}
+
+
+def _activity_movements(entry) -> set[str]:
+    out: set[str] = set()
+    for p in entry.smp.motion_primitives:
+        out |= set(read_primitive(p.name, p.description).all_movements())
+    return out
+
+
+def test_single_joint_movements_stay_within_the_normative_range():
+    checked = 0
+    for move in MOVEMENTS.values():
+        if move.kind != "excursion" or move.joint not in {j for j, _ in ROM_DEG}:
+            continue
+        stem, value = next(iter(move.pose.items()))
+        largest = max(v for (j, _), v in ROM_DEG.items() if j == move.joint)
+        assert abs(value) <= largest, (move.name, value, largest)
+        checked += 1
+    assert checked >= 20
+
+
+@pytest.mark.parametrize(("name", "description", "expected"), [
+    ("curl_up", "bend both elbows to lift the dumbbells to the shoulders, turning the palms up",
+     {"elbow_flexion", "forearm_supination"}),
+    ("hammer_curl", "curl the kettlebells up with the thumbs up", {"elbow_flexion"}),
+    ("raise_arms", "raise both arms out to the sides to shoulder height", {"shoulder_abduction"}),
+    ("front_raise", "raise both arms straight forward to shoulder height", {"shoulder_flexion"}),
+    ("press_up", "press the dumbbells overhead", {"shoulder_flexion_overhead"}),
+    ("bend_left", "bend the trunk sideways to the left", {"trunk_side_bend"}),
+    ("twist", "twist the torso to the right", {"trunk_rotation"}),
+    ("hinge", "bend the trunk forward at the hips", {"trunk_flexion"}),
+    ("squat_down", "bend the hips and knees to squat down", {"squat"}),
+    ("walk", "walk forward at a steady pace", {"walk"}),
+    ("climb", "walk up the stairs", {"stairs_up"}),
+    ("sit_down", "sit down on the chair", {"sit_down"}),
+    ("lie_down", "lie down flat on the back", {"lie_down"}),
+    ("jump", "jump with both feet", {"jump"}),
+    ("pronate", "turn the palms down", {"forearm_pronation"}),
+    ("circle", "trace a circle with the right hand", {"arm_circumduction"}),
+    ("calf_raise", "rise onto the toes", {"ankle_plantarflexion"}),
+    ("shrug", "shrug the shoulders", {"shoulder_elevation"}),
+])
+def test_words_name_movements(name, description, expected):
+    assert expected <= set(read_primitive(name, description).movements)
+
+
+def test_hammer_curl_keeps_the_grip_neutral():
+    assert "forearm_supination" not in read_primitive("curl_up", "hammer curl the kettlebells up").movements
+
+
+def test_return_out_and_back_hold_and_sides():
+    lower = read_primitive("lower", "straighten both elbows to lower the dumbbells back to the thighs")
+    assert lower.returns and not lower.there_and_back
+    punch = read_primitive("punch_left", "extend the left fist straight forward and pull it back to the guard")
+    assert punch.there_and_back and not punch.returns and punch.arm_side == "left"
+    assert "guard" in punch.context  # punches start from a guard
+    hold = read_primitive("stand", "stand still")
+    assert hold.hold and hold.posture == "standing"
+    assert read_primitive("twist", "twist the trunk to the left").direction == 1
+    assert read_primitive("twist", "twist the trunk to the right").direction == -1
+    assert read_primitive("circle", "trace a counter-clockwise circle").counter_clockwise
+    held = read_primitive("row_up", "pull the dumbbells up while bent forward at the hips")
+    assert "trunk_flexion" in held.context and "trunk_flexion" not in held.movements
+
+
+def test_library_primitives_name_the_recipe_joints(library):
+    """Test set 1: every library activity's primitives name a movement of a joint its recipe moves most."""
+    misses = []
+    for entry in library:
+        recipe_joints = set().union(*(_JOINTS[j.replace("left_", "").replace("right_", "")]
+                                      for j in entry.extras["procedural"]["principal_joints"]))
+        if not _joints(_activity_movements(entry)) & recipe_joints:
+            misses.append(entry.name)
+    assert len(misses) <= 0.05 * len(library), misses
+
+
+def test_library_captions_and_aliases_agree_with_the_primitives(library):
+    """Test set 2: captions (and aliases) name movements of the joints the primitives name."""
+    captions = aliases = n_captions = n_aliases = 0
+    for entry in library:
+        joints = _joints(_activity_movements(entry))
+        for caption in entry.captions:
+            n_captions += 1
+            captions += bool(_joints(movements_in(caption)) & joints)
+        for alias in (*entry.aliases, entry.name.replace("_", " ")):
+            n_aliases += 1
+            aliases += bool(_joints(movements_in(alias)) & joints)
+    # floors below the rates benchmarks/study_compiled_motion.py reports
+    assert captions / n_captions >= 0.70
+    assert aliases / n_aliases >= 0.45
