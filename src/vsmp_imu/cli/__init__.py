@@ -7,7 +7,7 @@ import sys
 
 import typer
 
-from vsmp_imu.cli import demo, generate, har, imu, motion, smp, study, video
+from vsmp_imu.cli import demo, generate, har, imu, motion, report, smp, study, video
 from vsmp_imu.cli.common import console_err
 from vsmp_imu.errors import VsmpError
 
@@ -20,7 +20,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
-for module in (smp, motion, imu, har, generate, video, study, demo):
+for module in (smp, motion, imu, har, generate, video, study, demo, report):
     module.register(app)
 
 
