@@ -77,12 +77,13 @@ def import_cmd(
     commit: str | None = typer.Option(
         None, "--commit", help="code commit of the run (default: this checkout's HEAD)"
     ),
+    note: str | None = typer.Option(None, "--note", help="how the run was made, if not by the command alone"),
     root: Path = typer.Option(Path("."), "--root", help="repository root (writes root/results/NAME/)"),
 ) -> None:
     """Copy a run's records into results/NAME/ (records.jsonl + run.json)."""
     from vsmp_imu.har.records import import_run
 
-    folder = import_run(run_dir, name, command, root / "results", commit or _head_commit())
+    folder = import_run(run_dir, name, command, root / "results", commit or _head_commit(), note)
     console.print(f"wrote {folder}/", highlight=False)
 
 

@@ -58,6 +58,7 @@ class RecordSet:
     name: str
     command: str
     code_commit: str | None
+    note: str | None
     config: dict[str, Any]
     label_names: tuple[str, ...]
     records: tuple[dict[str, Any], ...]
@@ -126,6 +127,7 @@ def import_run(
     command: str,
     results_dir: str | Path,
     code_commit: str | None = None,
+    note: str | None = None,
 ) -> Path:
     """Write `results_dir/NAME/` from an `evaluate` output folder; returns the folder."""
     check_name(name)
@@ -137,7 +139,8 @@ def import_run(
         label_names = tuple((rows[0].get("per_class_f1") or {}).keys())
     folder = Path(results_dir) / name
     meta = {"name": name, "command": command.strip(), "code_commit": code_commit,
-            "config": config, "label_names": list(label_names), "n_records": len(rows)}
+            "config": config, "label_names": list(label_names), "n_records": len(rows),
+            "note": note}
     lines = "".join(json.dumps(r, sort_keys=True, ensure_ascii=False) + "\n" for r in rows)
     write_text(folder / RECORDS_FILE, lines)
     write_text(folder / RUN_FILE, dumps_json(meta))
@@ -173,6 +176,7 @@ def load_run(results_dir: str | Path, name: str) -> RecordSet:
         name=name,
         command=meta["command"],
         code_commit=meta.get("code_commit"),
+        note=meta.get("note"),
         config=meta.get("config") or {},
         label_names=tuple(meta.get("label_names") or ()),
         records=tuple(records),
