@@ -79,7 +79,7 @@ DOC = """# Results
 <!-- report:demo:main -->
 <!-- /report -->
 
-Some prose.
+Some prose quoting a mark, `<!-- report:ID -->`, which is not one.
 
 <!-- report:demo:paired -->
 <!-- /report -->
@@ -147,7 +147,7 @@ def test_paired_test_matches_scipy_on_the_same_pairs():
 
 
 def test_p_values_are_written_as_the_docs_write_them():
-    assert format_p(3.2e-6) == "3e\u22126"
+    assert format_p(3.2e-6) == "3e-6"
     assert format_p(0.0134) == "0.013"
     assert format_p(0.54) == "0.54"
 
@@ -208,3 +208,13 @@ def test_a_table_asking_for_records_the_set_lacks_is_an_error(repo):
 def test_the_repository_documents_match_their_records():
     outcome = Publication(REPO_ROOT).check()
     assert outcome.differing == [], "\n".join(outcome.diffs)
+
+
+def test_a_table_whose_columns_cover_different_runs_is_an_error(tmp_path, repo):
+    records = [r for r in _records() if not (r["method"] == "vsmp" and r["seed"] == 1)]
+    run = tmp_path / "uneven"
+    run.mkdir()
+    (run / "results.json").write_text(json.dumps({"label_names": list(LABELS), "records": records}))
+    import_run(run, "demo", "cmd", repo / "results")
+    with pytest.raises(ConfigError, match=r"do not have the same runs at budget 1 \(real 8, vsmp 4\)"):
+        Publication(repo).check()

@@ -29,8 +29,10 @@ from vsmp_imu.io import read_structured, read_text, write_text
 
 SPEC_FILE = "tables.yaml"
 DOC_GLOBS = ("README.md", "BENCHMARKS.md", "docs/*.md")
-BLOCK = re.compile(r"<!-- report:(?P<id>[^ >]+) -->\n(?P<body>.*?)<!-- /report -->", re.DOTALL)
-OPEN_MARK = re.compile(r"<!-- report:(?P<id>[^ >]+) -->")
+# a mark stands alone on its line (so that prose may quote one in backticks)
+BLOCK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->\n(?P<body>.*?)^<!-- /report -->$",
+                   re.DOTALL | re.MULTILINE)
+OPEN_MARK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->$", re.MULTILINE)
 MINUS = "\u2212"
 METHOD_NAMES = {
     "real": "Real-only",
@@ -133,7 +135,7 @@ def format_p(p: float) -> str:
         return "n/a"
     if p < 1e-3:
         mantissa, exponent = f"{p:.0e}".split("e")
-        return f"{mantissa}e{int(exponent)}".replace("-", MINUS)
+        return f"{mantissa}e{int(exponent)}"
     return f"{p:.2g}"
 
 
@@ -198,6 +200,22 @@ class TableBuilder:
             )
         return found
 
+    def same_runs(self, runs: dict[str, list[dict]], budget: float | None) -> dict[str, list[dict]]:
+        """`runs` per method, after checking that every method has the same (fold, seed) runs:
+        a table's columns must compare the same runs."""
+        keys = {m: sorted((str(r["fold"]), r["seed"]) for r in rs) for m, rs in runs.items()}
+        first = next(iter(keys.values()))
+        uneven = [m for m, k in keys.items() if k != first]
+        if uneven:
+            counts = ", ".join(f"{m} {len(k)}" for m, k in keys.items())
+            where = "" if budget is None else f" at budget {budget:g}"
+            raise ConfigError(
+                f"table '{self.spec.id}': the methods do not have the same runs{where} ({counts})",
+                file=f"results/{self.records.name}/records.jsonl",
+                allowed="a record set with every method on the same folds and seeds",
+            )
+        return runs
+
     def budgets(self) -> list[float | None]:
         return list(self.spec.budgets) if self.spec.budgets else [None]
 
@@ -222,7 +240,7 @@ class TableBuilder:
         s = self.spec
         rows = []
         for budget in self.budgets():
-            runs = {m: self.runs(m, budget) for m in s.methods}
+            runs = self.same_runs({m: self.runs(m, budget) for m in s.methods}, budget)
             for metric in s.metrics:
                 stats = [mean_std([metric.value(r) for r in runs[m]]) for m in s.methods]
                 cells = [f"{_pct(mu, s.digits)} ± {_pct(sd, s.digits)}" if mu is not None else "–"
@@ -239,7 +257,8 @@ class TableBuilder:
         for budget in self.budgets():
             base = self.runs(s.baseline, budget)
             for method in s.methods:
-                runs = self.runs(method, budget)
+                runs = self.same_runs({s.baseline: base, method: self.runs(method, budget)},
+                                      budget)[method]
                 cells = [paired_test(runs, base, m).cell(s.digits) for m in s.metrics]
                 rows.append(self._lead(budget) + [_method_name(method)] + cells)
         header = self._lead_header() + ["Method"] + [m.label for m in s.metrics]
