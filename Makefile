@@ -25,9 +25,11 @@ lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
 
 test: $(STAMP) lint
+	$(BIN)/vsmp-imu report --check
 	$(BIN)/python -m pytest -m "not slow" -q
 
 test-all: $(STAMP) lint
+	$(BIN)/vsmp-imu report --check
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)

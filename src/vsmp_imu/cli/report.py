@@ -1,0 +1,91 @@
+"""`vsmp-imu report`: the measured tables of the docs, rebuilt from the records in results/."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import typer
+
+from vsmp_imu.cli.common import console, console_err
+
+report_app = typer.Typer(
+    help="Rebuild the measured tables of README.md and docs/ from the records in results/ "
+    "(--write rewrites them, --check fails where they differ); `report import` adds a run.",
+    invoke_without_command=True,
+)
+
+
+@report_app.callback()
+def report_cmd(
+    ctx: typer.Context,
+    write: bool = typer.Option(False, "--write", help="rewrite the marked tables in place"),
+    check: bool = typer.Option(
+        False, "--check", help="exit 1 where a marked table differs from its records"
+    ),
+    root: Path = typer.Option(Path("."), "--root", help="repository root (results/, README.md, docs/)"),
+    table: str | None = typer.Option(None, "--table", help="print one table, e.g. lr_rf:main"),
+) -> None:
+    """Without an option: list the tables and whether they match their records."""
+    if ctx.invoked_subcommand is not None:
+        return
+    from vsmp_imu.errors import ConfigError
+    from vsmp_imu.har.published import Publication
+
+    if write and check:
+        raise ConfigError("--write and --check exclude each other", field="--write/--check")
+    publication = Publication(root)
+    if table is not None:
+        console.print(publication.render(table), markup=False, highlight=False, soft_wrap=True)
+        return
+    outcome = publication.check(write=write)
+    for line in outcome.warnings:
+        console_err.print(f"warning: {line}", markup=False, highlight=False, soft_wrap=True)
+    if write:
+        for path in outcome.written:
+            console.print(f"rewrote {path}", highlight=False)
+        console.print(f"{outcome.checked} tables from records, {len(outcome.written)} files rewritten",
+                      highlight=False)
+        return
+    for diff in outcome.diffs:
+        console.print(diff, markup=False, highlight=False, soft_wrap=True)
+    for line in outcome.differing:
+        console_err.print(f"differs from its records: {line}", markup=False, highlight=False)
+    console.print(f"{outcome.checked} tables from records, {len(outcome.differing)} differ, "
+                  f"{len(outcome.warnings)} warnings", highlight=False)
+    if check and outcome.differing:
+        raise typer.Exit(1)
+
+
+def _head_commit() -> str | None:
+    """The commit of the checkout this command runs from, if it is a git work tree."""
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                             cwd=Path(__file__).parent, timeout=10, check=False)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    if out.returncode != 0:
+        return None
+    return out.stdout.strip() or None
+
+
+@report_app.command("import")
+def import_cmd(
+    run_dir: Path = typer.Argument(..., help="an `vsmp-imu evaluate` output folder"),
+    name: str = typer.Option(..., "--name", help="record-set name, e.g. lr_rf"),
+    command: str = typer.Option(..., "--command", help="the command that produced the run"),
+    commit: str | None = typer.Option(
+        None, "--commit", help="code commit of the run (default: this checkout's HEAD)"
+    ),
+    note: str | None = typer.Option(None, "--note", help="how the run was made, if not by the command alone"),
+    root: Path = typer.Option(Path("."), "--root", help="repository root (writes root/results/NAME/)"),
+) -> None:
+    """Copy a run's records into results/NAME/ (records.jsonl + run.json)."""
+    from vsmp_imu.har.records import import_run
+
+    folder = import_run(run_dir, name, command, root / "results", commit or _head_commit(), note)
+    console.print(f"wrote {folder}/", highlight=False)
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(report_app, name="report")

@@ -1,0 +1,411 @@
+"""The measured tables of README.md and docs/, rebuilt from the committed records.
+
+`results/tables.yaml` declares each table (which record set, which kind,
+which methods, groups and budgets). A document holds a generated table
+between `<!-- report:ID -->` and `<!-- /report -->`; `Publication.write`
+rewrites those blocks from the records and `Publication.check` lists the
+blocks that differ. A table whose records are not committed yet is declared
+under `unbacked` with the reason and the cost of its run: its block is left
+as written and reported as a warning.
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from scipy.stats import wilcoxon
+
+from vsmp_imu.errors import ConfigError, InputFileError
+from vsmp_imu.har.metrics import mean_std
+from vsmp_imu.har.records import RecordSet, load_run
+from vsmp_imu.io import read_structured, read_text, write_text
+
+SPEC_FILE = "tables.yaml"
+DOC_GLOBS = ("README.md", "BENCHMARKS.md", "docs/*.md")
+# a mark stands alone on its line (so that prose may quote one in backticks)
+BLOCK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->\n(?P<body>.*?)^<!-- /report -->$",
+                   re.DOTALL | re.MULTILINE)
+OPEN_MARK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->$", re.MULTILINE)
+MINUS = "\u2212"
+METHOD_NAMES = {
+    "real": "Real-only",
+    "classical": "Classical Aug",
+    "imugpt": "IMUGPT-2.0-style",
+    "imutube": "IMUTube-style",
+    "vsmp": "VSMP-IMU",
+}
+
+
+class Metric(BaseModel):
+    """One row (or column) of figures: `macro_f1`, `head`, `tail`, `group:NAME` or `class:NAME`."""
+
+    model_config = ConfigDict(extra="forbid")
+    label: str
+    metric: str = Field(pattern=r"^(macro_f1|accuracy|head|tail|group:.+|class:.+)$")
+
+    def value(self, record: dict) -> float | None:
+        if self.metric in ("macro_f1", "accuracy"):
+            return record.get(self.metric)
+        if self.metric in ("head", "tail"):
+            return record.get(f"{self.metric}_macro_f1")
+        kind, name = self.metric.split(":", 1)
+        key = "group_macro_f1" if kind == "group" else "per_class_f1"
+        return (record.get(key) or {}).get(name)
+
+
+class TableSpec(BaseModel):
+    """A table rebuilt from one record set."""
+
+    model_config = ConfigDict(extra="forbid")
+    id: str = Field(pattern=r"^[a-z0-9_-]+:[a-z0-9_-]+$")
+    records: str
+    kind: Literal["groups", "paired", "classes", "synthetic"]
+    methods: list[str] = Field(min_length=1)
+    metrics: list[Metric] = Field(default_factory=list)
+    budgets: list[float] | None = None
+    backbone: str | None = None
+    baseline: str | None = None
+    bold: bool = False
+    digits: int = Field(2, ge=0, le=4)
+    row_header: str = "Group"
+
+    @model_validator(mode="after")
+    def _consistent(self) -> TableSpec:
+        if self.kind == "paired" and self.baseline is None:
+            raise ValueError("a paired table needs a baseline method")
+        if self.kind in ("groups", "paired") and not self.metrics:
+            raise ValueError(f"a {self.kind} table needs metrics")
+        return self
+
+
+class Unbacked(BaseModel):
+    """A measured table in the docs whose records are not committed (yet)."""
+
+    model_config = ConfigDict(extra="forbid")
+    id: str = Field(pattern=r"^[a-z0-9_-]+:[a-z0-9_-]+$")
+    reason: str
+
+
+class Catalogue(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    tables: list[TableSpec] = Field(default_factory=list)
+    unbacked: list[Unbacked] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _unique(self) -> Catalogue:
+        ids = [t.id for t in self.tables] + [u.id for u in self.unbacked]
+        twice = sorted({i for i in ids if ids.count(i) > 1})
+        if twice:
+            raise ValueError(f"table ids declared twice: {', '.join(twice)}")
+        return self
+
+
+def load_catalogue(path: str | Path) -> Catalogue:
+    path = Path(path)
+    data = read_structured(path)
+    try:
+        return Catalogue.model_validate(data or {})
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"])
+        raise ConfigError(first["msg"], file=path, field=where or None) from exc
+
+
+# -- figures ------------------------------------------------------------------------------
+def _pct(value: float, digits: int) -> str:
+    text = f"{100 * value:.{digits}f}"
+    return text.replace("-", MINUS)
+
+
+def _signed(value: float, digits: int) -> str:
+    text = f"{100 * value:+.{digits}f}"
+    return text.replace("-", MINUS)
+
+
+def format_p(p: float) -> str:
+    """'3e-6' below 0.001, else two significant digits ('0.013', '0.54')."""
+    if not np.isfinite(p):
+        return "n/a"
+    if p < 1e-3:
+        mantissa, exponent = f"{p:.0e}".split("e")
+        return f"{mantissa}e{int(exponent)}"
+    return f"{p:.2g}"
+
+
+@dataclass(frozen=True)
+class Paired:
+    """Method minus baseline over the runs both have (same fold and seed)."""
+
+    mean_diff: float
+    won: int
+    n: int
+    p: float
+
+    def cell(self, digits: int) -> str:
+        return f"{_signed(self.mean_diff, digits)} ({self.won}/{self.n}, p = {format_p(self.p)})"
+
+
+def paired_test(method: Sequence[dict], baseline: Sequence[dict], metric: Metric) -> Paired:
+    """Mean paired difference, runs won and the two-sided Wilcoxon signed-rank p."""
+    base = {(str(r["fold"]), r["seed"]): metric.value(r) for r in baseline}
+    pairs = [(metric.value(r), base.get((str(r["fold"]), r["seed"]))) for r in method]
+    diffs = np.array([a - b for a, b in pairs if a is not None and b is not None], dtype=float)
+    if len(diffs) == 0:
+        return Paired(float("nan"), 0, 0, float("nan"))
+    p = float(wilcoxon(diffs).pvalue) if np.any(diffs != 0) else 1.0
+    return Paired(float(diffs.mean()), int(np.sum(diffs > 0)), len(diffs), p)
+
+
+# -- tables -------------------------------------------------------------------------------
+def _markdown(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in rows])
+
+
+def _method_name(method: str) -> str:
+    return METHOD_NAMES.get(method, method)
+
+
+def _budget_name(budget: float | None) -> str:
+    return "" if budget is None else f"{budget:g} %"
+
+
+class TableBuilder:
+    """Render one `TableSpec` from its record set."""
+
+    def __init__(self, spec: TableSpec, records: RecordSet) -> None:
+        self.spec = spec
+        self.records = records
+
+    def runs(self, method: str, budget: float | None) -> list[dict]:
+        where = {"method": method}
+        if budget is not None:
+            where["budget"] = budget
+        if self.spec.backbone is not None:
+            where["backbone"] = self.spec.backbone
+        found = self.records.select(**where)
+        if not found:
+            what = f"method '{method}'" + ("" if budget is None else f", budget {budget:g}")
+            raise ConfigError(
+                f"table '{self.spec.id}': record set '{self.records.name}' has no record of {what}",
+                field="methods/budgets",
+                allowed="the methods, budgets and backbone the records hold",
+            )
+        return found
+
+    def same_runs(self, runs: dict[str, list[dict]], budget: float | None) -> dict[str, list[dict]]:
+        """`runs` per method, after checking that every method has the same (fold, seed) runs:
+        a table's columns must compare the same runs."""
+        keys = {m: sorted((str(r["fold"]), r["seed"]) for r in rs) for m, rs in runs.items()}
+        first = next(iter(keys.values()))
+        uneven = [m for m, k in keys.items() if k != first]
+        if uneven:
+            counts = ", ".join(f"{m} {len(k)}" for m, k in keys.items())
+            where = "" if budget is None else f" at budget {budget:g}"
+            raise ConfigError(
+                f"table '{self.spec.id}': the methods do not have the same runs{where} ({counts})",
+                file=f"results/{self.records.name}/records.jsonl",
+                allowed="a record set with every method on the same folds and seeds",
+            )
+        return runs
+
+    def budgets(self) -> list[float | None]:
+        return list(self.spec.budgets) if self.spec.budgets else [None]
+
+    def render(self) -> str:
+        table = getattr(self, f"_{self.spec.kind}")()
+        source = (f"Records: `results/{self.records.name}/` ({self._n_runs()} runs), from "
+                  f"`{self.records.command}`")
+        if self.records.code_commit:
+            source += f" at commit {self.records.code_commit[:7]}"
+        return f"{table}\n\n{source}; rebuilt by `vsmp-imu report --write`.\n"
+
+    def _n_runs(self) -> int:
+        return len({(str(r["fold"]), r["seed"]) for r in self.records.records})
+
+    def _lead(self, budget: float | None) -> list[str]:
+        return [_budget_name(budget)] if self.spec.budgets else []
+
+    def _lead_header(self) -> list[str]:
+        return ["Budget"] if self.spec.budgets else []
+
+    def _groups(self) -> str:
+        s = self.spec
+        rows = []
+        for budget in self.budgets():
+            runs = self.same_runs({m: self.runs(m, budget) for m in s.methods}, budget)
+            for metric in s.metrics:
+                stats = [mean_std([metric.value(r) for r in runs[m]]) for m in s.methods]
+                cells = [f"{_pct(mu, s.digits)} ± {_pct(sd, s.digits)}" if mu is not None else "–"
+                         for mu, sd, _ in stats]
+                if s.bold:
+                    cells = _bold_best(cells, [mu for mu, _, _ in stats])
+                rows.append(self._lead(budget) + [metric.label] + cells)
+        header = self._lead_header() + [s.row_header] + [_method_name(m) for m in s.methods]
+        return _markdown(header, rows)
+
+    def _paired(self) -> str:
+        s = self.spec
+        rows = []
+        for budget in self.budgets():
+            base = self.runs(s.baseline, budget)
+            for method in s.methods:
+                runs = self.same_runs({s.baseline: base, method: self.runs(method, budget)},
+                                      budget)[method]
+                cells = [paired_test(runs, base, m).cell(s.digits) for m in s.metrics]
+                rows.append(self._lead(budget) + [_method_name(method)] + cells)
+        header = self._lead_header() + ["Method"] + [m.label for m in s.metrics]
+        return _markdown(header, rows)
+
+    def _classes(self) -> str:
+        s = self.spec
+        rows = []
+        for budget in self.budgets():
+            runs = {m: self.runs(m, budget) for m in s.methods}
+            for metric in s.metrics or self._every_class():
+                means = [mean_std([metric.value(r) for r in runs[m]])[0] for m in s.methods]
+                cells = ["–" if mu is None else _pct(mu, s.digits) for mu in means]
+                if s.bold:
+                    cells = _bold_best(cells, means)
+                rows.append(self._lead(budget) + [metric.label] + cells)
+        header = self._lead_header() + ["Class"] + [_method_name(m) for m in s.methods]
+        return _markdown(header, rows)
+
+    def _every_class(self) -> list[Metric]:
+        return [Metric(label=name, metric=f"class:{name}") for name in self.records.label_names]
+
+    def _synthetic(self) -> str:
+        rows = []
+        for budget in self.budgets():
+            for method in self.spec.methods:
+                runs = self.runs(method, budget)
+                got = np.array([r.get("n_synthetic") or 0 for r in runs], dtype=float)
+                asked = np.array([r.get("n_synthetic_requested") or 0 for r in runs], dtype=float)
+                share = got.sum() / asked.sum() if asked.sum() else float("nan")
+                rows.append(self._lead(budget) + [
+                    _method_name(method), f"{got.mean():.0f}", f"{np.median(got):.0f}",
+                    f"{asked.mean():.0f}", f"{100 * share:.0f} %"])
+        header = self._lead_header() + ["Method", "Synthetic windows per run (mean)",
+                                        "median", "asked for (mean)", "delivered"]
+        return _markdown(header, rows)
+
+
+def _bold_best(cells: list[str], values: Sequence[float | None]) -> list[str]:
+    present = [v for v in values if v is not None]
+    if len(present) < 2:
+        return cells
+    best = max(present)
+    return [f"**{c}**" if v is not None and np.isclose(v, best) else c
+            for c, v in zip(cells, values, strict=True)]
+
+
+# -- documents ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Block:
+    """One marked table in a document."""
+
+    path: Path
+    table_id: str
+    body: str
+    start: int
+    end: int
+
+
+def find_blocks(path: Path, text: str) -> list[Block]:
+    """The marked blocks of a document; an opening mark without its closing one is an error."""
+    blocks = [Block(path, m["id"], m["body"], m.start("body"), m.end("body"))
+              for m in BLOCK.finditer(text)]
+    if len(blocks) != len(OPEN_MARK.findall(text)):
+        raise InputFileError(
+            "a '<!-- report:ID -->' mark has no '<!-- /report -->' after it (or two marks nest)",
+            file=path,
+        )
+    return blocks
+
+
+@dataclass
+class Outcome:
+    """What `check` found: tables that differ (with their diffs) and warnings."""
+
+    differing: list[str] = field(default_factory=list)
+    diffs: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    checked: int = 0
+    written: list[Path] = field(default_factory=list)
+
+
+class Publication:
+    """The repository's documents and their generated tables.
+
+    `root` is the repository root: records in `root/results/`, the catalogue in
+    `root/results/tables.yaml`, documents README.md, BENCHMARKS.md and docs/*.md.
+    """
+
+    def __init__(self, root: str | Path, results_dir: str | Path | None = None) -> None:
+        self.root = Path(root)
+        self.results_dir = Path(results_dir) if results_dir else self.root / "results"
+        self.catalogue = load_catalogue(self.results_dir / SPEC_FILE)
+        self._sets: dict[str, RecordSet] = {}
+
+    def documents(self) -> list[Path]:
+        found: list[Path] = []
+        for pattern in DOC_GLOBS:
+            found += sorted(self.root.glob(pattern))
+        return [p for p in found if p.is_file()]
+
+    def render(self, table_id: str) -> str:
+        spec = next((t for t in self.catalogue.tables if t.id == table_id), None)
+        if spec is None:
+            raise ConfigError(f"no table '{table_id}' in {SPEC_FILE}", file=self.results_dir / SPEC_FILE)
+        if spec.records not in self._sets:
+            self._sets[spec.records] = load_run(self.results_dir, spec.records)
+        return TableBuilder(spec, self._sets[spec.records]).render()
+
+    def _expected(self, block: Block, unbacked: dict[str, str], outcome: Outcome) -> str | None:
+        if block.table_id in unbacked:
+            rel = block.path.relative_to(self.root)
+            outcome.warnings.append(f"{rel}: table '{block.table_id}' is not rebuilt from committed "
+                                    f"records ({unbacked[block.table_id]})")
+            return None
+        return self.render(block.table_id)
+
+    def check(self, write: bool = False) -> Outcome:
+        """Compare (or, with `write`, rewrite) every marked block with its records."""
+        unbacked = {u.id: u.reason for u in self.catalogue.unbacked}
+        known = {t.id for t in self.catalogue.tables} | set(unbacked)
+        outcome, placed = Outcome(), set()
+        for path in self.documents():
+            text = read_text(path)
+            blocks = find_blocks(path, text)
+            new_text, last = [], 0
+            for block in blocks:
+                if block.table_id not in known:
+                    raise ConfigError(f"table '{block.table_id}' is not declared in {SPEC_FILE}",
+                                      file=path, allowed=", ".join(sorted(known)))
+                placed.add(block.table_id)
+                expected = self._expected(block, unbacked, outcome)
+                new_text += [text[last:block.start], block.body if expected is None else expected]
+                last = block.end
+                if expected is None:
+                    continue
+                outcome.checked += 1
+                if expected != block.body:
+                    rel = str(path.relative_to(self.root))
+                    outcome.differing.append(f"{rel}: table '{block.table_id}'")
+                    outcome.diffs.append("".join(difflib.unified_diff(
+                        block.body.splitlines(keepends=True), expected.splitlines(keepends=True),
+                        f"{rel} [{block.table_id}] (in the document)",
+                        f"{rel} [{block.table_id}] (from the records)")))
+            new_text.append(text[last:])
+            if write and "".join(new_text) != text:
+                outcome.written.append(write_text(path, "".join(new_text)))
+        outcome.warnings += [f"table '{i}' is declared in {SPEC_FILE} but placed in no document"
+                             for i in sorted(known - placed)]
+        return outcome

@@ -1,0 +1,183 @@
+"""Committed evaluation records: the compact form of an `evaluate` run kept in `results/`.
+
+A record set is a folder `results/NAME/` holding `run.json` (the command that
+produced the records, the code commit, the evaluation's configuration and the
+class names) and `records.jsonl` (one line per (budget, backbone, method,
+fold, seed)). `import_run` writes one from an `evaluate` output folder;
+`load_run` reads it back for `vsmp-imu report`.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from vsmp_imu.errors import ConfigError, InputFileError
+from vsmp_imu.har.windows import natural_key
+from vsmp_imu.io import dumps_json, read_text, write_text
+
+# What a committed record keeps of an evaluation record (precision, recall and support
+# follow from the confusion matrix; wall times are not results).
+RECORD_KEYS = (
+    "dataset",
+    "protocol",
+    "budget",
+    "backbone",
+    "method",
+    "fold",
+    "seed",
+    "macro_f1",
+    "accuracy",
+    "group_macro_f1",
+    "head_macro_f1",
+    "tail_macro_f1",
+    "per_class_f1",
+    "confusion",
+    "head_classes",
+    "tail_classes",
+    "n_train_real",
+    "n_synthetic",
+    "n_synthetic_requested",
+    "n_val",
+    "n_test",
+    "epochs",
+    "best_epoch",
+)
+RUN_FILE = "run.json"
+RECORDS_FILE = "records.jsonl"
+NAME_PATTERN = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
+
+
+@dataclass(frozen=True)
+class RecordSet:
+    """One committed run: where it came from and its records."""
+
+    name: str
+    command: str
+    code_commit: str | None
+    note: str | None
+    config: dict[str, Any]
+    label_names: tuple[str, ...]
+    records: tuple[dict[str, Any], ...]
+
+    def select(self, **where: Any) -> list[dict[str, Any]]:
+        """The records whose fields equal every given value."""
+        return [r for r in self.records if all(r.get(k) == v for k, v in where.items())]
+
+
+def check_name(name: str) -> str:
+    if not NAME_PATTERN.match(name):
+        raise ConfigError(
+            f"record-set name '{name}' is not allowed",
+            field="--name",
+            allowed="lower-case letters, digits, '_' and '-', starting with a letter or digit",
+        )
+    return name
+
+
+def _sort_key(r: dict[str, Any]) -> tuple:
+    budget = -1.0 if r.get("budget") is None else r["budget"]
+    return (r["dataset"], r["protocol"], budget, r["backbone"], r["method"],
+            natural_key(str(r["fold"])), r["seed"])
+
+
+def compact(record: dict[str, Any]) -> dict[str, Any]:
+    """The committed fields of one evaluation record."""
+    missing = [k for k in ("dataset", "protocol", "backbone", "method", "fold", "seed", "macro_f1")
+               if k not in record]
+    if missing:
+        raise InputFileError(f"an evaluation record lacks {', '.join(missing)}")
+    return {k: record.get(k) for k in RECORD_KEYS}
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(read_text(path))
+    except json.JSONDecodeError as exc:
+        raise InputFileError(f"not valid JSON: {exc}", file=path) from exc
+
+
+def read_evaluation(run_dir: str | Path) -> tuple[dict[str, Any], tuple[str, ...], list[dict]]:
+    """Configuration, class names and records of an `evaluate` output folder: its
+    `results.json`, or (for a run still going) the class names of none and the files
+    in `records/`."""
+    run_dir = Path(run_dir)
+    results = run_dir / "results.json"
+    if results.exists():
+        data = _read_json(results)
+        if not isinstance(data, dict) or "records" not in data:
+            raise InputFileError("not an evaluation result (no 'records')", file=results)
+        return data.get("config", {}), tuple(data.get("label_names", ())), data["records"]
+    folder = run_dir / "records"
+    files = sorted(folder.glob("*.json")) if folder.is_dir() else []
+    if not files:
+        raise InputFileError(
+            "no results.json and no records/*.json: not an `vsmp-imu evaluate` output folder",
+            file=run_dir,
+        )
+    return {}, (), [_read_json(f) for f in files]
+
+
+def import_run(
+    run_dir: str | Path,
+    name: str,
+    command: str,
+    results_dir: str | Path,
+    code_commit: str | None = None,
+    note: str | None = None,
+) -> Path:
+    """Write `results_dir/NAME/` from an `evaluate` output folder; returns the folder."""
+    check_name(name)
+    if not command.strip():
+        raise ConfigError("the command that produced the records is required", field="--command")
+    config, label_names, records = read_evaluation(run_dir)
+    rows = sorted((compact(r) for r in records), key=_sort_key)
+    if not label_names and rows:
+        label_names = tuple((rows[0].get("per_class_f1") or {}).keys())
+    folder = Path(results_dir) / name
+    meta = {"name": name, "command": command.strip(), "code_commit": code_commit,
+            "config": config, "label_names": list(label_names), "n_records": len(rows),
+            "note": note}
+    lines = "".join(json.dumps(r, sort_keys=True, ensure_ascii=False) + "\n" for r in rows)
+    write_text(folder / RECORDS_FILE, lines)
+    write_text(folder / RUN_FILE, dumps_json(meta))
+    return folder
+
+
+def load_run(results_dir: str | Path, name: str) -> RecordSet:
+    """Read `results_dir/NAME/`; a missing or malformed file is an `InputFileError`."""
+    folder = Path(results_dir) / name
+    meta_path, records_path = folder / RUN_FILE, folder / RECORDS_FILE
+    for path in (meta_path, records_path):
+        if not path.is_file():
+            raise InputFileError(
+                f"record set '{name}' has no {path.name}; import its run with "
+                f"`vsmp-imu report import RUN_DIR --name {name} --command ...`",
+                file=path,
+            )
+    meta = _read_json(meta_path)
+    if not isinstance(meta, dict) or not isinstance(meta.get("command"), str):
+        raise InputFileError("needs an object with a 'command' string", file=meta_path)
+    records = []
+    for i, line in enumerate(read_text(records_path).splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError as exc:
+            raise InputFileError(f"line {i} is not valid JSON: {exc}", file=records_path) from exc
+        if not isinstance(record, dict) or "macro_f1" not in record:
+            raise InputFileError(f"line {i} is not an evaluation record", file=records_path)
+        records.append(record)
+    return RecordSet(
+        name=name,
+        command=meta["command"],
+        code_commit=meta.get("code_commit"),
+        note=meta.get("note"),
+        config=meta.get("config") or {},
+        label_names=tuple(meta.get("label_names") or ()),
+        records=tuple(records),
+    )

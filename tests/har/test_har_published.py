@@ -1,0 +1,220 @@
+"""`vsmp-imu report`: committed records -> the tables of the docs, and the check that guards them."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import wilcoxon
+
+from vsmp_imu.errors import ConfigError, InputFileError
+from vsmp_imu.har.published import Metric, Publication, format_p, paired_test
+from vsmp_imu.har.records import import_run, load_run
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+LABELS = ("WALKING", "SIT_TO_LIE")
+METHODS = {"real": 0.0, "vsmp": 0.05}
+
+
+def _record(method: str, fold: int, seed: int, budget: float, f1: float) -> dict:
+    return {
+        "dataset": "hapt12", "protocol": "low-resource", "budget": budget, "backbone": "rf",
+        "method": method, "fold": str(fold), "seed": seed, "macro_f1": f1, "accuracy": f1 + 0.1,
+        "group_macro_f1": {"transitions": f1 - 0.2}, "head_macro_f1": None, "tail_macro_f1": None,
+        "per_class_f1": {"WALKING": f1 + 0.2, "SIT_TO_LIE": f1 - 0.2},
+        "confusion": [[3, 1], [0, 2]], "n_synthetic": 0 if method == "real" else 90,
+        "n_synthetic_requested": 0 if method == "real" else 100, "n_train_real": 140,
+        "settings_digest": "x", "fit_seconds": 0.2,
+    }
+
+
+def _records() -> list[dict]:
+    """Two methods x 4 folds x 2 seeds at one budget; vsmp gains 5 points with a fold-dependent
+    spread, so every figure of the tables is known in closed form."""
+    out = []
+    for fold in range(1, 5):
+        for seed in range(2):
+            base = 0.5 + 0.02 * fold + 0.01 * seed
+            for method, gain in METHODS.items():
+                out.append(_record(method, fold, seed, 1.0, base + gain * (1 + 0.1 * fold)))
+    return out
+
+
+def _evaluate_dir(tmp_path: Path) -> Path:
+    run = tmp_path / "run"
+    run.mkdir()
+    results = {"config": {"alpha": 2.0}, "label_names": list(LABELS), "records": _records()}
+    (run / "results.json").write_text(json.dumps(results))
+    return run
+
+
+CATALOGUE = """
+tables:
+  - id: demo:main
+    records: demo
+    kind: groups
+    budgets: [1]
+    methods: [real, vsmp]
+    metrics:
+      - {label: all classes, metric: macro_f1}
+      - {label: transitions, metric: "group:transitions"}
+  - id: demo:paired
+    records: demo
+    kind: paired
+    baseline: real
+    budgets: [1]
+    methods: [vsmp]
+    metrics:
+      - {label: all classes, metric: macro_f1}
+unbacked:
+  - id: big:main
+    reason: "needs 90 GPU runs"
+"""
+
+DOC = """# Results
+
+<!-- report:demo:main -->
+<!-- /report -->
+
+Some prose quoting a mark, `<!-- report:ID -->`, which is not one.
+
+<!-- report:demo:paired -->
+<!-- /report -->
+
+<!-- report:big:main -->
+| a | b |
+|---|---|
+| 1 | 2 |
+<!-- /report -->
+"""
+
+
+@pytest.fixture()
+def repo(tmp_path: Path) -> Path:
+    root = tmp_path / "repo"
+    (root / "docs").mkdir(parents=True)
+    (root / "results").mkdir()
+    (root / "results" / "tables.yaml").write_text(CATALOGUE)
+    (root / "docs" / "results.md").write_text(DOC)
+    import_run(_evaluate_dir(tmp_path), "demo", "vsmp-imu evaluate --dataset hapt12 -o run",
+               root / "results", code_commit="abc1234def")
+    return root
+
+
+def test_import_keeps_the_records_and_the_command(tmp_path):
+    folder = import_run(_evaluate_dir(tmp_path), "demo", "vsmp-imu evaluate x", tmp_path / "res")
+    lines = (folder / "records.jsonl").read_text().splitlines()
+    assert len(lines) == 16
+    first = json.loads(lines[0])
+    assert "fit_seconds" not in first and "settings_digest" not in first
+    assert first["per_class_f1"]["WALKING"] == pytest.approx(first["macro_f1"] + 0.2)
+    loaded = load_run(tmp_path / "res", "demo")
+    assert loaded.command == "vsmp-imu evaluate x"
+    assert loaded.label_names == LABELS
+    assert len(loaded.select(method="vsmp", seed=1)) == 4
+
+
+def test_import_reads_the_record_files_of_an_unfinished_run(tmp_path):
+    run = tmp_path / "run"
+    (run / "records").mkdir(parents=True)
+    for i, record in enumerate(_records()[:3]):
+        (run / "records" / f"r{i}.json").write_text(json.dumps(record))
+    folder = import_run(run, "partial", "cmd", tmp_path / "res")
+    assert len((folder / "records.jsonl").read_text().splitlines()) == 3
+    assert load_run(tmp_path / "res", "partial").label_names == LABELS
+
+
+def test_import_refuses_a_folder_without_records(tmp_path):
+    with pytest.raises(InputFileError, match="not an `vsmp-imu evaluate` output folder"):
+        import_run(tmp_path, "x", "cmd", tmp_path / "res")
+    with pytest.raises(ConfigError, match="--name"):
+        import_run(_evaluate_dir(tmp_path), "Bad Name", "cmd", tmp_path / "res")
+
+
+def test_paired_test_matches_scipy_on_the_same_pairs():
+    records = _records()
+    real = [r for r in records if r["method"] == "real"]
+    vsmp = [r for r in records if r["method"] == "vsmp"]
+    vsmp[0]["macro_f1"] = real[0]["macro_f1"] - 0.01  # one run lost
+    diffs = np.array([v["macro_f1"] - r["macro_f1"] for v, r in zip(vsmp, real, strict=True)])
+    result = paired_test(list(reversed(vsmp)), real, Metric(label="all", metric="macro_f1"))
+    assert result.n == 8 and result.won == 7
+    assert result.mean_diff == pytest.approx(diffs.mean())
+    assert result.p == pytest.approx(wilcoxon(diffs).pvalue)
+
+
+def test_p_values_are_written_as_the_docs_write_them():
+    assert format_p(3.2e-6) == "3e-6"
+    assert format_p(0.0134) == "0.013"
+    assert format_p(0.54) == "0.54"
+
+
+def test_write_then_check_passes(repo, cli):
+    code, out, _ = cli("report", "--write", "--root", repo)
+    assert code == 0, out
+    text = (repo / "docs" / "results.md").read_text()
+    real = [r["macro_f1"] for r in _records() if r["method"] == "real"]
+    mean, std = 100 * np.mean(real), 100 * np.std(real, ddof=1)
+    assert f"| 1 % | all classes | {mean:.2f} ± {std:.2f} |" in text
+    assert "(8/8, p = " in text
+    assert "`vsmp-imu evaluate --dataset hapt12 -o run` at commit abc1234" in text
+    assert "| 1 | 2 |" in text  # the unbacked block is left as written
+    code, out, err = cli("report", "--check", "--root", repo)
+    assert code == 0, out
+    assert "big:main" in err and "needs 90 GPU runs" in err
+
+
+def test_a_table_edited_by_one_digit_fails_the_check(repo, cli):
+    cli("report", "--write", "--root", repo)
+    path = repo / "docs" / "results.md"
+    text = path.read_text()
+    start = text.index("| 1 % | all classes | ") + len("| 1 % | all classes | ")
+    digit = text[start]
+    path.write_text(text[:start] + str((int(digit) + 1) % 10) + text[start + 1:])
+    code, out, err = cli("report", "--check", "--root", repo)
+    assert code == 1
+    assert "docs/results.md: table 'demo:main'" in err
+    assert "(from the records)" in out
+
+
+def test_a_missing_record_file_is_an_input_error(repo, cli):
+    shutil.rmtree(repo / "results" / "demo")
+    code, _, err = cli("report", "--check", "--root", repo)
+    assert code == 2
+    assert "record set 'demo' has no run.json" in err and "vsmp-imu report import" in err
+
+
+def test_an_undeclared_or_unclosed_block_is_an_input_error(repo, cli):
+    path = repo / "docs" / "results.md"
+    path.write_text(DOC + "\n<!-- report:other:main -->\n<!-- /report -->\n")
+    code, _, err = cli("report", "--check", "--root", repo)
+    assert code == 2 and "'other:main' is not declared" in err
+    path.write_text(DOC + "\n<!-- report:demo:main -->\n")
+    code, _, err = cli("report", "--check", "--root", repo)
+    assert code == 2 and "has no '<!-- /report -->'" in err
+
+
+def test_a_table_asking_for_records_the_set_lacks_is_an_error(repo):
+    catalogue = repo / "results" / "tables.yaml"
+    catalogue.write_text(CATALOGUE.replace("budgets: [1]\n    methods: [real, vsmp]",
+                                           "budgets: [5]\n    methods: [real, vsmp]"))
+    with pytest.raises(ConfigError, match="no record of method 'real', budget 5"):
+        Publication(repo).check()
+
+
+def test_the_repository_documents_match_their_records():
+    outcome = Publication(REPO_ROOT).check()
+    assert outcome.differing == [], "\n".join(outcome.diffs)
+
+
+def test_a_table_whose_columns_cover_different_runs_is_an_error(tmp_path, repo):
+    records = [r for r in _records() if not (r["method"] == "vsmp" and r["seed"] == 1)]
+    run = tmp_path / "uneven"
+    run.mkdir()
+    (run / "results.json").write_text(json.dumps({"label_names": list(LABELS), "records": records}))
+    import_run(run, "demo", "cmd", repo / "results")
+    with pytest.raises(ConfigError, match=r"do not have the same runs at budget 1 \(real 8, vsmp 4\)"):
+        Publication(repo).check()
