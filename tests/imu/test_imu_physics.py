@@ -24,10 +24,9 @@ from vsmp_imu.imu import (
     sensor_readings,
     simulate_kinematics,
 )
-from vsmp_imu.imu.channels import GRAVITY_M_S2
 from vsmp_imu.motion.skeleton import SMPL22_JOINTS
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as G
 
-G = GRAVITY_M_S2
 EXACT = ImuSimulator(50.0, noise=False)
 AT_PELVIS = VirtualSensor.at("waist", attachment_m=(0.0, 0.0, 0.0))
 
@@ -44,7 +43,7 @@ def test_static_upright_body_reads_gravity_only_at_every_placement():
         acc, gyr = rec.data[:, :3], rec.data[:, 3:]
         np.testing.assert_allclose(np.linalg.norm(acc, axis=1), G, atol=1e-6, err_msg=name)
         np.testing.assert_allclose(gyr, 0.0, atol=1e-9, err_msg=name)
-        # T-pose: every segment frame is (x=left, y=up, z=forward), so up = +y reads +9.81
+        # T-pose: every segment frame is (x=left, y=up, z=forward), so up = +y reads +g_n
         np.testing.assert_allclose(acc, np.tile([0.0, G, 0.0], (len(acc), 1)), atol=1e-6, err_msg=name)
 
 

@@ -16,8 +16,8 @@ from vsmp_imu.imu import (
     simulate_kinematics,
     simulate_many,
 )
-from vsmp_imu.imu.channels import GRAVITY_M_S2
 from vsmp_imu.imu.sensor import ACC_NOISE_DENSITY, GYR_NOISE_DENSITY
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2
 
 GRAVITY_READING = np.array([0.0, GRAVITY_M_S2, 0.0])
 

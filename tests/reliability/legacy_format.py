@@ -37,6 +37,8 @@ BLOCK_MANAGER = _Global("pandas.core.internals.managers", "BlockManager")
 NEW_INDEX = _Global("pandas.core.indexes.base", "_new_Index")
 INDEX = _Global("pandas.core.indexes.base", "Index")
 RANGE_INDEX = _Global("pandas.core.indexes.range", "RangeIndex")
+# numpy 1.x's name for it; numpy 2 pickles arrays under numpy._core, which the file never has
+RECONSTRUCT = _Global("numpy.core.multiarray", "_reconstruct")
 
 
 @dataclass
@@ -81,6 +83,9 @@ class _LegacyPickler(pickle._Pickler):
         super().save(obj, save_persistent_id)
 
     def reducer_override(self, obj):
+        if isinstance(obj, np.ndarray):
+            _, args, state = obj.__reduce__()
+            return RECONSTRUCT, args, state
         if isinstance(obj, _Frame):
             return copyreg._reconstructor, (DATAFRAME, object, None), {"_data": _Manager(obj)}
         if isinstance(obj, _Manager):

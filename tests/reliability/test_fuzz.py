@@ -26,6 +26,7 @@ from vsmp_imu.errors import VsmpError
 from vsmp_imu.smp import SMP, load_smp, save_smp
 from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.smp.repair import parse_response
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
 VLM_FIXTURES = sorted((FIXTURES / "vlm").glob("*.*"))
@@ -167,7 +168,7 @@ def test_the_small_pickle_reads_like_hapt(hapt_pickle):
 
     windows = HAPT(path=hapt_pickle.folder / "seed.pkl", use_cache=False).windows()
     assert len(windows) > 0 and windows.X.shape[1:] == (100, 6)
-    assert windows.X[..., 0].mean() == pytest.approx(9.80665, abs=0.1)  # 1 g on x, converted to m/s^2
+    assert windows.X[..., 0].mean() == pytest.approx(STANDARD_GRAVITY_M_S2, abs=0.1)  # 1 g on x, converted to m/s^2
 
 
 @fuzz_settings(FAST_EXAMPLES)

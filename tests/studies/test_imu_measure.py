@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.studies import imu_measure as im
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as G
 
 FS = 50.0
 
@@ -17,7 +18,7 @@ def recording(duration_s: float, rest_s: float = 0.5) -> np.ndarray:
     """(T, 6) zeros with gravity on acc_y and a rest at both ends."""
     n = int(round((duration_s + 2 * rest_s) * FS))
     x = np.zeros((n, 6))
-    x[:, 1] = 9.81
+    x[:, 1] = G
     return x
 
 

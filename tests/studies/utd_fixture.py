@@ -20,8 +20,8 @@ from vsmp_imu.har.datasets.utd_mhad import UTD_MHAD_ACTIONS
 from vsmp_imu.imu import ImuSimulator
 from vsmp_imu.motion.backends import get_backend
 from vsmp_imu.smp.library import ActivityLibrary
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as G
 
-G = 9.80665
 ACTIONS = ("right_hand_wave", "two_arm_curl", "jogging_in_place", "sit_to_stand")
 DEVICE = Rotation.from_euler("xyz", [90, 0, 30], degrees=True).as_matrix()  # segment -> device axes
 

@@ -18,6 +18,7 @@ from vsmp_imu.cli.common import console, console_err, library_dirs, output_dir, 
 from vsmp_imu.cli.smp import smp_app
 from vsmp_imu.errors import ConfigError, ExtractionError
 from vsmp_imu.io import write_json, write_text
+from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M
 from vsmp_imu.progress import progress
 
 video_app = typer.Typer(help="Video inspection: probe clips, sample frames, pose tracks, "
@@ -256,7 +257,7 @@ def pose_cmd(
     max_fps: float = typer.Option(30.0, "--max-fps", help="Frames per second processed at most"),
     window: str = typer.Option("all", "--window", help="all: the whole clip; longest: the longest "
                                "run of one tracked person"),
-    height_m: float = typer.Option(1.70, "--height-m", help="Body height of the skeleton"),
+    height_m: float = typer.Option(DEFAULT_HEIGHT_M, "--height-m", help="Body height of the skeleton"),
 ) -> None:
     """MediaPipe pose -> SMPL-22 motion (.npz), gaps marked in its meta."""
     output_file(output)

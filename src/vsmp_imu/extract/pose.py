@@ -36,6 +36,7 @@ from vsmp_imu.extract.posemeasure import (
 )
 from vsmp_imu.extract.retarget import LOWPASS_HZ, MAX_GAP_S, track_to_motion
 from vsmp_imu.motion.motion import Motion
+from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M
 from vsmp_imu.smp._text import norm_name
 from vsmp_imu.smp.library import ActivityLibrary, LibraryEntry
 from vsmp_imu.smp.schema import SMP, UNCERTAINTY_FIELDS
@@ -113,7 +114,7 @@ class PoseExtractor:
     """
 
     def __init__(self, estimator: MediaPipePoseEstimator | None = None,
-                 library: ActivityLibrary | None = None, height_m: float = 1.70,
+                 library: ActivityLibrary | None = None, height_m: float = DEFAULT_HEIGHT_M,
                  max_gap_s: float = MAX_GAP_S, lowpass_hz: float | None = LOWPASS_HZ) -> None:
         self.estimator = estimator
         self.library = library

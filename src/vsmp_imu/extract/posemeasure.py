@@ -43,6 +43,7 @@ from vsmp_imu.extract.calibrate import DEFAULT_PRINCIPAL, DEFAULT_SYMMETRY, Refe
 from vsmp_imu.extract.landmarks import LM, PoseTrack
 from vsmp_imu.motion import measure
 from vsmp_imu.motion.motion import Motion
+from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M
 from vsmp_imu.smp.bodyparts import BODY_PARTS
 
 U_FLOOR = 0.05
@@ -365,7 +366,7 @@ class PoseMeasurer:
     """
 
     def __init__(self, reference: Reference | None = None, periodic: bool | None = None,
-                 base_dominant_side: str | None = None, height_m: float = 1.70,
+                 base_dominant_side: str | None = None, height_m: float = DEFAULT_HEIGHT_M,
                  max_gap_s: float = 0.5) -> None:
         self.reference = reference
         self.periodic = periodic

@@ -41,7 +41,13 @@ from scipy.spatial.transform import Rotation
 from vsmp_imu.extract.landmarks import ESTIMATOR_NAME, LM, PoseTrack, world_to_yup
 from vsmp_imu.motion.measure import lowpass
 from vsmp_imu.motion.motion import Motion
-from vsmp_imu.motion.skeleton import SMPL22_JOINTS, Skeleton, forward_kinematics, smpl22_skeleton
+from vsmp_imu.motion.skeleton import (
+    DEFAULT_HEIGHT_M,
+    SMPL22_JOINTS,
+    Skeleton,
+    forward_kinematics,
+    smpl22_skeleton,
+)
 
 MAX_GAP_S = 0.5  # gaps up to this long are interpolated, longer ones held
 LOWPASS_HZ = 6.0  # paper appendix "Analysis Parameters": Butterworth 6 Hz
@@ -254,7 +260,7 @@ def rotations_to_motion(skeleton: Skeleton, glob: np.ndarray, fps: float,
     return Motion(pos, rot, fps, skeleton.joint_names, skeleton.parents, dict(meta or {}))
 
 
-def track_to_motion(track: PoseTrack, height_m: float = 1.70, max_gap_s: float = MAX_GAP_S,
+def track_to_motion(track: PoseTrack, height_m: float = DEFAULT_HEIGHT_M, max_gap_s: float = MAX_GAP_S,
                     lowpass_hz: float | None = LOWPASS_HZ) -> Motion | None:
     """The SMPL-22 motion of a pose track; None when no frame has a pose (or fewer than 2 frames)."""
     if track.n_frames < 2 or not track.detected.any():

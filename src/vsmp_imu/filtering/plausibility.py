@@ -17,9 +17,9 @@ import numpy as np
 
 from vsmp_imu.filtering.verdict import Verdict
 from vsmp_imu.motion import Motion
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2
 
-G = 9.81
-A_CAP = 6 * G  # 58.86 m/s^2
+A_CAP = 6 * STANDARD_GRAVITY_M_S2  # 6 g = 58.84 m/s^2
 W_CAP = 35.0  # rad/s
 E_FLOOR = 1e-4
 MAX_STEP_FRACTION = 0.20

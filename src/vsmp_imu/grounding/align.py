@@ -21,8 +21,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from vsmp_imu.errors import ValidationError
+from vsmp_imu.units import DEG_PER_RAD, STANDARD_GRAVITY_M_S2
 
-G = 9.81
 AXIS_WORDS: dict[str, tuple[int, int]] = {
     "left": (0, 1),
     "right": (0, -1),
@@ -32,7 +32,8 @@ AXIS_WORDS: dict[str, tuple[int, int]] = {
     "backward": (2, -1),
 }
 SIM_AXES = ("left", "up", "forward")
-UNIT_SCALE = {"m/s^2": 1.0, "m/s2": 1.0, "g": 1.0 / G, "rad/s": 1.0, "deg/s": 180.0 / np.pi}
+UNIT_SCALE = {"m/s^2": 1.0, "m/s2": 1.0, "g": 1.0 / STANDARD_GRAVITY_M_S2,
+              "rad/s": 1.0, "deg/s": DEG_PER_RAD}
 
 # Appendix table "Grounding prior p(gamma)": bounded Euler perturbations (degrees).
 WRIST_PERTURBATION_DEG = (30.0, 30.0, 30.0)  # roll, pitch, yaw
@@ -157,7 +158,7 @@ def infer_axes(synthetic: np.ndarray, real: np.ndarray) -> tuple[np.ndarray, flo
     for p in signed_permutations():
         a, g = syn[:, :3] @ p.T, syn[:, 3:] @ p.T
         score = (
-            np.linalg.norm(a.mean(0) - r_mean) / G
+            np.linalg.norm(a.mean(0) - r_mean) / STANDARD_GRAVITY_M_S2
             + np.linalg.norm(np.cov(a.T) - r_cov_a) / scale_a
             + np.linalg.norm(np.cov(g.T) - r_cov_g) / scale_g
         )

@@ -8,7 +8,6 @@ rad/s with per-sample class indices (-1 = unlabelled).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -26,9 +25,7 @@ from vsmp_imu.har.windows import (
     window_geometry,
     window_starts,
 )
-
-STANDARD_GRAVITY = 9.80665  # m/s² per g
-DEG_TO_RAD = math.pi / 180.0
+from vsmp_imu.units import RAD_PER_DEG, STANDARD_GRAVITY_M_S2
 
 # The IMU room's placement names.
 PLACEMENTS = (
@@ -285,7 +282,7 @@ class Recording:
 def acc_to_si(values: np.ndarray, unit: str) -> np.ndarray:
     """Accelerometer values from `unit` (g or m/s^2) to m/s²."""
     if unit == "g":
-        return values * STANDARD_GRAVITY
+        return values * STANDARD_GRAVITY_M_S2
     if unit == "m/s^2":
         return values
     raise ValidationError(f"unknown accelerometer unit '{unit}'", allowed=", ".join(ACC_UNITS))
@@ -294,7 +291,7 @@ def acc_to_si(values: np.ndarray, unit: str) -> np.ndarray:
 def gyr_to_si(values: np.ndarray, unit: str) -> np.ndarray:
     """Gyroscope values from `unit` (rad/s or deg/s) to rad/s."""
     if unit == "deg/s":
-        return values * DEG_TO_RAD
+        return values * RAD_PER_DEG
     if unit == "rad/s":
         return values
     raise ValidationError(f"unknown gyroscope unit '{unit}'", allowed=", ".join(GYR_UNITS))

@@ -4,15 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2
+
 ACC_CHANNELS: tuple[str, ...] = ("acc_x", "acc_y", "acc_z")
 GYR_CHANNELS: tuple[str, ...] = ("gyr_x", "gyr_y", "gyr_z")
 CHANNELS: tuple[str, ...] = ACC_CHANNELS + GYR_CHANNELS
 TIME_COLUMN = "time_s"
 
 # Gravity in the Y-up world frame (m/s^2). A static upright sensor measures the
-# specific force a - g = +9.81 along its up axis.
-GRAVITY_M_S2 = 9.81
-GRAVITY_WORLD = np.array([0.0, -GRAVITY_M_S2, 0.0])
+# specific force a - g = +g_n along its up axis.
+GRAVITY_WORLD = np.array([0.0, -STANDARD_GRAVITY_M_S2, 0.0])
 
 
 def prefixed(location: str, channels: tuple[str, ...] = CHANNELS) -> tuple[str, ...]:

@@ -13,7 +13,7 @@ is differentiated (IMUSim's method):
 Everything is expressed in the segment frame:
 
     acc_lin_seg = R_j^T a          (linear acceleration)
-    grav_seg    = -R_j^T g         (g = (0, -9.81, 0): +9.81 along "up" when upright)
+    grav_seg    = -R_j^T g         (g = (0, -g_n, 0): +g_n along "up" when upright)
     gyr_seg     = R_j^T omega_world
 
 so the specific force is acc_lin_seg + grav_seg = R_j^T (a - g). Samples are

@@ -28,12 +28,12 @@ from vsmp_imu.errors import ValidationError
 from vsmp_imu.imu.placement import Placement, get_placement
 from vsmp_imu.motion.motion import Motion
 from vsmp_imu.seeding import rng_for
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2
 
-STANDARD_GRAVITY = 9.80665
 # Nominal smartphone/smartwatch-grade MEMS figures (datasheet values):
 # accelerometer noise density 300 ug/sqrt(Hz) (InvenSense MPU-6500; Bosch BMI160: 180),
 # gyroscope noise density 0.01 deg/s/sqrt(Hz) (MPU-6500; BMI160: 0.007).
-ACC_NOISE_DENSITY = 300e-6 * STANDARD_GRAVITY  # m/s^2/sqrt(Hz)
+ACC_NOISE_DENSITY = 300e-6 * STANDARD_GRAVITY_M_S2  # m/s^2/sqrt(Hz)
 GYR_NOISE_DENSITY = np.deg2rad(0.01)  # rad/s/sqrt(Hz)
 # Bias random walk: order of magnitude of Allan-variance fits of consumer MEMS IMUs.
 ACC_BIAS_WALK = 1e-3  # m/s^2/sqrt(s)

@@ -3,7 +3,7 @@
 The simulation is IMUSim's: spline the motion, differentiate, rotate into the
 sensor frame (paper, "IMU Synthesis"):
 
-    acc = R_{s<-j} R_j^T (a - g) + b_a + n_a,     g = (0, -9.81, 0)
+    acc = R_{s<-j} R_j^T (a - g) + b_a + n_a,     g = (0, -g_n, 0), g_n = 9.80665 m/s^2
     gyr = R_{s<-j} R_j^T omega   + b_w + n_w
 
 It runs in two steps, so a calibration can repeat only the cheap second one:
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from vsmp_imu.errors import ValidationError
-from vsmp_imu.imu.channels import CHANNELS, GRAVITY_M_S2, prefixed
+from vsmp_imu.imu.channels import CHANNELS, prefixed
 from vsmp_imu.imu.kinematics import (
     DEFAULT_SMOOTHING_HZ,
     DEFAULT_TRIM_S,
@@ -32,6 +32,7 @@ from vsmp_imu.imu.readings import sensor_readings
 from vsmp_imu.imu.recording import ImuRecording
 from vsmp_imu.imu.sensor import VirtualSensor, as_sensor, draw_noise
 from vsmp_imu.motion.motion import Motion
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2
 
 SensorLike = VirtualSensor | Placement | str
 
@@ -69,7 +70,7 @@ class ImuSimulator:
             "seed": int(self.seed),
             "smoothing_hz": self.smoothing_hz,
             "trim_s": self.trim_s,
-            "gravity_m_s2": GRAVITY_M_S2,
+            "gravity_m_s2": STANDARD_GRAVITY_M_S2,
         }
 
     def _readings(self, motion: Motion, sensor: VirtualSensor) -> tuple[np.ndarray, SegmentKinematics]:
