@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 import vsmp_imu.pipeline.sample as sample_mod
@@ -58,6 +60,17 @@ def test_a_programming_error_in_a_sample_fails_the_run(monkeypatch):
         synthesize(_task())
     with pytest.raises(TypeError, match="unsupported operand"):  # through the executor as well
         LocalExecutor(1, show_progress=False).map(sample_mod.cached_synthesize, [(_task(), None)])
+
+
+def test_a_programming_error_in_a_pool_worker_fails_the_run(monkeypatch):
+    """The local pool forks its workers after the patch: the bug is in the workers too."""
+    def broken(motion, task, loc):
+        raise TypeError("unsupported operand")
+
+    monkeypatch.setattr(sample_mod, "_location_signal", broken)
+    tasks = [(_task(), None), (replace(_task(), key="f/WALKING/0001", seed=4), None)]
+    with pytest.raises(TypeError, match="unsupported operand"):
+        LocalExecutor(2, show_progress=False).map(sample_mod.cached_synthesize, tasks)
 
 
 def test_sample_error_is_a_vsmp_error():
