@@ -174,35 +174,57 @@ class TimedExecutor:
         return getattr(self.inner, name)
 
 
+# The fold's stages (functions of vsmp_imu.pipeline.fold) under the names the figures use.
+FOLD_STEPS = {"nominal_mountings": "nominal_mountings", "ground": "ground", "window": "window",
+              "filter_windows": "filter", "select": "select"}
+
+
+def patched_steps(wrap: Callable) -> ExitStack:
+    """The fold's stage functions replaced by `wrap(function, name)` while the stack is open."""
+    from vsmp_imu.pipeline import fold
+
+    stack = ExitStack()
+    for attr, name in FOLD_STEPS.items():
+        stack.enter_context(mock.patch.object(fold, attr, wrap(getattr(fold, attr), name)))
+    return stack
+
+
 def timed_generator(config, executor, library):
     """A FoldGenerator whose fold-level steps add their wall time to `.times_`."""
     from vsmp_imu.pipeline.fold import FoldGenerator
 
-    class Timed(FoldGenerator):
-        times_: dict[str, float] = defaultdict(float)
+    times: dict[str, float] = defaultdict(float)
 
-    for step in ("_nominal_mountings", "_synthesize", "_ground", "_window", "_filter", "_select"):
-        def wrapper(self, *args, _step=step, **kwargs):
+    def timing(fn, name):
+        def wrapper(*args, **kwargs):
             start = time.perf_counter()
             try:
-                return getattr(FoldGenerator, _step)(self, *args, **kwargs)
+                return fn(*args, **kwargs)
             finally:
-                self.times_[_step.strip("_")] += time.perf_counter() - start
+                times[name] += time.perf_counter() - start
+        return wrapper
 
-        setattr(Timed, step, wrapper)
-    gen = Timed(config, TimedExecutor(executor), None, library=library)
-    gen.times_ = defaultdict(float)
-    return gen
+    class Timed(FoldGenerator):
+        times_ = times
+
+        def generate(self, *args, **kwargs):
+            with patched_steps(timing):
+                return super().generate(*args, **kwargs)
+
+        def synthesize(self, *args, **kwargs):
+            return timing(super().synthesize, "synthesize")(*args, **kwargs)
+
+    return Timed(config, TimedExecutor(executor), None, library=library)
 
 
 def run_fold(executor, alpha: float, config=None, batches: list | None = None) -> dict:
     """Algorithm 1 on the HAPT12 fold; wall time, counts and the per-step breakdown.
 
     The executor's task lists are appended to `batches` when given."""
-    from vsmp_imu.pipeline.fold import GenerationConfig
+    from vsmp_imu.pipeline.spec import GenerationSpec
 
     info, train, library, sources, budget = hapt12_fold(alpha)
-    gen = timed_generator(config or GenerationConfig(), executor, library)
+    gen = timed_generator(config or GenerationSpec(), executor, library)
     wall, out = timed(lambda: gen.generate(info, train, sources, budget, 0, f"holdout-{HOLDOUT}"))
     if batches is not None:
         batches.extend(gen.executor.batches)
@@ -437,7 +459,7 @@ def stage_post_motion(quick: bool) -> dict:
 
     with ExitStack() as patches:
         for owner, attr, name in ((sample, "_motion", "motions"), (fold, "fit_filters", "filter_fits"),
-                                  (fold.FoldGenerator, "_choose_tau", "tau_selection")):
+                                  (fold, "choose_tau", "tau_selection")):
             patches.enter_context(mock.patch.object(owner, attr, timing(getattr(owner, attr), name)))
         fig = run_fold(LocalExecutor(1, show_progress=False), 0.1 if quick else 0.5)
     post = fig["wall_s"] - seconds["motions"]
@@ -471,27 +493,29 @@ def stage_chain_memory(quick: bool) -> dict:
     """tracemalloc peaks of the fold-level steps in the driver (a separate run; tracing is on
     only inside those steps, so the synthesis workers run untraced)."""
     from vsmp_imu.executor import LocalExecutor
-    from vsmp_imu.pipeline.fold import FoldGenerator, GenerationConfig
+    from vsmp_imu.pipeline.fold import FoldGenerator
+    from vsmp_imu.pipeline.spec import GenerationSpec
 
     alpha = 0.05 if quick else 0.1
     info, train, library, sources, budget = hapt12_fold(alpha)
     peaks: dict[str, float] = {}
 
-    class Traced(FoldGenerator):
-        pass
+    def tracing(fn, name):
+        if name == "nominal_mountings":
+            return fn
 
-    for step in ("_ground", "_window", "_filter", "_select"):
-        def wrapper(self, *args, _step=step, **kwargs):
+        def wrapper(*args, **kwargs):
             tracemalloc.start()
             try:
-                return getattr(FoldGenerator, _step)(self, *args, **kwargs)
+                return fn(*args, **kwargs)
             finally:
-                peaks[_step.strip("_")] = tracemalloc.get_traced_memory()[1] / 2**20
+                peaks[name] = tracemalloc.get_traced_memory()[1] / 2**20
                 tracemalloc.stop()
+        return wrapper
 
-        setattr(Traced, step, wrapper)
-    gen = Traced(GenerationConfig(), LocalExecutor(CORES, show_progress=False), None, library=library)
-    gen.generate(info, train, sources, budget, 0, f"holdout-{HOLDOUT}")
+    gen = FoldGenerator(GenerationSpec(), LocalExecutor(CORES, show_progress=False), None, library=library)
+    with patched_steps(tracing):
+        gen.generate(info, train, sources, budget, 0, f"holdout-{HOLDOUT}")
     return {"step_tracemalloc_peak_mb": peaks, "alpha": alpha,
             "note": "driver-side allocations made during each step (inputs held before it not counted)"}
 
@@ -678,7 +702,7 @@ def _pose_pool(folder: Path, quick: bool) -> dict[str, float]:
 def stage_cost(quick: bool) -> dict:
     from vsmp_imu.baselines.classical import ClassicalAugmentation
     from vsmp_imu.baselines.generative import ImuGptMethod, ImuTubeMethod
-    from vsmp_imu.pipeline.method import make_vsmp_method
+    from vsmp_imu.methods import make
 
     alpha = 0.1 if quick else 0.2
     context = _context(alpha)
@@ -687,7 +711,7 @@ def stage_cost(quick: bool) -> dict:
     out["classical"] = {"wall_s": wall, "samples": len(windows), "windows": len(windows),
                         "s_per_sample": wall / max(len(windows), 1),
                         "note": "a sample is one augmented window"}
-    for name, method in (("imugpt", ImuGptMethod()), ("vsmp", make_vsmp_method("vsmp"))):
+    for name, method in (("imugpt", ImuGptMethod()), ("vsmp", make("vsmp"))):
         wall, windows = timed(lambda m=method: m.generate(context))
         fold = method.last_output_
         out[name] = {"wall_s": wall, "samples": len(fold.samples), "windows": len(fold.generated),

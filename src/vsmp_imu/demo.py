@@ -27,9 +27,10 @@ from vsmp_imu.har.synthetic import synthetic_budget
 from vsmp_imu.io import write_text
 from vsmp_imu.methods import register_all
 from vsmp_imu.pipeline.fold import FoldGenerator, FoldOutput
-from vsmp_imu.pipeline.method import fold_key, make_vsmp_method
+from vsmp_imu.pipeline.method import fold_key
 from vsmp_imu.pipeline.output import write_output
 from vsmp_imu.pipeline.sources import LibrarySmpSource
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.smp.library import ActivityLibrary
 
 
@@ -69,9 +70,9 @@ def first_fold_synthetic(cfg: DemoConfig, out: Path) -> tuple[FoldOutput, Any, A
     info = ds.info
     split = split_fold(ds.windows(), cfg.folds[0], "low-resource", cfg.seed, budget_percent=cfg.budget_percent)
     budget = synthetic_budget(split.fit.class_counts(), cfg.alpha, cfg.policy, split.tail)
-    method = make_vsmp_method(cache_dir=str(out / "cache"), workers=cfg.workers)
+    spec = GenerationSpec(alpha=cfg.alpha, policy=cfg.policy, workers=cfg.workers, cache_dir=str(out / "cache"))
     library = ActivityLibrary.load()
-    generator = FoldGenerator(method.config, LocalExecutor(cfg.workers, show_progress=False),
+    generator = FoldGenerator(spec, LocalExecutor(cfg.workers, show_progress=False),
                               out / "cache", out / "synthetic" / "motions", library=library)
     from vsmp_imu.har.synthetic import FoldContext
 
@@ -83,7 +84,7 @@ def first_fold_synthetic(cfg: DemoConfig, out: Path) -> tuple[FoldOutput, Any, A
                                   budget, cfg.seed, fold_key(context))
     write_output(out / "synthetic", fold_out, {"dataset": info.name, "fold": split.fold,
                                                "label_budget_percent": cfg.budget_percent, "alpha": cfg.alpha,
-                                               "policy": cfg.policy, "config": method.config.as_dict()})
+                                               "policy": cfg.policy, "config": spec.pipeline_dict()})
     return fold_out, split, info
 
 

@@ -63,3 +63,10 @@ class ExtractionError(VsmpError):
 
 class ServiceError(VsmpError):
     """A remote service (e.g. the VLM endpoint) failed after retries."""
+
+
+class SampleError(VsmpError):
+    """One synthetic sample cannot be made from its inputs (a prompt that names no activity,
+    a motion with non-finite joints, an SMP variant with a field out of range). The pipeline
+    records the sample as failed, with this message, and goes on; any other exception in a
+    sample is a bug and fails the run."""

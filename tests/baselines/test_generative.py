@@ -63,11 +63,11 @@ def test_imugpt_windows_come_from_prompts_without_smp_or_calibration(context, tm
     windows = method.generate(context)
     assert len(windows) > 0 and np.isfinite(windows.X).all()
     assert (windows.class_counts() <= context.budget_vector()).all()
-    records = [r for r in method.last_output_.records if r["window"] is not None]
-    assert all(r["provenance"]["smp_id"] is None for r in records)
-    assert all(r["provenance"]["source"].startswith("description:") for r in records)
-    assert all(r["provenance"]["locations"]["waist"]["eta"] is None for r in records)
-    assert all({v["filter"] for v in r["verdicts"]} <= {"motion", "imu", "redundancy"} for r in records)
+    records = [r for r in method.last_output_.records if r.windowed]
+    assert all(r.provenance.smp_id is None for r in records)
+    assert all(r.provenance.source.startswith("description:") for r in records)
+    assert all(r.provenance.locations["waist"].eta is None for r in records)
+    assert all({v.filter for v in r.verdicts} <= {"motion", "imu", "redundancy"} for r in records)
 
 
 def test_imutube_needs_clips(context):
@@ -87,5 +87,5 @@ def test_imutube_from_a_real_clip(context, tmp_path):
     windows = method.generate(context)
     assert set(np.unique(windows.y)) <= {context.train.label_names.index("SITTING")}
     assert (tmp_path / "pool" / "sitting" / (clip.name + ".pose.npz")).exists()
-    records = [r for r in method.last_output_.records if r["window"] is not None]
-    assert records and all(r["provenance"]["source"] == f"video:{clip.name}" for r in records)
+    records = [r for r in method.last_output_.records if r.windowed]
+    assert records and all(r.provenance.source == f"video:{clip.name}" for r in records)

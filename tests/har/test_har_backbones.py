@@ -74,8 +74,10 @@ def test_classes_missing_from_training(name):
 
 def test_make_backbone_registry():
     assert set(BACKBONES) == {"rf", "dclstm", "dclstm-attn", "bilstm-attn"}
-    est = make_backbone("dclstm", max_epochs=3, n_jobs=4)  # n_jobs is not one of its params
-    assert est.max_epochs == 3 and not hasattr(est, "n_jobs")
+    assert make_backbone("dclstm", max_epochs=3).max_epochs == 3
+    with pytest.raises(ConfigError, match="takes no parameter.*n_jobs") as err:
+        make_backbone("dclstm", max_epochs=3, n_jobs=4)  # n_jobs is not one of its params
+    assert err.value.field == "backbone_params" and "max_epochs" in err.value.allowed
     with pytest.raises(ConfigError, match="unknown backbone"):
         make_backbone("svm")
 

@@ -161,15 +161,15 @@ def test_a_method_short_of_its_budget_is_named():
 
 
 def test_refill_reaches_the_vsmp_method_only_when_asked(cli, fixtures_dir, tmp_path, monkeypatch):
-    import vsmp_imu.pipeline.method as method
+    import vsmp_imu.methods as methods
 
     seen = []
 
-    def recorder(**params):
+    def recorder(name, **params):
         seen.append(params)
         raise SystemExit(0)  # stop before any generation: only the parameters matter here
 
-    monkeypatch.setattr(method, "make_vsmp_method", recorder)
+    monkeypatch.setattr(methods, "make", recorder)
     args = ("evaluate", "--dataset", fixtures_dir / "generic" / "dataset.yaml", "--methods", "vsmp",
             "--backbones", "rf", "-o", tmp_path / "out")
     cli(*args, "--refill", "2")

@@ -10,8 +10,9 @@ from vsmp_imu.executor import LocalExecutor
 from vsmp_imu.grounding.split import stat_rank_split
 from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.synthetic import synthetic_budget
-from vsmp_imu.pipeline.fold import FoldGenerator, GenerationConfig
+from vsmp_imu.pipeline.fold import FoldGenerator
 from vsmp_imu.pipeline.sources import LibrarySmpSource
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.smp.library import ActivityLibrary
 
 TRAIN_SUBJECTS = ["2", "3", "4", "5"]
@@ -29,7 +30,7 @@ def library():
     return ActivityLibrary.load()
 
 
-def _generate(hapt12, library, config: GenerationConfig, cache_dir=None, workers=1, seed=0):
+def _generate(hapt12, library, config: GenerationSpec, cache_dir=None, workers=1, seed=0):
     info, windows = hapt12
     train = windows.where_subjects(TRAIN_SUBJECTS)
     budget = synthetic_budget(train.class_counts(), 0.05)
@@ -40,7 +41,7 @@ def _generate(hapt12, library, config: GenerationConfig, cache_dir=None, workers
 
 @pytest.fixture(scope="module")
 def fold(hapt12, library, tmp_path_factory):
-    return _generate(hapt12, library, GenerationConfig(**SMALL), tmp_path_factory.mktemp("cache"))
+    return _generate(hapt12, library, GenerationSpec(**SMALL), tmp_path_factory.mktemp("cache"))
 
 
 def test_budget_respected_and_windows_shaped(fold, hapt12):
@@ -55,36 +56,35 @@ def test_budget_respected_and_windows_shaped(fold, hapt12):
 
 def test_every_window_keeps_its_provenance_and_verdicts(fold):
     out, _, _ = fold
-    windowed = [r for r in out.records if r["window"] is not None]
+    windowed = [r for r in out.records if r.windowed]
     assert len(windowed) == len(out.generated)
     for rec in windowed:
-        prov = rec["provenance"]
+        prov = rec.provenance.as_dict()
         for key in ("source", "smp_id", "prompt", "backend", "seed", "locations", "motion_verdict"):
             assert key in prov
         loc = prov["locations"]["waist"]
         assert loc["theta"]["segment"] and loc["gamma"]["axes"] == ["up", "forward", "left"]
         assert set(loc["eta"]["eta"]) >= {"roll_deg", "acc_noise_scale"}
         assert loc["eta"]["loss_final"] <= loc["eta"]["loss_nominal"]
-        filters = [v["filter"] for v in rec["verdicts"]]
+        filters = [v.filter for v in rec.verdicts]
         assert filters[:2] == ["motion", "imu"]
-        if rec["kept"]:
-            assert all(v["passed"] for v in rec["verdicts"])
+        if rec.kept:
+            assert all(v.passed for v in rec.verdicts)
         else:
-            assert any(not v["passed"] and v["reason"] for v in rec["verdicts"])
-    assert all(r["kept"] for r in windowed if r["selected"])
+            assert any(not v.passed and v.reason for v in rec.verdicts)
+    assert all(r.kept for r in windowed if r.selected)
 
 
 def test_rank_grounding_matches_d_rank_and_keeps_order(hapt12, library, fold):
     """Class-balanced KS < 0.05 per channel against D_rank; Spearman 1 with the aligned input."""
     out, train, _ = fold
-    gen = FoldGenerator(GenerationConfig(**SMALL), None, library=library)
     _, rank_idx = stat_rank_split(train.y, 0)
     d_rank = train[rank_idx]
     ok = [r for r in out.samples if not r.error and r.signals]
     info, _ = hapt12
-    from vsmp_imu.pipeline.fold import _location_plan
+    from vsmp_imu.pipeline.fold import ground, location_plan
 
-    grounded = gen._ground(info, ok, d_rank, _location_plan(info))
+    grounded = ground(GenerationSpec(**SMALL), info, ok, d_rank, location_plan(info))
     syn = np.concatenate([g["waist"] for g in grounded])
     labels = np.concatenate([np.full(len(g["waist"]), r.label_index) for g, r in zip(grounded, ok, strict=True)])
     real_share = np.bincount(d_rank.y, minlength=info.n_classes) / len(d_rank)
@@ -108,20 +108,20 @@ def _weighted_ks(x: np.ndarray, w: np.ndarray, y: np.ndarray) -> float:
 
 
 def test_ablation_switches_change_what_they_say(hapt12, library, tmp_path):
-    out, _, _ = _generate(hapt12, library, GenerationConfig(sim_in_the_loop=False, quality_filter=False,
+    out, _, _ = _generate(hapt12, library, GenerationSpec(sim_in_the_loop=False, quality_filter=False,
                                                             rank_grounding=False, k=1, oversample=1.0,
                                                             max_rounds=1))
-    windowed = [r for r in out.records if r["window"] is not None]
-    assert all(r["kept"] and r["verdicts"] == [] for r in windowed)
-    assert all(r["provenance"]["locations"]["waist"]["eta"] is None for r in windowed)
+    windowed = [r for r in out.records if r.windowed]
+    assert all(r.kept and r.verdicts == [] for r in windowed)
+    assert all(r.provenance.locations["waist"].eta is None for r in windowed)
 
 
 def test_same_seed_same_bytes_any_worker_count(hapt12, library, tmp_path):
-    config = GenerationConfig(k=1, oversample=1.0, max_rounds=1)
+    config = GenerationSpec(k=1, oversample=1.0, max_rounds=1)
     one, _, _ = _generate(hapt12, library, config, workers=1)
     two, _, _ = _generate(hapt12, library, config, workers=2)
     assert one.windows.X.tobytes() == two.windows.X.tobytes()
-    assert [r["sample"] for r in one.records] == [r["sample"] for r in two.records]
+    assert [r.sample for r in one.records] == [r.sample for r in two.records]
     other, _, _ = _generate(hapt12, library, config, seed=1)
     assert other.windows.X.tobytes() != one.windows.X.tobytes()
 
@@ -130,9 +130,9 @@ def test_refill_tops_up_classes_short_of_their_budget(hapt12, library, tmp_path)
     """A refill pass synthesizes more samples for the classes the filter left short, keeps the
     first pass's samples, delivers more of the budget, and is the same bytes with 2 workers."""
     base = dict(k=1, oversample=1.0, max_rounds=1)
-    plain, _, budget = _generate(hapt12, library, GenerationConfig(**base), tmp_path)
+    plain, _, budget = _generate(hapt12, library, GenerationSpec(**base), tmp_path)
     assert plain.summary["shortfall"], "the test needs a class short of its budget"
-    refilled, _, _ = _generate(hapt12, library, GenerationConfig(**base, refill=1), tmp_path)
+    refilled, _, _ = _generate(hapt12, library, GenerationSpec(**base, refill=1), tmp_path)
     short = set(plain.summary["shortfall"])
     for name, counts in refilled.summary["per_class"].items():
         before = plain.summary["per_class"][name]["samples"]
@@ -141,13 +141,13 @@ def test_refill_tops_up_classes_short_of_their_budget(hapt12, library, tmp_path)
     assert {r.key for r in plain.samples} <= {r.key for r in refilled.samples}
     assert len(refilled.windows) > len(plain.windows)
     assert sum(refilled.summary["shortfall"].values()) < sum(plain.summary["shortfall"].values())
-    two, _, _ = _generate(hapt12, library, GenerationConfig(**base, refill=1), tmp_path, workers=2)
+    two, _, _ = _generate(hapt12, library, GenerationSpec(**base, refill=1), tmp_path, workers=2)
     assert two.windows.X.tobytes() == refilled.windows.X.tobytes()
-    assert [r["sample"] for r in two.records] == [r["sample"] for r in refilled.records]
+    assert [r.sample for r in two.records] == [r.sample for r in refilled.records]
 
 
 def test_refill_must_not_be_negative():
     from vsmp_imu.errors import ConfigError
 
     with pytest.raises(ConfigError, match="refill"):
-        GenerationConfig(refill=-1)
+        GenerationSpec(refill=-1)

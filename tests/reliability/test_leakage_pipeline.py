@@ -15,6 +15,7 @@ in on purpose shows that every instrument sees it.
 from __future__ import annotations
 
 from collections import defaultdict
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -30,14 +31,15 @@ from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
 from vsmp_imu.har.synthetic import METHODS, synthetic_budget
 from vsmp_imu.har.windows import Windows
-from vsmp_imu.pipeline.fold import FoldGenerator, GenerationConfig
+from vsmp_imu.pipeline.fold import FoldGenerator
 from vsmp_imu.pipeline.method import VsmpMethod
 from vsmp_imu.pipeline.sources import SmpDirSource
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.smp.library import ActivityLibrary
 
 SENTINEL = 4242.0
 HELD = "1"
-SMALL = GenerationConfig(k=1, oversample=1.5, max_rounds=2)
+SMALL = GenerationSpec(k=1, oversample=1.5, max_rounds=2)
 INSTRUMENTS = ("fold_train", "split_labels", "d_stat", "mounting_d_stat", "d_rank", "plausibility",
                "validator", "nn_threshold_embeddings", "tau_model_fit", "tau_model_predict")
 SEEN: dict[str, list[bool]] = defaultdict(list)
@@ -93,8 +95,8 @@ def instruments(monkeypatch):
     split = fold_mod.stat_rank_split
     monkeypatch.setattr(fold_mod, "stat_rank_split", lambda labels, seed, *a, **k: (
         SEEN["split_labels"].append(False), split(labels, seed, *a, **k))[1])
-    wrap(FoldGenerator, "_nominal_mountings",
-         lambda self, info, plan, sources, d_stat: SEEN["mounting_d_stat"].append(has_sentinel(d_stat.X)))
+    wrap(fold_mod, "nominal_mountings",
+         lambda spec, info, plan, sources, d_stat: SEEN["mounting_d_stat"].append(has_sentinel(d_stat.X)))
     wrap(TargetStatistics, "fit", lambda self, windows, labels, *_: SEEN["d_stat"].append(has_sentinel(windows)))
     wrap(RankGrounder, "fit", lambda self, syn, real, *a, **k: SEEN["d_rank"].append(has_sentinel(real)))
     wrap(MotionPlausibilityFilter, "fit", lambda self, X, y: SEEN["plausibility"].append(has_sentinel(X)))
@@ -125,7 +127,7 @@ def marked(small_dataset):
 
 def _register_vsmp(monkeypatch, small_dataset):
     source = f"smp:{small_dataset.parent / 'smps'}"
-    monkeypatch.setitem(METHODS, "vsmp", lambda **_: VsmpMethod(config=SMALL, source=source))
+    monkeypatch.setitem(METHODS, "vsmp", lambda **_: VsmpMethod(spec=replace(SMALL, source=source)))
 
 
 @pytest.mark.parametrize("protocol,budgets,policy", [

@@ -123,7 +123,7 @@ def test_imugpt_describer_keeps_the_key_out_of_cache_and_provenance(key, tmp_pat
     assert len(windows) > 0
     assert len(server.requests) == 6  # one description request per class
     assert {r["headers"]["authorization"] for r in server.requests} == {f"Bearer {SECRET}"}
-    provenance = " ".join(str(r["provenance"]) for r in method.last_output_.records)
+    provenance = " ".join(str(r.provenance.as_dict()) for r in method.last_output_.records)
     assert "walks at an easy pace" in provenance
     captured = capsys.readouterr()
     n_files = assert_nowhere(tmp_path, provenance, caplog.text, captured.out, captured.err)

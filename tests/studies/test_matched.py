@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from vsmp_imu.errors import ConfigError
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.smp.augment import AMPLITUDE_MAX_LEVELS, TEMPO_MAX_LEVELS
 from vsmp_imu.smp.verbalize import generic_caption, verbalize
 from vsmp_imu.studies.matched import (
@@ -50,7 +51,7 @@ def test_k_outside_the_four_slots_is_refused(library):
     with pytest.raises(ConfigError, match="slot kinds"):
         plan_slots(library.get("walking").smp, 0, "x", k=5)
     with pytest.raises(ConfigError):
-        MatchedConfig(k=0)
+        MatchedConfig.from_spec(GenerationSpec(k=5))
 
 
 def test_prompts_share_caption_base_smp_and_the_verbatim_attribute_phrase(library):

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from vsmp_imu.studies.methods import GenerationOptions
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.studies.realism import (
     REFERENCE,
     SHUFFLED,
@@ -42,7 +42,7 @@ def realism(tmp_path_factory, utd_dir):
     out = tmp_path_factory.mktemp("realism")
     study = RealismStudy(dataset="utd_mhad", data_dir=utd_dir, fold="1", methods=("vsmp", "classical"),
                          epochs=4, patience=4, max_per_class=20, encoder_params=dict(TINY_ENCODER),
-                         options=GenerationOptions(cache_dir=str(out / "cache")))
+                         options=GenerationSpec(cache_dir=str(out / "cache")))
     results = study.run(out)
     paths = write_realism_outputs(results, out)
     return study, results, paths

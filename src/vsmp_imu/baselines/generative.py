@@ -17,17 +17,17 @@ the training side of each fold that VSMP-IMU sees.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from vsmp_imu.errors import ConfigError, VsmpError
-from vsmp_imu.executor import make_executor
 from vsmp_imu.har.synthetic import FoldContext
 from vsmp_imu.har.windows import Windows
-from vsmp_imu.pipeline.fold import Base, FoldGenerator, GenerationConfig
+from vsmp_imu.pipeline.fold import Base, FoldGenerator
 from vsmp_imu.pipeline.method import fold_key
 from vsmp_imu.pipeline.sources import entries_for, parse_source
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp.library import ActivityLibrary
 
@@ -72,54 +72,45 @@ def llm_descriptions(client, activity: str, n: int) -> list[str]:
     return items[:n]
 
 
-@dataclass
 class _GenerativeBaseline:
-    source: str = "library"
-    k: int = 1
-    backend: str = "procedural"
-    per_class_rank: bool = False
-    library_dirs: tuple[str, ...] = ()
-    workers: int = 1
-    executor: str = "local"
-    address: str | None = None
-    cache_dir: str | None = None
-    last_output_: Any = field(default=None, repr=False)
+    """A baseline on the generation pipeline; `spec` carries the options and the baseline's chain
+    (its switches in `vsmp_imu.methods`; `**options` replace spec fields)."""
 
     name = "baseline"
-    redundancy_filter = True  # class attribute: the baselines differ only here
 
-    def _config(self) -> GenerationConfig:
-        """The baselines' chain: no refinement, no sim-in-the-loop, declared mounting, rank
-        grounding, plausibility filter without the class validator."""
-        return GenerationConfig(
-            k=1, backend=self.backend, refine=False, sim_in_the_loop=False, rank_grounding=True,
-            per_class_rank=self.per_class_rank, estimate_mounting=False, quality_filter=True,
-            class_filter=False, redundancy_filter=self.redundancy_filter,
-            library_dirs=tuple(self.library_dirs))
+    def __init__(self, spec: GenerationSpec | None = None, name: str | None = None, **options: Any) -> None:
+        from vsmp_imu.methods import method
+
+        self.spec = method(name or self.name).spec(replace(spec or GenerationSpec(), **options))
+        self.last_output_: Any = None
 
     def _bases(self, context: FoldContext, library: ActivityLibrary) -> dict[str, list[tuple[str, Base]]]:
         raise NotImplementedError
 
     def generate(self, context: FoldContext) -> Windows:
-        library = ActivityLibrary.load([Path(d) for d in self.library_dirs])
+        spec = self.spec
+        library = ActivityLibrary.load([Path(d) for d in spec.library_dirs])
         bases = self._bases(context, library)
-        generator = FoldGenerator(self._config(), make_executor(self.executor, self.workers, self.address,
-                                                                show_progress=False),
-                                  Path(self.cache_dir) if self.cache_dir else None, library=library)
+        generator = FoldGenerator(spec, spec.make_executor(show_progress=False),
+                                  Path(spec.cache_dir) if spec.cache_dir else None, library=library)
         out = generator.generate(context.dataset, context.train, bases, context.budget_vector(), context.seed,
                                  f"{self.name}-{fold_key(context)}")
         self.last_output_ = out
         return out.windows
 
 
-@dataclass
 class ImuGptMethod(_GenerativeBaseline):
-    """IMUGPT 2.0-style synthetic windows (see module doc)."""
+    """IMUGPT 2.0-style synthetic windows (see module doc); `describer_url` names an
+    OpenAI-compatible model that writes the descriptions (offline captions otherwise)."""
 
-    n_descriptions: int = 12
-    describer_url: str | None = None
-    describer_model: str | None = None
     name = "imugpt"
+
+    def __init__(self, spec: GenerationSpec | None = None, name: str | None = None, n_descriptions: int = 12,
+                 describer_url: str | None = None, describer_model: str | None = None, **options: Any) -> None:
+        super().__init__(spec, name, **options)
+        self.n_descriptions = n_descriptions
+        self.describer_url = describer_url
+        self.describer_model = describer_model
 
     def _bases(self, context, library):
         info = context.dataset
@@ -129,7 +120,7 @@ class ImuGptMethod(_GenerativeBaseline):
             from vsmp_imu.extract.client import VLMClient
 
             client = VLMClient(self.describer_url, self.describer_model or "",
-                               cache_dir=Path(self.cache_dir or ".") / "describer")
+                               cache_dir=Path(self.spec.cache_dir or ".") / "describer")
         out = {}
         for label, entry in entries.items():
             if client is not None:
@@ -141,18 +132,16 @@ class ImuGptMethod(_GenerativeBaseline):
         return out
 
 
-@dataclass
 class ImuTubeMethod(_GenerativeBaseline):
     """IMUTube-style synthetic windows from source clips (see module doc)."""
 
     name = "imutube"
-    redundancy_filter = False
 
     def _bases(self, context, library):
         from vsmp_imu.pipeline.sources import SmpDirSource
         from vsmp_imu.pipeline.video_source import pool_clips
 
-        kind, folder = parse_source(self.source)
+        kind, folder = parse_source(self.spec.source)
         if kind != "video":
             raise ConfigError("the IMUTube-style baseline needs source clips: --source video:DIR",
                               field="source", allowed="video:DIR")

@@ -20,7 +20,8 @@ def demo_cmd(
     """HAPT12, library SMPs, procedural backend, low-resource LOPO, RF-ECDF: Real-only vs Classical
     Aug vs VSMP-IMU; writes the report, traces, filter statistics and a skeleton animation."""
     output_dir(output)
-    from vsmp_imu.demo import DemoConfig, run_demo
+    from vsmp_imu.app import run_demo
+    from vsmp_imu.demo import DemoConfig
 
     cfg = DemoConfig(folds=tuple(parse_csv(folds, option="--folds")), budget_percent=budget, workers=workers)
     console.print(f"VSMP-IMU demo: {cfg.dataset}, held-out subjects {', '.join(cfg.folds)}, "

@@ -8,22 +8,8 @@ from pathlib import Path
 import typer
 
 from vsmp_imu.cli.common import console, executor_options, library_dirs, output_dir
-from vsmp_imu.errors import ConfigError
 
 SOURCE_HELP = "library | smp:DIR (SMP files) | video:DIR (clips per activity folder, or a pool manifest)"
-
-
-def generation_config(k: int, backend: str, no_sim_loop: bool, no_rank: bool, no_filter: bool,
-                      per_class_rank: bool, no_refine: bool, no_uncertainty: bool, library: list[Path],
-                      refill: int = 0):
-    from vsmp_imu.pipeline.fold import GenerationConfig
-
-    return GenerationConfig(
-        k=k, backend=backend, sim_in_the_loop=not no_sim_loop, rank_grounding=not no_rank,
-        quality_filter=not no_filter, per_class_rank=per_class_rank, refine=not no_refine,
-        uncertainty_conditioned=not no_uncertainty,
-        library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill,
-    )
 
 
 def generate_cmd(
@@ -61,50 +47,24 @@ def generate_cmd(
     output_dir(output)
     executor_options(executor, address)
     output_dir(cache_dir, "--cache-dir")
-    from vsmp_imu.executor import make_executor
-    from vsmp_imu.har.datasets import load_dataset
-    from vsmp_imu.har.synthetic import ALPHA_RANGE, synthetic_budget
-    from vsmp_imu.io import remove_stale_temps
-    from vsmp_imu.pipeline.fold import FoldGenerator
-    from vsmp_imu.pipeline.method import make_smp_source
-    from vsmp_imu.pipeline.output import write_output
-    from vsmp_imu.smp.library import ActivityLibrary
+    from vsmp_imu.app import FoldRequest, generate_fold, plan_fold
+    from vsmp_imu.pipeline.spec import GenerationSpec
 
-    if not ALPHA_RANGE[0] <= alpha <= ALPHA_RANGE[1]:
-        raise ConfigError(f"alpha {alpha} out of range", field="--alpha",
-                          allowed=f"{ALPHA_RANGE[0]}..{ALPHA_RANGE[1]}")
-    config = generation_config(k, backend, no_sim_loop, no_rank, no_filter, per_class_rank, no_refine,
-                               no_uncertainty, library, refill)
-    ds = load_dataset(dataset, data_dir)
-    info = ds.info
-    windows = ds.windows(window_s, overlap)
-    subjects = windows.unique_subjects()
-    if holdout not in subjects:
-        raise ConfigError(f"subject '{holdout}' is not in {info.name}", field="--holdout",
-                          allowed=", ".join(subjects))
-    train = windows.where_subjects([holdout], keep=False)
-    budget = synthetic_budget(train.class_counts(), alpha, policy)
-    lib = ActivityLibrary.load(library_dirs(library))
-    sources = make_smp_source(source, lib).smps(info.name, info.label_names)
-    motion_dir = output / "motions" if save_motions else None
-    cache = cache_dir or output / "cache"
-    for folder in (output, cache):  # leftovers of a killed run
-        remove_stale_temps(folder)
-    if gpus_per_task is None:
-        gpus_per_task = 1.0 if backend == "hymotion" and executor == "ray" else 0.0
-    generator = FoldGenerator(config, make_executor(executor, workers, address,
-                                                    num_gpus_per_task=gpus_per_task),
-                              cache, motion_dir, library=lib)
-    console.print(f"{info.name}: held-out subject {holdout}; {len(train)} real training windows from "
-                  f"{len(subjects) - 1} subjects; synthetic budget {int(budget.sum())} windows", highlight=False)
+    spec = GenerationSpec(
+        source=source, alpha=alpha, policy=policy, k=k, backend=backend, sim_in_the_loop=not no_sim_loop,
+        rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
+        refine=not no_refine, uncertainty_conditioned=not no_uncertainty,
+        library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
+        workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None,
+        gpus_per_task=gpus_per_task)
+    request = FoldRequest(dataset, holdout, output, seed, window_s, overlap, data_dir, save_motions)
+    plan = plan_fold(spec, request)
+    console.print(f"{plan.info.name}: held-out subject {holdout}; {len(plan.train)} real training windows "
+                  f"from {len(plan.subjects) - 1} subjects; synthetic budget {int(plan.budget.sum())} windows",
+                  highlight=False)
     t0 = time.perf_counter()
-    out = generator.generate(info, train, sources, budget, seed, f"holdout-{holdout}")
+    out = generate_fold(spec, request, plan)
     elapsed = time.perf_counter() - t0
-    write_output(output, out, {
-        "dataset": info.name, "holdout": holdout, "alpha": alpha, "policy": policy, "seed": seed,
-        "source": source, "config": config.as_dict(),
-        "train_subjects": [s for s in subjects if s != holdout],
-    })
     _print_summary(out.summary)
     console.print(f"wrote {output}/synthetic.parquet: {len(out.windows)} selected of {len(out.generated)} "
                   f"generated windows in {elapsed:.1f} s", highlight=False)

@@ -12,13 +12,10 @@ from rich.table import Table
 
 from vsmp_imu.cli.common import console, executor_options, output_dir, parse_csv
 from vsmp_imu.errors import ConfigError
-from vsmp_imu.methods import generative_params, register_all
 from vsmp_imu.progress import progress
 
 dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_is_help=True)
 
-PROTOCOL_NAMES = ("lopo", "low-resource", "long-tail")
-BACKBONE_NAMES = ("rf", "dclstm", "dclstm-attn", "bilstm-attn")
 NEURAL = ("dclstm", "dclstm-attn", "bilstm-attn")
 
 
@@ -104,86 +101,53 @@ def evaluate_cmd(
     confusion matrices to the output folder (finished folds are not recomputed)."""
     output_dir(output)
     executor_options(executor, address)
-    if protocol not in PROTOCOL_NAMES:
-        raise ConfigError(
-            f"unknown protocol '{protocol}'", field="--protocol", allowed=", ".join(PROTOCOL_NAMES)
-        )
-    if budgets and protocol != "low-resource":
-        raise ConfigError(
-            "label budgets apply to the low-resource protocol only",
-            field="--budgets",
-            allowed="use --protocol low-resource",
-        )
-    _positive(seeds, "--seeds")
+    from vsmp_imu.app import EvalRequest, evaluate, evaluation
+    from vsmp_imu.har.protocols import parse_budgets
+    from vsmp_imu.pipeline.spec import GenerationSpec
+
     _positive(max_epochs, "--max-epochs")
     _positive(patience, "--patience")
     _positive(jobs, "--jobs")
-    register_all()
-    from vsmp_imu.har.backbones import BACKBONES
-    from vsmp_imu.har.datasets import load_dataset
-    from vsmp_imu.har.evaluate import EvalConfig, Evaluation
-    from vsmp_imu.har.protocols import parse_budgets
-    from vsmp_imu.har.report import write_report
-    from vsmp_imu.har.synthetic import METHODS
-    from vsmp_imu.har.windows import window_geometry
-
-    chosen_backbones = parse_csv(backbones, tuple(BACKBONES), "--backbones")
-    chosen_methods = parse_csv(methods, tuple(METHODS), "--methods")
-    neural_params = {
-        k: v
-        for k, v in (("max_epochs", max_epochs), ("patience", patience), ("n_threads", jobs))
-        if v is not None
-    }
-    if any(b in NEURAL for b in chosen_backbones):
-        from vsmp_imu.har.backbones.neural import resolve_device
-
-        resolve_device(device)  # an unknown or absent device fails before any data is loaded
-        if device != "cpu":
-            neural_params["device"] = device
-    backbone_params = {
-        b: dict(neural_params) for b in chosen_backbones if b in NEURAL and neural_params
-    }
-    if jobs is not None and "rf" in chosen_backbones:
-        backbone_params["rf"] = {"n_jobs": jobs}
-    _positive(k, "--k")
-    _positive(workers, "--workers")
-    generative = {
-        "source": source, "k": k, "backend": backend, "per_class_rank": per_class_rank,
-        "library_dirs": tuple(str(p) for p in (library or [])), "workers": workers,
-        "executor": executor, "address": address, "cache_dir": str(output / "cache"),
-    }
-    method_params = generative_params(chosen_methods, **generative)
-    for m in method_params:  # only when asked: the records of runs without it keep their digest
-        if refill and m.startswith("vsmp"):
-            method_params[m]["refill"] = refill
-    ds = load_dataset(dataset, data_dir)
-    window_geometry(ds.info.fs_hz, window_s, overlap)  # range checks before any work
-    config = EvalConfig(
-        dataset=ds.info.name,
-        protocol=protocol,
-        budgets=parse_budgets(budgets, protocol),
-        backbones=tuple(chosen_backbones),
-        methods=tuple(chosen_methods),
-        folds=_parse_folds(folds),
-        seeds=tuple(range(seeds)),
-        alpha=alpha,
-        policy=policy,
-        rho=rho,
-        window_s=window_s,
-        overlap=overlap,
-        backbone_params=backbone_params,
-        method_params=method_params,
-        report_groups=_parse_groups(report_groups),
-    )
-    evaluation = Evaluation(config, ds, output)
-    with progress(f"{ds.info.name} {protocol}", console=console, transient=False) as update:
-        results = evaluation.run(lambda stage, done, total: update(done, total, stage))
-    written = write_report(results.to_json(), output)
+    chosen_backbones = tuple(parse_csv(backbones, option="--backbones"))
+    request = EvalRequest(
+        dataset=dataset, output=output, protocol=protocol,
+        budgets=parse_budgets(budgets, "low-resource") if budgets else (None,),
+        backbones=chosen_backbones, methods=tuple(parse_csv(methods, option="--methods")),
+        folds=_parse_folds(folds), seeds=seeds, rho=rho, window_s=window_s, overlap=overlap,
+        data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device),
+        report_groups=_parse_groups(report_groups))
+    spec = GenerationSpec(
+        source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
+        library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
+        workers=workers, address=address)
+    run = evaluation(spec, request)
+    with progress(f"{run.dataset.info.name} {protocol}", console=console, transient=False) as update:
+        results, written = evaluate(run, lambda stage, done, total: update(done, total, stage))
     _print_summary(results.summary)
     console.print(
         f"[green]wrote[/] {output / 'results.json'}, {written[0]} and "
         f"{len(written) - 1} confusion matrices"
     )
+
+
+def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: int | None,
+                     jobs: int | None, device: str) -> dict[str, dict[str, Any]]:
+    """Per backbone: the neural options given, and the RF's threads."""
+    neural_params = {
+        k: v
+        for k, v in (("max_epochs", max_epochs), ("patience", patience), ("n_threads", jobs))
+        if v is not None
+    }
+    if any(b in NEURAL for b in chosen):
+        from vsmp_imu.har.backbones.neural import resolve_device
+
+        resolve_device(device)  # an unknown or absent device fails before any data is loaded
+        if device != "cpu":
+            neural_params["device"] = device
+    params = {b: dict(neural_params) for b in chosen if b in NEURAL and neural_params}
+    if jobs is not None and "rf" in chosen:
+        params["rf"] = {"n_jobs": jobs}
+    return params
 
 
 def _pct(mean: float | None, std: float | None) -> str:

@@ -172,13 +172,10 @@ def _backbone(name: str, max_epochs: int | None, patience: int | None, jobs: int
 
 def _generation(source: str, k: int, backend: str, workers: int, library: list[Path] | None,
                 clips: Path | None = None):
-    from vsmp_imu.studies.methods import GenerationOptions
+    from vsmp_imu.pipeline.spec import GenerationSpec
 
-    _positive(k, "--k")
-    _positive(workers, "--workers")
-    return GenerationOptions(source=source, k=k, backend=backend, workers=workers,
-                             library_dirs=tuple(str(p) for p in (library or [])),
-                             clips=str(clips) if clips else None)
+    return GenerationSpec(source=source, k=k, backend=backend, workers=workers,
+                          library_dirs=tuple(str(p) for p in (library or [])), clips=str(clips) if clips else None)
 
 
 @study_app.command("ablation")

@@ -90,20 +90,26 @@ class EvalConfig:
     method_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
-    def check(self) -> EvalConfig:
-        check_protocol(self.protocol)
+    def __post_init__(self) -> None:
+        """Normalise the budgets: (None,) outside low-resource, the default budgets when none are
+        given, else the parsed percentages (a budget outside low-resource is left for `check`)."""
         if self.protocol != "low-resource":
-            if any(b is not None for b in self.budgets):
-                raise ConfigError(
-                    "label budgets apply to the low-resource protocol only",
-                    field="--budgets",
-                    allowed="use --protocol low-resource",
-                )
-            self.budgets = (None,)
+            if all(b is None for b in self.budgets):
+                self.budgets = (None,)
         elif self.budgets == (None,):
             self.budgets = DEFAULT_BUDGETS
         else:
             self.budgets = parse_budgets(",".join(f"{b:g}" for b in self.budgets), self.protocol)
+
+    def check(self) -> EvalConfig:
+        """Validate the settings (changes nothing); returns self."""
+        check_protocol(self.protocol, field="--protocol")
+        if self.protocol != "low-resource" and any(b is not None for b in self.budgets):
+            raise ConfigError(
+                "label budgets apply to the low-resource protocol only",
+                field="--budgets",
+                allowed="use --protocol low-resource",
+            )
         unknown = [b for b in self.backbones if b not in BACKBONES]
         if unknown:
             raise ConfigError(

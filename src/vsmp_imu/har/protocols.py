@@ -46,10 +46,10 @@ class FoldSplit:
     tail: tuple[int, ...] | None = None
 
 
-def check_protocol(protocol: str) -> str:
+def check_protocol(protocol: str, field: str = "protocol") -> str:
     if protocol not in PROTOCOLS:
         raise ConfigError(
-            f"unknown protocol '{protocol}'", field="protocol", allowed=", ".join(PROTOCOLS)
+            f"unknown protocol '{protocol}'", field=field, allowed=", ".join(PROTOCOLS)
         )
     return protocol
 

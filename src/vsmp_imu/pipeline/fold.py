@@ -24,7 +24,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +32,7 @@ import numpy as np
 from sklearn.ensemble import RandomForestClassifier
 from threadpoolctl import threadpool_limits
 
-from vsmp_imu.errors import ConfigError, ValidationError
+from vsmp_imu.errors import ValidationError
 from vsmp_imu.filtering.faithfulness import (
     TAU_DEFAULT,
     class_verdicts,
@@ -43,7 +43,6 @@ from vsmp_imu.filtering.faithfulness import (
 )
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
-from vsmp_imu.filtering.verdict import Verdict
 from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding.mounting import estimate_mounting
 from vsmp_imu.grounding.rank import RankGrounder
@@ -55,6 +54,7 @@ from vsmp_imu.har.synthetic import take_budget
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.imu import simulate_kinematics
 from vsmp_imu.motion import Motion
+from vsmp_imu.pipeline.records import Provenance, WindowRecord
 from vsmp_imu.pipeline.sample import (
     LocationTask,
     SampleResult,
@@ -62,6 +62,7 @@ from vsmp_imu.pipeline.sample import (
     backend_for,
     cached_synthesize,
 )
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp import SMP
 from vsmp_imu.smp.augment import SMPAugmenter
@@ -75,61 +76,19 @@ Base = SMP | str | Path
 FIRST_ROUND_WINDOWS_PER_SAMPLE = 3.0
 
 
-@dataclass(frozen=True)
-class GenerationConfig:
-    """Switches and sizes of the generation pipeline (defaults: the paper's)."""
-
-    k: int = 4  # SMP variants per base SMP
-    backend: str = "procedural"
-    refine: bool = True
-    uncertainty_conditioned: bool = True
-    sim_in_the_loop: bool = True
-    rank_grounding: bool = True
-    per_class_rank: bool = False
-    estimate_mounting: bool = True  # nominal dataset mounting frame from D_stat class means
-    # the validator judges a class only after training on at least this many of its real windows
-    min_validator_windows: int = 10
-    quality_filter: bool = True  # all three filters; the two below switch single ones off
-    class_filter: bool = True
-    redundancy_filter: bool = True
-    noise: bool = True
-    oversample: float = 2.0  # raw windows generated per budgeted window
-    max_rounds: int = 4
-    # extra passes for classes whose kept windows fall short of their budget: each synthesizes
-    # as many samples as the class's pass rate says it needs, then grounds and filters again
-    refill: int = 0
-    hop_fraction: float = 0.5  # synthetic window hop, as a fraction of the window
-    val_fraction: float = 0.2  # training subjects held aside to choose tau_cls
-    duration_s: float | None = None  # None: each activity's natural duration
-    library_dirs: tuple[str, ...] = ()
-
-    def __post_init__(self) -> None:
-        if self.k < 1:
-            raise ConfigError(f"k must be >= 1, got {self.k}", field="k")
-        if not self.oversample >= 1.0:
-            raise ConfigError(f"oversample must be >= 1, got {self.oversample}", field="oversample")
-        if self.refill < 0:
-            raise ConfigError(f"refill must be >= 0, got {self.refill}", field="refill")
-        if not 0 < self.hop_fraction <= 1:
-            raise ConfigError(f"hop_fraction must be in (0, 1], got {self.hop_fraction}", field="hop_fraction")
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-
 @dataclass
 class FoldOutput:
     """The synthetic windows of one fold and the record of every generated window."""
 
     windows: Windows  # the selected windows (the budget)
     generated: np.ndarray  # every generated window, (N, T, C); records[:N] describe them
-    records: list[dict[str, Any]] = field(default_factory=list)
+    records: list[WindowRecord] = field(default_factory=list)
     samples: list[SampleResult] = field(default_factory=list)
     tasks: list[SampleTask] = field(default_factory=list)
     summary: dict[str, Any] = field(default_factory=dict)
 
 
-def _location_plan(info: DatasetInfo) -> dict[str, list[SensorLocation]]:
+def location_plan(info: DatasetInfo) -> dict[str, list[SensorLocation]]:
     """Locations a class's samples are simulated at (UTD-MHAD moves the sensor per class)."""
     for loc in info.locations:
         if len(loc.channels) != 6:
@@ -152,7 +111,7 @@ def _convention(loc: SensorLocation) -> tuple[dict[str, Any], bool]:
     return conv.as_dict(), loc.axes is not None
 
 
-def _channel_index(info: DatasetInfo, loc: SensorLocation) -> np.ndarray:
+def channel_index(info: DatasetInfo, loc: SensorLocation) -> np.ndarray:
     return np.array([info.channel_names.index(c) for c in loc.channels])
 
 
@@ -170,7 +129,7 @@ def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: W
         real = d_rank[np.isin(d_rank.y, classes)]
         if len(real) == 0:
             continue
-        cols = _channel_index(info, loc)
+        cols = channel_index(info, loc)
         syn = np.concatenate([r.signals[loc.name] for r in users])
         labels = np.concatenate([np.full(len(r.signals[loc.name]), r.label_index) for r in users])
         grounders[loc.name] = RankGrounder(per_class=per_class, threads=threads).fit(
@@ -226,7 +185,7 @@ def make_filter_job(info: DatasetInfo, train: Windows, seed: int, fold: str, val
                     min_class_windows: int, learned: bool = True) -> FilterJob:
     """The filter job of one fold's real training windows (`learned`: with the validator and tau_nn)."""
     return FilterJob(
-        windows={loc.name: train.X[..., _channel_index(info, loc)] for loc in info.locations},
+        windows={loc.name: train.X[..., channel_index(info, loc)] for loc in info.locations},
         labels=train.y,
         features=ecdf_features(train.X) if learned else None,
         is_val=_validation_mask(train, val_fraction, seed, fold),
@@ -243,15 +202,265 @@ def run_item(item):
     return cached_synthesize(item)
 
 
+# -- stage 1: prepare ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FoldSetup:
+    """What the fold's real training windows give the samples: the D_stat / D_rank split, the
+    locations each class is simulated at and, per class, its location tasks (convention,
+    D_stat target, nominal mounting)."""
+
+    plan: dict[str, list[SensorLocation]]
+    d_stat: Windows
+    d_rank: Windows
+    locations: dict[str, tuple[LocationTask, ...]]
+
+
+def target_statistics(info: DatasetInfo, d_stat: Windows, threads: int = 1) -> dict[str, TargetStatistics]:
+    """D_stat's per-class statistics at every location."""
+    return {loc.name: TargetStatistics(info.fs_hz).fit(d_stat.X[..., channel_index(info, loc)].astype(np.float64),
+                                                       d_stat.y, threads)
+            for loc in info.locations}
+
+
+def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_stat: Windows) -> dict[str, tuple]:
+    """R_target per location from one default execution per class vs the real class means."""
+    out: dict[str, tuple] = {}
+    for loc in info.locations:
+        identity = (0.0, 0.0, 0.0, 1.0)
+        if not (spec.estimate_mounting and loc.gravity_included and loc.axes):
+            out[loc.name] = identity
+            continue
+        cols = channel_index(info, loc)
+        to_segment = axes_matrix(loc.axes).T  # device axes -> segment frame
+        syn, real, weights = [], [], []
+        for i, label in enumerate(info.label_names):
+            mask = d_stat.y == i
+            if label not in sources or loc not in plan[label] or not mask.any():
+                continue
+            base = sources[label][0][1]
+            motion = Motion.load(base) if isinstance(base, Path) else \
+                backend_for(spec.backend, tuple(spec.library_dirs)).generate(base, 0)
+            kin = simulate_kinematics(motion, loc.name, info.fs_hz)
+            syn.append(kin.specific_force_seg().mean(axis=0))
+            real.append(to_segment @ d_stat.X[mask][..., cols[:3]].reshape(-1, 3).mean(axis=0))
+            weights.append(mask.sum())
+        rot, _ = estimate_mounting(np.array(syn), np.array(real), np.array(weights, dtype=float)) \
+            if len(syn) >= 2 else (None, None)
+        out[loc.name] = identity if rot is None else tuple(float(v) for v in rot.as_quat())
+    return out
+
+
+def location_tasks(spec: GenerationSpec, info: DatasetInfo, plan, stats: dict[str, TargetStatistics],
+                   mountings: dict[str, tuple]) -> dict[str, tuple[LocationTask, ...]]:
+    """Per class, the location tasks of its samples (the D_stat target only with sim-in-the-loop)."""
+    out = {}
+    for label, locs in plan.items():
+        tasks = []
+        for loc in locs:
+            conv, declared = _convention(loc)
+            target = None
+            if spec.sim_in_the_loop and loc.name in stats:
+                target = _summary_lists(stats[loc.name].for_class(info.label_names.index(label)))
+            tasks.append(LocationTask(loc.name, conv, declared, target, mountings[loc.name]))
+        out[label] = tuple(tasks)
+    return out
+
+
+def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, seed: int,
+            threads: int = 1) -> FoldSetup:
+    """Stage 1: split D_stat / D_rank, fit D_stat's statistics, estimate the nominal mountings."""
+    plan = location_plan(info)
+    stat_idx, rank_idx = stat_rank_split(train.y, seed)
+    d_stat, d_rank = train[stat_idx], train[rank_idx]
+    stats = target_statistics(info, d_stat, threads)
+    mountings = nominal_mountings(spec, info, plan, sources, d_stat)
+    return FoldSetup(plan, d_stat, d_rank, location_tasks(spec, info, plan, stats, mountings))
+
+
+# -- stage 2: the sample tasks ---------------------------------------------------------------------
+def smp_variants(spec: GenerationSpec, base: Base, seed: int, key: str, library=None) -> list[tuple[int, Base]]:
+    """K constrained variants of an SMP; a prompt or a recorded motion is used as is."""
+    if not isinstance(base, SMP):
+        return [(0, base)]
+    smp = Refiner(library).refine(base).smp if spec.refine else base
+    augmenter = SMPAugmenter(uncertainty_conditioned=spec.uncertainty_conditioned)
+    return list(enumerate(augmenter.augment(smp, spec.k, int(rng_for(seed, key).integers(2**31)))))
+
+
+def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list[tuple[str, Base]], slots: range,
+                 seed: int, fold: str, fs_hz: float, locations: tuple[LocationTask, ...], library=None,
+                 motion_dir: Path | None = None) -> list[SampleTask]:
+    """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants)."""
+    variants = [(src, k, v) for src, base in bases
+                for k, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", library)]
+    tasks = []
+    for slot in slots:
+        src, k, base = variants[slot % len(variants)]
+        tasks.append(SampleTask(
+            key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
+            variant=k, **_payload(base),
+            backend=spec.backend, seed=int(rng_for(seed, fold, label, slot).integers(2**31)),
+            fs_hz=fs_hz, locations=locations, sim_in_the_loop=spec.sim_in_the_loop,
+            noise=spec.noise, duration_s=spec.duration_s, library_dirs=tuple(spec.library_dirs),
+            motion_dir=str(motion_dir) if motion_dir else None,
+        ))
+    return tasks
+
+
+# -- stage 4: ground ----------------------------------------------------------------------------------
+def ground(spec: GenerationSpec, info: DatasetInfo, ok: list[SampleResult], d_rank: Windows, plan,
+           threads: int = 1) -> list[dict[str, np.ndarray]]:
+    """Rank grounding per location (F_v from all of `ok`, G_r from D_rank); the signals as they
+    are without rank grounding."""
+    if not spec.rank_grounding or not ok:
+        return [dict(r.signals) for r in ok]
+    grounders = fit_rank_grounders(info, ok, d_rank, plan, spec.per_class_rank, threads)
+    missing = sorted({name for r in ok for name in r.signals} - set(grounders))
+    if missing:
+        raise ValidationError(f"D_rank has no real window at location(s) {', '.join(missing)}",
+                              field="d_rank")
+    out: list[dict[str, np.ndarray]] = [{} for _ in ok]
+    for name, grounder in grounders.items():  # all samples of a location mapped at once
+        users = [i for i, r in enumerate(ok) if name in r.signals]
+        signals = [ok[i].signals[name] for i in users]
+        labels = None
+        if spec.per_class_rank:
+            labels = np.concatenate([np.full(len(sig), ok[i].label_index)
+                                     for i, sig in zip(users, signals, strict=True)])
+        mapped = grounder.transform(np.concatenate(signals), labels)
+        for i, part in zip(users, np.split(mapped, np.cumsum([len(sig) for sig in signals])[:-1]), strict=True):
+            out[i][name] = part
+    return out
+
+
+# -- stage 5: window -----------------------------------------------------------------------------------
+@dataclass
+class WindowSet:
+    """Windows of the fold's samples: X (N, T, C), labels y and one record per window
+    (records past N describe failed samples)."""
+
+    X: np.ndarray
+    y: np.ndarray
+    records: list[WindowRecord]
+
+
+def window(info: DatasetInfo, ok: list[SampleResult], grounded: list[dict[str, np.ndarray]], length: int,
+           hop: int) -> WindowSet:
+    """Windows of every sample; a class whose real windows need only a share of the
+    window (transitions) keeps the synthetic windows whose share inside the motion's
+    active span reaches it, like the dataset's own labelling rule."""
+    shares = info.share_vector()
+    xs, ys, records = [], [], []
+    for r, sig in zip(ok, grounded, strict=True):
+        n = min(s.shape[0] for s in sig.values())
+        full = np.zeros((n, len(info.channel_names)))
+        for loc in info.locations:
+            if loc.name in sig:
+                full[:, channel_index(info, loc)] = sig[loc.name][:n]
+        starts = _starts(n, length, hop)
+        if shares[r.label_index] < 1.0:
+            starts = _covering(starts, length, info.fs_hz, r.provenance, shares[r.label_index])
+        for w, start in enumerate(starts):
+            xs.append(full[start:start + length])
+            ys.append(r.label_index)
+            records.append(WindowRecord(r.key, info.label_names[r.label_index], w, r.provenance,
+                                        start_s=start / info.fs_hz, locations=sorted(sig)))
+    if not xs:
+        return WindowSet(np.zeros((0, length, len(info.channel_names)), np.float32), np.zeros(0, np.int64),
+                         records)
+    return WindowSet(np.stack(xs).astype(np.float32), np.array(ys, dtype=np.int64), records)
+
+
+def failed_records(info: DatasetInfo, results: list[SampleResult]) -> list[WindowRecord]:
+    """A record per sample that failed or gave no signal."""
+    return [WindowRecord(r.key, info.label_names[r.label_index], None, r.provenance, error=r.error, kept=False)
+            for r in results if r.error or not r.signals]
+
+
+# -- stage 5: filter -----------------------------------------------------------------------------------
+def filter_windows(spec: GenerationSpec, info: DatasetInfo, train: Windows, windows: WindowSet,
+                   ok: list[SampleResult], job: FilterJob | None, models: FilterModels | None, seed: int,
+                   fold: str, threads: int = 1) -> tuple[np.ndarray, float | None]:
+    """The quality filter: each window's verdicts and kept flag (motion and inertial plausibility,
+    class faithfulness with tau_cls chosen by validation Macro-F1, redundancy). Returns the kept
+    mask and tau_cls (None: no class filter)."""
+    X, y, records = windows.X, windows.y, windows.records
+    keep = np.ones(len(X), dtype=bool)
+    if job is None or len(X) == 0:
+        return keep, None
+    by_key = {r.key: r for r in ok}
+    imu = {}  # location -> one verdict per window (all windows checked at once)
+    for loc in info.locations:
+        imu[loc.name] = models.plausibility[loc.name].check_windows(X[..., channel_index(info, loc)], y)
+    for i, rec in enumerate(records[: len(X)]):
+        verdicts = [by_key[rec.sample].provenance.motion_verdict, *(imu[name][i] for name in rec.locations)]
+        rec.verdicts = verdicts
+        keep[i] = all(v.passed for v in verdicts)
+    tau = None
+    validator, is_val = models.validator, job.is_val
+    f_syn = ecdf_features(X) if validator is not None else None
+    if spec.class_filter:
+        proba = validator.predict_proba_features(f_syn)
+        validated = job.validated()
+        tau = choose_tau(job.features, train.y, is_val, f_syn, y, proba, keep, validated, seed, fold, threads)
+        for i, v in enumerate(class_verdicts(proba, y, tau, validated)):
+            records[i].verdicts.append(v)
+            keep[i] &= v.passed
+    if spec.redundancy_filter:
+        embedded = validator.embed_features(f_syn)
+        for i, v in enumerate(redundancy_verdicts(embedded, y, models.nn_thresholds, eligible=keep)):
+            records[i].verdicts.append(v)
+            keep[i] &= v.passed
+    for i in range(len(X)):
+        records[i].kept = bool(keep[i])
+    return keep, tau
+
+
+def choose_tau(f_train, y_train, is_val, f_syn, y, proba, keep, validated, seed, fold, threads: int = 1) -> float:
+    """tau_cls by validation Macro-F1 of a quick forest on real + kept synthetic ECDF features."""
+    if not is_val.any() or len(np.unique(y_train[is_val])) < 2 or is_val.all():
+        return TAU_DEFAULT
+    f_fit, y_fit = f_train[~is_val], y_train[~is_val]
+
+    def score(mask: np.ndarray) -> float:
+        chosen = keep & mask
+        model = RandomForestClassifier(n_estimators=25, n_jobs=threads,
+                                       random_state=int(rng_for(seed, fold, "tau").integers(2**31)))
+        model.fit(np.concatenate([f_fit, f_syn[chosen]]), np.concatenate([y_fit, y[chosen]]))
+        return macro_f1(y_train[is_val], model.predict(f_train[is_val]))
+
+    # the distinct masks' forests on as many threads as each forest has: the last
+    # forests keep both cores busy where one forest's trees end unevenly
+    tau, _ = select_tau(proba, y, score, validated=validated, threads=threads)
+    return tau
+
+
+# -- stage 6: select -----------------------------------------------------------------------------------
+def select(info: DatasetInfo, X: np.ndarray, y: np.ndarray, keep: np.ndarray, budget: np.ndarray, seed: int,
+           fold: str) -> np.ndarray:
+    """The per-class budget, drawn from the kept windows (a mask over all windows)."""
+    idx = np.flatnonzero(keep)
+    if len(idx) == 0:
+        return np.zeros(len(X), bool)
+    kept = Windows(X[idx], y[idx], np.full(len(idx), "synthetic"), info.label_names, info.channel_names,
+                   info.fs_hz, meta={"index": idx})
+    chosen = take_budget(kept, budget, rng_for(seed, fold, "budget"))
+    selected = np.zeros(len(X), bool)
+    selected[chosen.meta["index"]] = True
+    return selected
+
+
+# -- the fold ----------------------------------------------------------------------------------------
 class FoldGenerator:
-    """Generate the synthetic set of one fold (see module doc).
+    """Generate the synthetic set of one fold (see module doc): the stages above, with the
+    synthesis rounds and refill passes on the executor.
 
     `sources` maps class name -> list of (source id, base SMP). `executor` maps
     tasks (see `vsmp_imu.executor`); `cache_dir` keeps per-sample results so a
     killed run resumes where it stopped.
     """
 
-    def __init__(self, config: GenerationConfig, executor, cache_dir: Path | None = None,
+    def __init__(self, config: GenerationSpec, executor, cache_dir: Path | None = None,
                  motion_dir: Path | None = None, library=None) -> None:
         self.config = config
         self.executor = executor
@@ -259,92 +468,65 @@ class FoldGenerator:
         self.motion_dir = motion_dir
         self.library = library
 
-    # -- stage 2: SMP variants -------------------------------------------------------
-    def _variants(self, base: Base, seed: int, key: str) -> list[tuple[int, Base]]:
-        """K constrained variants of an SMP; a prompt or a recorded motion is used as is."""
-        if not isinstance(base, SMP):
-            return [(0, base)]
-        smp = Refiner(self.library).refine(base).smp if self.config.refine else base
-        augmenter = SMPAugmenter(uncertainty_conditioned=self.config.uncertainty_conditioned)
-        return list(enumerate(augmenter.augment(smp, self.config.k, int(rng_for(seed, key).integers(2**31)))))
+    def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
+                 budget: np.ndarray, seed: int, fold: str) -> FoldOutput:
+        """The synthetic set for one fold (train: the fold's real training windows only)."""
+        spec, threads = self.config, self.threads()
+        budget = np.asarray(budget, dtype=np.int64)
+        length = train.n_timesteps
+        hop = max(1, int(round(spec.hop_fraction * length)))
+        setup = prepare(spec, info, train, sources, seed, threads)
+        job = None
+        if spec.quality_filter:
+            job = make_filter_job(info, train, seed, fold, spec.val_fraction, spec.min_validator_windows,
+                                  learned=spec.class_filter or spec.redundancy_filter)
+        tasks, by_class, models = self.synthesize(info, sources, budget, seed, fold, setup.locations, length, hop,
+                                                  job)
+        for attempt in range(spec.refill + 1):
+            results = [r for label in info.label_names for r in by_class[label]]
+            ok = [r for r in results if not r.error and r.signals]
+            grounded = ground(spec, info, ok, setup.d_rank, setup.plan, threads)  # F_v from all samples so far
+            windows = window(info, ok, grounded, length, hop)
+            windows.records += failed_records(info, results)
+            keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads)
+            more = [] if attempt == spec.refill else self.refill(
+                info, sources, budget, windows.y, keep, by_class, seed, fold, setup.locations)
+            if not more:
+                break
+            self.run(more, by_class, fold)
+            tasks += more
+        order = {n: i for i, n in enumerate(info.label_names)}
+        tasks.sort(key=lambda t: (order[t.label], t.key))
+        X, y, records = windows.X, windows.y, windows.records
+        selected = select(info, X, y, keep, budget, seed, fold)
+        for i, rec in enumerate(records[: len(X)]):
+            rec.selected = bool(selected[i])
+        out = Windows(X[selected], y[selected], np.full(int(selected.sum()), "synthetic"),
+                      info.label_names, info.channel_names, info.fs_hz,
+                      meta={"sample": np.array([records[i].sample for i in np.flatnonzero(selected)],
+                                               dtype=object).astype(str)})
+        summary = _summary(info, results, records, budget, out, tau, len(setup.d_stat), len(setup.d_rank))
+        return FoldOutput(out, X, records, results, tasks, summary)
 
-    def _tasks(self, label: str, label_index: int, bases: list[tuple[str, Base]], slots: range, seed: int,
-               fold: str, fs_hz: float, locations: tuple[LocationTask, ...]) -> list[SampleTask]:
-        variants = [(src, k, v) for src, base in bases
-                    for k, v in self._variants(base, seed, f"{fold}/{label}/{src}")]
-        tasks = []
-        for slot in slots:
-            src, k, base = variants[slot % len(variants)]
-            tasks.append(SampleTask(
-                key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
-                variant=k, **_payload(base),
-                backend=self.config.backend, seed=int(rng_for(seed, fold, label, slot).integers(2**31)),
-                fs_hz=fs_hz, locations=locations, sim_in_the_loop=self.config.sim_in_the_loop,
-                noise=self.config.noise, duration_s=self.config.duration_s,
-                library_dirs=tuple(self.config.library_dirs),
-                motion_dir=str(self.motion_dir) if self.motion_dir else None,
-            ))
-        return tasks
+    # -- stages 2 + 3 on the executor --------------------------------------------------------------
+    def tasks(self, info: DatasetInfo, label: str, bases, slots: range, seed: int, fold: str,
+              locations: tuple[LocationTask, ...]) -> list[SampleTask]:
+        return sample_tasks(self.config, label, info.label_names.index(label), bases, slots, seed, fold,
+                            info.fs_hz, locations, self.library, self.motion_dir)
 
-    # -- stage 1 + 3 ---------------------------------------------------------------------
-    def _location_tasks(self, info: DatasetInfo, plan, stats: dict[str, TargetStatistics],
-                        mountings: dict[str, tuple]) -> dict[str, tuple[LocationTask, ...]]:
-        out = {}
-        for label, locs in plan.items():
-            tasks = []
-            for loc in locs:
-                conv, declared = _convention(loc)
-                target = None
-                if self.config.sim_in_the_loop and loc.name in stats:
-                    target = _summary_lists(stats[loc.name].for_class(info.label_names.index(label)))
-                tasks.append(LocationTask(loc.name, conv, declared, target, mountings[loc.name]))
-            out[label] = tuple(tasks)
-        return out
-
-    def _nominal_mountings(self, info: DatasetInfo, plan, sources, d_stat: Windows) -> dict[str, tuple]:
-        """R_target per location from one default execution per class vs the real class means."""
-        out: dict[str, tuple] = {}
-        for loc in info.locations:
-            identity = (0.0, 0.0, 0.0, 1.0)
-            if not (self.config.estimate_mounting and loc.gravity_included and loc.axes):
-                out[loc.name] = identity
-                continue
-            cols = _channel_index(info, loc)
-            to_segment = axes_matrix(loc.axes).T  # device axes -> segment frame
-            syn, real, weights = [], [], []
-            for i, label in enumerate(info.label_names):
-                mask = d_stat.y == i
-                if label not in sources or loc not in plan[label] or not mask.any():
-                    continue
-                base = sources[label][0][1]
-                motion = Motion.load(base) if isinstance(base, Path) else \
-                    backend_for(self.config.backend, tuple(self.config.library_dirs)).generate(base, 0)
-                kin = simulate_kinematics(motion, loc.name, info.fs_hz)
-                syn.append(kin.specific_force_seg().mean(axis=0))
-                real.append(to_segment @ d_stat.X[mask][..., cols[:3]].reshape(-1, 3).mean(axis=0))
-                weights.append(mask.sum())
-            rot, _ = estimate_mounting(np.array(syn), np.array(real), np.array(weights, dtype=float)) \
-                if len(syn) >= 2 else (None, None)
-            out[loc.name] = identity if rot is None else tuple(float(v) for v in rot.as_quat())
-        return out
-
-    def _windows_per_sample(self, results: list[SampleResult], length: int, hop: int) -> float:
-        counts = [len(_starts(next(iter(r.signals.values())).shape[0], length, hop))
-                  for r in results if not r.error and r.signals]
-        return float(np.mean(counts)) if counts else FIRST_ROUND_WINDOWS_PER_SAMPLE
-
-    def _synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
+    def synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
         """Rounds of per-sample synthesis until every class has oversample x budget raw windows.
 
         `job` (the filter models) rides along with the first round. Returns the tasks, the
         results per class and the fitted filter models."""
-        need = {n: math.ceil(self.config.oversample * budget[i]) for i, n in enumerate(info.label_names)}
+        spec = self.config
+        need = {n: math.ceil(spec.oversample * budget[i]) for i, n in enumerate(info.label_names)}
         results: dict[str, list[SampleResult]] = {n: [] for n in info.label_names}
         all_tasks: list[SampleTask] = []
         fitted = None
-        for _ in range(self.config.max_rounds):
+        for _ in range(spec.max_rounds):
             tasks = []
-            for i, label in enumerate(info.label_names):
+            for label in info.label_names:
                 if need[label] <= 0 or label not in sources:
                     continue
                 have = sum(len(_starts(next(iter(r.signals.values())).shape[0], length, hop))
@@ -352,16 +534,16 @@ class FoldGenerator:
                 missing = need[label] - have
                 if missing <= 0:
                     continue
-                per = self._windows_per_sample(results[label], length, hop)
+                per = _windows_per_sample(results[label], length, hop)
                 n_new = min(MAX_SLOTS_PER_CLASS_ROUND, max(1, math.ceil(missing / max(per, 0.5))))
                 if not results[label]:
-                    n_new = max(n_new, self.config.k)
+                    n_new = max(n_new, spec.k)
                 start = len(results[label])
-                tasks += self._tasks(label, i, sources[label], range(start, start + n_new), seed, fold,
-                                     info.fs_hz, loc_tasks[label])
+                tasks += self.tasks(info, label, sources[label], range(start, start + n_new), seed, fold,
+                                    loc_tasks[label])
             if not tasks:
                 break
-            models = self._run(tasks, results, fold, job)
+            models = self.run(tasks, results, fold, job)
             if job is not None:
                 fitted, job = models, None
             all_tasks += tasks
@@ -369,8 +551,8 @@ class FoldGenerator:
             fitted = run_item(job)
         return all_tasks, results, fitted
 
-    def _run(self, tasks: list[SampleTask], results: dict[str, list[SampleResult]], fold: str,
-             job: FilterJob | None = None) -> FilterModels | None:
+    def run(self, tasks: list[SampleTask], results: dict[str, list[SampleResult]], fold: str,
+            job: FilterJob | None = None) -> FilterModels | None:
         """Synthesize `tasks` (with the filter job first, if any) and append the results per class."""
         cache = str(self.cache_dir) if self.cache_dir else None
         items: list = [(t, cache) for t in tasks]
@@ -384,7 +566,7 @@ class FoldGenerator:
             results[task.label].append(result)
         return fitted
 
-    def _refill(self, info, sources, budget, y, keep, results, seed, fold, loc_tasks) -> list[SampleTask]:
+    def refill(self, info, sources, budget, y, keep, results, seed, fold, loc_tasks) -> list[SampleTask]:
         """One refill pass: for each class short of its budget, as many new samples as its
         observed windows per sample and pass rate need (25 % margin, at most REFILL_MAX_SAMPLES)."""
         tasks = []
@@ -398,178 +580,21 @@ class FoldGenerator:
             n_new = math.ceil(1.25 * (budget[i] - kept) / max(per_sample * rate, 1e-3))
             n_new = min(REFILL_MAX_SAMPLES, n_new)
             start = len(results[label])
-            tasks += self._tasks(label, i, sources[label], range(start, start + n_new), seed, fold,
-                                 info.fs_hz, loc_tasks[label])
+            tasks += self.tasks(info, label, sources[label], range(start, start + n_new), seed, fold,
+                                loc_tasks[label])
         return tasks
 
-    # -- the fold ----------------------------------------------------------------------------
-    def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
-                 budget: np.ndarray, seed: int, fold: str) -> FoldOutput:
-        """The synthetic set for one fold (train: the fold's real training windows only)."""
-        budget = np.asarray(budget, dtype=np.int64)
-        length = train.n_timesteps
-        hop = max(1, int(round(self.config.hop_fraction * length)))
-        plan = _location_plan(info)
-        stat_idx, rank_idx = stat_rank_split(train.y, seed)
-        d_stat, d_rank = train[stat_idx], train[rank_idx]
-        stats = {}
-        for loc in info.locations:
-            cols = _channel_index(info, loc)
-            stats[loc.name] = TargetStatistics(info.fs_hz).fit(d_stat.X[..., cols].astype(np.float64), d_stat.y,
-                                                               self._threads())
-        mountings = self._nominal_mountings(info, plan, sources, d_stat)
-        loc_tasks = self._location_tasks(info, plan, stats, mountings)
-        job = self._filter_job(info, train, seed, fold)
-        tasks, by_class, models = self._synthesize(info, sources, budget, seed, fold, loc_tasks, length, hop, job)
-        for attempt in range(self.config.refill + 1):
-            results = [r for label in info.label_names for r in by_class[label]]
-            ok = [r for r in results if not r.error and r.signals]
-            grounded = self._ground(info, ok, d_rank, plan)  # F_v from all samples so far
-            X, y, records = self._window(info, ok, grounded, length, hop)
-            records += [{"sample": r.key, "label": info.label_names[r.label_index], "window": None,
-                         "error": r.error, "kept": False, "selected": False,
-                         "verdicts": [], "provenance": r.provenance} for r in results if r.error or not r.signals]
-            keep, tau = self._filter(info, train, X, y, records, ok, seed, fold, job, models)
-            more = [] if attempt == self.config.refill else self._refill(
-                info, sources, budget, y, keep, by_class, seed, fold, loc_tasks)
-            if not more:
-                break
-            self._run(more, by_class, fold)
-            tasks += more
-        order = {n: i for i, n in enumerate(info.label_names)}
-        tasks.sort(key=lambda t: (order[t.label], t.key))
-        selected = self._select(info, X, y, keep, budget, seed, fold)
-        for i, rec in enumerate(records[: len(X)]):
-            rec["selected"] = bool(selected[i])
-        windows = Windows(X[selected], y[selected], np.full(int(selected.sum()), "synthetic"),
-                          info.label_names, info.channel_names, info.fs_hz,
-                          meta={"sample": np.array([records[i]["sample"] for i in np.flatnonzero(selected)],
-                                                   dtype=object).astype(str)})
-        summary = _summary(info, results, records, budget, windows, tau, len(d_stat), len(d_rank))
-        return FoldOutput(windows, X, records, results, tasks, summary)
-
-    # -- stage 4 ------------------------------------------------------------------------------
-    def _ground(self, info, ok: list[SampleResult], d_rank: Windows, plan) -> list[dict[str, np.ndarray]]:
-        if not self.config.rank_grounding or not ok:
-            return [dict(r.signals) for r in ok]
-        grounders = fit_rank_grounders(info, ok, d_rank, plan, self.config.per_class_rank, self._threads())
-        missing = sorted({name for r in ok for name in r.signals} - set(grounders))
-        if missing:
-            raise ValidationError(f"D_rank has no real window at location(s) {', '.join(missing)}",
-                                  field="d_rank")
-        out: list[dict[str, np.ndarray]] = [{} for _ in ok]
-        for name, grounder in grounders.items():  # all samples of a location mapped at once
-            users = [i for i, r in enumerate(ok) if name in r.signals]
-            signals = [ok[i].signals[name] for i in users]
-            labels = None
-            if self.config.per_class_rank:
-                labels = np.concatenate([np.full(len(sig), ok[i].label_index)
-                                         for i, sig in zip(users, signals, strict=True)])
-            mapped = grounder.transform(np.concatenate(signals), labels)
-            for i, part in zip(users, np.split(mapped, np.cumsum([len(sig) for sig in signals])[:-1]), strict=True):
-                out[i][name] = part
-        return out
-
-    # -- stage 5 --------------------------------------------------------------------------------
-    def _window(self, info, ok, grounded, length, hop):
-        """Windows of every sample; a class whose real windows need only a share of the
-        window (transitions) keeps the synthetic windows whose share inside the motion's
-        active span reaches it, like the dataset's own labelling rule."""
-        shares = info.share_vector()
-        xs, ys, records = [], [], []
-        for r, sig in zip(ok, grounded, strict=True):
-            n = min(s.shape[0] for s in sig.values())
-            full = np.zeros((n, len(info.channel_names)))
-            for loc in info.locations:
-                if loc.name in sig:
-                    full[:, _channel_index(info, loc)] = sig[loc.name][:n]
-            starts = _starts(n, length, hop)
-            if shares[r.label_index] < 1.0:
-                starts = _covering(starts, length, info.fs_hz, r.provenance, shares[r.label_index])
-            for w, start in enumerate(starts):
-                xs.append(full[start:start + length])
-                ys.append(r.label_index)
-                records.append({"sample": r.key, "label": info.label_names[r.label_index], "window": w,
-                                "start_s": start / info.fs_hz, "locations": sorted(sig), "error": None,
-                                "kept": True, "selected": False, "verdicts": [], "provenance": r.provenance})
-        if not xs:
-            return np.zeros((0, length, len(info.channel_names)), np.float32), np.zeros(0, np.int64), records
-        return np.stack(xs).astype(np.float32), np.array(ys, dtype=np.int64), records
-
-    def _filter_job(self, info, train: Windows, seed: int, fold: str) -> FilterJob | None:
-        if not self.config.quality_filter:
-            return None
-        return make_filter_job(info, train, seed, fold, self.config.val_fraction, self.config.min_validator_windows,
-                               learned=self.config.class_filter or self.config.redundancy_filter)
-
-    def _filter(self, info, train: Windows, X, y, records, ok, seed, fold, job: FilterJob | None,
-                models: FilterModels | None) -> tuple[np.ndarray, float | None]:
-        keep = np.ones(len(X), dtype=bool)
-        if job is None or len(X) == 0:
-            return keep, None
-        by_key = {r.key: r for r in ok}
-        imu = {}  # location -> one verdict per window (all windows checked at once)
-        for loc in info.locations:
-            imu[loc.name] = models.plausibility[loc.name].check_windows(X[..., _channel_index(info, loc)], y)
-        for i, rec in enumerate(records[: len(X)]):
-            motion_verdict = Verdict(**by_key[rec["sample"]].provenance["motion_verdict"])
-            verdicts = [motion_verdict, *(imu[name][i] for name in rec["locations"])]
-            rec["verdicts"] = [v.as_dict() for v in verdicts]
-            keep[i] = all(v.passed for v in verdicts)
-        tau = None
-        validator, is_val = models.validator, job.is_val
-        f_syn = ecdf_features(X) if validator is not None else None
-        if self.config.class_filter:
-            proba = validator.predict_proba_features(f_syn)
-            validated = job.validated()
-            tau = self._choose_tau(job.features, train.y, is_val, f_syn, y, proba, keep, validated, seed, fold)
-            for i, v in enumerate(class_verdicts(proba, y, tau, validated)):
-                records[i]["verdicts"].append(v.as_dict())
-                keep[i] &= v.passed
-        if self.config.redundancy_filter:
-            embedded = validator.embed_features(f_syn)
-            for i, v in enumerate(redundancy_verdicts(embedded, y, models.nn_thresholds, eligible=keep)):
-                records[i]["verdicts"].append(v.as_dict())
-                keep[i] &= v.passed
-        for i in range(len(X)):
-            records[i]["kept"] = bool(keep[i])
-        return keep, tau
-
-    def _choose_tau(self, f_train, y_train, is_val, f_syn, y, proba, keep, validated, seed, fold) -> float:
-        """tau_cls by validation Macro-F1 of a quick forest on real + kept synthetic ECDF features."""
-        if not is_val.any() or len(np.unique(y_train[is_val])) < 2 or is_val.all():
-            return TAU_DEFAULT
-        f_fit, y_fit = f_train[~is_val], y_train[~is_val]
-
-        def score(mask: np.ndarray) -> float:
-            chosen = keep & mask
-            model = RandomForestClassifier(n_estimators=25, n_jobs=self._threads(),
-                                           random_state=int(rng_for(seed, fold, "tau").integers(2**31)))
-            model.fit(np.concatenate([f_fit, f_syn[chosen]]), np.concatenate([y_fit, y[chosen]]))
-            return macro_f1(y_train[is_val], model.predict(f_train[is_val]))
-
-        # the distinct masks' forests on as many threads as each forest has: the last
-        # forests keep both cores busy where one forest's trees end unevenly
-        tau, _ = select_tau(proba, y, score, validated=validated, threads=self._threads())
-        return tau
-
-    def _threads(self) -> int:
+    def threads(self) -> int:
         """Threads for the fold-level steps: the workers of a local pool (or of a private local
         Ray instance) are idle while they run."""
         workers = getattr(self.executor, "workers", None) or getattr(self.executor, "num_cpus", None) or 1
         return max(1, min(int(workers), os.cpu_count() or 1))
 
-    # -- stage 6 ---------------------------------------------------------------------------------
-    def _select(self, info, X, y, keep, budget, seed, fold) -> np.ndarray:
-        idx = np.flatnonzero(keep)
-        if len(idx) == 0:
-            return np.zeros(len(X), bool)
-        kept = Windows(X[idx], y[idx], np.full(len(idx), "synthetic"), info.label_names, info.channel_names,
-                       info.fs_hz, meta={"index": idx})
-        chosen = take_budget(kept, budget, rng_for(seed, fold, "budget"))
-        selected = np.zeros(len(X), bool)
-        selected[chosen.meta["index"]] = True
-        return selected
+
+def _windows_per_sample(results: list[SampleResult], length: int, hop: int) -> float:
+    counts = [len(_starts(next(iter(r.signals.values())).shape[0], length, hop))
+              for r in results if not r.error and r.signals]
+    return float(np.mean(counts)) if counts else FIRST_ROUND_WINDOWS_PER_SAMPLE
 
 
 def _payload(base: Base) -> dict[str, Any]:
@@ -586,12 +611,12 @@ def _starts(n: int, length: int, hop: int) -> range:
     return range(0, n - length + 1, hop) if n >= length else range(0)
 
 
-def _covering(starts, length: int, fs_hz: float, provenance: dict, share: float) -> list[int]:
+def _covering(starts, length: int, fs_hz: float, provenance: Provenance, share: float) -> list[int]:
     """Window starts whose overlap with the motion's active span is at least `share` of the window."""
-    span = provenance.get("motion", {}).get("active_span_s")
+    span = provenance.active_span_s()
     if not span:
         return list(starts)
-    offset = next(iter(provenance["locations"].values())).get("start_s", 0.0)
+    offset = provenance.start_s()
     lo, hi = (span[0] - offset) * fs_hz, (span[1] - offset) * fs_hz
     return [s for s in starts if min(s + length, hi) - max(s, lo) >= share * length]
 
@@ -607,25 +632,24 @@ def _validation_mask(train: Windows, fraction: float, seed: int, fold: str) -> n
     return np.isin(train.subjects, np.asarray(val_subjects).astype(str))
 
 
-def _summary(info, results, records, budget, windows, tau, n_stat, n_rank) -> dict[str, Any]:
+def _summary(info, results, records: list[WindowRecord], budget, windows, tau, n_stat, n_rank) -> dict[str, Any]:
     per_class = {}
     for i, name in enumerate(info.label_names):
-        recs = [r for r in records if r["label"] == name and r["window"] is not None]
+        recs = [r for r in records if r.label == name and r.windowed]
         rejected: dict[str, int] = {}
         for r in recs:
-            failed = next((v for v in r["verdicts"] if not v["passed"]), None)
+            failed = r.first_failure()
             if failed:
-                rejected[failed["filter"]] = rejected.get(failed["filter"], 0) + 1
+                rejected[failed.filter] = rejected.get(failed.filter, 0) + 1
         per_class[name] = {
             "budget": int(budget[i]),
             "samples": sum(1 for r in results if r.label_index == i),
             "failed_samples": sum(1 for r in results if r.label_index == i and r.error),
             "windows": len(recs),
-            "kept": sum(1 for r in recs if r["kept"]),
+            "kept": sum(1 for r in recs if r.kept),
             "selected": int((windows.y == i).sum()),
             "rejected_by": rejected,
         }
     return {"tau_cls": tau, "d_stat_windows": n_stat, "d_rank_windows": n_rank, "per_class": per_class,
             "shortfall": {n: c["budget"] - c["selected"] for n, c in per_class.items()
                           if c["selected"] < c["budget"]}}
-

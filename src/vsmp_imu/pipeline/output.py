@@ -40,17 +40,17 @@ def parquet_table(out: FoldOutput, all_windows: np.ndarray, channel_names: tuple
     rows: dict[str, list] = {k: [] for k in ("sample", "label", "window", "start_s", "kept", "selected",
                                              "error", "data", "provenance", "verdicts")}
     for i, rec in enumerate(out.records):
-        has_data = rec["window"] is not None and i < len(all_windows)
-        rows["sample"].append(rec["sample"])
-        rows["label"].append(rec["label"])
-        rows["window"].append(rec["window"])
-        rows["start_s"].append(rec.get("start_s"))
-        rows["kept"].append(bool(rec["kept"]))
-        rows["selected"].append(bool(rec["selected"]))
-        rows["error"].append(rec.get("error"))
+        has_data = rec.windowed and i < len(all_windows)
+        rows["sample"].append(rec.sample)
+        rows["label"].append(rec.label)
+        rows["window"].append(rec.window)
+        rows["start_s"].append(rec.start_s)
+        rows["kept"].append(bool(rec.kept))
+        rows["selected"].append(bool(rec.selected))
+        rows["error"].append(rec.error)
         rows["data"].append(all_windows[i].astype(np.float32).ravel().tolist() if has_data else None)
-        rows["provenance"].append(_dumps(rec.get("provenance", {})))
-        rows["verdicts"].append(_dumps(rec.get("verdicts", [])))
+        rows["provenance"].append(_dumps(rec.provenance.as_dict()))
+        rows["verdicts"].append(_dumps([v.as_dict() for v in rec.verdicts]))
     schema = pa.schema([
         ("sample", pa.string()), ("label", pa.string()), ("window", pa.int32()), ("start_s", pa.float64()),
         ("kept", pa.bool_()), ("selected", pa.bool_()), ("error", pa.string()),
@@ -105,10 +105,10 @@ def write_output(folder: Path, out: FoldOutput, extra_summary: dict[str, Any]) -
     prompts, seen = [], set()
     for result in out.samples:
         prov = result.provenance
-        if result.key in seen or "prompt" not in prov:
+        if result.key in seen or prov.failed:
             continue
         seen.add(result.key)
-        prompts.append(_dumps({"sample": result.key, "label": prov.get("label"), "prompt": prov["prompt"],
-                               "smp_id": prov.get("smp_id")}))
+        prompts.append(_dumps({"sample": result.key, "label": prov.label, "prompt": prov.prompt,
+                               "smp_id": prov.smp_id}))
     write_text(folder / "prompts.jsonl", "".join(p + "\n" for p in prompts))
     write_json(folder / "summary.json", json.loads(_dumps({**out.summary, **extra_summary})))

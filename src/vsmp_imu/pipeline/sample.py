@@ -17,15 +17,17 @@ import functools
 import hashlib
 import io
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
+import pydantic
 from scipy.spatial.transform import Rotation
 
+from vsmp_imu.errors import SampleError, VsmpError
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
 from vsmp_imu.grounding.calibrate import SimInTheLoopCalibrator
@@ -33,6 +35,7 @@ from vsmp_imu.grounding.stats import StatSummary
 from vsmp_imu.imu import VirtualSensor, draw_noise, sensor_readings, simulate_kinematics
 from vsmp_imu.io import write_bytes
 from vsmp_imu.motion import Motion
+from vsmp_imu.pipeline.records import LocationProvenance, MotionSummary, Provenance
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp import SMP
 
@@ -109,7 +112,7 @@ class SampleResult:
     key: str
     label_index: int
     signals: dict[str, np.ndarray]  # location -> (T, 6) in the target convention
-    provenance: dict[str, Any] = field(default_factory=dict)
+    provenance: Provenance
     error: str | None = None
 
     def to_parquet(self, path: Path) -> None:
@@ -117,7 +120,7 @@ class SampleResult:
         names = sorted(self.signals)
         signals = [np.ascontiguousarray(self.signals[k], np.float64) for k in names]
         meta = json.dumps({"key": self.key, "label_index": self.label_index,
-                           "provenance": self.provenance, "error": self.error},
+                           "provenance": self.provenance.as_dict(), "error": self.error},
                           sort_keys=True, default=json_default)
         table = pa.table({
             "location": pa.array(names, pa.string()),
@@ -139,7 +142,8 @@ class SampleResult:
             for loc, n, c, sig in zip(cols["location"], cols["n_frames"], cols["n_channels"], cols["signal"],
                                       strict=True)
         }
-        return cls(meta["key"], meta["label_index"], signals, meta["provenance"], meta["error"])
+        return cls(meta["key"], meta["label_index"], signals, Provenance.from_dict(meta["provenance"]),
+                   meta["error"])
 
 
 def json_default(value: Any) -> Any:
@@ -182,7 +186,7 @@ def active_span(motion: Motion) -> list[float]:
     return [float(moving[0] / motion.fps), float(moving[-1] / motion.fps)]
 
 
-def _location_signal(motion: Motion, task: SampleTask, loc: LocationTask) -> tuple[np.ndarray, dict]:
+def _location_signal(motion: Motion, task: SampleTask, loc: LocationTask) -> tuple[np.ndarray, LocationProvenance]:
     """theta ~ p(theta), kinematics once, eta* by CEM, then A_gamma."""
     rng = rng_for(task.seed, "sensor", loc.name)
     sensor = VirtualSensor.at(loc.name)
@@ -193,22 +197,20 @@ def _location_signal(motion: Motion, task: SampleTask, loc: LocationTask) -> tup
     noise = draw_noise(sensor, kin.n_samples, task.fs_hz, task.seed, loc.name) if task.noise else None
     conv = Convention(**loc.convention)
     target = loc.stat_summary()
-    record: dict[str, Any] = {
-        "start_s": float(kin.times[0]),  # motion time of the first IMU sample
-        "theta": sensor.theta(motion, kin.attachment_m),
-        "mounting_perturbation_xyzw": [float(v) for v in perturbation.as_quat()],
-        "nominal_mounting_xyzw": list(loc.nominal_mounting_xyzw),
-    }
+    theta = sensor.theta(motion, kin.attachment_m)
+    eta = None
     if task.sim_in_the_loop and target is not None:
         result = SimInTheLoopCalibrator(search_gravity=False).calibrate(
             kin, target, conv, rng, base_mounting=base, noise=noise)
         readings, gravity = result.readings, result.gravity
-        record["eta"] = result.as_dict()
+        eta = result.as_dict()
     else:
         readings = sensor_readings(kin, base, None, None, 1.0, 1.0, True, noise)[0]
         gravity = kin.grav_seg @ base.T
-        record["eta"] = None
-    record["gamma"] = conv.as_dict()
+    record = LocationProvenance(
+        start_s=float(kin.times[0]), theta=theta,
+        mounting_perturbation_xyzw=[float(v) for v in perturbation.as_quat()],
+        nominal_mounting_xyzw=list(loc.nominal_mounting_xyzw), eta=eta, gamma=conv.as_dict())
     aligned = ConventionAlignment(conv).transform(readings, gravity)
     return aligned, record
 
@@ -216,39 +218,48 @@ def _location_signal(motion: Motion, task: SampleTask, loc: LocationTask) -> tup
 def _motion(task: SampleTask) -> tuple[Motion, str | None]:
     """The sample's motion: a recorded one, or generated from the SMP variant or the prompt."""
     if task.motion_file:
-        return Motion.load(task.motion_file), None
-    backend = backend_for(task.backend, task.library_dirs)
-    if task.smp_json:
-        smp = SMP.model_validate_json(task.smp_json)
-        return backend.generate(smp, task.seed, task.duration_s), smp.smp_id
-    return backend.generate(task.prompt, task.seed, task.duration_s), None
+        motion, smp_id = Motion.load(task.motion_file), None
+    elif task.smp_json:
+        try:
+            smp = SMP.model_validate_json(task.smp_json)
+        except pydantic.ValidationError as exc:
+            raise SampleError(f"the SMP variant has {exc.error_count()} field(s) out of range: "
+                              f"{exc.errors()[0]['msg']}", field="smp") from exc
+        motion, smp_id = backend_for(task.backend, task.library_dirs).generate(smp, task.seed, task.duration_s), \
+            smp.smp_id
+    else:
+        motion, smp_id = backend_for(task.backend, task.library_dirs).generate(task.prompt, task.seed,
+                                                                               task.duration_s), None
+    if not (np.isfinite(motion.positions).all() and np.isfinite(motion.rotations).all()):
+        raise SampleError("the motion has non-finite joint positions or rotations", field="motion")
+    return motion, smp_id
 
 
 def synthesize(task: SampleTask, motion_path: Path | None = None) -> SampleResult:
-    """Run the per-sample part of Algorithm 1; failures become an error string, not an exception.
+    """Run the per-sample part of Algorithm 1. A declared sample-level failure (a `VsmpError`:
+    a prompt that names no activity, a non-finite motion, a field out of range, see
+    `SampleError`) becomes the result's error string; any other exception is a bug and is
+    raised, failing the run with its traceback.
 
     The motion is saved to `motion_path` when given.
     """
     try:
         motion, smp_id = _motion(task)
         motion_verdict = MotionPlausibilityFilter().check_motion(motion)
-        provenance: dict[str, Any] = {
-            "source": task.source, "label": task.label, "variant": task.variant, "smp_id": smp_id,
-            "prompt": task.prompt, "backend": task.backend, "seed": task.seed,
-            "motion": {"fps": motion.fps, "n_frames": motion.n_frames, "duration_s": motion.duration_s,
-                       "body_height_m": motion.body_height_m(), "active_span_s": active_span(motion),
-                       "controls": motion.meta.get("controls")},
-            "motion_verdict": motion_verdict.as_dict(), "locations": {},
-        }
+        summary = MotionSummary(fps=motion.fps, n_frames=motion.n_frames, duration_s=motion.duration_s,
+                                body_height_m=motion.body_height_m(), active_span_s=active_span(motion),
+                                controls=motion.meta.get("controls"))
         if motion_path is not None:
             motion.meta.update({"sample_key": task.key, "label": task.label})
             motion.save(motion_path)
-        signals = {}
+        signals, locations = {}, {}
         for loc in task.locations:
-            signals[loc.name], provenance["locations"][loc.name] = _location_signal(motion, task, loc)
+            signals[loc.name], locations[loc.name] = _location_signal(motion, task, loc)
+        provenance = Provenance(task.source, task.label, task.variant, smp_id, task.prompt, task.backend,
+                                task.seed, summary, motion_verdict, locations)
         return SampleResult(task.key, task.label_index, signals, provenance)
-    except Exception as exc:  # a failed sample is recorded and filtered out, never fatal
-        return SampleResult(task.key, task.label_index, {}, {"source": task.source, "label": task.label},
+    except VsmpError as exc:  # a failed sample is recorded and filtered out
+        return SampleResult(task.key, task.label_index, {}, Provenance(task.source, task.label),
                             error=f"{type(exc).__name__}: {exc}")
 
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +35,8 @@ from vsmp_imu.errors import ConfigError
 from vsmp_imu.har.synthetic import FoldContext
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.io import write_json
+from vsmp_imu.methods import REGISTRY, register_all
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.studies.matched import (
     CONDITION_TITLES,
@@ -43,11 +45,10 @@ from vsmp_imu.studies.matched import (
     MatchedConfig,
 )
 from vsmp_imu.studies.methods import (
-    GenerationOptions,
     load_study_dataset,
     paired_evaluation,
-    register_methods,
     resolve_dataset_name,
+    spec_settings,
 )
 
 Progress = Callable[[int, int, str], None]
@@ -89,7 +90,7 @@ class MatchedSource:
     to `accounting_dir/<fold key>.json` as soon as the fold is generated.
     """
 
-    def __init__(self, config: MatchedConfig, options: GenerationOptions, library: ActivityLibrary,
+    def __init__(self, config: MatchedConfig, options: GenerationSpec, library: ActivityLibrary,
                  accounting_dir: Path) -> None:
         self.config = config
         self.options = options
@@ -99,15 +100,13 @@ class MatchedSource:
         self._windows: dict[str, Windows] = {}
 
     def windows(self, context: FoldContext, condition: str) -> Windows:
-        from vsmp_imu.executor import make_executor
         from vsmp_imu.pipeline.method import fold_key, make_smp_source
 
         key = fold_key(context)
         if key != self._key:
             info = context.dataset
             sources = make_smp_source(self.options.source, self.library).smps(info.name, info.label_names)
-            executor = make_executor(self.options.executor, self.options.workers, self.options.address,
-                                     show_progress=False)
+            executor = self.options.make_executor(show_progress=False)
             cache = Path(self.options.cache_dir) if self.options.cache_dir else None
             out = MatchedBlockGenerator(self.config, executor, cache, self.library).generate(
                 info, context.train, sources, context.budget_vector(), context.seed, f"matched-{key}")
@@ -165,7 +164,7 @@ class AblationStudy:
     alpha: float = 0.5
     alphas: tuple[float, ...] = ALPHAS
     parts: tuple[str, ...] = PARTS
-    options: GenerationOptions = field(default_factory=GenerationOptions)
+    options: GenerationSpec = field(default_factory=GenerationSpec)
     backbone_params: dict[str, Any] = field(default_factory=dict)
     max_rounds: int = 6  # of matched-block generation (replenishment rounds)
     matched: MatchedConfig | None = None
@@ -187,7 +186,7 @@ class AblationStudy:
     def _config(self, methods: tuple[str, ...], alpha: float, extra_params: dict[str, Any] | None = None):
         from vsmp_imu.har.evaluate import EvalConfig
 
-        params = {m: self.options.params(m) for m in methods if m.startswith(("vsmp", "imu"))}
+        params = {m: REGISTRY[m].params(self.options) for m in methods if m in REGISTRY and REGISTRY[m].generative}
         params.update(extra_params or {})
         return EvalConfig(
             dataset=self._ds.info.name, protocol=self.protocol,
@@ -200,9 +199,7 @@ class AblationStudy:
     def _matched_config(self) -> MatchedConfig:
         if self.matched is not None:
             return self.matched
-        return MatchedConfig(k=self.options.k, backend=self.options.backend, max_rounds=self.max_rounds,
-                             per_class_rank=self.options.per_class_rank,
-                             library_dirs=tuple(self.options.library_dirs))
+        return MatchedConfig.from_spec(self.options, max_rounds=self.max_rounds)
 
     def _settings(self, folds: list[str]) -> dict[str, Any]:
         info = self._ds.info
@@ -211,7 +208,7 @@ class AblationStudy:
             "protocol": self.protocol, "label_budget_percent": self.budget, "folds": folds,
             "seeds": list(range(self.seeds)), "backbone": self.backbone,
             "backbone_params": self.backbone_params, "alpha": self.alpha, "alphas": list(self.alphas),
-            "parts": list(self.parts), "generation": asdict(self.options),
+            "parts": list(self.parts), "generation": spec_settings(self.options),
             "matched": self._matched_config().as_dict(), "dataset_notes": self._study_ds.notes,
             "label_map": self._study_ds.label_map,
         }
@@ -222,12 +219,12 @@ class AblationStudy:
 
         start = time.perf_counter()
         out = Path(out_dir)
-        register_methods()
+        register_all()
         library = ActivityLibrary.load([Path(d) for d in self.options.library_dirs])
         self._study_ds = load_study_dataset(self.dataset, self.data_dir, library)
         self._ds = self._study_ds.dataset
         if self.options.cache_dir is None:
-            self.options = GenerationOptions(**{**asdict(self.options), "cache_dir": str(out / "cache")})
+            self.options = replace(self.options, cache_dir=str(out / "cache"))
         plans = self._plans()
         probe = Evaluation(self._config(("real",), self.alpha), self._ds)
         folds = probe.folds(self._ds.windows(probe.config.window_s, probe.config.overlap))

@@ -250,7 +250,7 @@ def ablation_markdown(results: AblationResults) -> str:
     if "components" in parts:
         out += _table_section(
             "Component ablations", parts["components"], COMPONENT_TITLES,
-            "Each variant switches one stage of the full pipeline off (`pipeline.variants.ABLATIONS`); "
+            "Each variant switches one stage of the full pipeline off (`methods.VSMP_VARIANTS`); "
             "identical folds, seeds, budgets and backbone. Δ: paired per (fold, seed).")
     if "grounding" in parts:
         out += _table_section(

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -25,14 +25,15 @@ import numpy as np
 
 from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.io import read_structured
+from vsmp_imu.methods import method, register_all
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.smp._text import norm_name
 from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.studies.methods import (
-    GenerationOptions,
     check_methods,
     load_study_dataset,
     paired_evaluation,
-    register_methods,
+    spec_settings,
     unavailable_reason,
 )
 
@@ -137,7 +138,7 @@ class GranularityStudy:
     folds: tuple[str, ...] | None = None
     seeds: int = 1
     alpha: float = 0.5
-    options: GenerationOptions = field(default_factory=GenerationOptions)
+    options: GenerationSpec = field(default_factory=GenerationSpec)
     backbone_params: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -166,7 +167,7 @@ class GranularityStudy:
 
         start = time.perf_counter()
         out = Path(out_dir)
-        register_methods()
+        register_all()
         library = ActivityLibrary.load([Path(d) for d in self.options.library_dirs])
         study_ds = load_study_dataset(self.dataset, self.data_dir, library)
         ds, info = study_ds.dataset, study_ds.info
@@ -175,7 +176,7 @@ class GranularityStudy:
         groups = match_taxonomy(load_taxonomy(tax_path), loader_labels, info.label_names, tax_path)
         options = self.options
         if options.cache_dir is None:
-            options = GenerationOptions(**{**asdict(options), "cache_dir": str(out / "cache")})
+            options = replace(options, cache_dir=str(out / "cache"))
         skipped = {}
         for m in self.methods:
             if m == "real":
@@ -193,7 +194,7 @@ class GranularityStudy:
             backbones=(self.backbone,), methods=methods, folds=self.folds,
             seeds=tuple(range(self.seeds)), alpha=self.alpha,
             backbone_params={self.backbone: dict(self.backbone_params)} if self.backbone_params else {},
-            method_params={m: options.params(m) for m in methods if m != "real"},
+            method_params={m: method(m).params(options) for m in methods if m != "real"},
             report_groups=dict(groups))
 
         def update(description: str, done: int, total: int) -> None:
@@ -210,7 +211,7 @@ class GranularityStudy:
                       "seeds": list(range(self.seeds)), "backbone": self.backbone,
                       "backbone_params": self.backbone_params, "alpha": self.alpha,
                       "methods": list(methods), "requested_methods": list(self.methods),
-                      "taxonomy_file": str(tax_path), "generation": asdict(options),
+                      "taxonomy_file": str(tax_path), "generation": spec_settings(options),
                       "dataset_notes": study_ds.notes},
             taxonomy={g: [study_ds.original(m) for m in ms] for g, ms in groups.items()},
             ungrouped=[study_ds.original(n) for n in info.label_names if n not in grouped],

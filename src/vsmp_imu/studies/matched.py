@@ -55,7 +55,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -65,21 +65,19 @@ from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.filtering.faithfulness import TAU_DEFAULT, class_verdicts
 from vsmp_imu.filtering.verdict import Verdict
 from vsmp_imu.grounding.rank import RankGrounder
-from vsmp_imu.grounding.split import stat_rank_split
-from vsmp_imu.grounding.stats import TargetStatistics
 from vsmp_imu.har.dataset import DatasetInfo
 from vsmp_imu.har.features import ecdf_features
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.pipeline.fold import (
-    FoldGenerator,
-    GenerationConfig,
-    _channel_index,
-    _location_plan,
+    channel_index,
     fit_filters,
     fit_rank_grounders,
     make_filter_job,
+    prepare,
+    window,
 )
 from vsmp_imu.pipeline.sample import SampleResult, SampleTask, cached_synthesize
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp import SMP
 from vsmp_imu.smp.augment import (
@@ -297,51 +295,46 @@ def source_plans(sources: dict[str, list[tuple[str, Any]]], label_names: tuple[s
 
 
 # -- the matched generator --------------------------------------------------------------------
+# The full method's spec with the 2x2's own sizes: retained windows wanted per condition, per
+# budgeted window (oversample) and generation rounds (first attempt plus replenishments).
+MATCHED_SPEC = GenerationSpec(oversample=1.0, max_rounds=6)
+# The spec fields the 2x2 uses (recorded in its settings).
+MATCHED_SPEC_FIELDS = ("k", "backend", "refine", "uncertainty_conditioned", "sim_in_the_loop", "rank_grounding",
+                       "per_class_rank", "estimate_mounting", "noise", "quality_filter", "min_validator_windows",
+                       "oversample", "max_rounds", "hop_fraction", "val_fraction", "duration_s", "library_dirs")
+
+
 @dataclass(frozen=True)
 class MatchedConfig:
-    """Settings of the matched 2x2 (generation switches as the full method's)."""
+    """Settings of the matched 2x2: a generation spec (switches as the full method's) and the
+    2x2's own rules."""
 
-    k: int = 4
-    backend: str = "procedural"
-    refine: bool = True
-    uncertainty_conditioned: bool = True
-    sim_in_the_loop: bool = True
-    rank_grounding: bool = True
-    per_class_rank: bool = False
-    estimate_mounting: bool = True
-    noise: bool = True
-    quality_filter: bool = True
+    spec: GenerationSpec = MATCHED_SPEC
     tau_cls: float = TAU_DEFAULT  # appendix "Quality Filtering": 0.60, the same for the four conditions
     # a sample passes when at least one of its windows, and at least this share, pass every filter
     min_window_share: float = 0.0
-    min_validator_windows: int = 10
-    oversample: float = 1.0  # retained windows wanted per condition, per budgeted window
-    max_rounds: int = 6
     max_replicates: int = 12
-    hop_fraction: float = 0.5
-    val_fraction: float = 0.2
-    duration_s: float | None = None
-    library_dirs: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        if not 1 <= self.k <= len(SLOT_KINDS):
-            raise ConfigError(f"k must be 1..{len(SLOT_KINDS)}, got {self.k}", field="k")
+        if not 1 <= self.spec.k <= len(SLOT_KINDS):
+            raise ConfigError(f"k must be 1..{len(SLOT_KINDS)}, got {self.spec.k}", field="k")
         if not 0.0 <= self.min_window_share <= 1.0:
             raise ConfigError("min_window_share must be in [0, 1]", field="min_window_share")
-        if self.max_rounds < 1 or self.max_replicates < 1:
+        if self.spec.max_rounds < 1 or self.max_replicates < 1:
             raise ConfigError("max_rounds and max_replicates must be >= 1", field="max_rounds")
 
-    def generation_config(self) -> GenerationConfig:
-        return GenerationConfig(
-            k=self.k, backend=self.backend, refine=self.refine,
-            uncertainty_conditioned=self.uncertainty_conditioned, sim_in_the_loop=self.sim_in_the_loop,
-            rank_grounding=self.rank_grounding, per_class_rank=self.per_class_rank,
-            estimate_mounting=self.estimate_mounting, noise=self.noise, hop_fraction=self.hop_fraction,
-            val_fraction=self.val_fraction, duration_s=self.duration_s,
-            min_validator_windows=self.min_validator_windows, library_dirs=tuple(self.library_dirs))
+    @classmethod
+    def from_spec(cls, spec: GenerationSpec, **changes: Any) -> MatchedConfig:
+        """The 2x2 of a study's spec: its k, backend, rank grounding and library with the 2x2's
+        sizes; `changes` set spec fields or the 2x2's own."""
+        own = {k: changes.pop(k) for k in list(changes) if k in ("tau_cls", "min_window_share", "max_replicates")}
+        base = replace(MATCHED_SPEC, k=spec.k, backend=spec.backend, per_class_rank=spec.per_class_rank,
+                       library_dirs=spec.library_dirs)
+        return cls(replace(base, **changes), **own)
 
     def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        return {**{name: getattr(self.spec, name) for name in MATCHED_SPEC_FIELDS}, "tau_cls": self.tau_cls,
+                "min_window_share": self.min_window_share, "max_replicates": self.max_replicates}
 
 
 @dataclass
@@ -455,9 +448,9 @@ class MatchedBlockGenerator:
     # -- set-up -----------------------------------------------------------------------------
     def _filters(self, info: DatasetInfo, train: Windows, seed: int, fold: str) -> dict[str, Any]:
         c = self.config
-        job = make_filter_job(info, train, seed, fold, c.val_fraction, c.min_validator_windows)
+        job = make_filter_job(info, train, seed, fold, c.spec.val_fraction, c.spec.min_validator_windows)
         models = fit_filters(job)
-        return {"plausibility": {loc.name: (_channel_index(info, loc), models.plausibility[loc.name])
+        return {"plausibility": {loc.name: (channel_index(info, loc), models.plausibility[loc.name])
                                  for loc in info.locations},
                 "validator": models.validator, "validated": job.validated(),
                 "thresholds": models.nn_thresholds}
@@ -472,9 +465,9 @@ class MatchedBlockGenerator:
                 tasks.append(SampleTask(
                     key=f"{fold}/{cond}/{plan.label}/{b.plan}/k{b.slot}/r{b.replicate}/a{b.attempt}",
                     label=plan.label, label_index=plan.label_index, source=plan.source, variant=b.slot,
-                    smp_json=smp_json, prompt=prompt, backend=c.backend, seed=b.seed, fs_hz=fs_hz,
-                    locations=loc_tasks[plan.label], sim_in_the_loop=c.sim_in_the_loop, noise=c.noise,
-                    duration_s=c.duration_s, library_dirs=tuple(c.library_dirs)))
+                    smp_json=smp_json, prompt=prompt, backend=c.spec.backend, seed=b.seed, fs_hz=fs_hz,
+                    locations=loc_tasks[plan.label], sim_in_the_loop=c.spec.sim_in_the_loop, noise=c.spec.noise,
+                    duration_s=c.spec.duration_s, library_dirs=tuple(c.spec.library_dirs)))
         return tasks
 
     def _ground(self, samples: list[SampleResult], grounders: dict[str, RankGrounder]):
@@ -482,16 +475,16 @@ class MatchedBlockGenerator:
         for r in samples:
             g = {}
             for name, sig in r.signals.items():
-                if not self.config.rank_grounding or name not in grounders:
+                if not self.config.spec.rank_grounding or name not in grounders:
                     g[name] = sig
                     continue
-                labels = np.full(len(sig), r.label_index) if self.config.per_class_rank else None
+                labels = np.full(len(sig), r.label_index) if self.config.spec.per_class_rank else None
                 g[name] = grounders[name].transform(sig, labels)
             out.append(g)
         return out
 
     # -- one round ----------------------------------------------------------------------------
-    def _judge(self, info, results: dict[str, SampleResult], grounders, filters, generator,
+    def _judge(self, info, results: dict[str, SampleResult], grounders, filters,
                length: int, hop: int) -> dict[str, dict[str, Any]]:
         """Windows, embeddings and window verdicts (all but redundancy) of each sample."""
         c = self.config
@@ -503,10 +496,11 @@ class MatchedBlockGenerator:
         if not ok:
             return out
         grounded = self._ground(ok, grounders)
-        X, y, records = generator._window(info, ok, grounded, length, hop)
+        windows = window(info, ok, grounded, length, hop)  # the full method's stage 5
+        X, y, records = windows.X, windows.y, windows.records
         by_sample: dict[str, list[int]] = {}
         for i, rec in enumerate(records):
-            by_sample.setdefault(rec["sample"], []).append(i)
+            by_sample.setdefault(rec.sample, []).append(i)
         feats = ecdf_features(X) if len(X) else None  # once, for the probabilities and the embedding
         proba = filters["validator"].predict_proba_features(feats) if len(X) else np.zeros((0, info.n_classes))
         z = _normalize(filters["validator"].embed_features(feats)) if len(X) else np.zeros((0, 1))
@@ -517,11 +511,11 @@ class MatchedBlockGenerator:
             for i in idx:
                 v = [filters["plausibility"][name][1].check_window(X[i][:, filters["plausibility"][name][0]],
                                                                   int(y[i]))
-                     for name in records[i]["locations"]]
+                     for name in records[i].locations]
                 verdicts.append([*v, class_v[i]])
             idx = np.array(idx, dtype=int)
             out[r.key] = {"error": None, "X": X[idx], "z": z[idx], "verdicts": verdicts,
-                          "motion": Verdict(**r.provenance["motion_verdict"])}
+                          "motion": r.provenance.motion_verdict}
         return out
 
     def _decide(self, judged: dict[str, Any], cond: str, cls: int, pool: _Pool, tau_nn: float) -> dict[str, Any]:
@@ -532,7 +526,7 @@ class MatchedBlockGenerator:
         n = len(judged["X"])
         if n == 0:
             return {"passed": False, "reason": "no window", "detail": "shorter than one window", "windows": 0}
-        if not c.quality_filter:
+        if not c.spec.quality_filter:
             return {"passed": True, "reason": "", "detail": "", "windows": n, "kept": n,
                     "keep": np.ones(n, bool)}
         if not judged["motion"].passed:
@@ -558,20 +552,14 @@ class MatchedBlockGenerator:
         c = self.config
         budget = np.asarray(budget, dtype=np.int64)
         library = self.library if self.library is not None else ActivityLibrary.load(
-            [Path(d) for d in c.library_dirs])
-        generator = FoldGenerator(c.generation_config(), self.executor, self.cache_dir, library=library)
+            [Path(d) for d in c.spec.library_dirs])
         length = train.n_timesteps
-        hop = max(1, int(round(c.hop_fraction * length)))
-        loc_plan = _location_plan(info)
-        stat_idx, rank_idx = stat_rank_split(train.y, seed)
-        d_stat, d_rank = train[stat_idx], train[rank_idx]
-        stats = {loc.name: TargetStatistics(info.fs_hz).fit(
-            d_stat.X[..., _channel_index(info, loc)].astype(np.float64), d_stat.y) for loc in info.locations}
+        hop = max(1, int(round(c.spec.hop_fraction * length)))
         wanted = {n: sources[n] for i, n in enumerate(info.label_names) if budget[i] > 0 and n in sources}
-        plans = source_plans(wanted, info.label_names, seed, fold, library, c.k, c.refine,
-                             c.uncertainty_conditioned)
-        mountings = generator._nominal_mountings(info, loc_plan, wanted, d_stat)
-        loc_tasks = generator._location_tasks(info, loc_plan, stats, mountings)
+        plans = source_plans(wanted, info.label_names, seed, fold, library, c.spec.k, c.spec.refine,
+                             c.spec.uncertainty_conditioned)
+        setup = prepare(c.spec, info, train, wanted, seed)  # the full method's stage 1
+        loc_plan, d_rank, loc_tasks = setup.plan, setup.d_rank, setup.locations
         filters = self._filters(info, train, seed, fold)
 
         by_class: dict[int, list[int]] = {}
@@ -579,7 +567,7 @@ class MatchedBlockGenerator:
             by_class.setdefault(plan.label_index, []).append(p)
         replicates = dict.fromkeys(by_class, 0)
         reserve = _ReserveSeeds(seed, fold)
-        resolution = prompt_resolution(plans, library) if c.backend == "procedural" else []
+        resolution = prompt_resolution(plans, library) if c.spec.backend == "procedural" else []
         # (plan, slot) whose caption prompt names no library activity: the procedural backend's
         # parser is deterministic, so every seed fails the same way; tried once, never again
         dead = {(r["plan"], r["slot"]) for r in resolution if r["resolved"] is None}
@@ -596,12 +584,12 @@ class MatchedBlockGenerator:
         pool = _Pool()
         grounders: dict[str, dict[str, RankGrounder]] = {}
         attempts: list[dict[str, Any]] = []
-        for round_index in range(c.max_rounds):
+        for round_index in range(c.spec.max_rounds):
             if not pending:
                 break
             tasks = self._tasks(plans, pending, fold, info.fs_hz, loc_tasks)
             if progress:
-                progress(round_index, c.max_rounds, f"round {round_index + 1}: {len(pending)} blocks")
+                progress(round_index, c.spec.max_rounds, f"round {round_index + 1}: {len(pending)} blocks")
             cache = str(self.cache_dir) if self.cache_dir else None
             done = self.executor.map(cached_synthesize, [(t, cache) for t in tasks],
                                      desc=f"fold {fold}: {len(tasks)} matched samples")
@@ -609,11 +597,11 @@ class MatchedBlockGenerator:
             for task, result in zip(tasks, done, strict=True):
                 results[task.key.split("/")[1]][task.key] = result
             for cond in CONDITIONS:
-                if c.rank_grounding and not grounders.get(cond):  # fitted once, on the first samples
+                if c.spec.rank_grounding and not grounders.get(cond):  # fitted once, on the first samples
                     ok = [r for r in results[cond].values() if not r.error and r.signals]
-                    grounders[cond] = fit_rank_grounders(info, ok, d_rank, loc_plan, self.config.per_class_rank)
+                    grounders[cond] = fit_rank_grounders(info, ok, d_rank, loc_plan, self.config.spec.per_class_rank)
                 grounders.setdefault(cond, {})
-            judged = {cond: self._judge(info, results[cond], grounders[cond], filters, generator, length, hop)
+            judged = {cond: self._judge(info, results[cond], grounders[cond], filters, length, hop)
                       for cond in CONDITIONS}
             retry = []
             for b in pending:
@@ -641,9 +629,9 @@ class MatchedBlockGenerator:
                     retry.append(b)
             pending = retry
             for cls in sorted(by_class):
-                need = math.ceil(c.oversample * budget[cls])
+                need = math.ceil(c.spec.oversample * budget[cls])
                 have = min(pool.count(cond, cls) for cond in CONDITIONS)
-                if have >= need or replicates[cls] >= c.max_replicates or round_index + 1 >= c.max_rounds:
+                if have >= need or replicates[cls] >= c.max_replicates or round_index + 1 >= c.spec.max_rounds:
                     continue
                 accepted = [a for a in attempts if a["class"] == info.label_names[cls] and a["accepted"]]
                 if not accepted:  # no block of the class passed yet: its failed blocks are retried
@@ -659,7 +647,7 @@ class MatchedBlockGenerator:
                     all_blocks += fresh
                     pending += fresh
         if progress:
-            progress(c.max_rounds, c.max_rounds, "selecting windows")
+            progress(c.spec.max_rounds, c.spec.max_rounds, "selecting windows")
         windows, selected = self._select(info, pool, budget, seed, fold, length)
         summary = _accounting(info, plans, all_blocks, attempts, pool, budget, selected, replicates, c)
         summary["prompt_resolution"] = resolution

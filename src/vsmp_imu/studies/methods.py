@@ -4,88 +4,31 @@ records are comparable with an `evaluate` run of the same settings."""
 
 from __future__ import annotations
 
-import importlib
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from vsmp_imu.errors import ConfigError, VsmpError
-
-# name -> ("module:attribute", display name), as in the evaluate command
-BASELINES: dict[str, tuple[str, str]] = {
-    "classical": ("vsmp_imu.baselines.classical:ClassicalAugmentation", "Classical Aug."),
-    "imutube": ("vsmp_imu.baselines.generative:ImuTubeMethod", "IMUTube"),
-    "imugpt": ("vsmp_imu.baselines.generative:ImuGptMethod", "IMUGPT 2.0"),
-}
-VSMP_TARGET = "vsmp_imu.pipeline.method:make_vsmp_method"
-
-
-def _lazy(target: str) -> Callable[..., Any]:
-    module, attr = target.split(":")
-
-    def factory(**params: Any) -> Any:
-        return getattr(importlib.import_module(module), attr)(**params)
-
-    return factory
-
-
-def register_methods() -> None:
-    """Real-only, Classical Aug., IMUTube, IMUGPT 2.0 and the VSMP-IMU variants."""
-    from vsmp_imu.har.synthetic import METHODS, register_method
-    from vsmp_imu.pipeline.variants import ABLATIONS
-
-    for name, (target, display) in BASELINES.items():
-        if name not in METHODS:
-            register_method(name, _lazy(target), display)
-    for name, (display, _) in ABLATIONS.items():
-        if name not in METHODS:
-            register_method(name, _lazy(VSMP_TARGET), display)
+from vsmp_imu.methods import OPTION_FIELDS, REGISTRY, register_all
+from vsmp_imu.methods import method as registered
+from vsmp_imu.pipeline.spec import GenerationSpec
 
 
 def method_names() -> tuple[str, ...]:
-    from vsmp_imu.pipeline.variants import ABLATIONS
-
-    return ("real", *BASELINES, *ABLATIONS)
+    return tuple(REGISTRY)
 
 
 def method_display(name: str) -> str:
     from vsmp_imu.har.synthetic import METHOD_DISPLAY
 
-    register_methods()
+    register_all()
     return METHOD_DISPLAY.get(name, name)
 
 
-@dataclass(frozen=True)
-class GenerationOptions:
-    """What the generative methods are given (the evaluate command's generation options)."""
-
-    source: str = "library"
-    k: int = 4
-    backend: str = "procedural"
-    per_class_rank: bool = False
-    library_dirs: tuple[str, ...] = ()
-    workers: int = 1
-    executor: str = "local"
-    address: str | None = None
-    cache_dir: str | None = None
-    clips: str | None = None  # source clips of IMUTube (video:DIR layout)
-
-    def params(self, name: str) -> dict[str, Any]:
-        """`method_params` of one method for `EvalConfig`."""
-        if name in ("real", "classical"):
-            return {}
-        params = {"source": self.source, "k": self.k, "backend": self.backend,
-                  "per_class_rank": self.per_class_rank, "library_dirs": tuple(self.library_dirs),
-                  "workers": self.workers, "executor": self.executor, "address": self.address,
-                  "cache_dir": self.cache_dir}
-        if name.startswith("vsmp"):
-            params["variant"] = name
-        else:
-            params["k"] = 1  # baselines draw no SMP variants
-        if name == "imutube":
-            params["source"] = f"video:{self.clips}" if self.clips else "library"
-        return params
+def spec_settings(spec: GenerationSpec) -> dict[str, Any]:
+    """The generation options a study records in its settings."""
+    return {**{name: getattr(spec, name) for name in OPTION_FIELDS}, "clips": spec.clips}
 
 
 def check_methods(names: Sequence[str]) -> list[str]:
@@ -98,17 +41,17 @@ def check_methods(names: Sequence[str]) -> list[str]:
     return list(dict.fromkeys(names))
 
 
-def unavailable_reason(name: str, options: GenerationOptions, dataset: str,
+def unavailable_reason(name: str, options: GenerationSpec, dataset: str,
                        label_names: Sequence[str], library) -> str | None:
     """Why a method cannot run on this dataset with these options (None when it can)."""
     from vsmp_imu.pipeline.sources import entries_for
 
-    if name == "imutube" and not options.clips:
+    if registered(name).needs_videos and not options.clips:
         return ("IMUTube-style synthesis estimates pose from source clips of every class; no clips "
                 "were given (--clips DIR, one folder of clips per activity)")
-    if name == "imutube" and not Path(options.clips).is_dir():
+    if registered(name).needs_videos and not Path(options.clips).is_dir():
         return f"clip folder {options.clips} not found"
-    if name.startswith("vsmp") and options.source == "library":
+    if registered(name).kind == "vsmp" and options.source == "library":
         from vsmp_imu.pipeline.sources import LibrarySmpSource
 
         try:

@@ -29,20 +29,21 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from vsmp_imu.errors import ConfigError, VsmpError
+from vsmp_imu.methods import method, register_all
+from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.studies.methods import (
-    GenerationOptions,
     check_methods,
     load_study_dataset,
-    register_methods,
+    spec_settings,
     unavailable_reason,
 )
 
@@ -158,7 +159,7 @@ class RealismStudy:
     layer: str = "conv"
     encoder_params: dict[str, Any] = field(default_factory=dict)
     plot_per_class: int = 60
-    options: GenerationOptions = field(default_factory=GenerationOptions)
+    options: GenerationSpec = field(default_factory=GenerationSpec)
 
     def __post_init__(self) -> None:
         self.methods = tuple(m for m in check_methods(self.methods) if m != "real")
@@ -229,7 +230,7 @@ class RealismStudy:
 
         start = time.perf_counter()
         out = Path(out_dir)
-        register_methods()
+        register_all()
         library = ActivityLibrary.load([Path(d) for d in self.options.library_dirs])
         study_ds = load_study_dataset(self.dataset, self.data_dir, library)
         info = study_ds.info
@@ -241,7 +242,7 @@ class RealismStudy:
                               allowed=", ".join(subjects))
         options = self.options
         if options.cache_dir is None:
-            options = GenerationOptions(**{**asdict(options), "cache_dir": str(out / "cache")})
+            options = replace(options, cache_dir=str(out / "cache"))
         steps = 2 + len(self.methods)
 
         def tick(done: int, stage: str) -> None:
@@ -275,7 +276,7 @@ class RealismStudy:
             reason = unavailable_reason(m, options, info.name, names, library)
             if reason is None:
                 try:
-                    syn = make_method(m, **options.params(m)).generate(context)
+                    syn = make_method(m, **method(m).params(options)).generate(context)
                     check_synthetic(split.fit, syn, m)
                     syn = take_budget(syn, budget, rng_for(self.seed, "take-budget", fold, m))
                     if len(syn) == 0:
@@ -295,7 +296,7 @@ class RealismStudy:
             settings={"dataset": info.name, "data_dir": self.data_dir, "fold": fold, "seed": self.seed,
                       "alpha": self.alpha, "max_per_class": self.max_per_class,
                       "budget": {names[i]: int(n) for i, n in enumerate(budget)},
-                      "requested_methods": list(self.methods), "generation": asdict(options),
+                      "requested_methods": list(self.methods), "generation": spec_settings(options),
                       "dataset_notes": study_ds.notes, "protocol": "lopo (full training split)"},
             label_names=shown, channel_names=list(info.channel_names),
             encoder=encoder_info, skipped=skipped, methods=rows, pca=plot)

@@ -31,7 +31,7 @@ def register_backbone(name: str, cls: type, display: str | None = None) -> None:
 
 
 def make_backbone(name: str, **params: Any):
-    """A new backbone by short name; `params` not accepted by it are ignored."""
+    """A new backbone by short name; a parameter it does not take is a ConfigError."""
     try:
         cls = BACKBONES[name]
     except KeyError:
@@ -39,7 +39,14 @@ def make_backbone(name: str, **params: Any):
             f"unknown backbone '{name}'", field="backbones", allowed=", ".join(BACKBONES)
         ) from None
     accepted = cls().get_params()
-    return cls(**{k: v for k, v in params.items() if k in accepted})
+    unknown = sorted(set(params) - set(accepted))
+    if unknown:
+        raise ConfigError(
+            f"backbone '{name}' takes no parameter(s) {', '.join(unknown)}",
+            field="backbone_params",
+            allowed=", ".join(sorted(accepted)),
+        )
+    return cls(**params)
 
 
 __all__ = [

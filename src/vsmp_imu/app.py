@@ -1,0 +1,164 @@
+"""The application layer: what the `vsmp-imu` commands do, callable without the command line.
+
+The command line parses options, builds a `GenerationSpec` (and the other
+requests below) and calls one function here; everything else (loading the
+dataset, assembling a fold, the method registry, the evaluation, the demo)
+happens here or further down.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from vsmp_imu.errors import ConfigError
+from vsmp_imu.pipeline.spec import GenerationSpec
+
+
+# -- one fold (`vsmp-imu generate`) ---------------------------------------------------------------
+@dataclass(frozen=True)
+class FoldRequest:
+    """One LOPO fold to generate: the dataset, the held-out subject and the windowing."""
+
+    dataset: str
+    holdout: str
+    output: Path
+    seed: int = 0
+    window_s: float = 2.0
+    overlap: float = 0.5
+    data_dir: Path | None = None
+    save_motions: bool = True
+
+
+@dataclass
+class FoldPlan:
+    """A fold assembled for generation: its real training side, budget and base SMPs."""
+
+    info: Any  # DatasetInfo
+    train: Any  # Windows of the training subjects
+    subjects: list[str]
+    budget: Any  # np.ndarray, windows per class
+    sources: dict[str, list]
+    library: Any  # ActivityLibrary
+
+
+def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
+    """Load the dataset, drop the held-out subject and work out the budget and the sources."""
+    from vsmp_imu.har.datasets import load_dataset
+    from vsmp_imu.har.synthetic import ALPHA_RANGE, synthetic_budget
+    from vsmp_imu.pipeline.method import make_smp_source
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    if not ALPHA_RANGE[0] <= spec.alpha <= ALPHA_RANGE[1]:
+        raise ConfigError(f"alpha {spec.alpha} out of range", field="--alpha",
+                          allowed=f"{ALPHA_RANGE[0]}..{ALPHA_RANGE[1]}")
+    ds = load_dataset(request.dataset, request.data_dir)
+    windows = ds.windows(request.window_s, request.overlap)
+    subjects = windows.unique_subjects()
+    if request.holdout not in subjects:
+        raise ConfigError(f"subject '{request.holdout}' is not in {ds.info.name}", field="--holdout",
+                          allowed=", ".join(subjects))
+    train = windows.where_subjects([request.holdout], keep=False)
+    budget = synthetic_budget(train.class_counts(), spec.alpha, spec.policy)
+    library = ActivityLibrary.load([Path(d) for d in spec.library_dirs])
+    sources = make_smp_source(spec.source, library).smps(ds.info.name, ds.info.label_names)
+    return FoldPlan(ds.info, train, subjects, budget, sources, library)
+
+
+def generate_fold(spec: GenerationSpec, request: FoldRequest, plan: FoldPlan | None = None):
+    """Algorithm 1 for one held-out subject, written to `request.output` (returns the FoldOutput)."""
+    from vsmp_imu.io import remove_stale_temps
+    from vsmp_imu.pipeline.fold import FoldGenerator
+    from vsmp_imu.pipeline.output import write_output
+
+    plan = plan or plan_fold(spec, request)
+    output = request.output
+    cache = Path(spec.cache_dir) if spec.cache_dir else output / "cache"
+    for folder in (output, cache):  # leftovers of a killed run
+        remove_stale_temps(folder)
+    motion_dir = output / "motions" if request.save_motions else None
+    generator = FoldGenerator(spec, spec.make_executor(), cache, motion_dir, library=plan.library)
+    out = generator.generate(plan.info, plan.train, plan.sources, plan.budget, request.seed,
+                             f"holdout-{request.holdout}")
+    write_output(output, out, {
+        "dataset": plan.info.name, "holdout": request.holdout, "alpha": spec.alpha, "policy": spec.policy,
+        "seed": request.seed, "source": spec.source, "config": spec.pipeline_dict(),
+        "train_subjects": [s for s in plan.subjects if s != request.holdout],
+    })
+    return out
+
+
+# -- an evaluation (`vsmp-imu evaluate`) ----------------------------------------------------------
+@dataclass(frozen=True)
+class EvalRequest:
+    """An evaluation as the command line states it (checked by `EvalConfig`)."""
+
+    dataset: str
+    output: Path
+    protocol: str = "lopo"
+    budgets: tuple[float | None, ...] = (None,)
+    backbones: tuple[str, ...] = ("rf",)
+    methods: tuple[str, ...] = ("real",)
+    folds: tuple[str, ...] | None = None
+    seeds: int = 1
+    rho: float = 10.0
+    window_s: float = 2.0
+    overlap: float = 0.5
+    data_dir: Path | None = None
+    backbone_params: dict[str, dict[str, Any]] = field(default_factory=dict)
+    report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+
+def evaluation(spec: GenerationSpec, request: EvalRequest):
+    """The `Evaluation` of a request (dataset loaded, settings checked).
+
+    The generative methods get the spec's options (`vsmp_imu.methods`), with the per-sample
+    cache in OUT/cache unless the spec names one.
+    """
+    from vsmp_imu.har.datasets import load_dataset
+    from vsmp_imu.har.evaluate import EvalConfig, Evaluation
+    from vsmp_imu.har.windows import window_geometry
+    from vsmp_imu.methods import method_params, register_all
+
+    register_all()
+    if spec.cache_dir is None:
+        spec = replace(spec, cache_dir=str(request.output / "cache"))
+    params = method_params(request.methods, spec)
+    ds = load_dataset(request.dataset, request.data_dir)
+    window_geometry(ds.info.fs_hz, request.window_s, request.overlap)  # range checks before any work
+    config = EvalConfig(
+        dataset=ds.info.name, protocol=request.protocol, budgets=request.budgets, backbones=request.backbones,
+        methods=request.methods, folds=request.folds, seeds=tuple(range(request.seeds)), alpha=spec.alpha,
+        policy=spec.policy, rho=request.rho, window_s=request.window_s, overlap=request.overlap,
+        backbone_params=request.backbone_params, method_params=params, report_groups=request.report_groups,
+    )
+    return Evaluation(config, ds, request.output)
+
+
+def evaluate(evaluation, progress: Callable | None = None):
+    """Run an evaluation and write results.json, results.md and the confusion matrices.
+
+    Returns (EvalResults, written report files)."""
+    from vsmp_imu.har.report import write_report
+
+    results = evaluation.run(progress)
+    return results, write_report(results.to_json(), evaluation.output_dir)
+
+
+def method_names() -> tuple[str, ...]:
+    """Every method an evaluation can name."""
+    from vsmp_imu.har.synthetic import METHODS
+    from vsmp_imu.methods import register_all
+
+    register_all()
+    return tuple(METHODS)
+
+
+# -- the demo (`vsmp-imu demo`) --------------------------------------------------------------------
+def run_demo(output: Path, cfg, progress: Callable | None = None) -> dict[str, Any]:
+    """The main job on the embedded default (`vsmp_imu.demo.DemoConfig`; see `vsmp_imu.demo`)."""
+    from vsmp_imu.demo import run_demo as run
+
+    return run(output, cfg, progress)

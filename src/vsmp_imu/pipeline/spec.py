@@ -1,0 +1,113 @@
+"""The generation spec: everything that decides a synthetic set, in one frozen object.
+
+The command line builds one `GenerationSpec` from its options and passes it
+down; the fold generator, the VSMP-IMU method, the baselines and the studies
+read their settings from it. Ablation variants and the studies' settings are
+`dataclasses.replace(spec, ...)` of it (see `vsmp_imu.methods`).
+
+The fields fall in three groups:
+
+- budget: `source`, `alpha`, `policy`, `clips` (what the set is made from and how big);
+- pipeline: Algorithm 1's switches and sizes (`PIPELINE_FIELDS`, the
+  `config` of a generation's summary.json);
+- run: `executor`, `workers`, `address`, `cache_dir`, `gpus_per_task` (where it
+  runs; the same seed gives the same bytes whatever they are).
+
+Light module: no heavy imports, so the command line can build a spec cheaply.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+from vsmp_imu.errors import ConfigError
+
+BUDGET_FIELDS = ("source", "alpha", "policy", "clips")
+RUN_FIELDS = ("executor", "workers", "address", "cache_dir", "gpus_per_task")
+EXECUTORS = ("local", "ray")
+
+
+@dataclass(frozen=True)
+class GenerationSpec:
+    """What decides a synthetic set (defaults: the paper's)."""
+
+    # -- budget ---------------------------------------------------------------------------------
+    source: str = "library"  # library | smp:DIR | video:DIR
+    alpha: float = 0.5  # synthetic windows = alpha x real training windows
+    policy: str = "uniform"  # budget per class: uniform | tail | scarcity
+    clips: str | None = None  # source clips of the IMUTube-style baseline (video:DIR layout)
+    # -- pipeline (Algorithm 1) -----------------------------------------------------------------
+    k: int = 4  # SMP variants per base SMP
+    backend: str = "procedural"
+    refine: bool = True
+    uncertainty_conditioned: bool = True
+    sim_in_the_loop: bool = True
+    rank_grounding: bool = True
+    per_class_rank: bool = False
+    estimate_mounting: bool = True  # nominal dataset mounting frame from D_stat class means
+    # the validator judges a class only after training on at least this many of its real windows
+    min_validator_windows: int = 10
+    quality_filter: bool = True  # all three filters; the two below switch single ones off
+    class_filter: bool = True
+    redundancy_filter: bool = True
+    noise: bool = True
+    oversample: float = 2.0  # raw windows generated per budgeted window
+    max_rounds: int = 4
+    # extra passes for classes whose kept windows fall short of their budget: each synthesizes
+    # as many samples as the class's pass rate says it needs, then grounds and filters again
+    refill: int = 0
+    hop_fraction: float = 0.5  # synthetic window hop, as a fraction of the window
+    val_fraction: float = 0.2  # training subjects held aside to choose tau_cls
+    duration_s: float | None = None  # None: each activity's natural duration
+    library_dirs: tuple[str, ...] = ()
+    # -- run --------------------------------------------------------------------------------------
+    executor: str = "local"  # local | ray
+    workers: int = 1
+    address: str | None = None  # Ray cluster address
+    cache_dir: str | None = None  # per-sample cache (a killed run resumes)
+    gpus_per_task: float | None = None  # GPUs a Ray task reserves (None: the backend's default)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "library_dirs", tuple(str(d) for d in self.library_dirs))
+        if self.k < 1:
+            raise ConfigError(f"k must be >= 1, got {self.k}", field="k")
+        if not self.oversample >= 1.0:
+            raise ConfigError(f"oversample must be >= 1, got {self.oversample}", field="oversample")
+        if self.refill < 0:
+            raise ConfigError(f"refill must be >= 0, got {self.refill}", field="refill")
+        if not 0 < self.hop_fraction <= 1:
+            raise ConfigError(f"hop_fraction must be in (0, 1], got {self.hop_fraction}", field="hop_fraction")
+        if self.workers < 1:
+            raise ConfigError(f"{self.workers} is out of range", field="workers", allowed="an integer >= 1")
+        if self.executor not in EXECUTORS:
+            raise ConfigError(f"unknown executor '{self.executor}'", field="executor",
+                              allowed=", ".join(EXECUTORS))
+
+    # -- views --------------------------------------------------------------------------------------
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def pipeline_dict(self) -> dict[str, Any]:
+        """The pipeline fields (the `config` a generation's summary.json records)."""
+        return {name: getattr(self, name) for name in PIPELINE_FIELDS}
+
+    def changed(self) -> dict[str, Any]:
+        """The fields that differ from the defaults."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) != f.default}
+
+    def gpus(self) -> float:
+        """GPUs a Ray task reserves: as given, else 1 for HY-Motion on Ray, else 0."""
+        if self.gpus_per_task is not None:
+            return self.gpus_per_task
+        return 1.0 if self.backend == "hymotion" and self.executor == "ray" else 0.0
+
+    def make_executor(self, show_progress: bool = True):
+        from vsmp_imu.executor import make_executor
+
+        return make_executor(self.executor, self.workers, self.address, show_progress=show_progress,
+                             num_gpus_per_task=self.gpus())
+
+
+PIPELINE_FIELDS = tuple(f.name for f in fields(GenerationSpec)
+                        if f.name not in BUDGET_FIELDS + RUN_FIELDS)

@@ -1,0 +1,92 @@
+"""One generation spec: its fields drive the commands and reach every method unchanged.
+
+Adding a generation option touches the spec (`pipeline/spec.py`), the command line and the
+stage that reads it, nothing else: the tests below fail until a new spec field is either an
+option of the commands or named here as fixed at the paper's value, and they show that a
+pipeline field reaches the methods of an evaluation without any registry edit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import fields, replace
+
+import pytest
+import typer
+
+from vsmp_imu.cli import app
+from vsmp_imu.errors import ConfigError
+from vsmp_imu.methods import REGISTRY, make, method_params
+from vsmp_imu.pipeline.spec import PIPELINE_FIELDS, GenerationSpec
+
+# spec field -> option of `vsmp-imu generate`
+GENERATE_OPTIONS = {
+    "source": "--source", "alpha": "--alpha", "policy": "--policy", "k": "--k", "backend": "--backend",
+    "refine": "--no-refine", "uncertainty_conditioned": "--no-uncertainty", "sim_in_the_loop": "--no-sim-loop",
+    "rank_grounding": "--no-rank", "per_class_rank": "--per-class-rank", "quality_filter": "--no-filter",
+    "refill": "--refill", "library_dirs": "--library", "executor": "--executor", "workers": "--workers",
+    "address": "--address", "cache_dir": "--cache-dir", "gpus_per_task": "--gpus-per-task",
+}
+# spec field -> option of `vsmp-imu evaluate`
+EVALUATE_OPTIONS = {
+    "source": "--source", "alpha": "--alpha", "policy": "--policy", "k": "--k", "backend": "--backend",
+    "per_class_rank": "--per-class-rank", "refill": "--refill", "library_dirs": "--library",
+    "executor": "--executor", "workers": "--workers", "address": "--address",
+}
+# fields the commands leave at the paper's values (the studies and the Python API set them)
+NOT_OPTIONS = {"clips", "estimate_mounting", "min_validator_windows", "class_filter", "redundancy_filter",
+               "noise", "oversample", "max_rounds", "hop_fraction", "val_fraction", "duration_s"}
+
+
+def _options(command: str) -> set[str]:
+    click_app = typer.main.get_command(app)
+    return {opt for p in click_app.commands[command].params for opt in p.opts}
+
+
+def test_every_spec_field_is_an_option_or_named_as_fixed():
+    names = {f.name for f in fields(GenerationSpec)}
+    assert set(GENERATE_OPTIONS) | NOT_OPTIONS == names
+    assert not set(GENERATE_OPTIONS) & NOT_OPTIONS
+    assert set(GENERATE_OPTIONS.values()) <= _options("generate")
+    assert set(EVALUATE_OPTIONS.values()) <= _options("evaluate")
+
+
+@pytest.mark.parametrize("name", ["noise", "hop_fraction", "refill"])
+def test_a_pipeline_field_reaches_the_methods_without_registry_edits(name):
+    value = {"noise": False, "hop_fraction": 0.25, "refill": 2}[name]
+    spec = replace(GenerationSpec(), **{name: value})
+    params = method_params(("real", "classical", "vsmp", "vsmp-no-filter", "imugpt"), spec)
+    assert set(params) == {"vsmp", "vsmp-no-filter", "imugpt"}  # only the generative ones
+    for method, p in params.items():
+        fixed = name in REGISTRY[method].switches
+        assert (p.get(name) == value) != fixed, (method, p)
+        built = make(method, **p).spec
+        assert getattr(built, name) == (REGISTRY[method].switches[name] if fixed else value)
+
+
+def test_method_params_keep_the_recorded_shape():
+    """The parameters an evaluation records for its methods (their settings digest) are those
+    of the earlier per-method dicts: the options, the variant name or the baselines' k = 1."""
+    spec = GenerationSpec(cache_dir="c")
+    options = {"source": "library", "k": 4, "backend": "procedural", "per_class_rank": False, "library_dirs": (),
+               "workers": 1, "executor": "local", "address": None, "cache_dir": "c"}
+    assert REGISTRY["vsmp-class-rank"].params(spec) == {**options, "variant": "vsmp-class-rank"}
+    assert REGISTRY["imugpt"].params(spec) == {**options, "k": 1}
+    assert REGISTRY["imutube"].params(replace(spec, clips="clips")) == {**options, "k": 1, "source": "video:clips"}
+    assert REGISTRY["classical"].params(spec) == {}
+
+
+def test_variants_are_replacements_of_the_spec():
+    spec = GenerationSpec(k=2, workers=3)
+    built = make("vsmp-no-adaptation", spec).spec
+    assert built == replace(spec, sim_in_the_loop=False, rank_grounding=False)
+    assert built.pipeline_dict().keys() == set(PIPELINE_FIELDS)
+    assert {m.kind for m in REGISTRY.values()} == {"real", "augmentation", "baseline", "vsmp"}
+    assert [m.name for m in REGISTRY.values() if m.needs_videos] == ["imutube"]
+
+
+def test_bad_values_are_config_errors_naming_the_field():
+    for bad, name in ((dict(k=0), "k"), (dict(workers=0), "workers"), (dict(executor="slurm"), "executor"),
+                      (dict(refill=-1), "refill"), (dict(hop_fraction=0.0), "hop_fraction")):
+        with pytest.raises(ConfigError) as err:
+            GenerationSpec(**bad)
+        assert err.value.field == name
