@@ -78,6 +78,28 @@ def test_cli_synth_from_file_prompt_and_duration(cli, tmp_path, library):
     assert code == 0 and Motion.load(tmp_path / "b.npz").meta["activity"] == "two_hand_front_clap"
 
 
+def test_cli_synth_never_swaps_a_look_alike_activity(cli, tmp_path, library):
+    from vsmp_imu.smp import save_smp
+
+    curl = library.get("bicep_curls").smp
+    # an exact alias keeps working
+    alias = save_smp(curl.model_copy(update={"activity_label": "Dumbbell-Curls"}), tmp_path / "alias.json")
+    code, _, _ = cli("motion", "synth", alias, "--seed", "1", "-o", tmp_path / "a.npz")
+    assert code == 0 and Motion.load(tmp_path / "a.npz").meta["activity"] == "bicep_curls"
+    # a label that only resembles library activities stops, naming the user's file and the candidates
+    hammer = save_smp(curl.model_copy(update={"activity_label": "hammer curl with a kettlebell"}),
+                      tmp_path / "hammer.json")
+    code, _, err = cli("motion", "synth", hammer, "--seed", "1", "-o", tmp_path / "h.npz")
+    assert code == 2 and not (tmp_path / "h.npz").exists()
+    assert err.startswith(f"{hammer}:") and "bicep_curls" in err and "baseball_swing" in err
+    # an SMP whose primitive the recipe lacks: the error names the user's file, the recipe only in words
+    data = curl.model_dump(mode="json")
+    data["primitive_sequence"][1] = data["motion_primitives"][1]["name"] = "wobble"
+    odd = save_smp(type(curl).model_validate(data), tmp_path / "odd.json")
+    code, _, err = cli("motion", "synth", odd, "--seed", "1", "-o", tmp_path / "o.npz")
+    assert code == 2 and err.startswith(f"{odd}:") and "wobble" in err and "recipe in" in err
+
+
 @pytest.mark.parametrize(("args", "words"), [
     (("motion", "synth", "moonwalk_backwards", "--seed", "1", "-o", "x.npz"), "neither an SMP file"),
     (("motion", "synth", "walking", "--seed", "1", "--backend", "mocap", "-o", "x.npz"), "unknown motion backend"),

@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from vsmp_imu.cli.common import console, library_dirs
-from vsmp_imu.errors import ConfigError, ValidationError
+from vsmp_imu.errors import ConfigError, ValidationError, VsmpError
 
 motion_app = typer.Typer(help="Motions: synthesize from an SMP or a prompt (procedural or HY-Motion), "
                          "render, export to BVH, inspect, resample.", no_args_is_help=True)
@@ -21,12 +21,31 @@ def _library(library: list[Path] | None):
     return ActivityLibrary.load(extra_dirs=library_dirs(library))
 
 
+def _smp_file(source: str | None) -> Path | None:
+    """The SMP file `source` names, or None for an activity name."""
+    if source is None:
+        return None
+    path = Path(source)
+    return path if path.suffix.lower() in (".json", ".yaml", ".yml") or path.exists() else None
+
+
+def _naming(exc: VsmpError, path: Path) -> VsmpError:
+    """`exc` naming the user's SMP file when it names no file yet."""
+    from vsmp_imu.smp.library import ActivityMatchError
+
+    if exc.file is not None:
+        return exc
+    if isinstance(exc, ActivityMatchError):
+        return exc.in_file(path)
+    return type(exc)(exc.message, file=path, field=exc.field, allowed=exc.allowed)
+
+
 def _read_smp(source: str, library):
     """An SMP from a file, or the library SMP of an activity name."""
     from vsmp_imu.smp import load_smp
 
-    path = Path(source)
-    if path.suffix.lower() in (".json", ".yaml", ".yml") or path.exists():
+    path = _smp_file(source)
+    if path is not None:
         return load_smp(path)
     try:
         return library.get(source).smp
@@ -69,8 +88,14 @@ def synth_cmd(
         kwargs["model_path"] = model_path
     engine = get_backend(backend, **kwargs)
     source = prompt if prompt is not None else _read_smp(smp, lib)
+    smp_file = _smp_file(smp) if prompt is None else None
     with console.status(f"[bold]synthesizing[/] with {engine.name} (seed {seed})..."):
-        motion = engine.generate(source, seed=seed, duration_s=duration_s)
+        try:
+            motion = engine.generate(source, seed=seed, duration_s=duration_s)
+        except VsmpError as exc:  # an error about the user's SMP names the user's file
+            if smp_file is None:
+                raise
+            raise _naming(exc, smp_file) from None
         motion.save(output)
     console.print(f"[green]wrote[/] {output}: {motion.meta.get('activity', '?')}, "
                   f"{motion.n_frames} frames at {motion.fps:g} fps ({motion.duration_s:.2f} s), "

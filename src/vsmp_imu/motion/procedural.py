@@ -65,6 +65,7 @@ from vsmp_imu.motion.tracks import (
     smoothstep_ramp,
 )
 from vsmp_imu.seeding import rng_for
+from vsmp_imu.smp.library import ActivityMatchError
 from vsmp_imu.smp.schema import SMP, UNKNOWN
 
 BACKEND_NAME = "procedural"
@@ -287,13 +288,20 @@ class ProceduralBackend:
 
 # -- library and SMP reading ------------------------------------------------------------
 def resolve_entry(library: Any, label: str) -> Any:
-    """The library entry for an activity label, or a ValidationError listing the activities."""
+    """The library entry whose name, alias or SMP label is `label`; nothing fuzzy.
+
+    A label that only resembles library activities raises `ActivityMatchError`
+    (exit 2) naming the closest ones: animating a look-alike activity would
+    silently train a model on another activity's signal.
+    """
     try:
-        return library.resolve(label)
-    except ValidationError as exc:
+        return library.match(label)
+    except ActivityMatchError as exc:
         names = [e.name for e in library if "procedural" in e.extras]
-        raise ValidationError(f"{exc.message}: the activity library does not know it",
-                              field="activity_label", allowed=", ".join(names)) from None
+        raise ActivityMatchError(
+            f"{exc.message}; the procedural backend animates library activities only and does not "
+            "substitute a similar one", label=exc.label, candidates=exc.candidates,
+            allowed=", ".join(names) + " (or a library file for this activity passed with --library)") from None
 
 
 def _verbalize(smp: SMP) -> str | None:
@@ -338,11 +346,11 @@ def match_primitives(smp: SMP, recipe: Recipe, file: Any = None) -> list[tuple[i
         if hit is None:
             raise ValidationError(
                 f"primitive '{name}' matches no primitive of the procedural recipe of "
-                f"'{smp.activity_label}'", file=file, field=f"primitive_sequence[{i}]",
-                allowed=", ".join(recipe.primitives))
+                f"'{smp.activity_label}'" + (f" (recipe in {file})" if file else ""),
+                field=f"primitive_sequence[{i}]", allowed=", ".join(recipe.primitives))
         out.append((i, name, choices[hit[0]]))
     if not out:
-        raise ValidationError("the SMP names no animatable primitive", file=file,
+        raise ValidationError("the SMP names no animatable primitive" + (f" (recipe in {file})" if file else ""),
                               field="primitive_sequence", allowed=", ".join(recipe.primitives))
     return out
 
