@@ -7,6 +7,7 @@ what is allowed, so a user can fix the input without reading code.
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 
@@ -39,6 +40,13 @@ class VsmpError(Exception):
         if self.allowed:
             text += f" Allowed: {self.allowed}."
         return text
+
+    def in_file(self, file: str | Path) -> VsmpError:
+        """The same error naming `file` (the user's input it came from)."""
+        named = copy.copy(self)
+        named.file = str(file)
+        named.args = (named.render(),)
+        return named
 
 
 class ValidationError(VsmpError):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from scipy.stats import ks_2samp, spearmanr
+from scipy.stats import ks_2samp, spearmanr, wasserstein_distance
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.grounding.align import (
@@ -65,6 +65,27 @@ def test_rank_grounding_per_class(rng):
     assert out[ys == 1].mean() == pytest.approx(3, abs=0.2)
     pooled = RankGrounder().fit(syn, rea).transform(syn)
     assert abs(pooled[ys == 0].mean()) < 1.0  # pooled map cannot separate the classes
+
+
+@pytest.mark.parametrize("per_class", [False, True])
+def test_rank_grounding_adds_no_steps_with_few_real_windows(rng, per_class):
+    # a near-constant class (lying): four real windows, each a plateau at its own level
+    levels = np.array([0.0, 1.0, 2.5, 3.0])
+    real = levels[:, None, None] + rng.normal(0, 0.02, size=(4, 100, 3))
+    # synthetic windows: near-constant too, at levels spread over a range, slowly drifting
+    drift = np.linspace(0.0, 0.05, 100)[None, :, None]
+    syn = rng.uniform(-1, 1, size=(60, 1, 3)) + drift + rng.normal(0, 0.002, size=(60, 100, 3))
+    ys, yr = np.zeros(60, int), np.zeros(4, int)
+    grounded = RankGrounder(per_class=per_class, min_class_samples=10).fit(syn, real, ys, yr).transform(syn, ys)
+    real_steps = np.abs(np.diff(real, axis=1)).max(axis=(0, 1))
+    grounded_steps = np.abs(np.diff(grounded, axis=1)).max(axis=(0, 1))
+    assert (grounded_steps <= real_steps).all(), (grounded_steps, real_steps)
+    # still a map onto the real values: same mean and spread, close in distribution
+    for c in range(3):
+        g, r = grounded[..., c].ravel(), real[..., c].ravel()
+        assert g.mean() == pytest.approx(r.mean(), abs=0.05)
+        assert g.std() == pytest.approx(r.std(), rel=0.1)
+        assert wasserstein_distance(g, r) < 0.35 * r.std() < 0.3 * wasserstein_distance(syn[..., c].ravel(), r)
 
 
 def test_rank_grounding_rejects_bad_input(rng):

@@ -15,6 +15,7 @@ from imu_motions import (
     standing,
     walking,
 )
+from scipy.signal import welch
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from vsmp_imu.imu import (
@@ -208,6 +209,48 @@ def test_frame_jitter_is_suppressed_by_the_smoothing_spline():
     err_smooth = np.sqrt(np.mean((smoothed - truth) ** 2))
     err_raw = np.sqrt(np.mean((raw - truth) ** 2))
     assert err_smooth < 0.35 * err_raw
+
+
+def _band_energy(x: np.ndarray, fs: float, lo: float, hi: float) -> float:
+    f, psd = welch(x, fs=fs, nperseg=128, axis=0)
+    return float(psd[(f >= lo) & (f <= hi)].sum())
+
+
+def test_orientation_noise_of_a_recorded_trajectory_stays_out_of_the_gyroscope():
+    # a foot recorded at 100 fps (motion capture) with 0.5 deg of frame-to-frame orientation noise
+    fps, location = 100.0, "right_foot"
+    root, local = walking()
+    clean = make_motion(8.0, fps=fps, root=root, local=local)
+    noisy = make_motion(8.0, fps=fps, root=root, local=local)
+    j = SMPL22_JOINTS.index(PLACEMENTS[location].segment)
+    jitter = Rotation.from_rotvec(np.random.default_rng(0).normal(0.0, np.deg2rad(0.5), (noisy.n_frames, 3)))
+    noisy.rotations[:, j] = (Rotation.from_quat(noisy.rotations[:, j]) * jitter).as_quat()
+    rec = ImuSimulator(fps, noise=False).simulate(noisy, location)
+    assert rec.meta["smoothing_hz"] == "placement"
+    k = np.round(rec.times * fps).astype(int)  # output samples fall on frames
+    frames = Rotation.from_quat(noisy.rotations[:, j])
+    central = (frames[k - 1].inv() * frames[k + 1]).as_rotvec() * fps / 2  # body rate
+    exact = RotationSpline(noisy.times, frames)(rec.times, 1)  # exact interpolation of the noise
+    gyr = rec.data[:, 3:]
+    band = {name: _band_energy(x, fps, 25.0, 50.0) for name, x in
+            (("simulator", gyr), ("central", central), ("exact", exact))}
+    assert band["simulator"] <= band["central"] < band["exact"], band
+    truth = ImuSimulator(fps, noise=False).simulate(clean, location).data[:, 3:]
+    rms = {name: float(np.sqrt(np.mean((x - truth) ** 2))) for name, x in
+           (("simulator", gyr), ("central", central))}
+    assert rms["simulator"] < 0.5 * rms["central"], rms
+
+
+def test_the_spline_cutoff_follows_the_placement():
+    root, local = walking()
+    motion = make_motion(4.0, root=root, local=local)
+    assert PLACEMENTS["right_foot"].smoothing_hz > PLACEMENTS["waist"].smoothing_hz
+    for location in ("waist", "right_foot"):
+        kin = simulate_kinematics(motion, location, 50.0)
+        assert kin.meta["smoothing_hz"] == PLACEMENTS[location].smoothing_hz
+        same = simulate_kinematics(motion, location, 50.0, smoothing_hz=PLACEMENTS[location].smoothing_hz)
+        np.testing.assert_array_equal(kin.gyr_seg, same.gyr_seg)
+    assert simulate_kinematics(motion, "right_foot", 50.0, smoothing_hz=4.0).meta["smoothing_hz"] == 4.0
 
 
 # -- mounting, resampling, pipeline -------------------------------------------------

@@ -78,6 +78,32 @@ def test_cli_synth_from_file_prompt_and_duration(cli, tmp_path, library):
     assert code == 0 and Motion.load(tmp_path / "b.npz").meta["activity"] == "two_hand_front_clap"
 
 
+def test_cli_synth_never_swaps_a_look_alike_activity(cli, tmp_path, library):
+    from vsmp_imu.smp import save_smp
+
+    curl = library.get("bicep_curls").smp
+    # an exact alias keeps working
+    alias = save_smp(curl.model_copy(update={"activity_label": "Dumbbell-Curls"}), tmp_path / "alias.json")
+    code, _, _ = cli("motion", "synth", alias, "--seed", "1", "-o", tmp_path / "a.npz")
+    assert code == 0 and Motion.load(tmp_path / "a.npz").meta["activity"] == "bicep_curls"
+    # a label that only resembles library activities is never animated as one of them: by default
+    # the SMP is compiled into its own motion (it used to become baseball_swing)
+    hammer_smp = curl.model_copy(update={"activity_label": "hammer curl with a kettlebell"})
+    hammer = save_smp(hammer_smp, tmp_path / "hammer.json")
+    code, _, _ = cli("motion", "synth", hammer, "--seed", "1", "-o", tmp_path / "h.npz")
+    meta = Motion.load(tmp_path / "h.npz").meta
+    assert code == 0 and meta["motion_source"] == "compiled" and meta["activity"] != "baseball_swing"
+    # with library recipes only, it stops naming the candidates
+    from vsmp_imu.motion.procedural import ProceduralBackend
+    from vsmp_imu.smp.library import ActivityMatchError
+
+    with pytest.raises(ActivityMatchError) as err:
+        ProceduralBackend(library=library, compile_mode="recipe").generate(hammer_smp, seed=1)
+    names = [name for name, _ in err.value.candidates]
+    assert "bicep_curls" in names and "baseball_swing" in names
+    assert str(err.value.in_file(hammer)).startswith(f"{hammer}:")
+
+
 @pytest.mark.parametrize(("args", "words"), [
     (("motion", "synth", "moonwalk_backwards", "--seed", "1", "-o", "x.npz"), "neither an SMP file"),
     (("motion", "synth", "walking", "--seed", "1", "--backend", "mocap", "-o", "x.npz"), "unknown motion backend"),

@@ -54,6 +54,29 @@ def test_resolve_fuzzy_and_threshold(library):
         library.resolve("jumping jaks", min_score=100)
 
 
+def test_match_is_exact_and_names_the_closest_activities(library):
+    from vsmp_imu.smp.library import ActivityMatchError
+
+    assert library.match("Dumbbell-Curls").name == "bicep_curls"  # alias, case and separators free
+    assert library.match("LAYING").name == "lying"
+    with pytest.raises(ActivityMatchError) as err:
+        library.match("dumbbell curl")  # fuzzy only (resolve would accept it)
+    assert err.value.candidates[0][0] == "bicep_curls" and err.value.field == "activity_label"
+    assert library.resolve("dumbbell curl").name == "bicep_curls"
+    named = err.value.in_file("my/curl.yaml")
+    assert named.render().startswith("my/curl.yaml:") and named.candidates == err.value.candidates
+
+
+def test_resolve_refuses_a_tie_between_activities(library):
+    from vsmp_imu.smp.library import ActivityMatchError
+
+    # scored 85.5 against baseball_swing, bicep_curls and more: it used to pick the first by name
+    with pytest.raises(ActivityMatchError, match="equally well") as err:
+        library.resolve("hammer curl with a kettlebell")
+    names = [name for name, _ in err.value.candidates]
+    assert {"baseball_swing", "bicep_curls"} <= set(names)
+
+
 def test_for_dataset_maps_dataset_labels(library):
     mmfit = library.for_dataset("mmfit")
     assert mmfit["jumping_jacks"].name == "jumping_jacks"

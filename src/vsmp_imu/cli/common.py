@@ -42,7 +42,7 @@ def naming(file: Path | str | None) -> Iterator[None]:
     except VsmpError as exc:
         if file is None or exc.file is not None:
             raise
-        raise type(exc)(exc.message, file=file, field=exc.field, allowed=exc.allowed) from exc
+        raise exc.in_file(file) from exc
 
 
 def executor_options(executor: str, address: str | None) -> None:

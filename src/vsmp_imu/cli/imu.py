@@ -25,8 +25,9 @@ def simulate_cmd(
     fs: float = typer.Option(50.0, "--fs", help="output rate (Hz), 1..10000"),
     no_noise: bool = typer.Option(False, "--no-noise", help="exact kinematics: no white noise, no bias drift"),
     seed: int = typer.Option(0, "--seed", help="noise seed"),
-    smoothing_hz: float = typer.Option(8.0, "--smoothing-hz", min=0.0, max=1000.0,
-                                       help="cutoff of the position smoothing spline (Hz; 0 = interpolate)"),
+    smoothing_hz: float = typer.Option(None, "--smoothing-hz", min=0.0, max=1000.0,
+                                       help="cutoff of the smoothing splines of positions and rotations "
+                                            "(Hz; default: the placement's, 8, feet 15; 0 = interpolate)"),
     trim_s: float = typer.Option(0.2, "--trim-s", help="margin dropped at each end (s)"),
     plot: Path | None = typer.Option(None, "--plot", help="also draw the signals to this PNG"),
 ) -> None:
@@ -35,10 +36,11 @@ def simulate_cmd(
     output_file(plot, "--plot")
     from vsmp_imu.errors import ConfigError, ValidationError
     from vsmp_imu.imu import ImuSimulator, get_placement
+    from vsmp_imu.imu.kinematics import PLACEMENT_CUTOFF
 
     if not 1.0 <= fs <= 10000.0:  # NaN fails too
         raise ConfigError(f"{fs:g} Hz is not a usable output rate", field="--fs", allowed="1..10000 Hz")
-    if 0 < smoothing_hz < MIN_SMOOTHING_HZ or smoothing_hz != smoothing_hz:
+    if smoothing_hz is not None and (0 < smoothing_hz < MIN_SMOOTHING_HZ or smoothing_hz != smoothing_hz):
         raise ConfigError(f"{smoothing_hz:g} Hz is too low for the smoothing spline", field="--smoothing-hz",
                           allowed=f"0 (interpolate) or {MIN_SMOOTHING_HZ:g}..1000 Hz")
     from vsmp_imu.motion import Motion
@@ -46,7 +48,8 @@ def simulate_cmd(
     names = parse_csv(location, option="--location")
     placements = [get_placement(n) for n in names]
     motion = Motion.load(motion_file)
-    sim = ImuSimulator(fs, noise=not no_noise, seed=seed, smoothing_hz=smoothing_hz or None, trim_s=trim_s)
+    cutoff = PLACEMENT_CUTOFF if smoothing_hz is None else smoothing_hz or None
+    sim = ImuSimulator(fs, noise=not no_noise, seed=seed, smoothing_hz=cutoff, trim_s=trim_s)
     try:
         rec = sim.simulate(motion, placements[0]) if len(placements) == 1 else \
             sim.simulate_many(motion, placements)

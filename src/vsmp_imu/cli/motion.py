@@ -21,12 +21,20 @@ def _library(library: list[Path] | None):
     return ActivityLibrary.load(extra_dirs=library_dirs(library))
 
 
+def _smp_file(source: str | None) -> Path | None:
+    """The SMP file `source` names, or None for an activity name."""
+    if source is None:
+        return None
+    path = Path(source)
+    return path if path.suffix.lower() in (".json", ".yaml", ".yml") or path.exists() else None
+
+
 def _read_smp(source: str, library):
     """An SMP from a file, or the library SMP of an activity name."""
     from vsmp_imu.smp import load_smp
 
-    path = Path(source)
-    if path.suffix.lower() in (".json", ".yaml", ".yml") or path.exists():
+    path = _smp_file(source)
+    if path is not None:
         return load_smp(path)
     try:
         return library.get(source).smp

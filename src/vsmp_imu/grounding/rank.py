@@ -1,34 +1,42 @@
 """Rank-based sensor grounding: x_r = G_r^-1(F_v(x_v)) per channel.
 
 Paper, "Rank-based sensor grounding" and appendix "Rank-Based Sensor
-Grounding". F_v is the empirical CDF of the fold's convention-aligned synthetic
-samples of one sensor location, G_r the empirical CDF of the real D_rank
-windows. Both are continuous (linearly interpolated between order statistics),
-so the map is monotone and keeps each window's temporal order. With
-`per_class=True`, a class with enough samples on both sides gets its own pair
-of distributions.
+Grounding". F_v is the empirical CDF of the fold's convention-aligned
+synthetic samples of one sensor location, G_r the CDF of the real D_rank
+windows kernel-smoothed (a Gaussian kernel whose bandwidth follows the spread
+of the windows' means, variance kept: `window_bandwidths`, `_kernel_smoothed`),
+so that a few real windows, each a plateau, do not turn the map into a
+staircase. Both are continuous (linearly interpolated between levels), so the
+map is monotone and keeps each window's temporal order. With `per_class=True`, a class with enough samples on both sides gets
+its own pair of distributions.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.executor import thread_map
 from vsmp_imu.quantiles import sorted_quantiles
 
 DEFAULT_N_QUANTILES = 4096
+# bins of the grid on which a distribution is kernel-smoothed (`_kernel_smoothed`)
+KDE_BINS = 4096
+# widest kernel, in window-mean spreads per window (`window_bandwidths`)
+GAP_WIDTHS = 20.0
 # below this many rows per channel threads cost more than they save (np.interp keeps the GIL)
 _THREADED_ROWS = 4096
 
 
 def _quantile_grid(values: np.ndarray, n_quantiles: int, weights: np.ndarray | None = None,
-                   threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
+                   threads: int = 1, bandwidths: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(probs (Q,), quantiles (Q, C)) of each column at `_probs`, strictly increasing.
 
-    With `weights` (N,), weighted quantiles. A tiny rank-proportional offset
-    breaks ties (quantized sensors) so the inverse map is strictly monotone and
-    never merges distinct inputs. Columns are independent: with `threads` > 1
+    With `weights` (N,), weighted quantiles; with `bandwidths` (C,), those of the
+    kernel-smoothed distribution (`_kernel_smoothed`). A
+    tiny rank-proportional offset breaks ties (quantized sensors) so the inverse
+    map is strictly monotone and never merges distinct inputs. Columns are independent: with `threads` > 1
     they are computed side by side (sorting and interpolation release the GIL).
     """
     probs = _probs(min(n_quantiles, values.shape[0]))
@@ -41,7 +49,11 @@ def _quantile_grid(values: np.ndarray, n_quantiles: int, weights: np.ndarray | N
         mid = (cum - 0.5 * weights[order]) / cum[-1]
         return np.interp(probs, mid, values[order, c])
 
-    grid = np.stack(thread_map(column, range(values.shape[1]), threads), axis=1)
+    def smoothed(c: int) -> np.ndarray:
+        grid = column(c)
+        return grid if bandwidths is None else _kernel_smoothed(grid, probs, float(bandwidths[c]))
+
+    grid = np.stack(thread_map(smoothed, range(values.shape[1]), threads), axis=1)
     span = np.maximum(grid[-1] - grid[0], 1e-9)
     return probs, grid + np.arange(grid.shape[0])[:, None] * span * 1e-12
 
@@ -51,14 +63,72 @@ def _probs(n: int) -> np.ndarray:
     return np.concatenate([[0.0], (np.arange(n) + 0.5) / n, [1.0]])
 
 
+def _spread(values: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
+    """Standard deviation (C,) of each column, weighted when `weights` are given."""
+    if weights is None:
+        return values.std(axis=0)
+    mean = np.average(values, axis=0, weights=weights)
+    return np.sqrt(np.average((values - mean) ** 2, axis=0, weights=weights))
+
+
+def window_bandwidths(values: np.ndarray, per_window: int) -> np.ndarray:
+    """Kernel bandwidth (C,) for rows (N, C) that are n windows of `per_window` samples.
+
+    The samples of one window are not independent: what a few windows leave
+    unknown is where another window's level would fall. So the bandwidth comes
+    from the windows' means, scale = min(sd, IQR / 1.349): Silverman's
+    0.9 scale n^(-1/5) for few windows, and no more than GAP_WIDTHS scale / n,
+    the order of the gap between neighbouring window levels where they are
+    sparse, once many windows overlap (there a wider kernel would only blur
+    the real peaks).
+    """
+    means = values.reshape(-1, per_window, values.shape[-1]).mean(axis=1)
+    n = len(means)
+    sd = means.std(axis=0)
+    q25, q75 = np.quantile(means, [0.25, 0.75], axis=0)
+    scale = np.where(q75 > q25, np.minimum(sd, (q75 - q25) / 1.349), sd)
+    return scale * min(0.9 * n ** -0.2, GAP_WIDTHS / n)
+
+
+def _kernel_smoothed(grid: np.ndarray, probs: np.ndarray, h: float) -> np.ndarray:
+    """Quantiles at `probs` of one column's distribution (its quantile `grid` at `probs`)
+    convolved with a Gaussian of sd `h`, then shrunk towards the mean by
+    1 / sqrt(1 + h^2 / sd^2) so mean and variance stay the data's.
+
+    With few real windows, each a plateau, the empirical distribution has gaps
+    between the windows' levels, and a quantile map onto it would step from
+    plateau to plateau inside one synthetic window; onto the smoothed one it ramps.
+    """
+    inner = grid[1:-1]
+    mean, sd = float(inner.mean()), float(inner.std())
+    if not (h > 0 and sd > 0):
+        return grid
+    edges = np.linspace(grid[0] - 4 * h, grid[-1] + 4 * h, KDE_BINS + 1)
+    density = gaussian_filter1d(np.histogram(inner, edges)[0].astype(np.float64),
+                                h / (edges[1] - edges[0]), mode="constant")
+    cdf = np.concatenate([[0.0], np.cumsum(density)])
+    cdf /= cdf[-1]
+    inside = np.flatnonzero(np.diff(cdf) > 0)  # strictly increasing part of the CDF
+    knots = np.concatenate([inside, inside[-1:] + 1])
+    smooth = mean + (np.interp(probs, cdf[knots], edges[knots]) - mean) / np.sqrt(1.0 + (h / sd) ** 2)
+    # the kernel's far tails are no data: the ends are the outer levels, or the data's own
+    # extremes where those lie further out (so every input value maps strictly inside)
+    smooth[0], smooth[-1] = min(smooth[1], grid[0]), max(smooth[-2], grid[-1])
+    return smooth
+
+
 class _ChannelMap:
-    """One pair (F_v, G_r^-1) for C channels."""
+    """One pair (F_v, G_r^-1) for C channels, both kernel-smoothed with the same bandwidth
+    relative to their spread, from real windows of `per_window` samples (`window_bandwidths`)."""
 
     def __init__(self, synthetic: np.ndarray, real: np.ndarray, n_quantiles: int,
-                 synthetic_weights: np.ndarray | None = None, threads: int = 1) -> None:
+                 synthetic_weights: np.ndarray | None = None, threads: int = 1, per_window: int = 1) -> None:
         self.threads = threads
-        self.v_probs, self.v_grid = _quantile_grid(synthetic, n_quantiles, synthetic_weights, threads)
-        self.r_probs, self.r_grid = _quantile_grid(real, n_quantiles, threads=threads)
+        relative = window_bandwidths(real, per_window) / np.maximum(real.std(axis=0), 1e-12)
+        self.v_probs, self.v_grid = _quantile_grid(synthetic, n_quantiles, synthetic_weights, threads,
+                                                   bandwidths=relative * _spread(synthetic, synthetic_weights))
+        self.r_probs, self.r_grid = _quantile_grid(real, n_quantiles, threads=threads,
+                                                   bandwidths=relative * real.std(axis=0))
 
     def apply(self, x: np.ndarray) -> np.ndarray:
         flat = x.reshape(-1, x.shape[-1])
@@ -114,7 +184,8 @@ class RankGrounder:
         if self.class_balanced and synthetic_labels is not None and real_labels is not None:
             weights = _balance_weights(_sample_labels(synthetic, synthetic_labels),
                                        _sample_labels(real, real_labels))
-        self.overall_ = _ChannelMap(syn, rea, self.n_quantiles, weights, self.threads)
+        per_window = _samples_per_window(real)
+        self.overall_ = _ChannelMap(syn, rea, self.n_quantiles, weights, self.threads, per_window)
         self.per_class_: dict[int, _ChannelMap] = {}
         if self.per_class:
             if synthetic_labels is None or real_labels is None:
@@ -124,7 +195,8 @@ class RankGrounder:
             for cls in np.intersect1d(np.unique(syn_lab), np.unique(rea_lab)):
                 s, r = syn[syn_lab == cls], rea[rea_lab == cls]
                 if min(len(s), len(r)) >= self.min_class_samples:
-                    self.per_class_[int(cls)] = _ChannelMap(s, r, self.n_quantiles, threads=self.threads)
+                    self.per_class_[int(cls)] = _ChannelMap(s, r, self.n_quantiles, threads=self.threads,
+                                                            per_window=per_window)
         return self
 
     def transform(self, x: np.ndarray, labels: np.ndarray | None = None) -> np.ndarray:
@@ -167,8 +239,12 @@ def _as_samples(x: np.ndarray, name: str) -> np.ndarray:
     return flat
 
 
+def _samples_per_window(x: np.ndarray) -> int:
+    """T of windows (N, T, C); 1 for rows (N, C)."""
+    shape = np.shape(x)
+    return int(np.prod(shape[1:-1])) if len(shape) > 2 else 1
+
+
 def _sample_labels(x: np.ndarray, labels: np.ndarray) -> np.ndarray:
     """Repeat per-window labels for every sample of the window."""
-    labels = np.asarray(labels)
-    per_window = int(np.prod(np.asarray(x).shape[1:-1])) if np.asarray(x).ndim > 2 else 1
-    return np.repeat(labels, per_window)
+    return np.repeat(np.asarray(labels), _samples_per_window(x))

@@ -29,6 +29,14 @@ from vsmp_imu.motion.motion import Motion
 from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M
 
 IDENTITY_XYZW = (0.0, 0.0, 0.0, 1.0)
+# Cutoff of the simulator's smoothing splines (positions and rotations): human
+# movement sits well below it; biomechanics practice low-passes marker
+# trajectories at 6-10 Hz before differentiating.
+DEFAULT_SMOOTHING_HZ = 8.0
+# Feet: heel strike and toe-off carry more high-frequency motion; on a foot
+# recording with motion capture and a shoe sensor, 15 Hz matched the real
+# sensor better than 8 Hz.
+FOOT_SMOOTHING_HZ = 15.0
 
 
 @dataclass(frozen=True)
@@ -42,6 +50,7 @@ class Placement:
     surface_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     mounting_xyzw: tuple[float, float, float, float] = IDENTITY_XYZW
     description: str = ""
+    smoothing_hz: float = DEFAULT_SMOOTHING_HZ  # the simulator's spline cutoff here
 
     def attachment_m(self, motion: Motion) -> np.ndarray:
         """r_j (3,) in metres in the segment frame, for this motion's body."""
@@ -72,11 +81,13 @@ def _height_scale(motion: Motion) -> float:
 
 
 def _pair(side: str, name: str, segment: str, toward: str, fraction: float,
-          surface: tuple[float, float, float], description: str) -> Placement:
+          surface: tuple[float, float, float], description: str,
+          smoothing_hz: float = DEFAULT_SMOOTHING_HZ) -> Placement:
     """A left or right placement; `surface` is given for the left side (x = left)."""
     sx = surface[0] if side == "left" else 0.0 - surface[0]
     return Placement(f"{side}_{name}", f"{side}_{segment}", f"{side}_{toward}", fraction,
-                     (sx, surface[1], surface[2]), description=description.format(side=side))
+                     (sx, surface[1], surface[2]), description=description.format(side=side),
+                     smoothing_hz=smoothing_hz)
 
 
 def _placements() -> dict[str, Placement]:
@@ -103,7 +114,7 @@ def _placements() -> dict[str, Placement]:
             _pair(side, "ankle", "knee", "ankle", 0.9, (0.04, 0.0, 0.0),
                   "{side} shank above the ankle, outer side (strap)"),
             _pair(side, "foot", "ankle", "foot", 0.5, (0.0, 0.04, 0.0),
-                  "{side} foot, top (shoe)"),
+                  "{side} foot, top (shoe)", smoothing_hz=FOOT_SMOOTHING_HZ),
         ]
     return {p.name: p for p in items}
 

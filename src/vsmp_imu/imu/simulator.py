@@ -21,9 +21,10 @@ import numpy as np
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.imu.channels import CHANNELS, prefixed
 from vsmp_imu.imu.kinematics import (
-    DEFAULT_SMOOTHING_HZ,
     DEFAULT_TRIM_S,
+    PLACEMENT_CUTOFF,
     SegmentKinematics,
+    SmoothingHz,
     check_settings,
     simulate_kinematics,
 )
@@ -43,8 +44,9 @@ class ImuSimulator:
     fs_hz: output rate; noise: add white noise and bias random walk (False gives
     exact kinematics plus the nominal bias, zero by default); seed: noise seed
     (drawn with `rng_for(seed, 'imu_noise', location)`); smoothing_hz: cutoff of
-    the position smoothing spline (None: interpolate); trim_s: margin dropped at
-    each end. After `simulate`, `kinematics_` holds the last SegmentKinematics.
+    the smoothing splines of positions and rotations ('placement': the
+    placement's own, `Placement.smoothing_hz`; None: interpolate); trim_s:
+    margin dropped at each end. After `simulate`, `kinematics_` holds the last SegmentKinematics.
     """
 
     def __init__(
@@ -53,7 +55,7 @@ class ImuSimulator:
         *,
         noise: bool = True,
         seed: int = 0,
-        smoothing_hz: float | None = DEFAULT_SMOOTHING_HZ,
+        smoothing_hz: SmoothingHz = PLACEMENT_CUTOFF,
         trim_s: float = DEFAULT_TRIM_S,
     ) -> None:
         self.fs_hz = fs_hz

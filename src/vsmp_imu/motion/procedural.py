@@ -67,6 +67,7 @@ from vsmp_imu.motion.tracks import (
     smoothstep_ramp,
 )
 from vsmp_imu.seeding import rng_for
+from vsmp_imu.smp.library import ActivityMatchError
 from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, UNKNOWN
 
 BACKEND_NAME = "procedural"
@@ -323,13 +324,20 @@ class ProceduralBackend:
 
 # -- library and SMP reading ------------------------------------------------------------
 def resolve_entry(library: Any, label: str) -> Any:
-    """The library entry for an activity label, or a ValidationError listing the activities."""
+    """The library entry whose name, alias or SMP label is `label`; nothing fuzzy.
+
+    A label that only resembles library activities raises `ActivityMatchError`
+    (exit 2) naming the closest ones: animating a look-alike activity would
+    silently train a model on another activity's signal.
+    """
     try:
-        return library.resolve(label)
-    except ValidationError as exc:
+        return library.match(label)
+    except ActivityMatchError as exc:
         names = [e.name for e in library if "procedural" in e.extras]
-        raise ValidationError(f"{exc.message}: the activity library does not know it",
-                              field="activity_label", allowed=", ".join(names)) from None
+        raise ActivityMatchError(
+            f"{exc.message}; the procedural backend animates library activities only and does not "
+            "substitute a similar one", label=exc.label, candidates=exc.candidates,
+            allowed=", ".join(names) + " (or a library file for this activity passed with --library)") from None
 
 
 def _verbalize(smp: SMP) -> str | None:

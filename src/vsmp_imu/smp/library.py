@@ -35,6 +35,28 @@ BUILTIN_DIR = Path(__file__).resolve().parent / "activities"
 LIBRARY_SUFFIXES = (".yaml", ".yml", ".json")
 # Minimum rapidfuzz WRatio (0..100) for `resolve` to accept a free-text label.
 DEFAULT_MIN_SCORE = 85.0
+# Fuzzy scores closer than this to the best one make a label ambiguous (`resolve`).
+AMBIGUOUS_MARGIN = 1.0
+
+
+class ActivityMatchError(ValidationError):
+    """An activity label that names no library activity exactly (or several equally well).
+
+    `label` is the label, `candidates` the closest activities as (name, score),
+    best first. `file` names the user's file the label came from when known.
+    """
+
+    def __init__(self, message: str, *, label: str = "", candidates: Sequence[tuple[str, float]] = (),
+                 file: str | Path | None = None, field: str | None = "activity_label",
+                 allowed: str | None = None) -> None:
+        self.label = label
+        self.candidates = tuple(candidates)
+        super().__init__(message, file=file, field=field, allowed=allowed)
+
+
+def _listing(candidates: Sequence[tuple[str, float]], shown: int = 5) -> str:
+    text = ", ".join(f"{name} ({score:.0f})" for name, score in candidates[:shown])
+    return text + (f" and {len(candidates) - shown} more" if len(candidates) > shown else "")
 
 
 class _LibraryFile(BaseModel):
@@ -226,21 +248,44 @@ class ActivityLibrary:
             best[name] = max(best.get(name, 0.0), float(score))
         return sorted(best.items(), key=lambda item: (-item[1], item[0]))
 
+    def match(self, label: str) -> LibraryEntry:
+        """The entry whose name, alias or SMP label is `label` (case/space/_/- insensitive).
+
+        Nothing fuzzy: a label that is none of them raises `ActivityMatchError` naming
+        the closest activities, so an activity is never swapped for a look-alike.
+        """
+        key = norm_name(label)
+        if key in self._index:
+            return self._entries[self._index[key]]
+        close = [(n, s) for n, s in self._rank(label)[:3] if s >= 50]
+        raise ActivityMatchError(
+            f"activity label '{label}' is not the name, an alias or the SMP label of a library activity"
+            + (f"; closest: {_listing(close)}" if close else ""),
+            label=label, candidates=close,
+            allowed="a library activity's name or alias (vsmp-imu smp library list), or a library file "
+                    "for this activity passed with --library (docs/smp.md)")
+
     def resolve(self, label: str, min_score: float = DEFAULT_MIN_SCORE) -> LibraryEntry:
         """The entry for a free-text label: exact lookup first, then fuzzy (rapidfuzz WRatio).
 
-        Raises ValidationError when the best score is below `min_score`.
+        Raises ActivityMatchError when the best score is below `min_score`, or when
+        other activities score within AMBIGUOUS_MARGIN of the best one (a tie is no match).
         """
         key = norm_name(label)
         if key in self._index:
             return self._entries[self._index[key]]
         ranked = self._rank(label)
         if ranked and ranked[0][1] >= min_score:
-            return self._entries[ranked[0][0]]
-        close = [f"{n} ({s:.0f})" for n, s in ranked[:3]]
-        raise ValidationError(
+            tied = [(n, s) for n, s in ranked if s > ranked[0][1] - AMBIGUOUS_MARGIN]
+            if len(tied) == 1:
+                return self._entries[ranked[0][0]]
+            raise ActivityMatchError(
+                f"'{label}' matches {len(tied)} activities equally well: {_listing(tied)}",
+                label=label, candidates=tied, allowed="an exact activity name or alias")
+        close = ranked[:3]
+        raise ActivityMatchError(
             f"no activity matches '{label}' with score >= {min_score:g}"
-            + (f"; best: {', '.join(close)}" if close else ""), field="activity_label")
+            + (f"; best: {_listing(close)}" if close else ""), label=label, candidates=close)
 
     def for_dataset(self, dataset: str) -> dict[str, LibraryEntry]:
         """Dataset label -> entry, from every entry's `datasets` (dataset name case-insensitive)."""
