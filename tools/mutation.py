@@ -1,0 +1,197 @@
+"""Mutation testing of the core numerics with mutmut, one module group at a time.
+
+    python tools/mutation.py run [GROUP ...]   # mutate each group against its own tests
+    python tools/mutation.py report            # rebuild docs/mutation-report.md from the records
+
+`run` copies src/ and tests/ into build/mutation/GROUP/, writes a pyproject.toml
+there whose [tool.mutmut] section mutates only the group's files and selects only
+the group's tests, runs `mutmut run` with one worker, and writes the per-mutant
+outcome to docs/mutation/GROUP.json (the committed record). `report` turns the
+records into the markdown summary, with the equivalent mutants of
+docs/mutation/equivalent.json (argued there) counted apart.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import os
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+from importlib.metadata import version
+from pathlib import Path
+
+from mutmut.stats import status_by_exit_code
+
+ROOT = Path(__file__).resolve().parents[1]
+BUILD = ROOT / "build" / "mutation"
+RECORDS = ROOT / "docs" / "mutation"
+REPORT = ROOT / "docs" / "mutation-report.md"
+EQUIVALENT = RECORDS / "equivalent.json"
+
+@dataclass(frozen=True)
+class Group:
+    """Files mutated together and the tests that guard them."""
+
+    name: str
+    files: tuple[str, ...]  # globs under src/vsmp_imu
+    tests: tuple[str, ...]  # pytest paths
+
+
+GROUPS = (
+    Group("grounding", ("grounding/*",), ("tests/grounding",)),
+    Group("imu", ("imu/*",), ("tests/imu",)),
+    Group("filtering", ("filtering/*",), ("tests/filtering",)),
+    Group("har", ("har/features.py", "har/protocols.py", "har/synthetic.py"),
+          ("tests/har/test_har_protocols.py", "tests/har/test_har_synthetic_features.py")),
+    Group("smp", ("smp/augment.py", "smp/schema.py"),
+          ("tests/smp/test_smp_augment.py", "tests/smp/test_smp_schema_bounds.py",
+           "tests/smp/test_smp_library.py")),
+)
+
+
+def _pyproject(group: Group) -> str:
+    """The project's pyproject.toml plus a [tool.mutmut] section for one group."""
+    lines = [
+        (ROOT / "pyproject.toml").read_text(),
+        "",
+        "[tool.mutmut]",
+        'source_paths = ["src/vsmp_imu"]',
+        "only_mutate = " + json.dumps([f"src/vsmp_imu/{f}" for f in group.files]),
+        "pytest_add_cli_args_test_selection = " + json.dumps([t for t in group.tests if (ROOT / t).exists()]),
+        'pytest_add_cli_args = ["-m", "not slow", "-p", "no:cacheprovider", "-q"]',
+        "use_git_change_detection = false",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _prepare(group: Group) -> Path:
+    where = BUILD / group.name
+    shutil.rmtree(where, ignore_errors=True)
+    where.mkdir(parents=True)
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
+    shutil.copytree(ROOT / "src", where / "src", ignore=ignore)
+    shutil.copytree(ROOT / "tests", where / "tests", ignore=ignore)
+    (where / "pyproject.toml").write_text(_pyproject(group))
+    return where
+
+
+def _outcomes(where: Path) -> dict[str, str]:
+    """Mutant name -> status, read from mutmut's .meta files."""
+    out = {}
+    for meta in sorted((where / "mutants").rglob("*.meta")):
+        data = json.loads(meta.read_text())
+        for name, code in data.get("exit_code_by_key", {}).items():
+            out[name] = status_by_exit_code[code]
+    return out
+
+
+def run(group: Group) -> dict:
+    where = _prepare(group)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    cmd = [sys.executable, "-m", "mutmut", "run", "--max-children", "1"]
+    started = dt.datetime.now(dt.UTC)
+    proc = subprocess.run(cmd, cwd=where, env=env, capture_output=True, text=True)
+    (where / "mutmut.log").write_text(proc.stdout + proc.stderr)
+    outcomes = _outcomes(where)
+    if not outcomes:
+        raise SystemExit(f"mutmut produced no mutants for {group.name}; see {where / 'mutmut.log'}")
+    survivors = {n: _diff(where, n) for n, s in outcomes.items() if s == "survived"}
+    record = {
+        "group": group.name,
+        "files": [f"src/vsmp_imu/{f}" for f in group.files],
+        "tests": list(group.tests),
+        "tool": f"mutmut {version('mutmut')}",
+        "date": started.strftime("%Y-%m-%d"),
+        "minutes": round((dt.datetime.now(dt.UTC) - started).total_seconds() / 60, 1),
+        "outcomes": outcomes,
+        "survivors": survivors,
+    }
+    RECORDS.mkdir(parents=True, exist_ok=True)
+    (RECORDS / f"{group.name}.json").write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+    return record
+
+
+def _diff(where: Path, name: str) -> str:
+    proc = subprocess.run([sys.executable, "-m", "mutmut", "show", name], cwd=where,
+                          capture_output=True, text=True)
+    return "\n".join(line for line in proc.stdout.splitlines() if line.startswith(("-", "+"))
+                     and not line.startswith(("---", "+++")))
+
+
+def _counts(record: dict, equivalent: set[str]) -> dict[str, int]:
+    counts = {"killed": 0, "survived": 0, "equivalent": 0, "other": 0}
+    for name, status in record["outcomes"].items():
+        if status in ("killed", "timeout"):
+            counts["killed"] += 1
+        elif status == "survived":
+            counts["equivalent" if name in equivalent else "survived"] += 1
+        else:
+            counts["other"] += 1
+    return counts
+
+
+def report() -> str:
+    equivalent = json.loads(EQUIVALENT.read_text()) if EQUIVALENT.exists() else {}
+    rows, details = [], []
+    records = [RECORDS / f"{g.name}.json" for g in GROUPS]
+    for path in records:
+        if not path.exists():
+            rows.append(f"| {path.stem} | not run | | | | | |")
+            continue
+        record = json.loads(path.read_text())
+        c = _counts(record, set(equivalent))
+        scored = c["killed"] + c["survived"]
+        score = f"{100 * c['killed'] / scored:.1f} %" if scored else "n/a"
+        rows.append(f"| {record['group']} | {score} | {c['killed']} | {c['survived']} | {c['equivalent']} "
+                    f"| {c['other']} | {record['tool']}, {record['date']}, {record['minutes']} min |")
+        details.append(_survivor_section(record, equivalent))
+    head = [
+        "# Mutation testing report",
+        "",
+        "Rebuilt by `python tools/mutation.py report` from the records in docs/mutation/",
+        "(written by `make mutation`); see docs/testing.md.",
+        "Score = killed / (killed + survived); equivalent mutants (argued below) and mutants",
+        "no test reaches or that mutmut skips (\"other\") are left out of it.",
+        "",
+        "| group | score | killed | survived | equivalent | other | run |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    return "\n".join(head + rows + [""] + details) + "\n"
+
+
+def _survivor_section(record: dict, equivalent: dict[str, str]) -> str:
+    lines = [f"## {record['group']}", ""]
+    names = sorted(record["survivors"])
+    if not names:
+        return "\n".join(lines + ["No survivors.", ""])
+    for name in names:
+        why = equivalent.get(name)
+        label = f"equivalent: {why}" if why else "survived"
+        lines += [f"- `{name}` ({label})", "", "  ```diff"]
+        lines += [f"  {line}" for line in record["survivors"][name].splitlines()]
+        lines += ["  ```", ""]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("command", choices=("run", "report"))
+    parser.add_argument("groups", nargs="*", help="groups to run (default: all): "
+                        + ", ".join(g.name for g in GROUPS))
+    args = parser.parse_args()
+    if args.command == "run":
+        chosen = [g for g in GROUPS if not args.groups or g.name in args.groups]
+        for group in chosen:
+            record = run(group)
+            print(group.name, _counts(record, set()), flush=True)
+    REPORT.write_text(report())
+    print(f"wrote {REPORT.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
