@@ -122,7 +122,7 @@ def test_alignment_error_names_the_gravity_field():
 def test_alignment_of_integer_input_is_float():
     out = ConventionAlignment(Convention(acc_unit="g")).transform(np.full((2, 6), 3, dtype=int))
     assert out.dtype == np.float64
-    assert out[0, 0] == pytest.approx(3 / align.G)
+    assert out[0, 0] == pytest.approx(3 * align.UNIT_SCALE["g"])
 
 
 @pytest.mark.parametrize(("location", "wrist"), [
@@ -147,7 +147,7 @@ def _infer_score(syn: np.ndarray, real: np.ndarray, p: np.ndarray) -> float:
     syn, real = syn.reshape(-1, 6), real.reshape(-1, 6)
     a, g = syn[:, :3] @ p.T, syn[:, 3:] @ p.T
     ca, cg = np.cov(real[:, :3].T), np.cov(real[:, 3:].T)
-    return float(np.linalg.norm(a.mean(0) - real[:, :3].mean(0)) / align.G
+    return float(np.linalg.norm(a.mean(0) - real[:, :3].mean(0)) * align.UNIT_SCALE["g"]
                  + np.linalg.norm(np.cov(a.T) - ca) / (np.linalg.norm(ca) + 1e-9)
                  + np.linalg.norm(np.cov(g.T) - cg) / (np.linalg.norm(cg) + 1e-9))
 
