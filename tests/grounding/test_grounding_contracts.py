@@ -88,6 +88,16 @@ def test_mounting_residual_is_the_weighted_rms_angle_and_follows_the_weights():
     assert np.allclose(_angle_deg(estimate_mounting(SYN, real, np.ones(3))[0].apply(SYN), real), plain_err)
 
 
+def test_mounting_residual_stays_finite_when_rounding_passes_cos_one():
+    rng = np.random.default_rng(0)  # a case where a fitted cosine rounds to 1 + 2e-16
+    syn = rng.normal(size=(4, 3)) * 5
+    syn[:, 1] += 9.81
+    hidden = Rotation.random(random_state=0)
+    rot, rms = estimate_mounting(syn, hidden.apply(syn))
+    assert np.isfinite(rms) and rms < 1e-5
+    assert np.degrees((rot * hidden.inv()).magnitude()) < 1e-6
+
+
 @pytest.mark.parametrize("side", ["synthetic", "real"])
 def test_mounting_leaves_out_classes_at_or_below_the_gravity_floor(side):
     syn, real = SYN.copy(), HIDDEN.apply(SYN)

@@ -219,6 +219,14 @@ def test_candidate_windows_are_the_2s_slices_of_the_stream(fs):
     assert not np.allclose(summarize_sequence(head, fs).cov, s.cov)
 
 
+def test_a_custom_window_length_cuts_its_own_slices():
+    x = np.random.default_rng(2).normal(size=(130, 6))
+    slices = np.stack([x[0:25], x[25:50], x[50:75], x[75:100], x[100:125]])  # 0.5 s at 50 Hz
+    got = summarize_sequence(x, FS, window_s=0.5)
+    for value, expect in zip((got.cov, got.psd, got.norms, got.acf), _direct_stats(slices, FS), strict=True):
+        assert np.allclose(value, expect)
+
+
 def test_target_windows_are_scored_as_given():
     x = _ramp(600) * 1e-2 + np.sin(np.arange(600) / 7.0)[:, None]
     size, step = window_geometry(FS, 2.0, 0.5)
