@@ -1,6 +1,8 @@
 """Mutation testing of the core numerics with mutmut, one module group at a time.
 
     python tools/mutation.py run [GROUP ...]   # mutate each group against its own tests
+    python tools/mutation.py rerun GROUP       # re-test the survivors after adding tests
+    python tools/mutation.py collect GROUP     # write the record of a finished (or stopped) run
     python tools/mutation.py report            # rebuild docs/mutation-report.md from the records
 
 `run` copies src/ and tests/ into build/mutation/GROUP/, writes a pyproject.toml
@@ -20,6 +22,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tomllib
 from dataclasses import dataclass
 from importlib.metadata import version
 from pathlib import Path
@@ -91,25 +94,47 @@ def _outcomes(where: Path) -> dict[str, str]:
 
 
 def run(group: Group) -> dict:
+    """Mutate one group against its tests and write its record."""
     where = _prepare(group)
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     cmd = [sys.executable, "-m", "mutmut", "run", "--max-children", "1"]
-    started = dt.datetime.now(dt.UTC)
     with open(where / "mutmut.log", "w") as log:
         subprocess.run(cmd, cwd=where, env=env, stdout=log, stderr=subprocess.STDOUT)
-    outcomes = _outcomes(where)
+    return collect(group)
+
+
+def rerun(group: Group) -> dict:
+    """Re-test the survivors of a finished run against the current tests (new tests copied in)."""
+    where = BUILD / group.name
+    survivors = [n for n, s in _outcomes(where).items() if s == "survived"]
+    if survivors:
+        shutil.rmtree(where / "tests")
+        shutil.copytree(ROOT / "tests", where / "tests", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        cmd = [sys.executable, "-m", "mutmut", "run", "--max-children", "1", *survivors]
+        with open(where / "mutmut.log", "a") as log:
+            subprocess.run(cmd, cwd=where, env=env, stdout=log, stderr=subprocess.STDOUT)
+    return collect(group)
+
+
+def collect(group: Group) -> dict:
+    """The record of a finished run in build/mutation/GROUP (also after an interrupted `run`)."""
+    where = BUILD / group.name
+    outcomes = _outcomes(where) if where.exists() else {}
     if not outcomes:
-        raise SystemExit(f"mutmut produced no mutants for {group.name}; see {where / 'mutmut.log'}")
-    survivors = {n: _diff(where, n) for n, s in outcomes.items() if s == "survived"}
+        raise SystemExit(f"no mutants found for {group.name}; see {where / 'mutmut.log'}")
+    started = (where / "pyproject.toml").stat().st_mtime
+    ended = (where / "mutmut.log").stat().st_mtime
+    selection = tomllib.loads((where / "pyproject.toml").read_text())["tool"]["mutmut"]
     record = {
         "group": group.name,
         "files": [f"src/vsmp_imu/{f}" for f in group.files],
-        "tests": list(group.tests),
+        "tests": selection["pytest_add_cli_args_test_selection"],
         "tool": f"mutmut {version('mutmut')}",
-        "date": started.strftime("%Y-%m-%d"),
-        "minutes": round((dt.datetime.now(dt.UTC) - started).total_seconds() / 60, 1),
+        "date": dt.datetime.fromtimestamp(started, dt.UTC).strftime("%Y-%m-%d"),
+        "minutes": round((ended - started) / 60, 1),
         "outcomes": outcomes,
-        "survivors": survivors,
+        "survivors": {n: _diff(where, n) for n, s in outcomes.items() if s == "survived"},
     }
     RECORDS.mkdir(parents=True, exist_ok=True)
     (RECORDS / f"{group.name}.json").write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
@@ -180,14 +205,14 @@ def _survivor_section(record: dict, equivalent: dict[str, str]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("command", choices=("run", "report"))
+    parser.add_argument("command", choices=("run", "rerun", "collect", "report"))
     parser.add_argument("groups", nargs="*", help="groups to run (default: all): "
                         + ", ".join(g.name for g in GROUPS))
     args = parser.parse_args()
-    if args.command == "run":
-        chosen = [g for g in GROUPS if not args.groups or g.name in args.groups]
+    chosen = [g for g in GROUPS if not args.groups or g.name in args.groups]
+    if args.command != "report":
         for group in chosen:
-            record = run(group)
+            record = {"run": run, "rerun": rerun, "collect": collect}[args.command](group)
             print(group.name, _counts(record, set()), flush=True)
     REPORT.write_text(report())
     print(f"wrote {REPORT.relative_to(ROOT)}")
