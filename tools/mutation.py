@@ -9,14 +9,16 @@
 there whose [tool.mutmut] section mutates only the group's files and selects only
 the group's tests, runs `mutmut run` with one worker, and writes the per-mutant
 outcome to docs/mutation/GROUP.json (the committed record). `report` turns the
-records into the markdown summary, with the equivalent mutants of
-docs/mutation/equivalent.json (argued there) counted apart.
+records into the markdown summary, with the mutants excluded in
+docs/mutation/excluded.json (equivalent or import-time, argued there) counted apart.
 """
 
 from __future__ import annotations
 
 import argparse
+import collections
 import datetime as dt
+import fnmatch
 import json
 import os
 import shutil
@@ -33,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 BUILD = ROOT / "build" / "mutation"
 RECORDS = ROOT / "docs" / "mutation"
 REPORT = ROOT / "docs" / "mutation-report.md"
-EQUIVALENT = RECORDS / "equivalent.json"
+EXCLUDED = RECORDS / "excluded.json"
 
 @dataclass(frozen=True)
 class Group:
@@ -148,55 +150,68 @@ def _diff(where: Path, name: str) -> str:
                      and not line.startswith(("---", "+++")))
 
 
-def _counts(record: dict, equivalent: set[str]) -> dict[str, int]:
-    counts = {"killed": 0, "survived": 0, "equivalent": 0, "other": 0}
+def _exclusion(name: str, rules: list[dict]) -> dict | None:
+    """The rule of docs/mutation/excluded.json that a surviving mutant falls under, if any."""
+    return next((r for r in rules if any(fnmatch.fnmatchcase(name, m) for m in r["mutants"])), None)
+
+
+def _counts(record: dict, rules: list[dict]) -> dict[str, int]:
+    counts = {"killed": 0, "survived": 0, "equivalent": 0, "import-time": 0, "other": 0}
     for name, status in record["outcomes"].items():
         if status in ("killed", "timeout"):
             counts["killed"] += 1
         elif status == "survived":
-            counts["equivalent" if name in equivalent else "survived"] += 1
+            rule = _exclusion(name, rules)
+            counts[rule["kind"] if rule else "survived"] += 1
         else:
             counts["other"] += 1
     return counts
 
 
 def report() -> str:
-    equivalent = json.loads(EQUIVALENT.read_text()) if EQUIVALENT.exists() else {}
+    rules = json.loads(EXCLUDED.read_text()) if EXCLUDED.exists() else []
     rows, details = [], []
-    records = [RECORDS / f"{g.name}.json" for g in GROUPS]
-    for path in records:
+    for group in GROUPS:
+        path = RECORDS / f"{group.name}.json"
         if not path.exists():
-            rows.append(f"| {path.stem} | not run | | | | | |")
+            rows.append(f"| {group.name} | not run | | | | | | |")
             continue
         record = json.loads(path.read_text())
-        c = _counts(record, set(equivalent))
+        c = _counts(record, rules)
         scored = c["killed"] + c["survived"]
         score = f"{100 * c['killed'] / scored:.1f} %" if scored else "n/a"
         rows.append(f"| {record['group']} | {score} | {c['killed']} | {c['survived']} | {c['equivalent']} "
-                    f"| {c['other']} | {record['tool']}, {record['date']}, {record['minutes']} min |")
-        details.append(_survivor_section(record, equivalent))
+                    f"| {c['import-time']} | {c['other']} | {record['tool']}, {record['date']}, "
+                    f"{record['minutes']} min |")
+        details.append(_survivor_section(record, rules))
     head = [
         "# Mutation testing report",
         "",
         "Rebuilt by `python tools/mutation.py report` from the records in docs/mutation/",
-        "(written by `make mutation`); see docs/testing.md.",
-        "Score = killed / (killed + survived); equivalent mutants (argued below) and mutants",
-        "no test reaches or that mutmut skips (\"other\") are left out of it.",
+        "(written by `make mutation`); see [testing.md](testing.md).",
+        "Score = killed / (killed + survived), timeouts counted as killed. Left out of it:",
+        "mutants argued equivalent, mutants that run at import time (mutmut cannot switch them",
+        "on), and \"other\": mutants no selected test reaches or that the run did not get to",
+        "(docs/mutation/excluded.json holds the arguments).",
         "",
-        "| group | score | killed | survived | equivalent | other | run |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
+        "| group | score | killed | survived | equivalent | import-time | other | run |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     return "\n".join(head + rows + [""] + details) + "\n"
 
 
-def _survivor_section(record: dict, equivalent: dict[str, str]) -> str:
+def _survivor_section(record: dict, rules: list[dict]) -> str:
     lines = [f"## {record['group']}", ""]
+    other = collections.Counter(s for s in record["outcomes"].values()
+                                if s not in ("killed", "timeout", "survived"))
+    if other:
+        lines += ["Other outcomes: " + ", ".join(f"{n} {s}" for s, n in sorted(other.items())) + ".", ""]
     names = sorted(record["survivors"])
     if not names:
         return "\n".join(lines + ["No survivors.", ""])
     for name in names:
-        why = equivalent.get(name)
-        label = f"equivalent: {why}" if why else "survived"
+        rule = _exclusion(name, rules)
+        label = f"{rule['kind']}: {rule['why']}" if rule else "survived"
         lines += [f"- `{name}` ({label})", "", "  ```diff"]
         lines += [f"  {line}" for line in record["survivors"][name].splitlines()]
         lines += ["  ```", ""]
@@ -213,7 +228,7 @@ def main() -> None:
     if args.command != "report":
         for group in chosen:
             record = {"run": run, "rerun": rerun, "collect": collect}[args.command](group)
-            print(group.name, _counts(record, set()), flush=True)
+            print(group.name, _counts(record, []), flush=True)
     REPORT.write_text(report())
     print(f"wrote {REPORT.relative_to(ROOT)}")
 
