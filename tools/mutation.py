@@ -1,6 +1,7 @@
 """Mutation testing of the core numerics with mutmut, one module group at a time.
 
     python tools/mutation.py run [GROUP ...]   # mutate each group against its own tests
+    python tools/mutation.py resume GROUP      # go on with a stopped run
     python tools/mutation.py rerun GROUP       # re-test the survivors after adding tests
     python tools/mutation.py collect GROUP     # write the record of a finished (or stopped) run
     python tools/mutation.py report            # rebuild docs/mutation-report.md from the records
@@ -95,13 +96,37 @@ def _outcomes(where: Path) -> dict[str, str]:
     return out
 
 
-def run(group: Group) -> dict:
-    """Mutate one group against its tests and write its record."""
-    where = _prepare(group)
+def _mutmut(where: Path, names: list[str]) -> None:
+    """`mutmut run` in a group's copy, one worker, on the given mutants (all when empty)."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    cmd = [sys.executable, "-m", "mutmut", "run", "--max-children", "1"]
-    with open(where / "mutmut.log", "w") as log:
+    cmd = [sys.executable, "-m", "mutmut", "run", "--max-children", "1", *names]
+    with open(where / "mutmut.log", "a") as log:
         subprocess.run(cmd, cwd=where, env=env, stdout=log, stderr=subprocess.STDOUT)
+
+
+def _import_time(name: str) -> bool:
+    rules = json.loads(EXCLUDED.read_text()) if EXCLUDED.exists() else []
+    rule = _exclusion(name, rules)
+    return rule is not None and rule["kind"] == "import-time"
+
+
+def run(group: Group) -> dict:
+    """Mutate one group against its tests and write its record.
+
+    A first call only generates the mutants and maps tests to functions (no mutant is
+    named NOTHING); the second tests every mutant except those that run at import time
+    (excluded.json), which mutmut cannot switch on."""
+    where = _prepare(group)
+    _mutmut(where, ["NOTHING"])
+    return resume(group)
+
+
+def resume(group: Group) -> dict:
+    """Test the mutants of a group's copy that have no outcome yet (after a stop)."""
+    where = BUILD / group.name
+    todo = [n for n, s in _outcomes(where).items() if s == "not checked" and not _import_time(n)]
+    if todo:
+        _mutmut(where, todo)
     return collect(group)
 
 
@@ -112,10 +137,7 @@ def rerun(group: Group) -> dict:
     if survivors:
         shutil.rmtree(where / "tests")
         shutil.copytree(ROOT / "tests", where / "tests", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-        cmd = [sys.executable, "-m", "mutmut", "run", "--max-children", "1", *survivors]
-        with open(where / "mutmut.log", "a") as log:
-            subprocess.run(cmd, cwd=where, env=env, stdout=log, stderr=subprocess.STDOUT)
+        _mutmut(where, survivors)
     return collect(group)
 
 
@@ -164,7 +186,8 @@ def _counts(record: dict, rules: list[dict]) -> dict[str, int]:
             rule = _exclusion(name, rules)
             counts[rule["kind"] if rule else "survived"] += 1
         else:
-            counts["other"] += 1
+            rule = _exclusion(name, rules)
+            counts["import-time" if rule and rule["kind"] == "import-time" else "other"] += 1
     return counts
 
 
@@ -220,14 +243,14 @@ def _survivor_section(record: dict, rules: list[dict]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("command", choices=("run", "rerun", "collect", "report"))
+    parser.add_argument("command", choices=("run", "resume", "rerun", "collect", "report"))
     parser.add_argument("groups", nargs="*", help="groups to run (default: all): "
                         + ", ".join(g.name for g in GROUPS))
     args = parser.parse_args()
     chosen = [g for g in GROUPS if not args.groups or g.name in args.groups]
     if args.command != "report":
         for group in chosen:
-            record = {"run": run, "rerun": rerun, "collect": collect}[args.command](group)
+            record = {"run": run, "resume": resume, "rerun": rerun, "collect": collect}[args.command](group)
             print(group.name, _counts(record, []), flush=True)
     REPORT.write_text(report())
     print(f"wrote {REPORT.relative_to(ROOT)}")
