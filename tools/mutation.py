@@ -158,18 +158,30 @@ def collect(group: Group) -> dict:
         "date": dt.datetime.fromtimestamp(started, dt.UTC).strftime("%Y-%m-%d"),
         "minutes": round((ended - started) / 60, 1),
         "outcomes": outcomes,
-        "survivors": {n: _diff(where, n) for n, s in outcomes.items() if s == "survived"},
+        "survivors": _diffs(where, [n for n, s in outcomes.items() if s == "survived"]),
     }
     RECORDS.mkdir(parents=True, exist_ok=True)
     (RECORDS / f"{group.name}.json").write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
     return record
 
 
-def _diff(where: Path, name: str) -> str:
-    proc = subprocess.run([sys.executable, "-m", "mutmut", "show", name], cwd=where,
-                          capture_output=True, text=True)
-    return "\n".join(line for line in proc.stdout.splitlines() if line.startswith(("-", "+"))
-                     and not line.startswith(("---", "+++")))
+_DIFFS = """
+import json, sys
+from mutmut.mutation.diff_apply import find_mutant, get_diff_for_mutant
+names = json.load(sys.stdin)
+print(json.dumps({n: get_diff_for_mutant(n, path=find_mutant(n).path) for n in names}))
+"""
+
+
+def _diffs(where: Path, names: list[str]) -> dict[str, str]:
+    """The +/- lines of each mutant's diff (mutmut's own diff, one process for all)."""
+    if not names:
+        return {}
+    proc = subprocess.run([sys.executable, "-c", _DIFFS], cwd=where, input=json.dumps(names),
+                          capture_output=True, text=True, check=True)
+    return {n: "\n".join(line for line in diff.splitlines()
+                         if line.startswith(("-", "+")) and not line.startswith(("---", "+++")))
+            for n, diff in json.loads(proc.stdout).items()}
 
 
 def _exclusion(name: str, rules: list[dict]) -> dict | None:
