@@ -184,3 +184,39 @@ def test_recording_checks_name_the_field(kwargs, field):
     with pytest.raises(ValidationError) as err:
         ImuRecording(**args)
     assert err.value.field == field
+
+
+def _two_locations() -> ImuRecording:
+    names = prefixed("left_wrist") + prefixed("waist")
+    data = np.arange(3 * 12, dtype=float).reshape(3, 12)
+    return ImuRecording(data, names, 50.0, {"k": 1}, start_s=2.0)
+
+
+def test_recording_views_by_location_and_name():
+    rec = _two_locations()
+    assert rec.locations == ("left_wrist", "waist")
+    waist = rec.at_location("waist")
+    assert waist.channel_names == CHANNELS and np.array_equal(waist.data, rec.data[:, 6:])
+    assert (waist.fs_hz, waist.start_s, waist.meta) == (50.0, 2.0, {"k": 1})
+    assert waist.meta is not rec.meta
+    assert np.array_equal(rec.channels(["waist_gyr_z", "left_wrist_acc_x"]), rec.data[:, [11, 0]])
+    assert rec.duration_s == 3 / 50 and np.allclose(rec.times, 2.0 + np.arange(3) / 50)
+    with pytest.raises(ValidationError) as err:
+        rec.at_location("chest")
+    assert err.value.field == "location" and err.value.allowed == "left_wrist, waist"
+    assert err.value.message == "no channels for location 'chest'"
+    with pytest.raises(ValidationError) as err:
+        rec.channels(["waist_acc_x", "nope", "nada"])
+    assert err.value.message == "no channel(s) nope, nada" and err.value.field == "channels"
+
+
+def test_recording_csv_round_trip_keeps_rate_start_and_meta(tmp_path):
+    rec = _two_locations()
+    back = ImuRecording.read_csv(rec.save_csv(tmp_path / "r.csv"))
+    assert back.channel_names == rec.channel_names and np.allclose(back.data, rec.data)
+    assert (back.fs_hz, back.start_s, back.meta) == (50.0, 2.0, {"k": 1})
+    text = rec.to_csv_text().splitlines()
+    assert text[1] == "# fs_hz: 50" and text[2] == '# meta: {"k": 1}'
+    no_rate = "\n".join([text[0]] + text[3:]) + "\n"
+    (tmp_path / "n.csv").write_text(no_rate)
+    assert ImuRecording.read_csv(tmp_path / "n.csv").fs_hz == pytest.approx(50.0)
