@@ -220,3 +220,28 @@ def test_recording_csv_round_trip_keeps_rate_start_and_meta(tmp_path):
     no_rate = "\n".join([text[0]] + text[3:]) + "\n"
     (tmp_path / "n.csv").write_text(no_rate)
     assert ImuRecording.read_csv(tmp_path / "n.csv").fs_hz == pytest.approx(50.0)
+
+
+def test_recording_csv_errors_name_the_file_and_the_line(tmp_path):
+    from vsmp_imu.errors import InputFileError
+
+    long_bad = "# fs_hz: fast" + "x" * 80
+    cases = {
+        "header.csv": (long_bad + "\ntime_s,acc_x\n0,1\n", f"bad header line '{long_bad[:60]}' ("),
+        "nothing.csv": ("# fs_hz: 50\n# meta: {}\n", "not a readable CSV ("),
+        "notime.csv": ("t,acc_x\n0,1\n", "no 'time_s' column"),
+    }
+    for name, (text, start) in cases.items():
+        path = tmp_path / name
+        path.write_text(text)
+        with pytest.raises(InputFileError) as err:
+            ImuRecording.read_csv(path)
+        assert err.value.message.startswith(start) and err.value.file == str(path)
+    assert err.value.allowed == "a header 'time_s,<channels...>'"  # the last case
+
+
+def test_aliases_of_a_placement():
+    from vsmp_imu.imu.placement import aliases_of
+
+    assert aliases_of("left_wrist") == ("non_dominant_wrist", "left_hand", "left_forearm")
+    assert aliases_of("chest") == ("torso",)
