@@ -197,3 +197,23 @@ def test_balance_weights_give_the_synthetic_pool_the_real_class_shares():
 def test_calibrator_defaults_are_the_appendix_values():
     cem = SimInTheLoopCalibrator()
     assert (cem.n_iterations, cem.n_candidates, cem.elite_fraction, cem.search_gravity) == (30, 64, 0.20, False)
+
+
+def test_convention_errors_name_the_field_and_the_allowed_values():
+    from vsmp_imu.grounding.align import UNIT_SCALE, axes_matrix
+
+    for field in ("acc_unit", "gyr_unit"):
+        with pytest.raises(ValidationError) as err:
+            Convention(**{field: "furlong"})
+        assert (err.value.field, err.value.message) == (field, "unknown unit 'furlong'")
+        assert err.value.allowed == ", ".join(UNIT_SCALE)
+    with pytest.raises(ValidationError) as err:
+        Convention(channel_names=("a", "b"))
+    assert err.value.field == "channel_names"
+    assert err.value.message == "a location has exactly 6 channels (acc xyz, gyr xyz)"
+    with pytest.raises(ValidationError) as err:
+        axes_matrix(("left", "up"))
+    assert err.value.field == "axes" and err.value.allowed == "left, right, up, down, forward, backward"
+    with pytest.raises(ValidationError) as err:
+        axes_matrix(("left", "right", "up"))
+    assert err.value.field == "axes" and "name the same body direction twice" in err.value.message

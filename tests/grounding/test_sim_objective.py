@@ -348,3 +348,30 @@ def test_calibrator_nominal_loss_is_l_sim_of_the_nominal_readings_on_2s_slices(k
     assert res.loss_nominal == pytest.approx(float(expect), rel=1e-9)
     assert res.loss_final <= res.loss_nominal
     assert res.loss_history == [res.loss_final]
+
+
+# -- edges: two-sample windows, silent channels, messages ----------------------------------------
+def test_two_sample_windows_follow_the_definitions():
+    windows = np.random.default_rng(9).normal(size=(5, 2, 6))
+    got = summarize_windows(windows, FS)
+    cov, psd, norms, acf = _direct_stats(windows, FS)
+    assert np.allclose(got.cov, cov) and np.allclose(got.norms, norms) and np.allclose(got.acf, acf)
+
+
+def test_silent_and_near_silent_channels_stay_bounded():
+    x = np.random.default_rng(3).normal(size=(400, 6))
+    x[:, 4] = 0.0  # silent
+    x[:, 5] *= 1e-8  # near silent: its energy is of the order of the guard epsilon
+    s = summarize_sequence(x, FS)
+    assert np.isfinite(s.psd).all() and (s.psd >= 0).all() and (s.psd.sum(-1) <= 1 + 1e-9).all()
+    assert np.isfinite(s.acf).all() and (np.abs(s.acf) <= 1 + 1e-9).all() and (s.acf[4] == 0).all()
+    silent = summarize_sequence(np.zeros((400, 6)), FS)
+    assert sim_loss(s, silent) >= 0 and np.isfinite(sim_loss(s, silent))
+
+
+def test_channel_count_errors_say_what_they_got():
+    with pytest.raises(ValueError, match=r"^expected 6 channels \(acc xyz, gyr xyz\), got 5$"):
+        summarize_windows(np.zeros((2, 10, 5)), FS)
+    moments = LinearMoments.of_sequence(np.zeros((200, 4)), FS)
+    with pytest.raises(ValueError, match=r"^expected 6 output channels \(acc xyz, gyr xyz\), got 5$"):
+        moments.summarize(np.zeros((3, 4, 5)))
