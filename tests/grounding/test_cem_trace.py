@@ -171,3 +171,19 @@ def test_the_reported_eta_reproduces_the_reported_loss(setup, search):
     again = sim_loss(summarize_sequence(_readings(kin, eta, res.gravity_included, noise), FS), target)
     assert float(again) == pytest.approx(res.loss_final, rel=1e-9)
     assert res.loss_final < res.loss_nominal
+
+
+def test_elite_ties_are_broken_by_candidate_order(setup, spy):
+    kin, _ = setup
+    rng = np.random.default_rng(1)
+    z = np.zeros((64, 11))
+    z[:, 0] = rng.integers(0, 3, 64) * 0.2  # three roll offsets: three groups of exactly tied losses
+    z[:, 9] = np.linspace(-3, 3, 64)  # noise scales tell the tied candidates apart (no noise: no effect)
+    SimInTheLoopCalibrator(n_iterations=2).calibrate(
+        kin, _target(kin, None), Convention(), ScriptedRng([z, np.zeros((64, 11))]))
+    losses, eta1 = spy["loss"][1], spy["eta"][1]
+    assert len(np.unique(losses)) == 3
+    elite = np.argsort(losses, kind="stable")[:13]
+    boundary = losses[elite[-1]]
+    assert (losses == boundary).sum() > (losses[elite] == boundary).sum()  # the cut falls inside a tie group
+    assert np.allclose(spy["eta"][2][0], eta1[elite].mean(0))
