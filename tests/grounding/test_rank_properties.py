@@ -46,7 +46,9 @@ def test_fewer_quantiles_keep_the_real_quantiles_at_the_grid_points(rng):
     at_grid = np.quantile(syn[:, 0], probs, method="hazen")[:, None]
     want = np.quantile(real[:, 0], probs, method="hazen")
     assert np.allclose(g.transform(at_grid)[:, 0], want, atol=1e-6)
-    assert DEFAULT_N_QUANTILES == 4096 and RankGrounder().n_quantiles == 4096
+    g = RankGrounder()
+    assert DEFAULT_N_QUANTILES == 4096 and (g.n_quantiles, g.min_class_samples) == (4096, 200)
+    assert (g.per_class, g.class_balanced) == (False, True)
 
 
 def test_per_class_maps_need_enough_samples_on_both_sides(rng):
