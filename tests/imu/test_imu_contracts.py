@@ -245,3 +245,38 @@ def test_aliases_of_a_placement():
 
     assert aliases_of("left_wrist") == ("non_dominant_wrist", "left_hand", "left_forearm")
     assert aliases_of("chest") == ("torso",)
+
+
+def test_csv_text_writes_sorted_meta_and_fixed_number_formats():
+    rec = ImuRecording(np.array([[1.0 / 3, 2e-7, 5.0, 6.0, 7.0, 8.0]]), CHANNELS, 50.0,
+                       {"b": 1, "a": np.float32(0.5)}, start_s=0.25)
+    lines = rec.to_csv_text().splitlines()
+    assert lines[2] == '# meta: {"a": "0.5", "b": 1}'  # keys sorted, non-JSON values as text
+    assert lines[3] == "time_s," + ",".join(CHANNELS)
+    assert lines[4] == "0.250000,0.3333333333,2e-07,5,6,7,8"
+
+
+def test_simulate_many_places_each_sensor_side_by_side():
+    from imu_motions import make_motion, walking
+
+    from vsmp_imu.imu import ImuSimulator
+
+    root, local = walking()
+    motion = make_motion(3.0, 30.0, root, local)
+    sim = ImuSimulator(50.0, seed=3, trim_s=0.3)
+    many = sim.simulate_many(motion, ["waist", "left_wrist"])
+    one = sim.simulate(motion, "left_wrist")
+    assert many.channel_names == prefixed("waist") + prefixed("left_wrist")
+    assert np.array_equal(many.data[:, 6:], one.data)
+    assert many.start_s == one.start_s == pytest.approx(0.3)
+    meta = many.meta
+    assert meta["kind"] == "imu_recording" and meta["locations"] == ["waist", "left_wrist"]
+    assert meta["sensors"]["left_wrist"] == one.meta["sensor"] and meta["sensors"]["left_wrist"]["attachment_m"]
+    for sensors, message in (([], "need at least one sensor location"),
+                             (["waist", "waist"], "duplicate sensor locations in waist, waist")):
+        with pytest.raises(ValidationError) as err:
+            sim.simulate_many(motion, sensors)
+        assert err.value.field == "location" and err.value.message == message
+    with pytest.raises(ValidationError) as err:
+        ImuSimulator(50.0, smoothing_hz=-1.0).simulate_many(motion, ["waist"])
+    assert err.value.field == "smoothing_hz"
