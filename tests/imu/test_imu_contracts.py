@@ -280,3 +280,30 @@ def test_simulate_many_places_each_sensor_side_by_side():
     with pytest.raises(ValidationError) as err:
         ImuSimulator(50.0, smoothing_hz=-1.0).simulate_many(motion, ["waist"])
     assert err.value.field == "smoothing_hz"
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("time_s,acc_x\n", "no channels or no rows"),
+    ("time_s\n0\n0.02\n", "no channels or no rows"),
+    ("time_s,acc_x\n0,1\n0.02,abc\n", "non-numeric values ("),
+    ("time_s,acc_x\n0,1\n0.02,nan\n0.04,inf\n", "NaN or inf values in 2 row(s), the first at data row 2"),
+    ("time_s,acc_x\n0,1\nnan,2\n", "NaN or inf values in 1 row(s), the first at data row 2"),
+    ("time_s,acc_x\n0,1\n0,2\n", "cannot infer fs_hz: time_s must increase (or give '# fs_hz:')"),
+    ("time_s,acc_x\n0,1\n", "cannot infer fs_hz: time_s must increase (or give '# fs_hz:')"),
+    ("# fs_hz: -5\ntime_s,acc_x\n0,1\n", "fs_hz must be positive, got -5.0"),
+])
+def test_recording_csv_content_errors(tmp_path, text, message):
+    from vsmp_imu.errors import InputFileError
+
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(InputFileError) as err:
+        ImuRecording.read_csv(path)
+    assert err.value.message.startswith(message) and err.value.file == str(path)
+
+
+def test_a_single_row_with_a_declared_rate_is_a_recording(tmp_path):
+    path = tmp_path / "one.csv"
+    path.write_text("# fs_hz: 20\ntime_s,acc_x\n1.5,2\n")
+    rec = ImuRecording.read_csv(path)
+    assert (rec.n_samples, rec.fs_hz, rec.start_s) == (1, 20.0, 1.5) and rec.data.tolist() == [[2.0]]
