@@ -52,14 +52,14 @@ def test_fewer_quantiles_keep_the_real_quantiles_at_the_grid_points(rng):
 
 
 def test_per_class_maps_need_enough_samples_on_both_sides(rng):
-    syn = rng.normal(0, 1, (400, 1))
+    syn = np.concatenate([rng.normal(0, 1, (200, 1)), rng.normal(10, 1, (200, 1))])
     real = np.concatenate([rng.normal(-5, 1, (200, 1)), rng.normal(5, 1, (100, 1))])
     ys, yr = np.repeat([0, 1], 200), np.repeat([0, 1], [200, 100])
     g = RankGrounder(per_class=True, min_class_samples=100).fit(syn, real, ys, yr)
     assert sorted(g.per_class_) == [0, 1]  # class 1 has exactly 100 real samples
     assert sorted(RankGrounder(per_class=True, min_class_samples=101).fit(syn, real, ys, yr).per_class_) == [0]
     out = g.transform(syn, ys)
-    assert out[ys == 0].mean() < -3 and out[ys == 1].mean() > 3
+    assert out[ys == 0].mean() == pytest.approx(-5, abs=0.3) and out[ys == 1].mean() == pytest.approx(5, abs=0.3)
     unseen = g.transform(syn[:5], np.full(5, 7))
     assert np.allclose(unseen, g.overall_.apply(syn[:5]))
     assert np.allclose(g.transform(syn), g.overall_.apply(syn))
@@ -86,10 +86,12 @@ def test_fit_rejects_bad_input_by_field(syn, real, field):
 
 def test_per_class_needs_labels_and_transform_checks_channels(rng):
     syn, real = rng.normal(size=(50, 2)), rng.normal(size=(50, 2))
-    with pytest.raises(ValidationError) as err:
-        RankGrounder(per_class=True, class_balanced=False).fit(syn, real)
-    assert err.value.field == "labels"
+    for ys, yr in ((None, None), (np.zeros(50), None), (None, np.zeros(50))):
+        with pytest.raises(ValidationError) as err:
+            RankGrounder(per_class=True, class_balanced=False).fit(syn, real, ys, yr)
+        assert err.value.field == "labels"
+        assert err.value.message == "per_class grounding needs synthetic and real labels"
     g = RankGrounder(class_balanced=False).fit(syn, real)
     with pytest.raises(ValidationError) as err:
-        g.transform(np.zeros((3, 3)))
-    assert err.value.field == "channels"
+        g.transform(np.zeros((4, 3)))
+    assert err.value.field == "channels" and err.value.message == "expected 2 channels, got 3"
