@@ -241,16 +241,28 @@ def _survivor_section(record: dict, rules: list[dict]) -> str:
                                 if s not in ("killed", "timeout", "survived"))
     if other:
         lines += ["Other outcomes: " + ", ".join(f"{n} {s}" for s, n in sorted(other.items())) + ".", ""]
-    names = sorted(record["survivors"])
-    if not names:
-        return "\n".join(lines + ["No survivors.", ""])
-    for name in names:
+    by_rule: dict[int, list[str]] = collections.defaultdict(list)
+    plain = []
+    for name in sorted(record["survivors"]):
         rule = _exclusion(name, rules)
-        label = f"{rule['kind']}: {rule['why']}" if rule else "survived"
-        lines += [f"- `{name}` ({label})", "", "  ```diff"]
+        (by_rule[id(rule)] if rule else plain).append(name)
+    lines += [f"### Survived ({len(plain)})", ""] + _diff_lines(record, plain)
+    for rule in rules:
+        names = by_rule.get(id(rule), [])
+        if names:
+            lines += [f"### {rule['kind'].capitalize()} ({len(names)}): {rule['why']}", ""]
+            lines += _diff_lines(record, names) if rule["kind"] == "equivalent" else [
+                ", ".join(f"`{n.rsplit('.', 1)[-1]}`" for n in names), ""]
+    return "\n".join(lines)
+
+
+def _diff_lines(record: dict, names: list[str]) -> list[str]:
+    lines = []
+    for name in names:
+        lines += [f"- `{name}`", "", "  ```diff"]
         lines += [f"  {line}" for line in record["survivors"][name].splitlines()]
         lines += ["  ```", ""]
-    return "\n".join(lines)
+    return lines
 
 
 def main() -> None:
