@@ -218,3 +218,53 @@ def test_validator_probabilities_cover_every_class_and_embeddings_are_relu_of_th
     assert HarValidator(hidden=(16, 8), max_iter=100, seed=1).fit(x, y, n_classes=5).predict_proba(x).shape == (60, 5)
     default = HarValidator()
     assert (default.hidden, default.max_iter, default.seed) == ((64, 32), 200, 0)
+
+
+def _motion():
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "imu"))
+    from imu_motions import make_motion, walking
+
+    root, local = walking()
+    return make_motion(2.0, 30.0, root, local)
+
+
+def test_motion_check_reports_the_largest_joint_step_against_a_fifth_of_the_height():
+    from vsmp_imu.motion import Motion
+
+    m = _motion()
+    f = MotionPlausibilityFilter()
+    d_max = 0.2 * m.body_height_m()
+    worst = float(np.linalg.norm(np.diff(m.positions, axis=0), axis=-1).max())
+    assert f.check_motion(m) == Verdict(True, "motion", "", {"max_step_m": worst, "d_max_m": d_max})
+    pos = m.positions.copy()
+    pos[10:, 5] += [0.0, 0.0, 1.5 * d_max]  # joint 5 jumps between frames 9 and 10
+    jumped = Motion(pos, m.rotations, m.fps, meta=m.meta)
+    w = float(np.linalg.norm(np.diff(pos, axis=0), axis=-1).max())
+    assert f.check_motion(jumped) == Verdict(
+        False, "motion", f"joint jumped {w:.3f} m between frames (> {d_max:.3f} m)", {"max_step_m": w, "d_max_m": d_max})
+    at_limit = MotionPlausibilityFilter(max_step_fraction=worst / m.body_height_m())
+    assert at_limit.check_motion(m).passed  # a step exactly at d_max passes
+    pos = m.positions.copy()
+    pos[3, 2, 1] = np.nan
+    missing = Motion(pos, m.rotations, m.fps, meta=m.meta)
+    assert f.check_motion(missing) == Verdict(False, "motion", "missing or non-finite frames")
+
+
+def test_verdicts_name_their_filter_and_inputs_must_pair_up():
+    proba = np.array([[0.9, 0.1], [0.2, 0.8], [0.55, 0.45]])
+    for v in class_verdicts(proba, np.array([0, 0, 0]), 0.6, np.array([True, True])) + \
+            class_verdicts(proba, np.array([1, 1, 1]), 0.6, np.array([True, False])):
+        assert v.filter == "class"
+    assert class_verdicts(proba[:1], np.array([0]), 0.6)[0] == Verdict(
+        True, "class", "", {"p_max": 0.9, "p_label": 0.9, "tau_cls": 0.6})
+    with pytest.raises(ValueError):
+        class_verdicts(proba, np.array([0, 0]), 0.6)
+    z = np.array([[1.0, 0.0], [0.8, 0.6]])  # distance 0.632 between the two unit vectors
+    v = redundancy_verdicts(z, np.array([3, 3]), {})  # no threshold at all: only exact duplicates go
+    assert [x.passed for x in v] == [True, True] and {x.filter for x in v} == {"redundancy"}
+    assert v[1].values["tau_nn"] == 0.0
+    skipped = redundancy_verdicts(z, np.array([3, 3]), {-1: 0.1}, eligible=np.array([False, True]))
+    assert skipped[0] == Verdict(False, "redundancy", "not considered (rejected earlier)", {"tau_nn": 0.1})
