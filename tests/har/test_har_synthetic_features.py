@@ -195,3 +195,19 @@ def test_parse_budgets_details():
             parse_budgets(bad, "low-resource")
         assert err.value.message == message and err.value.field == "--budgets"
         assert err.value.allowed == "percentages in (0, 100], e.g. 1,5,10,25,50"
+
+
+def test_take_budget_draws_only_for_classes_over_budget():
+    syn = _windows([0, 0, 0, 0, 1, 1, 1])
+    out = take_budget(syn, np.array([4, 1]), np.random.default_rng(5))  # class 0 fits: no draw for it
+    assert (out.y == 0).sum() == 4
+    want = np.random.default_rng(5).choice(np.array([4, 5, 6]), size=1, replace=False)
+    assert np.flatnonzero((out.X[-1] == syn.X).all(axis=(1, 2))).tolist() == want.tolist()
+
+
+def test_check_synthetic_names_the_method_in_a_mismatch():
+    real = _windows([0, 1])
+    other = Windows(np.zeros((1, 4, 2)), [0], ["1"], ("a", "b", "c"), CHANNELS, 25.0)
+    with pytest.raises(ValidationError) as err:
+        check_synthetic(real, other, "vsmp")
+    assert err.value.message.startswith("synthetic windows of method 'vsmp': sampling rate 25 Hz")
