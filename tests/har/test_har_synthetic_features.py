@@ -211,3 +211,50 @@ def test_check_synthetic_names_the_method_in_a_mismatch():
     with pytest.raises(ValidationError) as err:
         check_synthetic(real, other, "vsmp")
     assert err.value.message.startswith("synthetic windows of method 'vsmp': sampling rate 25 Hz")
+
+
+def test_validation_subjects_come_from_their_named_stream_in_natural_order():
+    subjects = ["s10", "s2", "s1", "s3", "s20", "s2"]
+    val = choose_val_subjects(subjects, 4, "7", val_fraction=0.5)
+    from vsmp_imu.har.windows import natural_key
+    from vsmp_imu.seeding import rng_for
+
+    ordered = sorted(set(subjects), key=natural_key)
+    assert ordered == ["s1", "s2", "s3", "s10", "s20"]
+    draw = rng_for(4, "validation-subjects", "7").choice(ordered, size=2, replace=False).tolist()
+    assert list(val) == sorted(draw, key=natural_key)
+
+
+@pytest.mark.parametrize(("protocol", "budget"), [("low-resource", 10.0), ("long-tail", None), ("lopo", None)])
+def test_split_fold_draws_from_its_named_streams(tiny_dataset, protocol, budget):
+    from vsmp_imu.har.protocols import split_fold
+    from vsmp_imu.seeding import rng_for
+
+    windows = tiny_dataset.windows(window_s=2.0, overlap=0.5)
+    split = split_fold(windows, 3, protocol, seed=2, budget_percent=budget)
+    assert split.fold == "3"
+    pool = windows.where_subjects(["3"], keep=False)
+    if protocol == "low-resource":
+        pool = subsample_per_class(pool, low_resource_counts(pool.class_counts(), 10.0),
+                                   rng_for(2, "low-resource", "3", "10"))
+    elif protocol == "long-tail":
+        pool = subsample_per_class(pool, long_tail_counts(pool.class_counts(), 10.0), rng_for(2, "long-tail", "3"))
+        assert split.head is not None and split.tail is not None
+    else:
+        assert split.head is None and split.tail is None
+    val = choose_val_subjects(pool.unique_subjects(), 2, "3")
+    assert split.val_subjects == val
+    assert np.array_equal(split.fit.X, pool.where_subjects(val, keep=False).X)
+    assert np.array_equal(split.val.X, pool.where_subjects(val).X)
+
+
+@pytest.mark.parametrize("budget", [None, 0.0, -1.0, 100.5])
+def test_split_fold_rejects_a_budget_out_of_range(tiny_dataset, budget):
+    from vsmp_imu.har.protocols import split_fold
+
+    windows = tiny_dataset.windows(window_s=2.0, overlap=0.5)
+    with pytest.raises(ConfigError) as err:
+        split_fold(windows, "3", "low-resource", seed=0, budget_percent=budget)
+    assert err.value.field == "budgets" and err.value.allowed == "0 < budget <= 100 (percent)"
+    assert err.value.message == f"label budget {budget} out of range"
+    assert len(split_fold(windows, "3", "low-resource", seed=0, budget_percent=100.0).fit) > 0
