@@ -6,7 +6,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 PIP_FLAGS := --disable-pip-version-check --no-input -q
 
-.PHONY: install demo test test-all lint bench clean
+.PHONY: install demo test test-all lint bench mutation clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -25,7 +25,7 @@ demo: $(STAMP)
 	$(BIN)/vsmp-imu demo -o demo_out
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks tools
 
 test: $(STAMP) lint
 	$(BIN)/vsmp-imu report --check
@@ -37,6 +37,12 @@ test-all: $(STAMP) lint
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run_all.py
+
+# Mutation testing of the core numerics (long; not part of `make test`): one group at a
+# time against its own tests, one worker; GROUPS="grounding imu" runs a subset.
+# Writes docs/mutation/GROUP.json and docs/mutation-report.md (see docs/testing.md).
+mutation: $(STAMP)
+	nice -n 15 $(BIN)/python tools/mutation.py run $(GROUPS)
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache demo_out

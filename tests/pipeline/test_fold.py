@@ -57,7 +57,7 @@ def test_budget_respected_and_windows_shaped(fold, hapt12):
 def test_every_window_keeps_its_provenance_and_verdicts(fold):
     out, _, _ = fold
     windowed = [r for r in out.records if r.windowed]
-    assert len(windowed) == len(out.generated)
+    assert windowed and len(windowed) == len(out.generated)
     for rec in windowed:
         prov = rec.provenance.as_dict()
         for key in ("source", "smp_id", "prompt", "backend", "seed", "locations", "motion_verdict"):
@@ -72,7 +72,8 @@ def test_every_window_keeps_its_provenance_and_verdicts(fold):
             assert all(v.passed for v in rec.verdicts)
         else:
             assert any(not v.passed and v.reason for v in rec.verdicts)
-    assert all(r.kept for r in windowed if r.selected)
+    selected = [r for r in windowed if r.selected]
+    assert selected and all(r.kept for r in selected)
 
 
 def test_rank_grounding_matches_d_rank_and_keeps_order(hapt12, library, fold):
@@ -81,6 +82,7 @@ def test_rank_grounding_matches_d_rank_and_keeps_order(hapt12, library, fold):
     _, rank_idx = stat_rank_split(train.y, 0)
     d_rank = train[rank_idx]
     ok = [r for r in out.samples if not r.error and r.signals]
+    assert ok
     info, _ = hapt12
     from vsmp_imu.pipeline.fold import ground, location_plan
 
@@ -112,7 +114,7 @@ def test_ablation_switches_change_what_they_say(hapt12, library, tmp_path):
                                                             rank_grounding=False, k=1, oversample=1.0,
                                                             max_rounds=1))
     windowed = [r for r in out.records if r.windowed]
-    assert all(r.kept and r.verdicts == [] for r in windowed)
+    assert windowed and all(r.kept and r.verdicts == [] for r in windowed)
     assert all(r.provenance.locations["waist"].eta is None for r in windowed)
 
 

@@ -1,0 +1,97 @@
+"""Rank grounding by its properties: monotone, real order statistics at the grid points,
+extremes onto extremes, classes where they belong. Nothing here depends on how the map
+interpolates between grid points."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.grounding.rank import DEFAULT_N_QUANTILES, RankGrounder, _sample_labels
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(12)
+
+
+def test_order_statistics_map_onto_real_order_statistics(rng):
+    syn = rng.gamma(2.0, 1.0, size=(300, 2))
+    real = rng.normal(5.0, 2.0, size=(300, 2))
+    g = RankGrounder(class_balanced=False).fit(syn, real)
+    out = g.transform(syn)
+    for c in range(2):
+        order = np.argsort(syn[:, c])
+        assert np.allclose(out[order, c], np.sort(real[:, c]), atol=1e-6)  # k-th onto k-th
+
+
+def test_map_is_monotone_and_sends_extremes_to_real_extremes(rng):
+    syn = rng.normal(0, 1, size=(500, 3))
+    real = rng.exponential(2.0, size=(400, 3))
+    g = RankGrounder(class_balanced=False, n_quantiles=64).fit(syn, real)
+    x = np.linspace(-6, 6, 2001)[:, None].repeat(3, 1)
+    out = g.transform(x)
+    assert (np.diff(out, axis=0) >= 0).all()
+    assert np.allclose(out[0], real.min(0)) and np.allclose(out[-1], real.max(0))
+    inside = g.transform(syn)
+    assert (inside >= real.min(0) - 1e-9).all() and (inside <= real.max(0) + 1e-9).all()
+
+
+def test_fewer_quantiles_keep_the_real_quantiles_at_the_grid_points(rng):
+    syn = rng.uniform(0, 1, size=(4000, 1))
+    real = rng.normal(10, 3, size=(4000, 1))
+    g = RankGrounder(class_balanced=False, n_quantiles=50).fit(syn, real)
+    probs = (np.arange(50) + 0.5) / 50
+    at_grid = np.quantile(syn[:, 0], probs, method="hazen")[:, None]
+    want = np.quantile(real[:, 0], probs, method="hazen")
+    assert np.allclose(g.transform(at_grid)[:, 0], want, atol=1e-6)
+    g = RankGrounder()
+    assert DEFAULT_N_QUANTILES == 4096 and (g.n_quantiles, g.min_class_samples) == (4096, 200)
+    assert (g.per_class, g.class_balanced) == (False, True)
+
+
+def test_per_class_maps_need_enough_samples_on_both_sides(rng):
+    syn = np.concatenate([rng.normal(0, 1, (200, 1)), rng.normal(10, 1, (200, 1))])
+    real = np.concatenate([rng.normal(-5, 1, (200, 1)), rng.normal(5, 1, (100, 1))])
+    ys, yr = np.repeat([0, 1], 200), np.repeat([0, 1], [200, 100])
+    g = RankGrounder(per_class=True, min_class_samples=100).fit(syn, real, ys, yr)
+    assert sorted(g.per_class_) == [0, 1]  # class 1 has exactly 100 real samples
+    assert sorted(RankGrounder(per_class=True, min_class_samples=101).fit(syn, real, ys, yr).per_class_) == [0]
+    out = g.transform(syn, ys)
+    assert out[ys == 0].mean() == pytest.approx(-5, abs=0.3) and out[ys == 1].mean() == pytest.approx(5, abs=0.3)
+    unseen = g.transform(syn[:5], np.full(5, 7))
+    assert np.allclose(unseen, g.overall_.apply(syn[:5]))
+    assert np.allclose(g.transform(syn), g.overall_.apply(syn))
+
+
+def test_sample_labels_repeat_per_window_sample():
+    assert _sample_labels(np.zeros((2, 3, 6)), np.array([4, 5])).tolist() == [4, 4, 4, 5, 5, 5]
+    assert _sample_labels(np.zeros((2, 6)), np.array([4, 5])).tolist() == [4, 5]
+    assert _sample_labels(np.zeros((2, 2, 3, 6)), np.array([1, 2])).tolist() == [1] * 6 + [2] * 6
+
+
+@pytest.mark.parametrize(("syn", "real", "field"), [
+    (np.zeros((5, 2)), np.zeros((5, 3)), "channels"),
+    (np.zeros(5), np.zeros((5, 1)), "synthetic"),
+    (np.zeros((5, 1)), np.zeros((0, 1)), "real"),
+    (np.full((5, 1), np.nan), np.zeros((5, 1)), "synthetic"),
+    (np.zeros((5, 1)), np.full((5, 1), np.inf), "real"),
+])
+def test_fit_rejects_bad_input_by_field(syn, real, field):
+    with pytest.raises(ValidationError) as err:
+        RankGrounder(class_balanced=False).fit(syn, real)
+    assert err.value.field == field
+
+
+def test_per_class_needs_labels_and_transform_checks_channels(rng):
+    syn, real = rng.normal(size=(50, 2)), rng.normal(size=(50, 2))
+    for ys, yr in ((None, None), (np.zeros(50), None), (None, np.zeros(50))):
+        with pytest.raises(ValidationError) as err:
+            RankGrounder(per_class=True, class_balanced=False).fit(syn, real, ys, yr)
+        assert err.value.field == "labels"
+        assert err.value.message == "per_class grounding needs synthetic and real labels"
+    g = RankGrounder(class_balanced=False).fit(syn, real)
+    with pytest.raises(ValidationError) as err:
+        g.transform(np.zeros((4, 3)))
+    assert err.value.field == "channels" and err.value.message == "expected 2 channels, got 3"

@@ -1,0 +1,182 @@
+"""Constrained augmentation drawn exactly from its named streams, and the SMP's scalar views.
+
+Each expected value is computed from the appendix rule and
+`rng_for(seed, smp_id, index, field)`, not by the augmenter itself."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from smp_helpers import make_smp, simple_smp
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.seeding import rng_for
+from vsmp_imu.smp import augment as aug
+from vsmp_imu.smp.augment import SMPAugmenter, augment_variant
+from vsmp_imu.smp.schema import (
+    AMPLITUDE_LEVELS,
+    SMP,
+    TEMPO_LEVELS,
+    displacement_word,
+    ordinal_level,
+    ordinal_word,
+    smp_json_schema,
+)
+
+U = 0.2
+
+
+def _draw(smp: SMP, seed: int, index: int, field: str):
+    return rng_for(seed, smp.smp_id, index, field)
+
+
+def test_perturbation_ranges_are_the_appendix_table():
+    assert (aug.TEMPO_MAX_LEVELS, aug.AMPLITUDE_MAX_LEVELS, aug.REPETITION_MAX_CYCLES) == (1.0, 1.0, 5)
+    assert (aug.DURATION_MAX_FRACTION, aug.DISPLACEMENT_MAX_FRACTION) == (0.25, 0.25)
+    assert (aug.SIDE_SWAP_PROBABILITY, aug.SYMMETRY_CHANGE_PROBABILITY) == (0.5, 0.3)
+    assert aug.DECIMALS == 4 and aug.MIN_EXTENT_M == 1e-3
+
+
+@pytest.mark.parametrize("index", [0, 3])
+def test_ordinal_and_count_fields_are_drawn_from_their_streams(index):
+    smp = simple_smp()
+    out, changed = augment_variant(smp, 9, index)
+    radius = (1 - U) * 1.0
+    tempo = round(min(2.0, max(0.0, _draw(smp, 9, index, "tempo").uniform(1 - radius, 1 + radius))), 4)
+    amp = round(min(2.0, max(0.0, _draw(smp, 9, index, "amplitude").uniform(2 - radius, 2 + radius))), 4)
+    assert out.execution_attributes.tempo == tempo and out.execution_attributes.amplitude == amp
+    r = (1 - U) * 5
+    lo, hi = max(1, math.ceil(6 - r)), max(1, math.floor(6 + r))
+    assert (lo, hi) == (2, 10)
+    count = int(_draw(smp, 9, index, "repetition_count").integers(lo, hi + 1))
+    assert out.temporal_structure.repetition_count == count
+    assert changed["execution_attributes.tempo"] == {"before": "medium", "after": tempo}
+    if count != 6:
+        assert changed["temporal_structure.repetition_count"] == {"before": 6, "after": count}
+
+
+def test_relative_durations_scale_then_renormalize_to_their_sum():
+    smp = simple_smp()
+    out, changed = augment_variant(smp, 4, 1)
+    radius = (1 - U) * 0.25
+    f = _draw(smp, 4, 1, "primitive_duration").uniform(1 - radius, 1 + radius, size=3)
+    raw = [v * x for v, x in zip([0.3, 0.5, 0.2], f, strict=True)]
+    want = [round(v * 1.0 / sum(raw), 4) for v in raw]
+    assert out.primitive_durations.values == want and out.primitive_durations.type == "relative"
+    assert changed["primitive_durations"]["before"] == {"type": "relative", "values": [0.3, 0.5, 0.2]}
+
+
+def test_absolute_durations_are_scaled_without_renormalizing_and_unknowns_stay():
+    smp = make_smp(simple_smp(), **{"primitive_durations": {"type": "absolute", "values": [2.0, "unknown", 1.0]}})
+    out, _ = augment_variant(smp, 4, 0)
+    radius = (1 - U) * 0.25
+    f = _draw(smp, 4, 0, "primitive_duration").uniform(1 - radius, 1 + radius, size=3)
+    assert out.primitive_durations.values == [round(2.0 * f[0], 4), "unknown", round(1.0 * f[2], 4)]
+
+
+def test_empty_durations_are_filled_from_the_nominal_primitive_durations():
+    smp = make_smp(simple_smp(), **{"primitive_durations": {"type": "unknown", "values": []}})
+    out, _ = augment_variant(smp, 4, 0)
+    assert out.primitive_durations.type == "relative" and len(out.primitive_durations.values) == 3
+    assert sum(out.primitive_durations.values) == pytest.approx(1.0, abs=2e-4)
+    unknown = make_smp(smp, **{"motion_primitives.0.relative_duration": "unknown"})
+    assert augment_variant(unknown, 4, 0)[0].primitive_durations.values == []
+
+
+def _category_smp(**ea):
+    fields = ["dominant_side", "symmetry", "global_displacement"]
+    return make_smp(simple_smp(), **{"constraints.variant_fields": fields,
+                                     **{f"execution_attributes.{k}": v for k, v in ea.items()}})
+
+
+def test_categorical_fields_flip_when_their_stream_falls_below_the_probability():
+    flips = {"side": 0, "sym": 0}
+    for index in range(40):
+        smp = _category_smp(dominant_side="left", symmetry="asymmetric", global_displacement="small")
+        out, changed = augment_variant(smp, 1, index)
+        side = _draw(smp, 1, index, "dominant_side").random() < (1 - U) * 0.5
+        sym = _draw(smp, 1, index, "symmetry").random() < (1 - U) * 0.3
+        assert out.execution_attributes.dominant_side == ("right" if side else "left")
+        assert out.execution_attributes.symmetry == ("symmetric" if sym else "asymmetric")
+        assert ("execution_attributes.dominant_side" in changed) == side
+        factor = _draw(smp, 1, index, "global_displacement").uniform(1 - (1 - U) * 0.25, 1 + (1 - U) * 0.25)
+        assert out.execution_attributes.global_displacement == round(max(1e-3, 1.0 * factor), 4)
+        flips["side"] += side
+        flips["sym"] += sym
+    assert flips["side"] > 0 and flips["sym"] > 0
+    right = _category_smp(dominant_side="right")
+    swapped = [augment_variant(right, 1, i)[0].execution_attributes.dominant_side for i in range(20)]
+    assert "left" in swapped and set(swapped) <= {"left", "right"}
+
+
+def test_unconditioned_augmentation_uses_full_radius():
+    smp = make_smp(simple_smp(), **dict.fromkeys([f"uncertainty.{k}" for k in ("tempo",)], 1.0))
+    frozen, _ = augment_variant(smp, 2, 0)
+    assert frozen.execution_attributes.tempo == "medium"
+    free, _ = augment_variant(smp, 2, 0, uncertainty_conditioned=False)
+    want = round(min(2.0, max(0.0, _draw(smp, 2, 0, "tempo").uniform(0.0, 2.0))), 4)
+    assert free.execution_attributes.tempo == want
+
+
+def test_augmenter_records_each_variant():
+    smp = simple_smp()
+    a = SMPAugmenter(uncertainty_conditioned=False)
+    variants = a.augment(smp, 2, 5)
+    assert len(variants) == len(a.changes_) == 2
+    for i, (v, c) in enumerate(zip(variants, a.changes_, strict=True)):
+        assert c["index"] == i and c["source_smp_id"] == smp.smp_id and c["seed"] == 5
+        assert c["uncertainty_conditioned"] is False and c["smp_id"] == v.smp_id
+        assert c["changed"] == augment_variant(smp, 5, i, False)[1]
+    assert SMPAugmenter().augment(smp, 0, 5) == []
+    with pytest.raises(ValidationError) as err:
+        SMPAugmenter().augment(smp, -1, 5)
+    assert err.value.field == "k"
+
+
+# -- scalar views of the schema ---------------------------------------------------------------------
+def test_ordinal_levels_and_words():
+    assert [ordinal_level(w, TEMPO_LEVELS) for w in ("slow", "medium", "fast", "unknown")] == [0.0, 1.0, 2.0, None]
+    assert ordinal_level(1.25, AMPLITUDE_LEVELS) == 1.25
+    assert [ordinal_word(v, TEMPO_LEVELS) for v in (-1.0, 0.4, 0.6, 1.5, 2.6, "slow")] == [
+        "slow", "slow", "medium", "fast", "fast", "slow"]
+    assert [displacement_word(v) for v in (0.0, -1.0, 0.5, 2.5, 2.49, "large")] == [
+        "stationary", "stationary", "small", "large", "small", "large"]
+
+
+def test_smp_scalar_views():
+    smp = simple_smp()
+    assert smp.tempo_level() == 1.0 and smp.amplitude_level() == 2.0 and smp.repetition_count() == 6
+    assert smp.displacement_extent_m() == 0.0
+    assert make_smp(smp, **{"execution_attributes.global_displacement": "large"}).displacement_extent_m() == 4.0
+    assert make_smp(smp, **{"execution_attributes.global_displacement": 1.5}).displacement_extent_m() == 1.5
+    assert make_smp(smp, **{"execution_attributes.global_displacement": "unknown"}).displacement_extent_m() is None
+    assert make_smp(smp, **{"temporal_structure.repetition_count": "unknown"}).repetition_count() is None
+    assert make_smp(smp, **{"execution_attributes.tempo": 0.5}).tempo_level() == 0.5
+
+
+def test_relative_durations_fill_unknowns_with_the_known_mean():
+    smp = simple_smp()
+    assert smp.relative_durations() == pytest.approx([0.3, 0.5, 0.2])
+    part = make_smp(smp, **{"primitive_durations.values": [2.0, "unknown", 0.0]})
+    assert part.relative_durations() == pytest.approx([0.3333333, 0.3333333, 0.3333333])
+    part = make_smp(smp, **{"primitive_durations.values": [3.0, "unknown", 1.0]})
+    assert part.relative_durations() == pytest.approx([3 / 6, 2 / 6, 1 / 6])
+    none = make_smp(smp, **{"primitive_durations.values": []})
+    assert none.relative_durations() == pytest.approx([0.3, 0.5, 0.2])  # from the primitives
+    blank = make_smp(none, **{f"motion_primitives.{i}.relative_duration": "unknown" for i in range(3)})
+    assert blank.relative_durations() == pytest.approx([1 / 3] * 3)
+
+
+def test_identity_and_schema():
+    smp = simple_smp()
+    assert smp.canonical_json() == smp.canonical_json() and '"activity_label":"arm circles"' in smp.canonical_json()
+    assert len(smp.smp_id) == 16 and smp.smp_id != make_smp(smp, activity_label="x").smp_id
+    schema = smp_json_schema()
+    assert schema["title"] == "Semantic Motion Program"
+    assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
+    with pytest.raises(ValueError, match="primitive_durations.values has 2 entries but primitive_sequence has 3"):
+        make_smp(smp, **{"primitive_durations.values": [0.5, 0.5]})
+    with pytest.raises(ValueError, match="must not be empty"):
+        make_smp(smp, activity_label="   ")
+    assert make_smp(smp, activity_label="  walk ").activity_label == "walk"

@@ -1,0 +1,284 @@
+"""Mutation testing of the core numerics with mutmut, one module group at a time.
+
+    python tools/mutation.py run [GROUP ...]   # mutate each group against its own tests
+    python tools/mutation.py resume GROUP      # go on with a stopped run
+    python tools/mutation.py rerun GROUP       # re-test the survivors after adding tests
+    python tools/mutation.py collect GROUP     # write the record of a finished (or stopped) run
+    python tools/mutation.py report            # rebuild docs/mutation-report.md from the records
+
+`run` copies src/ and tests/ into build/mutation/GROUP/, writes a pyproject.toml
+there whose [tool.mutmut] section mutates only the group's files and selects only
+the group's tests, runs `mutmut run` with one worker, and writes the per-mutant
+outcome to docs/mutation/GROUP.json (the committed record). `report` turns the
+records into the markdown summary, with the mutants excluded in
+docs/mutation/excluded.json (equivalent or import-time, argued there) counted apart.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import datetime as dt
+import fnmatch
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tomllib
+from dataclasses import dataclass
+from importlib.metadata import version
+from pathlib import Path
+
+from mutmut.stats import status_by_exit_code
+
+ROOT = Path(__file__).resolve().parents[1]
+BUILD = ROOT / "build" / "mutation"
+RECORDS = ROOT / "docs" / "mutation"
+REPORT = ROOT / "docs" / "mutation-report.md"
+EXCLUDED = RECORDS / "excluded.json"
+
+@dataclass(frozen=True)
+class Group:
+    """Files mutated together and the tests that guard them."""
+
+    name: str
+    files: tuple[str, ...]  # globs under src/vsmp_imu
+    tests: tuple[str, ...]  # pytest paths
+
+
+GROUPS = (
+    Group("grounding", ("grounding/*",), ("tests/grounding",)),
+    Group("imu", ("imu/*",), ("tests/imu",)),
+    Group("filtering", ("filtering/*",), ("tests/filtering",)),
+    Group("har", ("har/features.py", "har/protocols.py", "har/synthetic.py"),
+          ("tests/har/test_har_protocols.py", "tests/har/test_har_synthetic_features.py")),
+    Group("smp", ("smp/augment.py", "smp/schema.py"),
+          ("tests/smp/test_smp_augment.py", "tests/smp/test_smp_exact_draws.py",
+           "tests/smp/test_smp_library.py")),
+)
+
+
+def _pyproject(group: Group) -> str:
+    """The project's pyproject.toml plus a [tool.mutmut] section for one group."""
+    lines = [
+        (ROOT / "pyproject.toml").read_text(),
+        "",
+        "[tool.mutmut]",
+        'source_paths = ["src/vsmp_imu"]',
+        "only_mutate = " + json.dumps([f"src/vsmp_imu/{f}" for f in group.files]),
+        "pytest_add_cli_args_test_selection = " + json.dumps([t for t in group.tests if (ROOT / t).exists()]),
+        'pytest_add_cli_args = ["-m", "not slow", "-p", "no:cacheprovider", "-q"]',
+        "use_git_change_detection = false",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _prepare(group: Group) -> Path:
+    where = BUILD / group.name
+    shutil.rmtree(where, ignore_errors=True)
+    where.mkdir(parents=True)
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
+    shutil.copytree(ROOT / "src", where / "src", ignore=ignore)
+    shutil.copytree(ROOT / "tests", where / "tests", ignore=ignore)
+    (where / "pyproject.toml").write_text(_pyproject(group))
+    return where
+
+
+def _outcomes(where: Path) -> dict[str, str]:
+    """Mutant name -> status, read from mutmut's .meta files."""
+    out = {}
+    for meta in sorted((where / "mutants").rglob("*.meta")):
+        data = json.loads(meta.read_text())
+        for name, code in data.get("exit_code_by_key", {}).items():
+            out[name] = status_by_exit_code[code]
+    return out
+
+
+def _mutmut(where: Path, names: list[str]) -> None:
+    """`mutmut run` in a group's copy, one worker, on the given mutants (all when empty)."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    cmd = [sys.executable, "-m", "mutmut", "run", "--max-children", "1", *names]
+    with open(where / "mutmut.log", "a") as log:
+        subprocess.run(cmd, cwd=where, env=env, stdout=log, stderr=subprocess.STDOUT)
+
+
+def _import_time(name: str) -> bool:
+    rules = json.loads(EXCLUDED.read_text()) if EXCLUDED.exists() else []
+    rule = _exclusion(name, rules)
+    return rule is not None and rule["kind"] == "import-time"
+
+
+def run(group: Group) -> dict:
+    """Mutate one group against its tests and write its record.
+
+    A first call only generates the mutants and maps tests to functions (no mutant is
+    named NOTHING); the second tests every mutant except those that run at import time
+    (excluded.json), which mutmut cannot switch on."""
+    where = _prepare(group)
+    _mutmut(where, ["NOTHING"])
+    return resume(group)
+
+
+def resume(group: Group) -> dict:
+    """Test the mutants of a group's copy that have no outcome yet (after a stop)."""
+    where = BUILD / group.name
+    todo = [n for n, s in _outcomes(where).items() if s == "not checked" and not _import_time(n)]
+    if todo:
+        _mutmut(where, todo)
+    return collect(group)
+
+
+def rerun(group: Group) -> dict:
+    """Re-test the survivors of a finished run against the current tests (new tests copied in)."""
+    where = BUILD / group.name
+    survivors = [n for n, s in _outcomes(where).items() if s == "survived"]
+    if survivors:
+        shutil.rmtree(where / "tests")
+        shutil.copytree(ROOT / "tests", where / "tests", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        _mutmut(where, survivors)
+    return collect(group)
+
+
+def collect(group: Group) -> dict:
+    """The record of a finished run in build/mutation/GROUP (also after an interrupted `run`)."""
+    where = BUILD / group.name
+    outcomes = _outcomes(where) if where.exists() else {}
+    if not outcomes:
+        raise SystemExit(f"no mutants found for {group.name}; see {where / 'mutmut.log'}")
+    started = (where / "pyproject.toml").stat().st_mtime
+    ended = (where / "mutmut.log").stat().st_mtime
+    selection = tomllib.loads((where / "pyproject.toml").read_text())["tool"]["mutmut"]
+    record = {
+        "group": group.name,
+        "files": [f"src/vsmp_imu/{f}" for f in group.files],
+        "tests": selection["pytest_add_cli_args_test_selection"],
+        "tool": f"mutmut {version('mutmut')}",
+        "date": dt.datetime.fromtimestamp(started, dt.UTC).strftime("%Y-%m-%d"),
+        "minutes": round((ended - started) / 60, 1),
+        "outcomes": outcomes,
+        "survivors": _diffs(where, [n for n, s in outcomes.items() if s == "survived"]),
+    }
+    RECORDS.mkdir(parents=True, exist_ok=True)
+    (RECORDS / f"{group.name}.json").write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+    return record
+
+
+_DIFFS = """
+import json, sys
+from mutmut.mutation.diff_apply import find_mutant, get_diff_for_mutant
+names = json.load(sys.stdin)
+print(json.dumps({n: get_diff_for_mutant(n, path=find_mutant(n).path) for n in names}))
+"""
+
+
+def _diffs(where: Path, names: list[str]) -> dict[str, str]:
+    """The +/- lines of each mutant's diff (mutmut's own diff, one process for all)."""
+    if not names:
+        return {}
+    proc = subprocess.run([sys.executable, "-c", _DIFFS], cwd=where, input=json.dumps(names),
+                          capture_output=True, text=True, check=True)
+    return {n: "\n".join(line for line in diff.splitlines()
+                         if line.startswith(("-", "+")) and not line.startswith(("---", "+++")))
+            for n, diff in json.loads(proc.stdout).items()}
+
+
+def _exclusion(name: str, rules: list[dict]) -> dict | None:
+    """The rule of docs/mutation/excluded.json that a surviving mutant falls under, if any."""
+    return next((r for r in rules if any(fnmatch.fnmatchcase(name, m) for m in r["mutants"])), None)
+
+
+def _counts(record: dict, rules: list[dict]) -> dict[str, int]:
+    counts = {"killed": 0, "survived": 0, "equivalent": 0, "import-time": 0, "other": 0}
+    for name, status in record["outcomes"].items():
+        if status in ("killed", "timeout"):
+            counts["killed"] += 1
+        elif status == "survived":
+            rule = _exclusion(name, rules)
+            counts[rule["kind"] if rule else "survived"] += 1
+        else:
+            rule = _exclusion(name, rules)
+            counts["import-time" if rule and rule["kind"] == "import-time" else "other"] += 1
+    return counts
+
+
+def report() -> str:
+    rules = json.loads(EXCLUDED.read_text()) if EXCLUDED.exists() else []
+    rows, details = [], []
+    for group in GROUPS:
+        path = RECORDS / f"{group.name}.json"
+        if not path.exists():
+            rows.append(f"| {group.name} | not run | | | | | | |")
+            continue
+        record = json.loads(path.read_text())
+        c = _counts(record, rules)
+        scored = c["killed"] + c["survived"]
+        score = f"{100 * c['killed'] / scored:.1f} %" if scored else "n/a"
+        rows.append(f"| {record['group']} | {score} | {c['killed']} | {c['survived']} | {c['equivalent']} "
+                    f"| {c['import-time']} | {c['other']} | {record['tool']}, {record['date']}, "
+                    f"{record['minutes']} min |")
+        details.append(_survivor_section(record, rules))
+    head = [
+        "# Mutation testing report",
+        "",
+        "Rebuilt by `python tools/mutation.py report` from the records in docs/mutation/",
+        "(written by `make mutation`); see [testing.md](testing.md).",
+        "Score = killed / (killed + survived), timeouts counted as killed. Left out of it:",
+        "mutants argued equivalent, mutants that run at import time (mutmut cannot switch them",
+        "on), and \"other\": mutants no selected test reaches or that the run did not get to",
+        "(docs/mutation/excluded.json holds the arguments).",
+        "",
+        "| group | score | killed | survived | equivalent | import-time | other | run |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    return "\n".join(head + rows + [""] + details) + "\n"
+
+
+def _survivor_section(record: dict, rules: list[dict]) -> str:
+    lines = [f"## {record['group']}", ""]
+    other = collections.Counter(s for s in record["outcomes"].values()
+                                if s not in ("killed", "timeout", "survived"))
+    if other:
+        lines += ["Other outcomes: " + ", ".join(f"{n} {s}" for s, n in sorted(other.items())) + ".", ""]
+    by_rule: dict[int, list[str]] = collections.defaultdict(list)
+    plain = []
+    for name in sorted(record["survivors"]):
+        rule = _exclusion(name, rules)
+        (by_rule[id(rule)] if rule else plain).append(name)
+    lines += [f"### Survived ({len(plain)})", ""] + _diff_lines(record, plain)
+    for rule in rules:
+        names = by_rule.get(id(rule), [])
+        if names:
+            lines += [f"### {rule['kind'].capitalize()} ({len(names)}): {rule['why']}", ""]
+            lines += _diff_lines(record, names) if rule["kind"] == "equivalent" else [
+                ", ".join(f"`{n.rsplit('.', 1)[-1]}`" for n in names), ""]
+    return "\n".join(lines)
+
+
+def _diff_lines(record: dict, names: list[str]) -> list[str]:
+    lines = []
+    for name in names:
+        lines += [f"- `{name}`", "", "  ```diff"]
+        lines += [f"  {line}" for line in record["survivors"][name].splitlines()]
+        lines += ["  ```", ""]
+    return lines
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("command", choices=("run", "resume", "rerun", "collect", "report"))
+    parser.add_argument("groups", nargs="*", help="groups to run (default: all): "
+                        + ", ".join(g.name for g in GROUPS))
+    args = parser.parse_args()
+    chosen = [g for g in GROUPS if not args.groups or g.name in args.groups]
+    if args.command != "report":
+        for group in chosen:
+            record = {"run": run, "resume": resume, "rerun": rerun, "collect": collect}[args.command](group)
+            print(group.name, _counts(record, []), flush=True)
+    REPORT.write_text(report())
+    print(f"wrote {REPORT.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
