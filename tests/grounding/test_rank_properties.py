@@ -1,6 +1,6 @@
-"""Rank grounding by its properties: monotone, real order statistics at the grid points,
-extremes onto extremes, classes where they belong. Nothing here depends on how the map
-interpolates between grid points."""
+"""Rank grounding by its properties: monotone, real order statistics at the grid points (up to
+the kernel smoothing of both distributions, `window_bandwidths`), extremes onto extremes,
+classes where they belong. Nothing here depends on how the map interpolates between grid points."""
 
 from __future__ import annotations
 
@@ -8,7 +8,12 @@ import numpy as np
 import pytest
 
 from vsmp_imu.errors import ValidationError
-from vsmp_imu.grounding.rank import DEFAULT_N_QUANTILES, RankGrounder, _sample_labels
+from vsmp_imu.grounding.rank import (
+    DEFAULT_N_QUANTILES,
+    RankGrounder,
+    _sample_labels,
+    window_bandwidths,
+)
 
 
 @pytest.fixture
@@ -21,9 +26,13 @@ def test_order_statistics_map_onto_real_order_statistics(rng):
     real = rng.normal(5.0, 2.0, size=(300, 2))
     g = RankGrounder(class_balanced=False).fit(syn, real)
     out = g.transform(syn)
+    h = window_bandwidths(real, 1)  # the kernel's width: the map is exact up to it
     for c in range(2):
         order = np.argsort(syn[:, c])
-        assert np.allclose(out[order, c], np.sort(real[:, c]), atol=1e-6)  # k-th onto k-th
+        dev = np.abs(out[order, c] - np.sort(real[:, c]))  # k-th onto (smoothed) k-th
+        assert np.median(dev) < h[c] and dev.max() < 0.5 * real[:, c].std()
+        assert abs(out[:, c].mean() - real[:, c].mean()) < 0.05 * real[:, c].std()
+        assert 0.97 < out[:, c].std() / real[:, c].std() < 1.01  # the smoothing keeps the variance
 
 
 def test_map_is_monotone_and_sends_extremes_to_real_extremes(rng):
@@ -33,9 +42,12 @@ def test_map_is_monotone_and_sends_extremes_to_real_extremes(rng):
     x = np.linspace(-6, 6, 2001)[:, None].repeat(3, 1)
     out = g.transform(x)
     assert (np.diff(out, axis=0) >= 0).all()
-    assert np.allclose(out[0], real.min(0)) and np.allclose(out[-1], real.max(0))
+    h = window_bandwidths(real, 1)  # a smoothed end may lie up to a few kernel widths outside
+    lo, hi = real.min(0) - 4 * h, real.max(0) + 4 * h
+    assert (lo <= out[0]).all() and (out[0] <= real.min(0) + 1e-6).all()
+    assert (real.max(0) - 1e-6 <= out[-1]).all() and (out[-1] <= hi).all()
     inside = g.transform(syn)
-    assert (inside >= real.min(0) - 1e-9).all() and (inside <= real.max(0) + 1e-9).all()
+    assert (inside >= lo).all() and (inside <= hi).all()
 
 
 def test_fewer_quantiles_keep_the_real_quantiles_at_the_grid_points(rng):
@@ -45,7 +57,8 @@ def test_fewer_quantiles_keep_the_real_quantiles_at_the_grid_points(rng):
     probs = (np.arange(50) + 0.5) / 50
     at_grid = np.quantile(syn[:, 0], probs, method="hazen")[:, None]
     want = np.quantile(real[:, 0], probs, method="hazen")
-    assert np.allclose(g.transform(at_grid)[:, 0], want, atol=1e-6)
+    h = window_bandwidths(real, 1)[0]
+    assert np.abs(g.transform(at_grid)[:, 0] - want).max() < 3 * h
     g = RankGrounder()
     assert DEFAULT_N_QUANTILES == 4096 and (g.n_quantiles, g.min_class_samples) == (4096, 200)
     assert (g.per_class, g.class_balanced) == (False, True)

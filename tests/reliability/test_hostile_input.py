@@ -190,17 +190,9 @@ def row_repetitions_too_long_to_draw(i: Inputs) -> Row:
     return Row(["motion", "synth", path, "--seed", "0", "-o", out], "long.json", "at most 600 s", absent=(out,))
 
 
-def row_unknown_primitive_names_user_file(i: Inputs) -> Row:
-    def teleport(d: dict) -> None:
-        d["primitive_sequence"][0] = d["motion_primitives"][0]["name"] = "teleport"
-    path = _smp_file(i, "mine.json", teleport)
-    return Row(["motion", "synth", path, "--seed", "0", "-o", i.tmp / "m.npz"], "mine.json",
-               "primitive 'teleport'")
-
-
-def row_unknown_activity_names_user_file(i: Inputs) -> Row:
-    path = _smp_file(i, "mine.json", lambda d: d.update(activity_label="qqqq zzzz"))
-    return Row(["motion", "synth", path, "--seed", "0", "-o", i.tmp / "m.npz"], "mine.json", "activity_label")
+def _unknown_activity(d: dict) -> None:
+    d["activity_label"] = "qqqq zzzz"
+    d["primitive_sequence"][0] = d["motion_primitives"][0]["name"] = "teleport"
 
 
 # -- output paths, checked before the work -------------------------------------------------------
@@ -467,3 +459,31 @@ def test_a_file_system_refusal_during_a_command_is_exit_2_naming_the_path(tmp_pa
     monkeypatch.setattr(smp_cli, "save_smp", reset)
     with pytest.raises(ConnectionResetError):
         main(["smp", "library", "show", "walking", "-o", str(tmp_path / "w.json")])
+
+
+def test_an_activity_the_library_lacks_is_compiled_from_the_users_smp(tmp_path):
+    """An unknown label with a primitive no recipe has is never swapped for a library activity:
+    `motion synth` compiles the user's own SMP (with recipes only it is an error naming the
+    user's file: tests/motion/test_motion_files_cli.py)."""
+    from vsmp_imu.motion import Motion
+
+    smp = ActivityLibrary.load().get("jumping_jacks").smp.model_dump(mode="json")
+    path = _smp_file(Inputs(tmp_path, tmp_path / "unused.npz", smp), "mine.json", _unknown_activity)
+    done = subprocess.run(cli_command("motion", "synth", str(path), "--seed", "0", "-o", str(tmp_path / "m.npz")),
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    meta = Motion.load(tmp_path / "m.npz").meta
+    assert meta["motion_source"] == "compiled" and meta["activity"] == "qqqq_zzzz"  # its own label
+
+
+def test_errors_raised_deep_in_a_command_name_the_users_file(tmp_path):
+    from vsmp_imu.cli.common import naming
+    from vsmp_imu.errors import ValidationError
+
+    with pytest.raises(ValidationError) as err, naming(tmp_path / "mine.json"):
+        raise ValidationError("primitive 'teleport' matches nothing", field="primitive_sequence[0]")
+    assert err.value.file == str(tmp_path / "mine.json") and err.value.field == "primitive_sequence[0]"
+    assert str(err.value).startswith(f"{tmp_path / 'mine.json'}: field 'primitive_sequence[0]'")
+    with pytest.raises(ValidationError) as err, naming(tmp_path / "mine.json"):
+        raise ValidationError("about another file", file="library/x.yaml")
+    assert err.value.file == "library/x.yaml"  # an error that names its file keeps it
