@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -62,15 +64,34 @@ def test_a_programming_error_in_a_sample_fails_the_run(monkeypatch):
         LocalExecutor(1, show_progress=False).map(sample_mod.cached_synthesize, [(_task(), None)])
 
 
-def test_a_programming_error_in_a_pool_worker_fails_the_run(monkeypatch):
-    """The local pool forks its workers after the patch: the bug is in the workers too."""
-    def broken(motion, task, loc):
-        raise TypeError("unsupported operand")
+POOL_BUG = """
+import sys
+from dataclasses import replace
+sys.path.insert(0, sys.argv[1])
+import vsmp_imu.pipeline.sample as sample_mod
+from test_sample_errors import _task
+from vsmp_imu.executor import LocalExecutor
 
-    monkeypatch.setattr(sample_mod, "_location_signal", broken)
-    tasks = [(_task(), None), (replace(_task(), key="f/WALKING/0001", seed=4), None)]
-    with pytest.raises(TypeError, match="unsupported operand"):
-        LocalExecutor(2, show_progress=False).map(sample_mod.cached_synthesize, tasks)
+def broken(motion, task, loc):
+    raise TypeError("unsupported operand")
+
+sample_mod._location_signal = broken
+tasks = [(_task(), None), (replace(_task(), key="f/WALKING/0001", seed=4), None)]
+try:
+    LocalExecutor(2, show_progress=False).map(sample_mod.cached_synthesize, tasks)
+except TypeError as exc:
+    print("raised:", exc)
+"""
+
+
+def test_a_programming_error_in_a_pool_worker_fails_the_run():
+    """The local pool forks its workers after the patch: the bug is in the workers too. Run in a
+    fresh interpreter: forked after other tests' threads (Ray's gRPC, torch's OpenMP pool), a
+    worker can inherit a lock held at the fork and never start."""
+    done = subprocess.run([sys.executable, "-c", POOL_BUG, str(Path(__file__).parent)], capture_output=True,
+                          text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "raised: unsupported operand" in done.stdout
 
 
 def test_sample_error_is_a_vsmp_error():
