@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import re
 from collections import defaultdict
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -88,26 +89,18 @@ def time_warp(x: np.ndarray, sigma: float, knots: int, rng: np.random.Generator)
     return np.column_stack([np.interp(warped, t, x[:, c]) for c in range(x.shape[1])])
 
 
+@dataclass(eq=False, repr=False)
 class ClassicalAugmentation:
     """The Classical Aug synthetic source (see the module docstring)."""
 
     name = "classical"
 
-    def __init__(
-        self,
-        jitter_sigma: float = 0.05,
-        scale_sigma: float = 0.1,
-        max_rotation_deg: float = 30.0,
-        warp_sigma: float = 0.2,
-        warp_knots: int = 4,
-        p: float = 0.5,
-    ) -> None:
-        self.jitter_sigma = jitter_sigma
-        self.scale_sigma = scale_sigma
-        self.max_rotation_deg = max_rotation_deg
-        self.warp_sigma = warp_sigma
-        self.warp_knots = warp_knots
-        self.p = p
+    jitter_sigma: float = 0.05
+    scale_sigma: float = 0.1
+    max_rotation_deg: float = 30.0
+    warp_sigma: float = 0.2
+    warp_knots: int = 4
+    p: float = 0.5
 
     def augment(
         self,

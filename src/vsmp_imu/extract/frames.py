@@ -15,7 +15,6 @@ timestamps when the header's frame rate is missing or absurd.
 
 from __future__ import annotations
 
-import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from vsmp_imu.errors import ConfigError, DependencyError, InputFileError
+from vsmp_imu.io import file_sha256
 
 FRAME_SIZE_PX = 512  # appendix table: 512 x 512 for every dataset
 MAX_FPS = 1000.0  # a header frame rate above this (or <= 0) is treated as missing
@@ -77,15 +77,6 @@ def require_cv2() -> Any:
         raise DependencyError("reading video needs OpenCV (the `video` extra); install it with "
                               "`pip install -e .[video]`") from exc
     return cv2
-
-
-def file_sha256(path: str | Path, chunk: int = 1 << 20) -> str:
-    """Content hash of a file (hex), read in chunks."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        while block := fh.read(chunk):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 @dataclass
@@ -225,6 +216,7 @@ def letterbox(frame: np.ndarray, size_px: int = FRAME_SIZE_PX) -> np.ndarray:
     return out
 
 
+@dataclass(eq=False, repr=False)
 class FrameSampler:
     """Uniform temporal sampling of a clip to `n_frames` letterboxed RGB frames.
 
@@ -236,14 +228,11 @@ class FrameSampler:
         it is still sampled and a warning is added to the result.
     """
 
-    def __init__(self, n_frames: int | None = None, preset: str | None = None,
-                 size_px: int = FRAME_SIZE_PX, min_duration_s: float | None = None,
-                 max_duration_s: float | None = None) -> None:
-        self.n_frames = n_frames
-        self.preset = preset
-        self.size_px = size_px
-        self.min_duration_s = min_duration_s
-        self.max_duration_s = max_duration_s
+    n_frames: int | None = None
+    preset: str | None = None
+    size_px: int = FRAME_SIZE_PX
+    min_duration_s: float | None = None
+    max_duration_s: float | None = None
 
     def settings(self) -> dict[str, Any]:
         """The resolved sampling settings (used in cache keys)."""

@@ -114,6 +114,7 @@ class PoseTrack:
                 "frame_size": list(self.frame_size), "source": self.source}
 
 
+@dataclass(eq=False, repr=False)
 class MediaPipePoseEstimator:
     """Run MediaPipe Pose over a clip's frames.
 
@@ -124,17 +125,13 @@ class MediaPipePoseEstimator:
     static_image_mode: detect in every frame instead of tracking.
     """
 
-    def __init__(self, model_complexity: int = 1, min_detection_confidence: float = 0.5,
-                 min_tracking_confidence: float = 0.5, max_fps: float | None = 30.0,
-                 start_s: float = 0.0, max_frames: int | None = None,
-                 static_image_mode: bool = False) -> None:
-        self.model_complexity = model_complexity
-        self.min_detection_confidence = min_detection_confidence
-        self.min_tracking_confidence = min_tracking_confidence
-        self.max_fps = max_fps
-        self.start_s = start_s
-        self.max_frames = max_frames
-        self.static_image_mode = static_image_mode
+    model_complexity: int = 1
+    min_detection_confidence: float = 0.5
+    min_tracking_confidence: float = 0.5
+    max_fps: float | None = 30.0
+    start_s: float = 0.0
+    max_frames: int | None = None
+    static_image_mode: bool = False
 
     def describe(self) -> dict[str, Any]:
         mp = require_mediapipe()

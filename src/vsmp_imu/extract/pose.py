@@ -103,6 +103,7 @@ class PoseExtraction:
         return {"smp": self.smp.model_dump(mode="json"), **self.report()}
 
 
+@dataclass(eq=False, repr=False)
 class PoseExtractor:
     """Measure an SMP from a clip's body pose.
 
@@ -113,14 +114,11 @@ class PoseExtractor:
     lowpass_hz: landmark low-pass before retargeting (None: off).
     """
 
-    def __init__(self, estimator: MediaPipePoseEstimator | None = None,
-                 library: ActivityLibrary | None = None, height_m: float = DEFAULT_HEIGHT_M,
-                 max_gap_s: float = MAX_GAP_S, lowpass_hz: float | None = LOWPASS_HZ) -> None:
-        self.estimator = estimator
-        self.library = library
-        self.height_m = height_m
-        self.max_gap_s = max_gap_s
-        self.lowpass_hz = lowpass_hz
+    estimator: MediaPipePoseEstimator | None = None
+    library: ActivityLibrary | None = None
+    height_m: float = DEFAULT_HEIGHT_M
+    max_gap_s: float = MAX_GAP_S
+    lowpass_hz: float | None = LOWPASS_HZ
 
     def _library(self) -> ActivityLibrary:
         return self.library if self.library is not None else ActivityLibrary.load()

@@ -140,6 +140,7 @@ class ExtractionResult:
         }
 
 
+@dataclass(eq=False, repr=False)
 class VLMExtractor:
     """Five VLM queries per clip -> repair -> aggregate -> refine.
 
@@ -153,19 +154,15 @@ class VLMExtractor:
     jpeg_quality: quality of the frame JPEGs.
     """
 
-    def __init__(self, client: VLMClient, n_queries: int = N_QUERIES, min_valid: int = MIN_VALID,
-                 sampler: FrameSampler | None = None, library: ActivityLibrary | None = None,
-                 refine: bool = True, label_hint: bool = True, include_timing: bool = True,
-                 jpeg_quality: int = JPEG_QUALITY) -> None:
-        self.client = client
-        self.n_queries = n_queries
-        self.min_valid = min_valid
-        self.sampler = sampler
-        self.library = library
-        self.refine = refine
-        self.label_hint = label_hint
-        self.include_timing = include_timing
-        self.jpeg_quality = jpeg_quality
+    client: VLMClient
+    n_queries: int = N_QUERIES
+    min_valid: int = MIN_VALID
+    sampler: FrameSampler | None = None
+    library: ActivityLibrary | None = None
+    refine: bool = True
+    label_hint: bool = True
+    include_timing: bool = True
+    jpeg_quality: int = JPEG_QUALITY
 
     def _check(self) -> None:
         if self.n_queries < 1:

@@ -82,6 +82,7 @@ class CalibrationResult:
         }
 
 
+@dataclass(eq=False, repr=False)
 class SimInTheLoopCalibrator:
     """Bounded CEM over eta for one sensor stream.
 
@@ -90,17 +91,10 @@ class SimInTheLoopCalibrator:
     is used as given.
     """
 
-    def __init__(
-        self,
-        n_iterations: int = 30,
-        n_candidates: int = 64,
-        elite_fraction: float = 0.20,
-        search_gravity: bool = False,
-    ) -> None:
-        self.n_iterations = n_iterations
-        self.n_candidates = n_candidates
-        self.elite_fraction = elite_fraction
-        self.search_gravity = search_gravity
+    n_iterations: int = 30
+    n_candidates: int = 64
+    elite_fraction: float = 0.20
+    search_gravity: bool = False
 
     @staticmethod
     def _weights(base, eta, gravity, with_noise) -> np.ndarray:

@@ -13,6 +13,8 @@ its own pair of distributions.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
@@ -142,6 +144,7 @@ class _ChannelMap:
         return out.reshape(x.shape)
 
 
+@dataclass(eq=False, repr=False)
 class RankGrounder:
     """Channel-wise quantile matching from synthetic to real marginals.
 
@@ -156,15 +159,11 @@ class RankGrounder:
     `threads` > 1 fits and maps the channels side by side (same result).
     """
 
-    def __init__(
-        self, per_class: bool = False, n_quantiles: int = DEFAULT_N_QUANTILES, min_class_samples: int = 200,
-        class_balanced: bool = True, threads: int = 1,
-    ) -> None:
-        self.per_class = per_class
-        self.threads = threads
-        self.class_balanced = class_balanced
-        self.n_quantiles = n_quantiles
-        self.min_class_samples = min_class_samples
+    per_class: bool = False
+    n_quantiles: int = DEFAULT_N_QUANTILES
+    min_class_samples: int = 200
+    class_balanced: bool = True
+    threads: int = 1
 
     def fit(
         self,

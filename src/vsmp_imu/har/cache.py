@@ -2,28 +2,21 @@
 
 from __future__ import annotations
 
-import hashlib
 import os
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from vsmp_imu.io import atomic_path
+from vsmp_imu.io import atomic_path, file_sha256
+
+__all__ = ["cache_dir", "file_sha256", "load_npz", "save_npz"]
 
 
 def cache_dir() -> Path:
     """`$VSMP_IMU_CACHE`, else `~/.cache/vsmp-imu`."""
     root = os.environ.get("VSMP_IMU_CACHE")
     return Path(root) if root else Path.home() / ".cache" / "vsmp-imu"
-
-
-def file_sha256(path: str | Path, chunk: int = 1 << 20) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        while block := fh.read(chunk):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def load_npz(path: Path) -> dict[str, np.ndarray] | None:

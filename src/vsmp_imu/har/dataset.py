@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vsmp_imu.errors import ValidationError
+from vsmp_imu.errors import InputFileError, ValidationError
 from vsmp_imu.har.windows import (
     Windows,
     empty_like,
@@ -281,20 +281,32 @@ class Recording:
 
 def acc_to_si(values: np.ndarray, unit: str) -> np.ndarray:
     """Accelerometer values from `unit` (g or m/s^2) to m/s²."""
-    if unit == "g":
-        return values * STANDARD_GRAVITY_M_S2
-    if unit == "m/s^2":
-        return values
-    raise ValidationError(f"unknown accelerometer unit '{unit}'", allowed=", ".join(ACC_UNITS))
+    return _to_si(values, unit, {"g": STANDARD_GRAVITY_M_S2, "m/s^2": None}, "accelerometer", ACC_UNITS)
 
 
 def gyr_to_si(values: np.ndarray, unit: str) -> np.ndarray:
     """Gyroscope values from `unit` (rad/s or deg/s) to rad/s."""
-    if unit == "deg/s":
-        return values * RAD_PER_DEG
-    if unit == "rad/s":
-        return values
-    raise ValidationError(f"unknown gyroscope unit '{unit}'", allowed=", ".join(GYR_UNITS))
+    return _to_si(values, unit, {"deg/s": RAD_PER_DEG, "rad/s": None}, "gyroscope", GYR_UNITS)
+
+
+def _to_si(values: np.ndarray, unit: str, scales: dict, sensor: str, units: tuple) -> np.ndarray:
+    """`values` times the scale of `unit` (None: already SI, returned as is)."""
+    if unit not in scales:
+        raise ValidationError(f"unknown {sensor} unit '{unit}'", allowed=", ".join(units))
+    scale = scales[unit]
+    return values if scale is None else values * scale
+
+
+def found(items, message: str, root):
+    """`items` a loader found under `root`, or an InputFileError with `message` when none."""
+    if not items:
+        raise InputFileError(message, file=root)
+    return items
+
+
+def inner_root(root, name: str):
+    """`root/name` where the archive unpacked into that folder, else `root`."""
+    return root / name if (root / name).is_dir() else root
 
 
 class HarDataset:

@@ -34,6 +34,7 @@ from vsmp_imu.har.protocols import (
     require_two_subjects,
     split_fold,
 )
+from vsmp_imu.har.records import RUN_KEYS, SPLIT_KEYS
 from vsmp_imu.har.synthetic import (
     ALPHA_RANGE,
     BUDGET_POLICIES,
@@ -51,13 +52,7 @@ from vsmp_imu.io import dumps_json, remove_stale_temps, write_json
 from vsmp_imu.seeding import child_seed, rng_for
 
 RESULT_FIELDS = (
-    "dataset",
-    "protocol",
-    "budget",
-    "backbone",
-    "method",
-    "fold",
-    "seed",
+    *RUN_KEYS,
     "macro_f1",
     "accuracy",
     "per_class_f1",
@@ -67,6 +62,15 @@ RESULT_FIELDS = (
 SUMMARY_KEYS = ("dataset", "protocol", "budget", "backbone", "method")
 # Bumped whenever the harness changes how a record is computed (invalidates old records).
 HARNESS_VERSION = 1
+
+
+def _check_known(names: Sequence[str], known: Sequence[str], what: str, field: str) -> None:
+    """A ConfigError naming the entries of `names` that are not in `known`."""
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ConfigError(
+            f"unknown {what}(s) {', '.join(unknown)}", field=field, allowed=", ".join(known)
+        )
 
 
 @dataclass
@@ -110,20 +114,8 @@ class EvalConfig:
                 field="--budgets",
                 allowed="use --protocol low-resource",
             )
-        unknown = [b for b in self.backbones if b not in BACKBONES]
-        if unknown:
-            raise ConfigError(
-                f"unknown backbone(s) {', '.join(unknown)}",
-                field="--backbones",
-                allowed=", ".join(BACKBONES),
-            )
-        unknown = [m for m in self.methods if m not in METHODS]
-        if unknown:
-            raise ConfigError(
-                f"unknown method(s) {', '.join(unknown)}",
-                field="--methods",
-                allowed=", ".join(METHODS),
-            )
+        _check_known(self.backbones, BACKBONES, "backbone", "--backbones")
+        _check_known(self.methods, METHODS, "method", "--methods")
         if not ALPHA_RANGE[0] <= self.alpha <= ALPHA_RANGE[1]:
             raise ConfigError(
                 f"alpha {self.alpha:g} out of range",
@@ -483,14 +475,7 @@ def _extra_fields(r: dict[str, Any]) -> dict[str, Any]:
         "per_class_precision",
         "per_class_recall",
         "per_class_support",
-        "confusion",
-        "head_classes",
-        "tail_classes",
-        "n_train_real",
-        "n_synthetic",
-        "n_synthetic_requested",
-        "n_val",
-        "n_test",
+        *SPLIT_KEYS,
         "val_subjects",
         "epochs",
         "best_epoch",

@@ -19,22 +19,8 @@ from vsmp_imu.errors import ConfigError, InputFileError
 from vsmp_imu.har.windows import natural_key
 from vsmp_imu.io import dumps_json, read_text, write_text
 
-# What a committed record keeps of an evaluation record (precision, recall and support
-# follow from the confusion matrix; wall times are not results).
-RECORD_KEYS = (
-    "dataset",
-    "protocol",
-    "budget",
-    "backbone",
-    "method",
-    "fold",
-    "seed",
-    "macro_f1",
-    "accuracy",
-    "group_macro_f1",
-    "head_macro_f1",
-    "tail_macro_f1",
-    "per_class_f1",
+RUN_KEYS = ("dataset", "protocol", "budget", "backbone", "method", "fold", "seed")
+SPLIT_KEYS = (
     "confusion",
     "head_classes",
     "tail_classes",
@@ -43,6 +29,18 @@ RECORD_KEYS = (
     "n_synthetic_requested",
     "n_val",
     "n_test",
+)
+# What a committed record keeps of an evaluation record (precision, recall and support
+# follow from the confusion matrix; wall times are not results).
+RECORD_KEYS = (
+    *RUN_KEYS,
+    "macro_f1",
+    "accuracy",
+    "group_macro_f1",
+    "head_macro_f1",
+    "tail_macro_f1",
+    "per_class_f1",
+    *SPLIT_KEYS,
     "epochs",
     "best_epoch",
 )

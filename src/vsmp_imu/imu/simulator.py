@@ -14,6 +14,7 @@ It runs in two steps, so a calibration can repeat only the cheap second one:
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import KW_ONLY, dataclass
 from typing import Any
 
 import numpy as np
@@ -38,6 +39,7 @@ from vsmp_imu.units import STANDARD_GRAVITY_M_S2
 SensorLike = VirtualSensor | Placement | str
 
 
+@dataclass(eq=False, repr=False)
 class ImuSimulator:
     """Virtual IMUs on a motion.
 
@@ -49,20 +51,12 @@ class ImuSimulator:
     margin dropped at each end. After `simulate`, `kinematics_` holds the last SegmentKinematics.
     """
 
-    def __init__(
-        self,
-        fs_hz: float = 50.0,
-        *,
-        noise: bool = True,
-        seed: int = 0,
-        smoothing_hz: SmoothingHz = PLACEMENT_CUTOFF,
-        trim_s: float = DEFAULT_TRIM_S,
-    ) -> None:
-        self.fs_hz = fs_hz
-        self.noise = noise
-        self.seed = seed
-        self.smoothing_hz = smoothing_hz
-        self.trim_s = trim_s
+    fs_hz: float = 50.0
+    _: KW_ONLY
+    noise: bool = True
+    seed: int = 0
+    smoothing_hz: SmoothingHz = PLACEMENT_CUTOFF
+    trim_s: float = DEFAULT_TRIM_S
 
     def settings(self) -> dict[str, Any]:
         return {

@@ -105,19 +105,14 @@ def augment_variant(smp: SMP, seed: int, index: int,
     if "primitive_duration" in variant and radius > 0:
         _durations(smp, d, radius, rng("primitive_duration"), record)
 
-    side = ea["dominant_side"]
-    if "dominant_side" in variant and side in ("left", "right"):
-        p = (1 - _u(smp, "dominant_side", uncertainty_conditioned)) * SIDE_SWAP_PROBABILITY
-        if rng("dominant_side").random() < p:
-            ea["dominant_side"] = "right" if side == "left" else "left"
-            record("execution_attributes.dominant_side", side, ea["dominant_side"])
-
-    sym = ea["symmetry"]
-    if "symmetry" in variant and sym in ("symmetric", "asymmetric"):
-        p = (1 - _u(smp, "symmetry", uncertainty_conditioned)) * SYMMETRY_CHANGE_PROBABILITY
-        if rng("symmetry").random() < p:
-            ea["symmetry"] = "asymmetric" if sym == "symmetric" else "symmetric"
-            record("execution_attributes.symmetry", sym, ea["symmetry"])
+    for name, (a, b), chance in (("dominant_side", ("left", "right"), SIDE_SWAP_PROBABILITY),
+                                 ("symmetry", ("symmetric", "asymmetric"), SYMMETRY_CHANGE_PROBABILITY)):
+        old = ea[name]
+        if name in variant and old in (a, b):
+            p = (1 - _u(smp, name, uncertainty_conditioned)) * chance
+            if rng(name).random() < p:
+                ea[name] = b if old == a else a
+                record(f"execution_attributes.{name}", old, ea[name])
 
     extent = smp.displacement_extent_m()
     radius = (1 - _u(smp, "global_displacement", uncertainty_conditioned)) * DISPLACEMENT_MAX_FRACTION

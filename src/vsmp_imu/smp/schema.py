@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 from pydantic import (
     BaseModel,
@@ -68,14 +68,14 @@ ORDERINGS = ("ordered", "weakly_ordered", "unordered")
 TRANSITION_TYPES = ("discrete", "continuous")
 DURATION_TYPES = ("absolute", "relative")
 
-INVARIANT_FIELDS = (
+InvariantField = Literal[
     "activity_label",
     "primitive_sequence",
     "mandatory_body_parts",
     "required_contact",
     "stationary_or_mobile",
-)
-VARIANT_FIELDS = (
+]
+VariantField = Literal[
     "tempo",
     "amplitude",
     "repetition_count",
@@ -83,7 +83,9 @@ VARIANT_FIELDS = (
     "dominant_side",
     "symmetry",
     "global_displacement",
-)
+]
+INVARIANT_FIELDS = get_args(InvariantField)
+VARIANT_FIELDS = get_args(VariantField)
 UNCERTAINTY_FIELDS = (
     "activity_label",
     "motion_primitives",
@@ -164,26 +166,8 @@ class ConstraintRules(_Strict):
 
 
 class Constraints(_Strict):
-    invariant_fields: list[
-        Literal[
-            "activity_label",
-            "primitive_sequence",
-            "mandatory_body_parts",
-            "required_contact",
-            "stationary_or_mobile",
-        ]
-    ] = Field(default_factory=lambda: list(INVARIANT_FIELDS))
-    variant_fields: list[
-        Literal[
-            "tempo",
-            "amplitude",
-            "repetition_count",
-            "primitive_duration",
-            "dominant_side",
-            "symmetry",
-            "global_displacement",
-        ]
-    ] = Field(default_factory=list)
+    invariant_fields: list[InvariantField] = Field(default_factory=lambda: list(INVARIANT_FIELDS))
+    variant_fields: list[VariantField] = Field(default_factory=list)
     rules: ConstraintRules = Field(default_factory=ConstraintRules)
 
 

@@ -99,6 +99,7 @@ def default_variants(smp: SMP, entry: LibraryEntry) -> list[Variant]:
     return chosen[:3]
 
 
+@dataclass(eq=False, repr=False)
 class CaseStudy:
     """Build the case study of one activity; `run()` returns a CaseStudyResult.
 
@@ -108,17 +109,14 @@ class CaseStudy:
     natural one).
     """
 
-    def __init__(self, activity: str, video: str | Path | None = None, seed: int = 0,
-                 variants: list[Variant] | None = None, library: ActivityLibrary | None = None,
-                 backend: str = "procedural", fs_hz: float = 50.0, location: str | None = None) -> None:
-        self.activity = activity
-        self.video = video
-        self.seed = seed
-        self.variants = variants
-        self.library = library
-        self.backend = backend
-        self.fs_hz = fs_hz
-        self.location = location
+    activity: str
+    video: str | Path | None = None
+    seed: int = 0
+    variants: list[Variant] | None = None
+    library: ActivityLibrary | None = None
+    backend: str = "procedural"
+    fs_hz: float = 50.0
+    location: str | None = None
 
     def run(self) -> CaseStudyResult:
         library = self.library or ActivityLibrary.load()

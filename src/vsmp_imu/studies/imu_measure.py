@@ -48,6 +48,7 @@ from vsmp_imu.motion.measure import (
     PEAK_DISTANCE_S,
     PEAK_PROMINENCE,
     VELOCITY_FRACTION,
+    PhaseDuration,
     lowpass,
 )
 
@@ -73,16 +74,8 @@ class ImuRepetitions:
 
 
 @dataclass(frozen=True)
-class ImuPhase:
+class ImuPhase(PhaseDuration):
     """The landmark window around the largest angular-speed peak."""
-
-    start_s: float
-    end_s: float
-    peak_s: float
-
-    @property
-    def duration_s(self) -> float:
-        return self.end_s - self.start_s
 
 
 def _check(x: np.ndarray, fs_hz: float) -> np.ndarray:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import copy
 import os
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -55,6 +56,7 @@ def resolve_device(name: str):
     return device
 
 
+@dataclass(eq=False, repr=False, kw_only=True)
 class TorchClassifier(ClassifierMixin, BaseEstimator):
     """Shared training loop; subclasses build the network in `_build(n_channels, n_classes)`.
 
@@ -68,29 +70,16 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
 
     uses_validation = True
 
-    def __init__(
-        self,
-        max_epochs: int = 60,
-        patience: int = 10,
-        batch_size: int = 1024,
-        lr: float = 1e-3,
-        weight_decay: float = 1e-2,
-        random_state: int = 0,
-        n_threads: int | None = None,
-        verbose: bool = False,
-        min_steps: int = 8,
-        device: str = "cpu",
-    ) -> None:
-        self.max_epochs = max_epochs
-        self.patience = patience
-        self.batch_size = batch_size
-        self.min_steps = min_steps
-        self.device = device
-        self.lr = lr
-        self.weight_decay = weight_decay
-        self.random_state = random_state
-        self.n_threads = n_threads
-        self.verbose = verbose
+    max_epochs: int = 60
+    patience: int = 10
+    batch_size: int = 1024
+    lr: float = 1e-3
+    weight_decay: float = 1e-2
+    random_state: int = 0
+    n_threads: int | None = None
+    verbose: bool = False
+    min_steps: int = 8
+    device: str = "cpu"
 
     @classmethod
     def _get_test_params(cls) -> dict[str, Any]:
@@ -232,39 +221,17 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
         return self._forward_all(np.asarray(X, dtype=np.float32), "features")
 
 
+@dataclass(eq=False, repr=False, kw_only=True)
 class DeepConvLSTM(TorchClassifier):
     """DeepConvLSTM (Ordóñez & Roggen 2016); `attention=True` pools the LSTM outputs with
     additive attention instead of taking the last step."""
 
-    def __init__(
-        self,
-        n_filters: int = 64,
-        kernel_size: int = 5,
-        n_conv: int = 4,
-        hidden: int = 128,
-        n_lstm: int = 2,
-        dropout: float = 0.5,
-        max_epochs: int = 60,
-        patience: int = 10,
-        batch_size: int = 1024,
-        lr: float = 1e-3,
-        weight_decay: float = 1e-2,
-        random_state: int = 0,
-        n_threads: int | None = None,
-        verbose: bool = False,
-        min_steps: int = 8,
-        device: str = "cpu",
-    ) -> None:
-        super().__init__(
-            max_epochs, patience, batch_size, lr, weight_decay, random_state, n_threads, verbose, min_steps,
-            device,
-        )
-        self.n_filters = n_filters
-        self.kernel_size = kernel_size
-        self.n_conv = n_conv
-        self.hidden = hidden
-        self.n_lstm = n_lstm
-        self.dropout = dropout
+    n_filters: int = 64
+    kernel_size: int = 5
+    n_conv: int = 4
+    hidden: int = 128
+    n_lstm: int = 2
+    dropout: float = 0.5
 
     attention = False
 
@@ -294,32 +261,13 @@ class DeepConvLSTMAttention(DeepConvLSTM):
     attention = True
 
 
+@dataclass(eq=False, repr=False, kw_only=True)
 class BiLSTMAttention(TorchClassifier):
     """BiLSTM with attention (Zhang et al. 2023)."""
 
-    def __init__(
-        self,
-        hidden: int = 128,
-        n_lstm: int = 2,
-        dropout: float = 0.5,
-        max_epochs: int = 60,
-        patience: int = 10,
-        batch_size: int = 1024,
-        lr: float = 1e-3,
-        weight_decay: float = 1e-2,
-        random_state: int = 0,
-        n_threads: int | None = None,
-        verbose: bool = False,
-        min_steps: int = 8,
-        device: str = "cpu",
-    ) -> None:
-        super().__init__(
-            max_epochs, patience, batch_size, lr, weight_decay, random_state, n_threads, verbose, min_steps,
-            device,
-        )
-        self.hidden = hidden
-        self.n_lstm = n_lstm
-        self.dropout = dropout
+    hidden: int = 128
+    n_lstm: int = 2
+    dropout: float = 0.5
 
     @classmethod
     def _get_test_params(cls) -> dict[str, Any]:

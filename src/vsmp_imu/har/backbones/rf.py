@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.ensemble import RandomForestClassifier
@@ -9,6 +11,7 @@ from sklearn.ensemble import RandomForestClassifier
 from vsmp_imu.har.features import N_LEVELS, ecdf_features
 
 
+@dataclass(eq=False, repr=False)
 class RandomForestECDF(ClassifierMixin, BaseEstimator):
     """scikit-learn Random Forest on K ECDF levels per channel.
 
@@ -20,23 +23,13 @@ class RandomForestECDF(ClassifierMixin, BaseEstimator):
 
     uses_validation = False
 
-    def __init__(
-        self,
-        n_levels: int = N_LEVELS,
-        n_estimators: int = 100,
-        max_features: str | float = "sqrt",
-        min_samples_leaf: int = 1,
-        class_weight: str | None = None,
-        n_jobs: int | None = -1,
-        random_state: int = 0,
-    ) -> None:
-        self.n_levels = n_levels
-        self.n_estimators = n_estimators
-        self.max_features = max_features
-        self.min_samples_leaf = min_samples_leaf
-        self.class_weight = class_weight
-        self.n_jobs = n_jobs
-        self.random_state = random_state
+    n_levels: int = N_LEVELS
+    n_estimators: int = 100
+    max_features: str | float = "sqrt"
+    min_samples_leaf: int = 1
+    class_weight: str | None = None
+    n_jobs: int | None = -1
+    random_state: int = 0
 
     @classmethod
     def _get_test_params(cls) -> dict:

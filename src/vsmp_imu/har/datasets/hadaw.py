@@ -32,8 +32,10 @@ from vsmp_imu.har.dataset import (
     Recording,
     SensorLocation,
     acc_to_si,
+    found,
     gyr_to_si,
     imu_channel_names,
+    inner_root,
 )
 from vsmp_imu.har.windows import natural_key
 
@@ -116,9 +118,7 @@ class HADAW(HarDataset):
         )
 
     def _scan(self) -> list[tuple[str, str, Path]]:
-        root = self.data_dir
-        if (root / "HAD-AW").is_dir():
-            root = root / "HAD-AW"
+        root = inner_root(self.data_dir, "HAD-AW")
         files = []
         for subject_dir in (
             sorted((p for p in root.iterdir() if p.is_dir()), key=lambda p: natural_key(p.name))
@@ -128,11 +128,7 @@ class HADAW(HarDataset):
             for path in sorted(subject_dir.glob("*.csv")):
                 activity = TRIAL_SUFFIX.sub("", path.stem).strip().lower().replace(" ", "_")
                 files.append((subject_dir.name, activity, path))
-        if not files:
-            raise InputFileError(
-                "no HAD-AW files found (expected <subject>/<activity>.csv)", file=root
-            )
-        return files
+        return found(files, "no HAD-AW files found (expected <subject>/<activity>.csv)", root)
 
     def _load(self) -> list[Recording]:
         recs = []

@@ -26,7 +26,9 @@ from vsmp_imu.har.dataset import (
     HarDataset,
     Recording,
     SensorLocation,
+    found,
     imu_channel_names,
+    inner_root,
 )
 from vsmp_imu.har.datasets.resample import common_grid
 
@@ -162,15 +164,9 @@ class MMFit(HarDataset):
         )
 
     def _workouts(self) -> list[Path]:
-        root = self.data_dir
-        if (root / "mm-fit").is_dir():
-            root = root / "mm-fit"
-        found = sorted(p for p in root.glob("w[0-9][0-9]") if p.is_dir())
-        if not found:
-            raise InputFileError(
-                "no MM-Fit workout folders found (expected w00/ .. w20/)", file=root
-            )
-        return found
+        root = inner_root(self.data_dir, "mm-fit")
+        folders = sorted(p for p in root.glob("w[0-9][0-9]") if p.is_dir())
+        return found(folders, "no MM-Fit workout folders found (expected w00/ .. w20/)", root)
 
     def _load(self) -> list[Recording]:
         recs = []

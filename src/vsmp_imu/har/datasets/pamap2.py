@@ -24,7 +24,9 @@ from vsmp_imu.har.dataset import (
     HarDataset,
     Recording,
     SensorLocation,
+    found,
     imu_channel_names,
+    inner_root,
 )
 
 PAMAP2_ACTIVITIES = {
@@ -124,9 +126,7 @@ class PAMAP2(HarDataset):
         )
 
     def _files(self) -> list[tuple[Path, str]]:
-        root = self.data_dir
-        if (root / "PAMAP2_Dataset").is_dir():
-            root = root / "PAMAP2_Dataset"
+        root = inner_root(self.data_dir, "PAMAP2_Dataset")
         folders = [("Protocol", "protocol")] + (
             [("Optional", "optional")] if self.include_optional else []
         )
@@ -135,11 +135,7 @@ class PAMAP2(HarDataset):
             for folder, kind in folders
             for f in sorted((root / folder).glob("subject*.dat"))
         ]
-        if not files:
-            raise InputFileError(
-                "no PAMAP2 files found (expected Protocol/subject1NN.dat)", file=root
-            )
-        return files
+        return found(files, "no PAMAP2 files found (expected Protocol/subject1NN.dat)", root)
 
     def _load(self) -> list[Recording]:
         recs = []

@@ -21,8 +21,10 @@ from vsmp_imu.har.dataset import (
     Recording,
     SensorLocation,
     acc_to_si,
+    found,
     gyr_to_si,
     imu_channel_names,
+    inner_root,
 )
 
 # Canonical activity-library names in dataset order a1..a27.
@@ -97,15 +99,9 @@ class UTDMHAD(HarDataset):
         )
 
     def _files(self) -> list[Path]:
-        root = self.data_dir
-        if (root / "Inertial").is_dir():
-            root = root / "Inertial"
+        root = inner_root(self.data_dir, "Inertial")
         files = sorted(p for p in root.glob("*_inertial.mat") if FILE_PATTERN.match(p.name))
-        if not files:
-            raise InputFileError(
-                "no UTD-MHAD files found (expected a*_s*_t*_inertial.mat)", file=root
-            )
-        return files
+        return found(files, "no UTD-MHAD files found (expected a*_s*_t*_inertial.mat)", root)
 
     def _load(self) -> list[Recording]:
         from scipy.io import loadmat
