@@ -115,11 +115,14 @@ def plot_traces(fold_out: FoldOutput, real, info, path: Path) -> Path:
             if col == 0:
                 ax.set_title(f"{name}  (real: solid, synthetic: dashed)" if len(s_idx) else
                              f"{name}  (real only: no synthetic window selected)", fontsize=8, loc="left")
-    axes[0, 0].legend(["x", "y", "z"], fontsize=6, loc="upper right", ncols=3)
+    from matplotlib.lines import Line2D
+
+    axis_keys = [Line2D([], [], color=colors[c], lw=1.0, label=axis) for c, axis in enumerate("xyz")]
+    axes[0, 0].legend(handles=axis_keys, fontsize=6, loc="upper right", ncols=3)
     axes[-1, 0].set_xlabel("time (s)")
     axes[-1, 1].set_xlabel("time (s)")
     fig.suptitle("Accelerometer (left) and gyroscope (right), one window per activity")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.985))  # room for the title above the first panel
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
