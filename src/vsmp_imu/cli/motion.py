@@ -78,7 +78,7 @@ def synth_cmd(
         kwargs["model_path"] = model_path
     engine = get_backend(backend, **kwargs)
     source = prompt if prompt is not None else _read_smp(smp, lib)
-    smp_file = smp if prompt is None and smp is not None and Path(smp).exists() else None
+    smp_file = _smp_file(smp) if prompt is None else None
     with console.status(f"[bold]synthesizing[/] with {engine.name} (seed {seed})..."), naming(smp_file):
         motion = engine.generate(source, seed=seed, duration_s=duration_s)
     motion.save(output)
