@@ -42,6 +42,7 @@ class FoldPlan:
     budget: Any  # np.ndarray, windows per class
     sources: dict[str, list]
     library: Any  # ActivityLibrary
+    warnings: list[str] = field(default_factory=list)  # the dataset's convention warnings
 
 
 def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
@@ -64,7 +65,7 @@ def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
     budget = synthetic_budget(train.class_counts(), spec.alpha, spec.policy)
     library = ActivityLibrary.load([Path(d) for d in spec.library_dirs])
     sources = make_smp_source(spec.source, library).smps(ds.info.name, ds.info.label_names)
-    return FoldPlan(ds.info, train, subjects, budget, sources, library)
+    return FoldPlan(ds.info, train, subjects, budget, sources, library, list(ds.warnings))
 
 
 def generate_fold(spec: GenerationSpec, request: FoldRequest, plan: FoldPlan | None = None):

@@ -165,3 +165,11 @@ def _console(stderr: bool = False) -> Console:
 
 console = _console()
 console_err = _console(stderr=True)
+
+
+def print_warnings(lines: list[str]) -> None:
+    """Print each warning (e.g. a dataset's undeclared axes) as one paragraph on stderr."""
+    from rich.markup import escape
+
+    for line in lines:
+        console_err.print(f"[bold yellow]warning:[/] {escape(safe_text(line))}", highlight=False, soft_wrap=True)

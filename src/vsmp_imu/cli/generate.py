@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, executor_options, library_dirs, output_dir
+from vsmp_imu.cli.common import console, executor_options, library_dirs, output_dir, print_warnings
 
 SOURCE_HELP = "library | smp:DIR (SMP files) | video:DIR (clips per activity folder, or a pool manifest)"
 
@@ -59,6 +59,7 @@ def generate_cmd(
         gpus_per_task=gpus_per_task)
     request = FoldRequest(dataset, holdout, output, seed, window_s, overlap, data_dir, save_motions)
     plan = plan_fold(spec, request)
+    print_warnings(plan.warnings)
     console.print(f"{plan.info.name}: held-out subject {holdout}; {len(plan.train)} real training windows "
                   f"from {len(plan.subjects) - 1} subjects; synthetic budget {int(plan.budget.sum())} windows",
                   highlight=False)

@@ -10,7 +10,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, executor_options, output_dir, parse_csv
+from vsmp_imu.cli.common import console, executor_options, output_dir, parse_csv, print_warnings
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.progress import progress
 
@@ -121,6 +121,7 @@ def evaluate_cmd(
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address)
     run = evaluation(spec, request)
+    print_warnings(run.dataset.warnings)
     with progress(f"{run.dataset.info.name} {protocol}", console=console, transient=False) as update:
         results, written = evaluate(run, lambda stage, done, total: update(done, total, stage))
     _print_summary(results.summary)
@@ -220,6 +221,7 @@ def info_cmd(
     from vsmp_imu.har.datasets import load_dataset
 
     ds = load_dataset(name, data_dir)
+    print_warnings(ds.warnings)
     info = ds.describe(window_s, overlap)
     if measure:
         info["measured_mean_acc"] = {

@@ -55,6 +55,19 @@ AXIS_WORDS: dict[str, tuple[int, int, int]] = {
     "forward": (0, 0, 1),
     "backward": (0, 0, -1),
 }
+# Limb-relative axis words, as body directions of the T-pose (arms out to the sides, palms
+# down; legs straight) for a limb on the body's LEFT side; on the right side `left` and
+# `right` swap. Words hold on both sides, so one declaration covers a watch on either wrist.
+LIMB_WORDS: dict[str, dict[str, str]] = {
+    "wrist": {"distal": "left", "proximal": "right", "dorsal": "up", "palmar": "down",
+              "radial": "forward", "ulnar": "backward"},
+    "upper_arm": {"distal": "left", "proximal": "right", "lateral": "up", "medial": "down",
+                  "anterior": "forward", "posterior": "backward"},
+    "leg": {"distal": "down", "proximal": "up", "anterior": "forward", "posterior": "backward",
+            "lateral": "left", "medial": "right"},
+}
+LIMB_OF = {"wrist": "wrist", "upper_arm": "upper_arm", "thigh": "leg", "lower_leg": "leg", "ankle": "leg"}
+SIDES = ("left", "right")
 ACC_UNITS = ("g", "m/s^2")
 GYR_UNITS = ("rad/s", "deg/s")
 # How a declared axis convention was established.
@@ -91,6 +104,66 @@ def check_axes(axes: Sequence[str], where: str = "axes") -> tuple[str, str, str]
             field=where,
         )
     return axes  # type: ignore[return-value]
+
+
+def placement_side(placement: str) -> tuple[str | None, str]:
+    """('left' | 'right' | None, the placement without its side), e.g. ('left', 'wrist')."""
+    side, _, rest = placement.partition("_")
+    return (side, rest) if side in SIDES and rest else (None, placement)
+
+
+def limb_words(placement: str) -> dict[str, str]:
+    """The limb-relative axis words of a placement, as body words (empty for the trunk and head)."""
+    side, limb = placement_side(placement)
+    words = LIMB_WORDS.get(LIMB_OF.get(limb, ""), {})
+    if side != "right":
+        return dict(words)
+    swap = {"left": "right", "right": "left"}
+    return {k: swap.get(v, v) for k, v in words.items()}
+
+
+def uses_limb_words(axes: Sequence[str]) -> bool:
+    every = {w for words in LIMB_WORDS.values() for w in words}
+    return any(str(a).strip().lower() in every for a in axes)
+
+
+def resolve_axes(axes: Sequence[str], placement: str, where: str = "axes") -> tuple[str, str, str]:
+    """Axis words (body words, or limb words of the placement) as checked body words.
+
+    Limb words (`distal`, `dorsal`, `radial`...) are read on the placement's side: `distal`
+    is `left` on the left wrist and `right` on the right wrist.
+    """
+    words = [str(a).strip().lower() for a in axes]
+    if uses_limb_words(words):
+        table = limb_words(placement)
+        bad = [w for w in words if w not in table and w not in AXIS_WORDS]
+        if not table or bad:
+            raise ValidationError(
+                f"axis word(s) {', '.join(bad or words)} do not apply to the {placement}",
+                field=where, allowed=", ".join(list(AXIS_WORDS) + list(table)))
+        body = [table.get(w, w) for w in words]
+        try:
+            return check_axes(body, where)
+        except ValidationError as exc:
+            raise ValidationError(
+                f"axes {', '.join(words)} on the {placement} are {', '.join(body)}: {exc.message}",
+                field=where, allowed=exc.allowed) from exc
+    return check_axes(words, where)
+
+
+MIRROR = np.diag([-1.0, 1.0, 1.0])  # the body's left-right mirror (x = left)
+
+
+def mirror_matrix(source_axes: Sequence[str], target_axes: Sequence[str]) -> np.ndarray:
+    """Q with acc_target = Q @ acc_source (and gyr_target = -Q @ gyr_source).
+
+    A sensor on one side of the body recording a motion reads, in its device
+    axes `source_axes` (body words), what a sensor with `target_axes` on the
+    other side reads for the mirror image of that motion: the body frame is
+    reflected left-right (acceleration is a vector; angular velocity an axial
+    vector, which takes one more sign).
+    """
+    return axes_matrix(target_axes).T @ MIRROR @ axes_matrix(source_axes)
 
 
 @dataclass(frozen=True)
@@ -322,6 +395,8 @@ class HarDataset:
     def __init__(self) -> None:
         self._subset: tuple[str, ...] | None = None
         self.skipped: list[str] = []
+        # what looks wrong in the declared conventions (undeclared axes, a unit that does not fit)
+        self.warnings: list[str] = []
 
     # -- loading ---------------------------------------------------------------------------
     def _load(self) -> list[Recording]:
@@ -473,6 +548,7 @@ class HarDataset:
                 n: int(c) for n, c in zip(self.info.label_names, counts, strict=True)
             },
             "skipped": list(self.skipped),
+            "warnings": list(self.warnings),
         }
 
 

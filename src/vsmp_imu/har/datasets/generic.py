@@ -5,7 +5,10 @@ time column (seconds), and the channel columns named in the YAML. Rows of one
 (file, subject, session) form one recording, in file order (sorted by time
 when there is a time column). With a time column the data are resampled
 onto `fs_hz` (or onto the rate estimated from the median time step when
-`fs_hz` is left out). See docs/har.md for a complete example.
+`fs_hz` is left out). A location may name a `side_column`: recordings whose side is not the
+location's own (a watch on the left wrist in a `right_wrist` dataset) are
+mirrored into the location's convention when loaded, so every window reads
+as if worn on the declared side. See docs/har.md and docs/tutorial.md.
 """
 
 from __future__ import annotations
@@ -21,16 +24,22 @@ from vsmp_imu.errors import InputFileError, ValidationError
 from vsmp_imu.har.dataset import (
     AXES_SOURCES,
     PLACEMENTS,
+    SIDES,
     DatasetInfo,
     HarDataset,
     Recording,
     SensorLocation,
     acc_to_si,
     gyr_to_si,
+    mirror_matrix,
+    placement_side,
+    resolve_axes,
+    uses_limb_words,
 )
 from vsmp_imu.har.datasets.resample import common_grid
 from vsmp_imu.har.windows import natural_key
 from vsmp_imu.io import read_structured
+from vsmp_imu.units import STANDARD_GRAVITY_M_S2
 from vsmp_imu.validation import validate_model
 
 TABLE_SUFFIXES = (".csv", ".parquet")
@@ -44,16 +53,28 @@ class LocationSpec(BaseModel):
     gyr: list[str] | None = Field(default=None, min_length=3, max_length=3)
     acc_unit: Literal["g", "m/s^2"]
     gyr_unit: Literal["rad/s", "deg/s"] | None = None
-    axes: list[str] | None = Field(default=None, min_length=3, max_length=3)
+    # device x, y, z: body or limb words; with a side_column, one list per side
+    axes: list[str] | dict[Literal["left", "right"], list[str]] | None = None
     axes_source: Literal[AXES_SOURCES] | None = None  # type: ignore[valid-type]
     gravity_included: bool = True
+    acc_sign: Literal[1, -1] = 1  # -1: the device reads -1 g on the axis pointing up
+    side_column: str | None = None  # per-row 'left' / 'right': the side each recording was worn on
     note: str = ""
 
     @model_validator(mode="after")
     def _gyro_unit(self) -> LocationSpec:
         if self.gyr is not None and self.gyr_unit is None:
             raise ValueError("gyr_unit is required when gyr columns are given")
+        lists = self.axes.values() if isinstance(self.axes, dict) else [self.axes] if self.axes else []
+        if any(len(words) != 3 for words in lists):
+            raise ValueError("axes are three words: the device x, y and z")
         return self
+
+    def words(self, side: str | None) -> list[str] | None:
+        """The axis words declared for `side` (the list itself when not given per side)."""
+        if isinstance(self.axes, dict):
+            return self.axes.get(side) if side else None
+        return self.axes
 
 
 class GenericSpec(BaseModel):
@@ -99,6 +120,35 @@ def _channel_names(spec: GenericSpec) -> list[tuple[str, str, str]]:
     return out
 
 
+UNIT_OK_G = (0.4, 3.0)  # a class's median |acc| in g, gravity included, when the unit is right
+
+
+def _unit_hint(g: float, unit: str) -> str:
+    """What a class's median |acc| (in g, as declared) says about the declared unit ('' if fine)."""
+    if UNIT_OK_G[0] <= g <= UNIT_OK_G[1]:
+        return ""
+    if unit == "g" and 0.4 * STANDARD_GRAVITY_M_S2 <= g <= 3.0 * STANDARD_GRAVITY_M_S2:
+        return "the values look like m/s², not g; set acc_unit: m/s^2."
+    if unit == "m/s^2" and 0.4 / STANDARD_GRAVITY_M_S2 <= g <= 3.0 / STANDARD_GRAVITY_M_S2:
+        return "the values look like g, not m/s²; set acc_unit: g."
+    return ("about 1 g was expected; check acc_unit, the acc columns, and gravity_included "
+            "(false when the device removes gravity).")
+
+
+def _location_note(loc: LocationSpec) -> str:
+    parts = [loc.note] if loc.note else []
+    if isinstance(loc.axes, dict):
+        parts.append("axes declared per side: " + "; ".join(f"{k} {', '.join(v)}" for k, v in sorted(loc.axes.items())))
+    elif loc.axes and uses_limb_words(loc.axes):
+        parts.append(f"axes declared as {', '.join(loc.axes)}")
+    if loc.acc_sign == -1:
+        parts.append("accelerometer negated (the device reads -1 g on the axis pointing up)")
+    if loc.side_column:
+        parts.append(f"recordings worn on the other side (column '{loc.side_column}') are mirrored "
+                     f"into the {loc.name} convention")
+    return "; ".join(parts)
+
+
 def _read_table(path: Path) -> pd.DataFrame:
     try:
         if path.suffix.lower() == ".parquet":
@@ -128,22 +178,23 @@ class GenericDataset(HarDataset):
         labels = self._labels()
         channels = _channel_names(self.spec)
         locations = []
-        for loc in self.spec.locations:
+        for i, loc in enumerate(self.spec.locations):
             prefix = f"{loc.name}_" if len(self.spec.locations) > 1 else ""
             names = [f"{prefix}acc_{a}" for a in "xyz"] + (
                 [f"{prefix}gyr_{a}" for a in "xyz"] if loc.gyr else []
             )
+            axes = self._body_axes(loc, loc.name, i)
             try:
                 locations.append(
                     SensorLocation(
                         name=loc.name,
                         channels=tuple(names),
-                        axes=tuple(loc.axes) if loc.axes else None,
+                        axes=axes,
                         axes_source=loc.axes_source or ("documented" if loc.axes else "unknown"),
                         gravity_included=loc.gravity_included,
                         acc_unit=loc.acc_unit,
                         gyr_unit=loc.gyr_unit,
-                        note=loc.note,
+                        note=_location_note(loc),
                     )
                 )
             except ValidationError as exc:
@@ -166,6 +217,72 @@ class GenericDataset(HarDataset):
             pad_short=self.spec.pad_short,
             groups={k: tuple(v) for k, v in self.spec.groups.items()},
         )
+
+        self.warnings = self._axes_warnings() + self._unit_warnings()
+
+    # -- conventions -----------------------------------------------------------------------
+    def _body_axes(self, loc: LocationSpec, placement: str, index: int) -> tuple[str, str, str] | None:
+        """The location's axes as body words on `placement` (limb words read on its side)."""
+        side, _ = placement_side(placement)
+        where = f"locations[{index}].axes" + (f".{side}" if isinstance(loc.axes, dict) else "")
+        per_side = isinstance(loc.axes, dict)
+        if loc.side_column is not None or per_side:
+            field, problem = None, ""
+            if loc.side_column is not None and placement_side(loc.name)[0] is None:
+                field, problem = "side_column", f"side_column is set but '{loc.name}' has no side"
+            elif not per_side or set(loc.axes) != set(SIDES):
+                field, problem = "axes", (
+                    "recordings worn on either side are mirrored into one convention, which needs the "
+                    "device axes of each side: axes: {left: [...], right: [...]}")
+            elif loc.side_column is None:
+                field, problem = "side_column", "axes are given per side but no side_column says which"
+            if problem:
+                raise ValidationError(
+                    problem, file=self.yaml_path, field=f"locations[{index}].{field}",
+                    allowed="a left_/right_ placement with side_column and axes {left: [...], right: [...]} "
+                            "(e.g. a watch crown toward the hand: left [distal, ulnar, dorsal], "
+                            "right [distal, radial, dorsal])")
+        words = loc.words(side)
+        if not words:
+            return None
+        try:
+            return resolve_axes(words, placement, where)
+        except ValidationError as exc:
+            raise ValidationError(exc.message, file=self.yaml_path, field=where, allowed=exc.allowed) from exc
+
+    def _axes_warnings(self) -> list[str]:
+        return [
+            f"{self.yaml_path}: location '{loc.name}' declares no axes (locations[{i}].axes). Synthetic "
+            "windows are then simulated in an assumed frame, and grounding and the quality filter can "
+            "reject most windows of a class. Declare the device axes (body words such as "
+            "[up, left, backward], or limb words such as [distal, radial, dorsal]); `vsmp-imu dataset "
+            "info FILE --measure CLASS` shows where gravity points in a static class."
+            for i, loc in enumerate(self.spec.locations) if not loc.axes
+        ]
+
+    def _unit_warnings(self) -> list[str]:
+        """Classes whose median |acc| is far from 1 g although gravity is declared included."""
+        out = []
+        for i, loc in enumerate(self.spec.locations):
+            if not loc.gravity_included:
+                continue
+            by_class: dict[str, list[np.ndarray]] = {}
+            for frame in self._frames.values():
+                acc = acc_to_si(frame[loc.acc].to_numpy(np.float64), loc.acc_unit)
+                norm = np.linalg.norm(acc, axis=1)
+                for label, rows in pd.Series(norm).groupby(frame[self.spec.label_column].astype(str).values):
+                    by_class.setdefault(label, []).append(rows.to_numpy())
+            for label, parts in sorted(by_class.items()):
+                if label in self.spec.unlabelled:
+                    continue
+                g = float(np.median(np.concatenate(parts))) / STANDARD_GRAVITY_M_S2
+                hint = _unit_hint(g, loc.acc_unit)
+                if hint:
+                    out.append(f"{self.yaml_path}: class '{label}' at '{loc.name}' reads a median "
+                               f"acceleration of {g * STANDARD_GRAVITY_M_S2:.3g} m/s² ({g:.3g} g) with "
+                               f"acc_unit {loc.acc_unit} and gravity included (locations[{i}].acc_unit): "
+                               f"{hint}")
+        return out
 
     # -- reading and checks ----------------------------------------------------------------
     def _tables(self) -> list[Path]:
@@ -191,6 +308,7 @@ class GenericDataset(HarDataset):
         needed = [spec.subject_column, spec.label_column]
         needed += [c for c in (spec.session_column, spec.time_column) if c]
         needed += [col for _, col, _ in _channel_names(spec)]
+        needed += [loc.side_column for loc in spec.locations if loc.side_column]
         for col in needed:
             if col not in frame.columns:
                 raise ValidationError(
@@ -306,7 +424,39 @@ class GenericDataset(HarDataset):
                         np.abs(t[prev] - grid) < np.abs(t[order] - grid), prev, order
                     )
                     labels = labels[nearest]
+                data = self._to_convention(data, rows, path)
                 recs.append(
                     Recording(f"{path.stem}/{subject}/{session}", subject, session, data, labels)
                 )
         return recs
+
+    def _to_convention(self, data: np.ndarray, rows: pd.DataFrame, path: Path) -> np.ndarray:
+        """Apply each location's accelerometer sign, and mirror a recording worn on the other side."""
+        data = np.array(data, dtype=np.float64)
+        start = 0
+        for i, loc in enumerate(self.spec.locations):
+            acc = slice(start, start + 3)
+            gyr = slice(start + 3, start + 6) if loc.gyr else None
+            start += 6 if loc.gyr else 3
+            data[:, acc] *= loc.acc_sign
+            side = self._side(loc, i, rows, path)
+            own, limb = placement_side(loc.name)
+            if side is None or side == own:
+                continue
+            q = mirror_matrix(self._body_axes(loc, f"{side}_{limb}", i), self._body_axes(loc, loc.name, i))
+            data[:, acc] = data[:, acc] @ q.T
+            if gyr is not None:
+                data[:, gyr] = -data[:, gyr] @ q.T
+        return data
+
+    def _side(self, loc: LocationSpec, index: int, rows: pd.DataFrame, path: Path) -> str | None:
+        """The side one recording was worn on (None without a side column)."""
+        if loc.side_column is None:
+            return None
+        values = sorted({str(v).strip().lower() for v in rows[loc.side_column]})
+        if len(values) != 1 or values[0] not in SIDES:
+            subject = rows[self.spec.subject_column].iloc[0]
+            raise ValidationError(
+                f"subject {subject}: side value(s) {', '.join(values)}; one recording is worn on one side",
+                file=path, field=loc.side_column, allowed=", ".join(SIDES))
+        return values[0]
