@@ -147,3 +147,26 @@ def test_warnings_for_undeclared_axes_and_a_wrong_unit(tmp_path):
     as_g = load_dataset(_write(tmp_path, rows.assign(ay=1.0), axes=["distal", "radial", "dorsal"],
                                acc_unit="m/s^2"))
     assert len(as_g.warnings) == 1 and "look like g" in as_g.warnings[0]
+
+
+def test_labels_link_to_library_activities_under_any_dataset_name():
+    """A dataset the library does not name (a renamed copy of HAPT, a user's watch) links its
+    classes by activity name or alias; HAPT's own declared labels still link as before."""
+    from vsmp_imu.pipeline.sources import LibrarySmpSource, entries_for
+
+    lib = ActivityLibrary.load()
+    found = entries_for("my_watch", ["walking", "Bicep curl", "hula"], lib)
+    assert {k: v.name for k, v in found.items()} == {"walking": "walking", "Bicep curl": "bicep_curls"}
+    assert entries_for("hapt", ["WALKING"], lib)["WALKING"].name == "walking"
+    smps = LibrarySmpSource(lib).smps("my_renamed_copy", ["walking", "sitting"])
+    assert [s[0][0] for s in smps.values()] == ["library:walking", "library:sitting"]
+
+
+def test_an_unlinked_class_says_how_to_link_it():
+    from vsmp_imu.errors import ConfigError
+    from vsmp_imu.pipeline.sources import LibrarySmpSource
+
+    with pytest.raises(ConfigError) as err:
+        LibrarySmpSource(ActivityLibrary.load()).smps("my_watch", ["walking", "hula"])
+    text = err.value.render()
+    assert "hula" in text and "datasets: {my_watch: <class>}" in text and "--source smp:DIR" in text

@@ -36,9 +36,26 @@ def library_key(dataset: str, library: ActivityLibrary) -> str:
 
 
 def entries_for(dataset: str, label_names: Sequence[str], library: ActivityLibrary) -> dict[str, LibraryEntry]:
-    """Library entry of each dataset class (case-insensitive label match)."""
-    by_label = {norm_name(k): e for k, e in library.for_dataset(library_key(dataset, library)).items()}
-    return {name: by_label[norm_name(name)] for name in label_names if norm_name(name) in by_label}
+    """Library entry of each dataset class: the label a library file declares for this dataset
+    (`datasets:`), else the activity whose name, alias or SMP label the class carries
+    (case-insensitive). Classes neither links are left out."""
+    try:
+        declared = library.for_dataset(library_key(dataset, library))
+    except ConfigError:  # a dataset no library file names: its labels link by activity name
+        declared = {}
+    by_label = {norm_name(k): e for k, e in declared.items()}
+    out = {}
+    for name in label_names:
+        if norm_name(name) in by_label:
+            out[name] = by_label[norm_name(name)]
+        elif name in library:
+            out[name] = library.get(name)
+    return out
+
+
+LINK_HINT = ("name the class after a library activity or alias (vsmp-imu smp library list), declare "
+             "`datasets: {{{dataset}: <class>}}` in a library file passed with --library DIR, or give your own "
+             "SMP files with --source smp:DIR (see docs/tutorial.md)")
 
 
 class LibrarySmpSource:
@@ -54,9 +71,8 @@ class LibrarySmpSource:
         missing = [n for n in label_names if n not in found]
         if missing:
             raise ConfigError(
-                f"no library activity for class(es) {', '.join(missing)} of dataset '{dataset}'; "
-                "add a library file declaring them (see docs/smp.md) and pass --library DIR",
-                field="source")
+                f"no library activity for class(es) {', '.join(missing)} of dataset '{dataset}'",
+                field="source", allowed=LINK_HINT.format(dataset=dataset))
         return {name: [(f"library:{entry.name}", entry.smp)] for name, entry in found.items()}
 
 
@@ -78,7 +94,12 @@ class SmpDirSource:
             entry = self.library.resolve(smp.activity_label)
         except VsmpError:
             return None
-        declared = entry.datasets.get(library_key(dataset, self.library))
+        try:
+            declared = entry.datasets.get(library_key(dataset, self.library))
+        except ConfigError:  # a dataset no library file names
+            declared = None
+        if declared is None and norm_name(entry.name) in wanted:
+            return wanted[norm_name(entry.name)]
         return wanted.get(norm_name(declared)) if declared else None
 
     def smps(self, dataset: str, label_names: Sequence[str]) -> dict[str, list[tuple[str, SMP]]]:
