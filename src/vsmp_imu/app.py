@@ -116,16 +116,18 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
     """The `Evaluation` of a request (dataset loaded, settings checked).
 
     The generative methods get the spec's options (`vsmp_imu.methods`), with the per-sample
-    cache in OUT/cache unless the spec names one.
+    cache in the cache directory (`vsmp_imu.har.cache.samples_dir()`) unless the spec names one.
     """
+    from vsmp_imu.har.cache import max_cache_bytes, samples_dir
     from vsmp_imu.har.datasets import load_dataset
     from vsmp_imu.har.evaluate import EvalConfig, Evaluation
     from vsmp_imu.har.windows import window_geometry
     from vsmp_imu.methods import method_params, register_all
 
     register_all()
+    max_cache_bytes()  # a malformed cap fails before any work
     if spec.cache_dir is None:
-        spec = replace(spec, cache_dir=str(request.output / "cache"))
+        spec = replace(spec, cache_dir=str(samples_dir()))
     params = method_params(request.methods, spec)
     ds = load_dataset(request.dataset, request.data_dir)
     window_geometry(ds.info.fs_hz, request.window_s, request.overlap)  # range checks before any work
@@ -142,10 +144,14 @@ def evaluate(evaluation, progress: Callable | None = None):
     """Run an evaluation and write results.json, results.md and the confusion matrices.
 
     Returns (EvalResults, written report files)."""
+    from vsmp_imu.har.cache import max_cache_bytes, prune_cache, samples_dir
     from vsmp_imu.har.report import write_report
 
     results = evaluation.run(progress)
-    return results, write_report(results.to_json(), evaluation.output_dir)
+    written = write_report(results.to_json(), evaluation.output_dir)
+    if samples_dir().is_dir():
+        prune_cache(samples_dir(), max_cache_bytes())
+    return results, written
 
 
 def method_names() -> tuple[str, ...]:

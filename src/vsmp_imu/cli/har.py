@@ -95,11 +95,14 @@ def evaluate_cmd(
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder"),
     refill: int = typer.Option(0, "--refill", min=0, max=8,
                                help="VSMP-IMU: extra passes for classes short of their budget after filtering"),
+    cache_dir: Path = typer.Option(None, "--cache-dir",
+                                   help="generated-sample cache (default: the cache directory, see `vsmp-imu cache info`)"),
     output: Path = typer.Option(..., "--output", "-o", help="output folder"),
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
     confusion matrices to the output folder (finished folds are not recomputed)."""
     output_dir(output)
+    output_dir(cache_dir, "--cache-dir")
     executor_options(executor, address)
     from vsmp_imu.app import EvalRequest, evaluate, evaluation
     from vsmp_imu.har.protocols import parse_budgets
@@ -119,7 +122,7 @@ def evaluate_cmd(
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
-        workers=workers, address=address)
+        workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)
     print_warnings(run.dataset.warnings)
     with progress(f"{run.dataset.info.name} {protocol}", console=console, transient=False) as update:

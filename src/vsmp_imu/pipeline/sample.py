@@ -17,6 +17,7 @@ import functools
 import hashlib
 import io
 import json
+import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -288,6 +289,7 @@ def cached_synthesize(args: tuple[SampleTask, str | None]) -> SampleResult:
     if path.exists() and (out_motion is None or cached_motion.exists()):
         try:
             result = SampleResult.from_parquet(path)
+            os.utime(path)  # recently used: the cache's size cap removes the oldest entries first
             if out_motion is not None and not out_motion.exists():
                 write_bytes(out_motion, cached_motion.read_bytes())
             return result
