@@ -8,7 +8,14 @@ import os
 import pytest
 
 from vsmp_imu.errors import ConfigError
-from vsmp_imu.har.cache import cache_dir, cache_usage, clear_cache, max_cache_bytes, prune_cache, samples_dir
+from vsmp_imu.har.cache import (
+    cache_dir,
+    cache_usage,
+    clear_cache,
+    max_cache_bytes,
+    prune_cache,
+    samples_dir,
+)
 
 
 def _fill(folder, sizes):
