@@ -154,3 +154,20 @@ def test_intervene_and_verbalize(cli, tmp_path, jj_file):
     assert code == 2 and "field 'attribute'" in err
     code, _, err = cli("smp", "verbalize", "not_an_activity")
     assert code == 2 and "neither an existing SMP file nor a library activity" in err
+
+
+def test_library_list_fits_an_80_column_terminal(library):
+    """Every line fits 80 columns and no primitive (nor any name up to 20 characters) is cut."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "COLUMNS": "80", "TERM": "dumb"}
+    out = subprocess.run([sys.executable, "-c", "from vsmp_imu.cli import main; main()", "smp", "library",
+                          "list"], env=env, capture_output=True, text=True, check=True).stdout
+    assert max(len(line) for line in out.splitlines()) <= 80
+    words = set(out.split())
+    assert "repetitive;" in words and "…" not in out
+    for entry in library:
+        assert set(entry.smp.primitive_sequence) <= words, entry.name
+        assert len(entry.name) > 20 or entry.name in words, entry.name

@@ -10,7 +10,9 @@ import json
 from pathlib import Path
 
 import typer
+from rich import box
 from rich.table import Table
+from rich.text import Text
 
 from vsmp_imu.cli.common import console, library_dirs, output_file, safe_text
 from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError, VsmpError
@@ -115,15 +117,19 @@ def library_list_cmd(
                                 "primitives": e.smp.primitive_sequence, "path": str(e.path)}
                                for e in lib], indent=2))
         return
-    table = Table(title=f"Activity library ({len(lib)} activities)")
+    # fits an 80-column terminal: light borders, whole names, and per activity its primitives
+    # with the labels datasets give it below them, wrapped at spaces
+    table = Table(title=f"Activity library ({len(lib)} activities)", box=box.SIMPLE_HEAD, pad_edge=False,
+                  caption="rep. = repetitive; (dataset) the label a dataset gives the activity")
     table.add_column("name", no_wrap=True)
-    table.add_column("datasets", overflow="fold")
-    table.add_column("repetitive")
-    table.add_column("primitives", overflow="fold")
+    table.add_column("rep.", width=4)
+    table.add_column("primitives, then dataset labels", overflow="fold", ratio=1)
     for entry in lib:
-        datasets = ", ".join(f"{ds}:{label}" for ds, label in sorted(entry.datasets.items()))
-        table.add_row(entry.name, datasets, "yes" if entry.smp.temporal_structure.is_repetitive
-                      else "no", " > ".join(entry.smp.primitive_sequence))
+        datasets = "; ".join(f"{label} ({ds})" for ds, label in sorted(entry.datasets.items()))
+        cell = Text(" > ".join(entry.smp.primitive_sequence))
+        if datasets:
+            cell.append("\n" + datasets, style="dim")
+        table.add_row(entry.name, "yes" if entry.smp.temporal_structure.is_repetitive else "no", cell)
     console.print(table)
 
 
