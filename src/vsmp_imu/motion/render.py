@@ -170,9 +170,30 @@ def render_gif(motion: Motion, path: str | Path, fps: float | None = None, size_
     return Path(path)
 
 
+def keyframe_indices(motion: Motion, n: int = 6) -> np.ndarray:
+    """`n` frames that show the motion's range: the first frame, then repeatedly the frame whose
+    pelvis-relative pose is farthest from those already chosen (in time order).
+
+    Evenly spaced frames of a repetitive motion can all fall on the same phase (six frames of
+    five curls showed the arm down six times); these show different phases.
+    """
+    rel = motion.positions - motion.positions[:, :1]
+    flat = rel.reshape(motion.n_frames, -1)
+    chosen = [0]
+    dist = np.linalg.norm(flat - flat[0], axis=1)
+    while len(chosen) < min(n, motion.n_frames):
+        k = int(np.argmax(dist))
+        if dist[k] <= 0:
+            break
+        chosen.append(k)
+        dist = np.minimum(dist, np.linalg.norm(flat - flat[k], axis=1))
+    return np.array(sorted(chosen))
+
+
 def render_keyframes(motion: Motion, path: str | Path, n: int = 6, panel_px: int = 220,
                      yaw_deg: float | None = None) -> Path:
-    """Write a strip of `n` evenly spaced frames as a PNG (written atomically)."""
+    """Write a strip of `n` keyframes (`keyframe_indices`: different poses, in time order) as a
+    PNG (written atomically). A motion with fewer distinct poses gives fewer panels."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -180,7 +201,8 @@ def render_keyframes(motion: Motion, path: str | Path, n: int = 6, panel_px: int
 
     _check(motion)
     check_render_options(n, yaw_deg)
-    frames = np.linspace(0, motion.n_frames - 1, n).round().astype(int)
+    frames = keyframe_indices(motion, n)
+    n = len(frames)
     fig, axes = plt.subplots(1, n, figsize=(n * panel_px / 100, 1.25 * panel_px / 100), dpi=100)
     axes = np.atleast_1d(axes)
     try:

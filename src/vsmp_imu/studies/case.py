@@ -23,7 +23,7 @@ from vsmp_imu.imu.recording import ImuRecording
 from vsmp_imu.motion.backends import get_backend
 from vsmp_imu.motion.motion import Motion
 from vsmp_imu.motion.recipe import recipe_for_entry
-from vsmp_imu.motion.render import CENTER_COLOR, LEFT_COLOR, RIGHT_COLOR, project
+from vsmp_imu.motion.render import CENTER_COLOR, LEFT_COLOR, RIGHT_COLOR, keyframe_indices, project
 from vsmp_imu.smp.intervene import intervene
 from vsmp_imu.smp.library import ActivityLibrary, LibraryEntry
 from vsmp_imu.smp.schema import SMP, UNKNOWN
@@ -172,22 +172,6 @@ def smp_summary(smp: SMP, width: int = 46) -> str:
     for line in lines:
         wrapped += textwrap.wrap(line, width, subsequent_indent="  ") or [""]
     return "\n".join(w for w in wrapped if w != UNKNOWN)
-
-
-def keyframe_indices(motion: Motion, n: int = N_KEYFRAMES) -> np.ndarray:
-    """`n` frames that show the motion's range: the first frame, then repeatedly the frame whose
-    pelvis-relative pose is farthest from those already chosen (in time order)."""
-    rel = motion.positions - motion.positions[:, :1]
-    flat = rel.reshape(motion.n_frames, -1)
-    chosen = [0]
-    dist = np.linalg.norm(flat - flat[0], axis=1)
-    while len(chosen) < min(n, motion.n_frames):
-        k = int(np.argmax(dist))
-        if dist[k] <= 0:
-            break
-        chosen.append(k)
-        dist = np.minimum(dist, np.linalg.norm(flat - flat[k], axis=1))
-    return np.array(sorted(chosen))
 
 
 def _draw_keyframes(ax: Any, motion: Motion, n: int = N_KEYFRAMES) -> None:
