@@ -11,7 +11,7 @@ import threading
 import typer
 from rich.markup import escape
 
-from vsmp_imu.cli import cache, demo, generate, har, imu, motion, report, smp, study, video
+from vsmp_imu.cli import cache, data, demo, generate, har, imu, motion, report, smp, study, video
 from vsmp_imu.cli.common import console_err, safe_text
 from vsmp_imu.errors import VsmpError
 
@@ -24,7 +24,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
-for module in (smp, motion, imu, har, generate, video, study, demo, report, cache):
+for module in (smp, motion, imu, har, generate, video, study, demo, report, cache, data):
     module.register(app)
 
 # Errors of the file system around a path the user gave (a folder we may not write in, a disk

@@ -1,0 +1,213 @@
+"""`vsmp-imu data check`: each class's activity file simulated against the user's real windows.
+
+Before a whole evaluation, a user wants to know which activity file (or which
+declared convention) is off. Per class and sensor location this simulates a
+few executions of the class's base SMP (the default motion, no grounding, no
+filter), puts them in the dataset's declared convention (axes, gravity) and
+compares them with the real windows of the class:
+
+- `l_sim`: the D_stat loss between the two (grounding/stats.py: window
+  covariance, band energies, RMS norms and autocorrelation; 0 = identical);
+- the mean acceleration vector (where gravity points, device frame) and the
+  angle between the real and the simulated one;
+- the dominant frequency of the acceleration magnitude;
+- the RMS of the acceleration around its window mean (how much it moves).
+
+A class is flagged when gravity points more than `MAX_GRAVITY_ANGLE_DEG`
+apart, when the dominant frequencies differ by more than a factor
+`MAX_FREQUENCY_RATIO`, or when one moves `MAX_MOTION_RATIO` times more than
+the other. Nothing here is fitted or learned: it is a look, not a grounding.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from vsmp_imu.grounding.align import SIM_AXES, Convention, ConventionAlignment
+from vsmp_imu.grounding.stats import sim_loss, summarize_windows
+from vsmp_imu.har.dataset import HarDataset, SensorLocation
+from vsmp_imu.har.windows import window_geometry, window_starts
+from vsmp_imu.imu import simulate_kinematics
+from vsmp_imu.io import atomic_path
+from vsmp_imu.motion import Motion
+from vsmp_imu.pipeline.sample import backend_for
+
+MAX_GRAVITY_ANGLE_DEG = 45.0
+MAX_FREQUENCY_RATIO = 1.6
+MAX_MOTION_RATIO = 3.0
+STATIC_RMS_M_S2 = 0.5  # below this RMS around the mean a window set has no dominant frequency
+MIN_FREQUENCY_HZ = 0.2
+
+
+@dataclass
+class ClassCheck:
+    """The comparison of one class at one location (None where a side has no windows)."""
+
+    label: str
+    location: str
+    source: str
+    n_real: int
+    n_synthetic: int
+    real_mean_acc: list[float] | None = None
+    synthetic_mean_acc: list[float] | None = None
+    gravity_angle_deg: float | None = None
+    real_frequency_hz: float | None = None
+    synthetic_frequency_hz: float | None = None
+    real_motion_rms: float | None = None
+    synthetic_motion_rms: float | None = None
+    l_sim: float | None = None
+    flags: list[str] = field(default_factory=list)
+
+
+def mean_acc(windows: np.ndarray) -> np.ndarray:
+    """Mean accelerometer vector (3,) of windows (N, T, >=3)."""
+    return windows[..., :3].reshape(-1, 3).mean(axis=0)
+
+
+def motion_rms(windows: np.ndarray) -> float:
+    """RMS norm of the acceleration around each window's mean (m/s²)."""
+    acc = windows[..., :3]
+    centred = acc - acc.mean(axis=1, keepdims=True)
+    return float(np.sqrt((centred**2).sum(-1).mean()))
+
+
+def dominant_frequency(windows: np.ndarray, fs_hz: float) -> float | None:
+    """Peak of the mean periodogram of the acceleration magnitude (None when it hardly moves)."""
+    if motion_rms(windows) < STATIC_RMS_M_S2:
+        return None
+    mag = np.linalg.norm(windows[..., :3], axis=-1)
+    mag = mag - mag.mean(axis=1, keepdims=True)
+    power = (np.abs(np.fft.rfft(mag, axis=1)) ** 2).mean(axis=0)
+    freqs = np.fft.rfftfreq(mag.shape[1], 1.0 / fs_hz)
+    usable = freqs >= MIN_FREQUENCY_HZ
+    return float(freqs[usable][np.argmax(power[usable])])
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> float | None:
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    if na < 1.0 or nb < 1.0:  # no gravity direction to compare (gravity removed, or free fall)
+        return None
+    return float(np.degrees(np.arccos(np.clip(a @ b / (na * nb), -1.0, 1.0))))
+
+
+def simulate_windows(motion: Motion, loc: SensorLocation, fs_hz: float, size: int, step: int) -> np.ndarray:
+    """Windows (N, size, C) of a motion at one location, in its declared convention (SI units)."""
+    kin = simulate_kinematics(motion, loc.name, fs_hz)
+    signal = np.hstack([kin.specific_force_seg(), kin.gyr_seg])
+    conv = Convention(axes=loc.axes or SIM_AXES, gravity_included=loc.gravity_included)
+    signal = ConventionAlignment(conv).transform(signal, kin.grav_seg)[:, : len(loc.channels)]
+    starts = window_starts(len(signal), size, step)
+    if len(starts) == 0:  # a motion shorter than one window: one window, last sample repeated
+        pad = np.repeat(signal[-1:], size - len(signal), axis=0)
+        return np.concatenate([signal, pad])[None]
+    return np.stack([signal[s : s + size] for s in starts])
+
+
+def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn: np.ndarray,
+            fs_hz: float) -> ClassCheck:
+    """The statistics of one class at one location, and what looks off."""
+    out = ClassCheck(label, loc.name, source, len(real), len(syn))
+    if len(real) == 0 or len(syn) == 0:
+        out.flags.append("no real windows" if len(real) == 0 else "no simulated windows")
+        return out
+    r_mean, s_mean = mean_acc(real), mean_acc(syn)
+    out.real_mean_acc, out.synthetic_mean_acc = r_mean.round(3).tolist(), s_mean.round(3).tolist()
+    out.gravity_angle_deg = _angle(r_mean, s_mean)
+    out.real_frequency_hz = dominant_frequency(real, fs_hz)
+    out.synthetic_frequency_hz = dominant_frequency(syn, fs_hz)
+    out.real_motion_rms, out.synthetic_motion_rms = motion_rms(real), motion_rms(syn)
+    if real.shape[-1] == 6:
+        out.l_sim = float(sim_loss(summarize_windows(syn, fs_hz), summarize_windows(real, fs_hz)))
+    if out.gravity_angle_deg is not None and out.gravity_angle_deg > MAX_GRAVITY_ANGLE_DEG:
+        out.flags.append(f"gravity points {out.gravity_angle_deg:.0f}° apart: check the declared axes, "
+                         "the side, or the posture in the activity file")
+    fr, fs = out.real_frequency_hz, out.synthetic_frequency_hz
+    if fr and fs and max(fr, fs) / min(fr, fs) > MAX_FREQUENCY_RATIO:
+        out.flags.append(f"dominant frequency {fs:.2f} Hz simulated vs {fr:.2f} Hz real: check the tempo "
+                         "or the repetitions in the activity file")
+    ratio = (out.synthetic_motion_rms + 0.1) / (out.real_motion_rms + 0.1)
+    if not 1 / MAX_MOTION_RATIO <= ratio <= MAX_MOTION_RATIO:
+        out.flags.append(f"the simulation moves {ratio:.1f}x as much as the real windows: check the "
+                         "amplitude, or whether the file describes this activity")
+    return out
+
+
+def locations_of(info, label: str) -> list[SensorLocation]:
+    """The locations a class is worn at (one per class where the placement depends on it)."""
+    if info.location_by_label and label in info.location_by_label:
+        return [info.location(info.location_by_label[label])]
+    return list(info.locations)
+
+
+@dataclass
+class DataCheck:
+    """Simulates each class's base SMP at the dataset's locations and compares (see module doc)."""
+
+    backend: str = "procedural"
+    samples: int = 3
+    window_s: float = 2.0
+    overlap: float = 0.5
+    library_dirs: tuple[str, ...] = ()
+    results_: list[ClassCheck] = field(default_factory=list)
+    windows_: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+
+    def run(self, dataset: HarDataset, sources: dict[str, list]) -> list[ClassCheck]:
+        info = dataset.info
+        size, step = window_geometry(info.fs_hz, self.window_s, self.overlap)
+        real = dataset.windows(self.window_s, self.overlap)
+        backend = backend_for(self.backend, tuple(self.library_dirs))
+        self.results_, self.windows_ = [], {}
+        for i, label in enumerate(info.label_names):
+            if label not in sources:
+                continue
+            source, base = sources[label][0]
+            motions = [Motion.load(base) if isinstance(base, Path) else backend.generate(base, seed)
+                       for seed in range(self.samples)]
+            for loc in locations_of(info, label):
+                cols = [info.channel_names.index(c) for c in loc.channels]
+                r = real.X[real.y == i][..., cols].astype(np.float64)
+                s = np.concatenate([simulate_windows(m, loc, info.fs_hz, size, step) for m in motions])
+                self.windows_[(label, loc.name)] = (r, s)
+                self.results_.append(compare(label, loc, source, r, s, info.fs_hz))
+        return self.results_
+
+    def to_json(self) -> list[dict]:
+        return [asdict(r) for r in self.results_]
+
+    def plot(self, path: Path, fs_hz: float) -> Path:
+        """Per class and location: mean acceleration (x, y, z) and the spectrum of |acc|, real vs
+        simulated (written atomically)."""
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        rows = list(self.windows_.items())
+        fig, axes = plt.subplots(max(len(rows), 1), 2, figsize=(9, 2.2 * max(len(rows), 1)), squeeze=False)
+        try:
+            for (key, (real, syn)), (ax_g, ax_f), res in zip(rows, axes, self.results_, strict=True):
+                label = f"{key[0]} @ {key[1]}" + ("  [!]" if res.flags else "")
+                for offset, w, name, color in ((-0.2, real, "real", "#333333"), (0.2, syn, "simulated", "#c8342b")):
+                    if len(w):
+                        ax_g.bar(np.arange(3) + offset, mean_acc(w), width=0.4, label=name, color=color)
+                        mag = np.linalg.norm(w[..., :3], axis=-1)
+                        mag = mag - mag.mean(axis=1, keepdims=True)
+                        power = (np.abs(np.fft.rfft(mag, axis=1)) ** 2).mean(axis=0)
+                        ax_f.plot(np.fft.rfftfreq(mag.shape[1], 1 / fs_hz), power / (power.max() + 1e-12),
+                                  color=color, label=name)
+                ax_g.set_xticks(range(3), ["acc x", "acc y", "acc z"])
+                ax_g.set_ylabel("mean m/s²")
+                ax_g.set_title(label, fontsize=9, loc="left")
+                ax_f.set_xlabel("Hz (|acc| spectrum, normalised)")
+                ax_f.set_xlim(0, min(fs_hz / 2, 8))
+            if rows:
+                axes[0, 0].legend(fontsize=7)
+            fig.tight_layout()
+            with atomic_path(path, suffix=".png") as tmp:
+                fig.savefig(tmp, format="png", dpi=90)
+        finally:
+            plt.close(fig)
+        return Path(path)

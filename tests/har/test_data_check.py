@@ -1,0 +1,79 @@
+"""`vsmp-imu data check`: an activity file that does not describe its class is flagged."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from vsmp_imu.imu import ImuSimulator
+from vsmp_imu.pipeline.sample import backend_for
+from vsmp_imu.smp import save_smp
+from vsmp_imu.smp.library import ActivityLibrary
+
+# waist phone: x up, y left, z backward (body words); device = P @ segment (left, up, forward)
+P = np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1]])
+
+
+def _dataset(root, library) -> object:
+    backend = backend_for("procedural", ())
+    rows = []
+    for n, subject in enumerate(["a", "b"]):
+        for k, label in enumerate(["walking", "sitting"]):
+            imu = ImuSimulator(50.0, seed=n).simulate(backend.generate(library.get(label).smp, 20 + 2 * n + k),
+                                                      "waist").data
+            acc, gyr = imu[:, :3] @ P.T, imu[:, 3:] @ P.T
+            rows.append(pd.DataFrame({"subject": subject, "label": label, "ax": acc[:, 0], "ay": acc[:, 1],
+                                      "az": acc[:, 2], "gx": gyr[:, 0], "gy": gyr[:, 1], "gz": gyr[:, 2]}))
+    (root / "data").mkdir(parents=True)
+    pd.concat(rows).to_csv(root / "data" / "all.csv", index=False)
+    spec = {"name": "my_phone", "data": "data", "fs_hz": 50, "locations": [
+        {"name": "waist", "acc": ["ax", "ay", "az"], "gyr": ["gx", "gy", "gz"], "acc_unit": "m/s^2",
+         "gyr_unit": "rad/s", "axes": ["up", "left", "backward"]}]}
+    (root / "dataset.yaml").write_text(yaml.safe_dump(spec))
+    return root / "dataset.yaml"
+
+
+def test_a_wrong_activity_file_is_flagged_and_the_right_one_is_not(cli, tmp_path):
+    library = ActivityLibrary.load()
+    path = _dataset(tmp_path / "ds", library)
+    smps = tmp_path / "smps"
+    smps.mkdir()
+    save_smp(library.get("walking").smp, smps / "walking.json")
+    wrong = library.get("jumping_jacks").smp.model_copy(update={"activity_label": "sitting"})
+    save_smp(wrong, smps / "sitting.json")
+    code, out, err = cli("data", "check", path, "--source", f"smp:{smps}", "--samples", "2", "-o", tmp_path / "chk")
+    assert code == 0, err
+    result = {c["label"]: c for c in json.loads((tmp_path / "chk" / "check.json").read_text())["classes"]}
+    assert result["walking"]["flags"] == []
+    assert result["walking"]["gravity_angle_deg"] < 20
+    assert result["sitting"]["flags"] and "moves" in " ".join(result["sitting"]["flags"])
+    assert result["sitting"]["l_sim"] > 2 * result["walking"]["l_sim"]
+    assert "sitting (waist, sitting.json)" in " ".join(out.split())
+    assert (tmp_path / "chk" / "check.png").stat().st_size > 0
+    # with the library's own files, nothing is off
+    code, out, err = cli("data", "check", path, "--samples", "2", "-o", tmp_path / "chk2")
+    classes = json.loads((tmp_path / "chk2" / "check.json").read_text())["classes"]
+    assert code == 0 and [c["flags"] for c in classes] == [[], []]
+
+
+def test_wrong_axes_turn_gravity_away(cli, tmp_path):
+    path = _dataset(tmp_path / "ds", ActivityLibrary.load())
+    spec = yaml.safe_load(path.read_text())
+    spec["locations"][0]["axes"] = ["left", "up", "forward"]  # not the phone's axes
+    path.write_text(yaml.safe_dump(spec))
+    code, _, err = cli("data", "check", path, "--samples", "1", "-o", tmp_path / "chk")
+    assert code == 0, err
+    classes = {c["label"]: c for c in json.loads((tmp_path / "chk" / "check.json").read_text())["classes"]}
+    for label in ("sitting", "walking"):
+        assert classes[label]["gravity_angle_deg"] > 60 and "gravity points" in classes[label]["flags"][0]
+
+
+def test_user_mistakes_exit_2(cli, tmp_path):
+    path = _dataset(tmp_path / "ds", ActivityLibrary.load())
+    code, _, err = cli("data", "check", path, "--source", f"smp:{tmp_path / 'nowhere'}", "-o", tmp_path / "c")
+    assert code == 2 and "nowhere" in err
+    code, _, err = cli("data", "check", tmp_path / "missing.yaml", "-o", tmp_path / "c")
+    assert code == 2 and "missing.yaml" in err
