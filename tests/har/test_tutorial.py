@@ -10,8 +10,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
 TUTORIAL = Path(__file__).resolve().parents[2] / "docs" / "tutorial.md"
 BLOCK = re.compile(r"^```(\w+)([^\n]*)\n(.*?)^```$", re.S | re.M)
 
@@ -43,7 +41,6 @@ def test_blocks_are_found():
     assert kinds.count(("python", "")) == 2 and ("yaml", "file") in kinds and kinds.count(("bash", "")) == 3
 
 
-@pytest.mark.slow
 def test_tutorial_runs_as_written(tmp_path):
     env = {**os.environ, "VSMP_IMU_CACHE": str(tmp_path / "cache"),
            "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
