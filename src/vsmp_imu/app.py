@@ -9,6 +9,7 @@ happens here or further down.
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -64,8 +65,35 @@ def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
     train = windows.where_subjects([request.holdout], keep=False)
     budget = synthetic_budget(train.class_counts(), spec.alpha, spec.policy)
     library = ActivityLibrary.load([Path(d) for d in spec.library_dirs])
-    sources = make_smp_source(spec.source, library).smps(ds.info.name, ds.info.label_names)
+    with naming_dataset(request.dataset):
+        sources = make_smp_source(spec.source, library).smps(ds.info.name, ds.info.label_names)
     return FoldPlan(ds.info, train, subjects, budget, sources, library, list(ds.warnings))
+
+
+@contextmanager
+def naming_dataset(dataset: str):
+    """A class that links to no activity file is a mistake in the user's dataset file: name it."""
+    try:
+        yield
+    except ConfigError as exc:
+        if exc.file is None and Path(dataset).is_file():
+            raise ConfigError(exc.message, file=dataset, field="labels", allowed=exc.allowed) from exc
+        raise
+
+
+def check_sources(spec: GenerationSpec, methods, ds, dataset: str) -> None:
+    """Before any work: every class of the dataset has a base SMP for the VSMP methods (library or
+    smp:DIR sources; video sources are extracted during the run)."""
+    from vsmp_imu.methods import REGISTRY
+    from vsmp_imu.pipeline.method import make_smp_source
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    if spec.source.startswith("video") or not any(
+            REGISTRY.get(name) is not None and REGISTRY[name].kind == "vsmp" for name in methods):
+        return
+    library = ActivityLibrary.load([Path(d) for d in spec.library_dirs])
+    with naming_dataset(dataset):
+        make_smp_source(spec.source, library).smps(ds.info.name, ds.info.label_names)
 
 
 def generate_fold(spec: GenerationSpec, request: FoldRequest, plan: FoldPlan | None = None):
@@ -131,6 +159,7 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
     params = method_params(request.methods, spec)
     ds = load_dataset(request.dataset, request.data_dir)
     window_geometry(ds.info.fs_hz, request.window_s, request.overlap)  # range checks before any work
+    check_sources(spec, request.methods, ds, request.dataset)
     config = EvalConfig(
         dataset=ds.info.name, protocol=request.protocol, budgets=request.budgets, backbones=request.backbones,
         methods=request.methods, folds=request.folds, seeds=tuple(range(request.seeds)), alpha=spec.alpha,

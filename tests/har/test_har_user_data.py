@@ -170,3 +170,14 @@ def test_an_unlinked_class_says_how_to_link_it():
         LibrarySmpSource(ActivityLibrary.load()).smps("my_watch", ["walking", "hula"])
     text = err.value.render()
     assert "hula" in text and "datasets: {my_watch: <class>}" in text and "--source smp:DIR" in text
+
+
+def test_evaluate_and_generate_refuse_an_unlinked_class_before_any_work(cli, tmp_path):
+    rows = pd.DataFrame({"subject": np.repeat(["p1", "p2"], 200), "label": "hula", "ax": 1.0, "ay": 0.0,
+                         "az": 0.0, "gx": 0.0, "gy": 0.0, "gz": 0.0})
+    path = _write(tmp_path, rows, axes=["distal", "radial", "dorsal"])
+    for args in (("evaluate", "--dataset", path, "--methods", "real,vsmp", "-o", tmp_path / "ev"),
+                 ("generate", "--dataset", path, "--holdout", "p1", "-o", tmp_path / "gen")):
+        code, _, err = cli(*args)
+        assert code == 2 and str(path) in err and "'labels'" in err and "hula" in err and "--source smp:DIR" in err
+    assert not (tmp_path / "ev" / "records").exists()
