@@ -181,3 +181,13 @@ def test_evaluate_and_generate_refuse_an_unlinked_class_before_any_work(cli, tmp
         code, _, err = cli(*args)
         assert code == 2 and str(path) in err and "'labels'" in err and "hula" in err and "--source smp:DIR" in err
     assert not (tmp_path / "ev" / "records").exists()
+
+
+def test_dataset_info_prints_the_warnings(cli, tmp_path):
+    rows = pd.DataFrame({"subject": "p1", "label": "sit", "ax": 0.0, "ay": np.full(200, 9.81), "az": 0.0,
+                         "gx": 0.0, "gy": 0.0, "gz": 0.0})
+    code, out, err = cli("dataset", "info", _write(tmp_path, rows), "--json")
+    assert code == 0 and "warning:" in err and "declares no axes" in err
+    import json
+
+    assert len(json.loads(out)["warnings"]) == 2
