@@ -217,7 +217,6 @@ class GenericDataset(HarDataset):
             pad_short=self.spec.pad_short,
             groups={k: tuple(v) for k, v in self.spec.groups.items()},
         )
-
         self.warnings = self._axes_warnings() + self._unit_warnings()
 
     # -- conventions -----------------------------------------------------------------------
