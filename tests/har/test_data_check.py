@@ -55,8 +55,8 @@ def test_a_wrong_activity_file_is_flagged_and_the_right_one_is_not(cli, tmp_path
     assert (tmp_path / "chk" / "check.png").stat().st_size > 0
     # with the library's own files, nothing is off
     code, out, err = cli("data", "check", path, "--samples", "2", "-o", tmp_path / "chk2")
-    classes = json.loads((tmp_path / "chk2" / "check.json").read_text())["classes"]
-    assert code == 0 and [c["flags"] for c in classes] == [[], []]
+    written = json.loads((tmp_path / "chk2" / "check.json").read_text())
+    assert code == 0 and [c["flags"] for c in written["classes"]] == [[], []] and written["warnings"] == []
 
 
 def test_wrong_axes_turn_gravity_away(cli, tmp_path):
@@ -66,6 +66,11 @@ def test_wrong_axes_turn_gravity_away(cli, tmp_path):
     path.write_text(yaml.safe_dump(spec))
     code, _, err = cli("data", "check", path, "--samples", "1", "-o", tmp_path / "chk")
     assert code == 0, err
+    del spec["locations"][0]["axes"]
+    path.write_text(yaml.safe_dump(spec))
+    code, _, err = cli("data", "check", path, "--samples", "1", "-o", tmp_path / "chk_none")
+    warned = json.loads((tmp_path / "chk_none" / "check.json").read_text())["warnings"]
+    assert code == 0 and "declares no axes" in err and len(warned) == 1
     classes = {c["label"]: c for c in json.loads((tmp_path / "chk" / "check.json").read_text())["classes"]}
     for label in ("sitting", "walking"):
         assert classes[label]["gravity_angle_deg"] > 60 and "gravity points" in classes[label]["flags"][0]

@@ -63,7 +63,8 @@ def check_cmd(
     results = check.run(ds, sources)
     output.mkdir(parents=True, exist_ok=True)
     write_json(output / "check.json", {"dataset": ds.info.name, "source": source, "backend": backend,
-                                       "samples": samples, "classes": check.to_json()})
+                                       "samples": samples, "warnings": list(ds.warnings) + unlinked,
+                                       "classes": check.to_json()})
     check.plot(output / "check.png", ds.info.fs_hz)
     table = Table(title=f"{ds.info.name}: activity files vs real windows", box=box.SIMPLE_HEAD, pad_edge=False,
                   caption="angle: between real and simulated mean acc (gravity); Hz: dominant frequency of "
