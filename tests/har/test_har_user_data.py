@@ -191,3 +191,11 @@ def test_dataset_info_prints_the_warnings(cli, tmp_path):
     import json
 
     assert len(json.loads(out)["warnings"]) == 2
+
+
+def test_two_sides_in_one_recording_are_refused(tmp_path):
+    rows = pd.DataFrame({"subject": "p1", "label": "sit", "wrist": np.repeat(["left", "right"], 60),
+                         "ax": 1.0, "ay": 0.0, "az": 0.0, "gx": 0.0, "gy": 0.0, "gz": 0.0})
+    with pytest.raises(ValidationError) as err:
+        load_dataset(_write(tmp_path, rows, axes=WATCH_AXES, side_column="wrist")).windows()
+    assert err.value.field == "wrist" and "session_column" in err.value.render()

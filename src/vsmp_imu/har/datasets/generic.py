@@ -456,6 +456,7 @@ class GenericDataset(HarDataset):
         if len(values) != 1 or values[0] not in SIDES:
             subject = rows[self.spec.subject_column].iloc[0]
             raise ValidationError(
-                f"subject {subject}: side value(s) {', '.join(values)}; one recording is worn on one side",
-                file=path, field=loc.side_column, allowed=", ".join(SIDES))
+                f"subject {subject}: side value(s) {', '.join(values)} in one recording; a recording is "
+                "worn on one side (a session_column, or one file per side, separates recordings)",
+                file=path, field=loc.side_column, allowed="one of " + ", ".join(SIDES) + " per recording")
         return values[0]
