@@ -55,7 +55,7 @@ def evaluate_cmd(
         help="hapt, hapt12, mmfit, utd-mhad, mmact, pamap2, had-aw, or a dataset .yaml file",
     ),
     protocol: str = typer.Option(
-        "lopo", "--protocol", "-p", help="lopo | low-resource | long-tail"
+        "lopo", "--protocol", "-p", help="lopo | low-resource | long-tail | tstr (train on synthetic only)"
     ),
     budgets: str = typer.Option(
         None, "--budgets", help="label budgets in percent for low-resource (default 1,5,10,25,50)"
