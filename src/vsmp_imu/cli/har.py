@@ -89,6 +89,8 @@ def evaluate_cmd(
     k: int = typer.Option(4, "--k", max=64, help="generative methods: SMP variants per base SMP"),
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     per_class_rank: bool = typer.Option(False, "--per-class-rank", help="rank grounding per class"),
+    motion_fit: bool = typer.Option(False, "--motion-fit",
+                                    help="VSMP-IMU: fit each class's motion parameters to D_stat before synthesis"),
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
     address: str = typer.Option(None, "--address", help="Ray cluster address (--executor ray)"),
@@ -118,6 +120,7 @@ def evaluate_cmd(
         report_groups=_parse_groups(report_groups))
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
+        motion_fit=motion_fit,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address)
     run = evaluation(spec, request)
