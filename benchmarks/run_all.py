@@ -61,9 +61,12 @@ VIDEO_DIR = REPO.parent / "shared" / "data" / "videos"
 HOLDOUT = "1"  # the HAPT12 fold used by every generation figure
 CORES = 2
 STAGES = ("smp_augment", "procedural_motion", "imu_simulation", "cem", "align_rank", "post_motion", "chain",
+          "chain_motion_fit",
           "chain_memory", "scaling_local", "scaling_ray", "scaling_ray_nice0", "har_rf", "har_dclstm", "cost")
 # Targets of the issue "Speed, scale and reliability, measured".
 CHAIN_TARGET = 50.0  # synthetic samples/s, whole embedded chain, 2 cores
+MOTION_FIT_CHAIN_TARGET = 40.0  # the same with motion-level simulation-in-the-loop (issue 21)
+MOTION_FIT_CLASS_TARGET_S = 3.0  # motion fitting per class and fold, one core
 POST_MOTION_TARGET = 50.0  # samples/s per core, IMU simulation + CEM + alignment + grounding + filter
 RF_TARGET_S = 300.0  # HAPT 30-fold RF-ECDF LOPO
 SCALING_TARGET = 1.8  # 1 -> 2 workers
@@ -213,6 +216,9 @@ def timed_generator(config, executor, library):
 
         def synthesize(self, *args, **kwargs):
             return timing(super().synthesize, "synthesize")(*args, **kwargs)
+
+        def fit_motions(self, *args, **kwargs):
+            return timing(super().fit_motions, "motion_fit")(*args, **kwargs)
 
     return Timed(config, TimedExecutor(executor), None, library=library)
 
@@ -487,6 +493,23 @@ def stage_chain(quick: bool) -> dict:
                 "note": f"HAPT12 holdout {HOLDOUT}, library SMPs, procedural, K=4, alpha {alpha}, "
                         "2 local workers, no cache"})
     return fig
+
+
+def stage_chain_motion_fit(quick: bool) -> dict:
+    """The chain with motion-level simulation-in-the-loop, and the chain without it in the same
+    stage (side by side, same load); the fit's seconds per class on one core."""
+    from vsmp_imu.executor import LocalExecutor
+    from vsmp_imu.pipeline.spec import GenerationSpec
+
+    alpha = 0.1 if quick else 0.5
+    off = run_fold(LocalExecutor(CORES, show_progress=False), alpha)
+    on = run_fold(LocalExecutor(CORES, show_progress=False), alpha, GenerationSpec(motion_fit=True))
+    info = hapt12_fold(alpha)[0]
+    per_class = on["steps_s"]["motion_fit"] * CORES / info.n_classes  # the fits run on CORES workers
+    return {"alpha": alpha, "off": off, "on": on, "samples_per_s": on["samples_per_s"],
+            "samples_per_s_off": off["samples_per_s"], "fit_s_per_class_per_core": per_class,
+            "met": on["samples_per_s"] >= MOTION_FIT_CHAIN_TARGET and per_class <= MOTION_FIT_CLASS_TARGET_S,
+            "note": f"HAPT12 holdout {HOLDOUT}, alpha {alpha}, 2 local workers, no cache; off then on"}
 
 
 def stage_chain_memory(quick: bool) -> dict:
@@ -838,6 +861,16 @@ def table_rows(res: dict) -> list[tuple[str, str, str, str, str]]:
                 rate = chain["samples"] / seconds
                 peak = f"{peaks[step]:.0f} MB traced" if step in peaks else ""
                 rows.append((f"  chain step {step} [samples/s; s]", f"{rate:.1f}; {seconds:.1f} s", peak, "", ""))
+    fit = st.get("chain_motion_fit")
+    if fit and "error" not in fit:
+        rows.append(("chain with motion fit [samples/s, 2 workers]", _fmt(fit["samples_per_s"], 1), "",
+                     f">= {MOTION_FIT_CHAIN_TARGET:g}", "met" if fit["samples_per_s"] >= MOTION_FIT_CHAIN_TARGET
+                     else "NOT met"))
+        rows.append(("  same run, chain without it [samples/s]", _fmt(fit["samples_per_s_off"], 1), "", "", ""))
+        per_class = fit["fit_s_per_class_per_core"]
+        rows.append(("  motion fit per class, 1 core [s]", _fmt(per_class, 2), "",
+                     f"<= {MOTION_FIT_CLASS_TARGET_S:g}", "met" if per_class <= MOTION_FIT_CLASS_TARGET_S
+                     else "NOT met"))
     for key, label in (("scaling_local", "local pool"), ("scaling_ray", "local Ray"),
                        ("scaling_ray_nice0", "local Ray, workers at nice 0")):
         fig = st.get(key)

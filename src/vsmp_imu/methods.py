@@ -25,9 +25,10 @@ OPTION_FIELDS = ("source", "k", "backend", "per_class_rank", "library_dirs", "wo
 SPEC_FIELDS = frozenset(f.name for f in fields(GenerationSpec))
 KINDS = ("real", "augmentation", "baseline", "vsmp")
 VSMP_TARGET = "vsmp_imu.pipeline.method:VsmpMethod"
-# The baselines' chain: no refinement, no sim-in-the-loop, declared mounting, rank grounding,
-# plausibility filter without the class validator, one variant per description, no refill.
-BASELINE_CHAIN: dict[str, Any] = {"k": 1, "refine": False, "sim_in_the_loop": False, "rank_grounding": True,
+# The baselines' chain: no refinement, no sim-in-the-loop (sensor or motion), declared mounting, rank
+# grounding, plausibility filter without the class validator, one variant per description, no refill.
+BASELINE_CHAIN: dict[str, Any] = {"k": 1, "refine": False, "sim_in_the_loop": False, "motion_fit": False,
+                                  "rank_grounding": True,
                                   "estimate_mounting": False, "quality_filter": True, "class_filter": False,
                                   "refill": 0}
 
@@ -84,6 +85,7 @@ VSMP_VARIANTS = (
     _vsmp("vsmp-rank-only", "Rank-based grounding only", sim_in_the_loop=False),
     _vsmp("vsmp-class-rank", "VSMP-IMU, per-class rank grounding", per_class_rank=True),
     _vsmp("vsmp-pooled-rank", "VSMP-IMU, pooled rank grounding", per_class_rank=False),
+    _vsmp("vsmp-motion-fit", "VSMP-IMU, motion-level sim-in-the-loop", motion_fit=True),
 )
 REGISTRY: dict[str, Method] = {m.name: m for m in (
     Method("real", "Real-only", "real"),

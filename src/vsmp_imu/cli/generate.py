@@ -37,6 +37,8 @@ def generate_cmd(
     no_rank: bool = typer.Option(False, "--no-rank", help="Ablation: no rank grounding"),
     no_filter: bool = typer.Option(False, "--no-filter", help="Ablation: no quality filter"),
     per_class_rank: bool = typer.Option(False, "--per-class-rank", help="Rank grounding per class"),
+    motion_fit: bool = typer.Option(False, "--motion-fit",
+                                    help="fit each class's motion parameters to D_stat before synthesis"),
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
     library: list[Path] = typer.Option(None, "--library", help="Extra activity-library folder (repeatable)"),
@@ -53,6 +55,7 @@ def generate_cmd(
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, sim_in_the_loop=not no_sim_loop,
         rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
+        motion_fit=motion_fit,
         refine=not no_refine, uncertainty_conditioned=not no_uncertainty,
         library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None,
@@ -82,6 +85,14 @@ def _print_summary(summary: dict) -> None:
         table.add_row(name, str(c["budget"]), str(c["samples"]), str(c["windows"]), str(c["kept"]),
                       str(c["selected"]), rejected)
     console.print(table)
+    for name, fit in summary.get("motion_fit", {}).items():
+        if fit["fitted"]:
+            values = ", ".join(f"{p} {m:.2f} ± {s:.2f}" for p, m, s in zip(fit["params"], fit["mean"], fit["std"],
+                                                                          strict=True))
+            text = f"{values} (L {fit['loss_nominal']:.3f} -> {fit['loss_best']:.3f})"
+        else:
+            text = f"SMP defaults: {fit['reason']}"
+        console.print(f"motion fit {name}: {text}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -55,7 +55,7 @@ def evaluate_cmd(
         help="hapt, hapt12, mmfit, utd-mhad, mmact, pamap2, had-aw, or a dataset .yaml file",
     ),
     protocol: str = typer.Option(
-        "lopo", "--protocol", "-p", help="lopo | low-resource | long-tail"
+        "lopo", "--protocol", "-p", help="lopo | low-resource | long-tail | tstr (train on synthetic only)"
     ),
     budgets: str = typer.Option(
         None, "--budgets", help="label budgets in percent for low-resource (default 1,5,10,25,50)"
@@ -89,6 +89,8 @@ def evaluate_cmd(
     k: int = typer.Option(4, "--k", max=64, help="generative methods: SMP variants per base SMP"),
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     per_class_rank: bool = typer.Option(False, "--per-class-rank", help="rank grounding per class"),
+    motion_fit: bool = typer.Option(False, "--motion-fit",
+                                    help="VSMP-IMU: fit each class's motion parameters to D_stat before synthesis"),
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
     address: str = typer.Option(None, "--address", help="Ray cluster address (--executor ray)"),
@@ -121,6 +123,7 @@ def evaluate_cmd(
         report_groups=_parse_groups(report_groups))
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
+        motion_fit=motion_fit,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)

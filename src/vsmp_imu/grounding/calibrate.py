@@ -82,6 +82,48 @@ class CalibrationResult:
         }
 
 
+def cem_candidates(mean: np.ndarray, std: np.ndarray, low: np.ndarray, high: np.ndarray, n: int,
+                   rng: np.random.Generator) -> np.ndarray:
+    """One CEM population: n draws of N(mean, std) clipped to [low, high] (N, D)."""
+    return np.clip(mean + std * rng.standard_normal((n, len(mean))), low, high)
+
+
+def cem_update(candidates: np.ndarray, losses: np.ndarray, n_elite: int,
+               floor: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The CEM update: (candidates by loss, stable order), the elite's mean and its std (>= floor)."""
+    order = np.argsort(losses, kind="stable")
+    elite = candidates[order[:n_elite]]
+    return order, elite.mean(0), np.maximum(elite.std(0), floor)
+
+
+class StreamObjective:
+    """L_sim of one simulated stream against a D_stat target, for candidate eta rows.
+
+    The segment kinematics are simulated once; each call only re-mixes them
+    (`LinearMoments`), in the target's axis convention.
+    """
+
+    def __init__(self, kin: SegmentKinematics, target: StatSummary, convention: Convention,
+                 base_mounting: np.ndarray | None = None, noise: ImuNoise | None = None) -> None:
+        self.base = np.eye(3) if base_mounting is None else np.asarray(base_mounting, dtype=float)
+        self.target = target
+        self.with_noise = noise is not None
+        self.features = reading_features(kin, noise)
+        self.moments = LinearMoments.of_sequence(self.features, kin.fs_hz)
+        self.to_target = np.kron(np.eye(2), axes_matrix(convention.axes)).T  # aligned = readings @ to_target
+
+    def weights(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
+        """(N, F, 6) weights of the aligned readings."""
+        return SimInTheLoopCalibrator._weights(self.base, eta, grav, self.with_noise) @ self.to_target
+
+    def __call__(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
+        return sim_loss(self.moments.summarize(self.weights(eta, grav)), self.target)
+
+    def mean_acc(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
+        """(N, 3) mean accelerometer reading of each candidate, in the target's axes."""
+        return self.features.mean(axis=0) @ self.weights(eta, grav)[..., :3]
+
+
 @dataclass(eq=False, repr=False)
 class SimInTheLoopCalibrator:
     """Bounded CEM over eta for one sensor stream.
@@ -111,42 +153,32 @@ class SimInTheLoopCalibrator:
         noise: ImuNoise | None = None,
     ) -> CalibrationResult:
         """Search eta for one stream; returns eta*, X_opt and the loss trace."""
-        base = np.eye(3) if base_mounting is None else np.asarray(base_mounting, dtype=float)
+        loss = StreamObjective(kin, target, convention, base_mounting, noise)
+        base = loss.base
         n_elite = max(2, int(round(self.elite_fraction * self.n_candidates)))
         mean, std = ETA_NOMINAL.copy(), ETA_INIT_STD.copy()
         p_grav = 0.5 if self.search_gravity else float(convention.gravity_included)
         floor = MIN_STD_FRACTION * (ETA_HIGH - ETA_LOW)
-
-        features = reading_features(kin, noise)
-        moments = LinearMoments.of_sequence(features, kin.fs_hz)
-        p = axes_matrix(convention.axes)
-        to_target = np.kron(np.eye(2), p).T  # aligned readings = readings @ to_target
-
-        def loss(eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
-            weights = self._weights(base, eta, grav, noise is not None) @ to_target
-            return sim_loss(moments.summarize(weights), target)
 
         nominal, nominal_grav = ETA_NOMINAL[None], np.array([convention.gravity_included])
         loss_nominal = float(loss(nominal, nominal_grav)[0])
         best_eta, best_grav, best_loss = nominal[0], bool(nominal_grav[0]), loss_nominal
         history = []
         for _ in range(self.n_iterations):
-            eta = np.clip(mean + std * rng.standard_normal((self.n_candidates, len(mean))), ETA_LOW, ETA_HIGH)
+            eta = cem_candidates(mean, std, ETA_LOW, ETA_HIGH, self.n_candidates, rng)
             if self.search_gravity:
                 grav = rng.random(self.n_candidates) < p_grav
             else:
                 grav = np.full(self.n_candidates, convention.gravity_included)
             losses = loss(eta, grav)
-            order = np.argsort(losses, kind="stable")
-            elite = order[:n_elite]
-            mean, std = eta[elite].mean(0), np.maximum(eta[elite].std(0), floor)
+            order, mean, std = cem_update(eta, losses, n_elite, floor)
             if self.search_gravity:
-                p_grav = float(np.clip(grav[elite].mean(), 0.05, 0.95))
+                p_grav = float(np.clip(grav[order[:n_elite]].mean(), 0.05, 0.95))
             if losses[order[0]] < best_loss:
                 best_eta, best_grav, best_loss = eta[order[0]], bool(grav[order[0]]), float(losses[order[0]])
             history.append(best_loss)
         weights = self._weights(base, best_eta[None], np.array([True]), noise is not None)[0]
-        readings = features @ weights
+        readings = loss.features @ weights
         gravity = kin.grav_seg @ (eta_rotation(best_eta[None])[0] @ base).T
         return CalibrationResult(
             eta={name: float(v) for name, v in zip(ETA_NAMES, best_eta, strict=True)},

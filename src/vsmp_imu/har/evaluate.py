@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from vsmp_imu.errors import ConfigError
+from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.backbones import BACKBONES, make_backbone
 from vsmp_imu.har.dataset import HarDataset
 from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std
@@ -358,6 +358,8 @@ class Evaluation:
         synthetic = source.generate(context)
         check_synthetic(split.fit, synthetic, method)
         synthetic = take_budget(synthetic, wanted, rng_for(seed, "take-budget", split.fold, method))
+        if c.protocol == "tstr":
+            return synthetic_only(synthetic, method, split.fold), len(synthetic), int(np.sum(wanted))
         return mix(split.fit, synthetic, method), len(synthetic), int(np.sum(wanted))
 
     def _fit_one(
@@ -382,7 +384,7 @@ class Evaluation:
             backbone, **{**c.backbone_params.get(backbone, {}), "random_state": state}
         )
         val = split.val
-        n_real = len(split.fit)
+        n_real = len(train) - n_syn  # tstr: none
         if not getattr(model, "uses_validation", True) and len(val):
             # a backbone without early stopping trains on the validation subjects too
             train = concat_windows([train, val.with_meta(source=np.full(len(val), "real"))])
@@ -417,6 +419,16 @@ class Evaluation:
             "best_epoch": getattr(model, "best_epoch_", None),
             "fit_seconds": round(fit_s, 3),
         }
+
+
+def synthetic_only(synthetic: Windows, method: str, fold: str) -> Windows:
+    """The training windows of protocol tstr: the method's synthetic windows, no real one."""
+    if len(synthetic) == 0:
+        raise ValidationError(
+            f"method '{method}' made no synthetic window for fold {fold}; protocol tstr trains on "
+            "synthetic windows only", field="--methods",
+            allowed="a method that makes windows of the training classes, or another protocol")
+    return mix(synthetic[:0], synthetic, method)
 
 
 def summarize(

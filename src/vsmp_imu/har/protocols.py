@@ -1,5 +1,7 @@
 """LOPO protocols (paper, Experimental Setup, Protocols): standard, low-resource and
-long-tail; validation subjects drawn from the training subjects of each fold."""
+long-tail; validation subjects drawn from the training subjects of each fold. `tstr`
+(train on synthetic, test on real) splits as `lopo` without validation subjects: the
+synthetic source sees every training subject, and the model trains on its windows only."""
 
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.windows import Windows, natural_key
 from vsmp_imu.seeding import rng_for
 
-PROTOCOLS = ("lopo", "low-resource", "long-tail")
+PROTOCOLS = ("lopo", "low-resource", "long-tail", "tstr")
 # Label budgets of the low-resource protocol, percent of labelled training windows.
 DEFAULT_BUDGETS = (1.0, 5.0, 10.0, 25.0, 50.0)
 # Maximum head-to-tail imbalance ratio of the long-tail protocol.
@@ -128,10 +130,12 @@ def split_fold(
     1. test = the held-out subject's windows; the pool = every other subject's.
     2. The protocol subsamples the pool (low-resource: budget% per class;
        long-tail: n_r per class rank), seeded per (seed, fold, budget).
-    3. Validation subjects are drawn from the pool's subjects; fit = the rest.
+    3. Validation subjects are drawn from the pool's subjects; fit = the rest
+       (tstr: none, fit = the whole pool).
     The held-out subject's windows appear in `test` only.
     """
     check_protocol(protocol)
+    val_fraction = 0.0 if protocol == "tstr" else val_fraction
     fold = str(fold)
     test = windows.where_subjects([fold])
     pool = windows.where_subjects([fold], keep=False)

@@ -40,6 +40,7 @@ METHOD_NAMES = {
     "imugpt": "IMUGPT-2.0-style",
     "imutube": "IMUTube-style",
     "vsmp": "VSMP-IMU",
+    "vsmp-motion-fit": "VSMP-IMU + motion fit",
 }
 
 

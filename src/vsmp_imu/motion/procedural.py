@@ -40,6 +40,7 @@ from rapidfuzz import fuzz, process
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.motion.dofs import (
     DOF_INDEX,
+    DOF_NAMES,
     LEFT_COLUMNS,
     N_DOFS,
     RIGHT_COLUMNS,
@@ -71,6 +72,7 @@ from vsmp_imu.smp.library import ActivityMatchError
 from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, UNKNOWN
 
 BACKEND_NAME = "procedural"
+ROTATION_DOF_NAMES = tuple(DOF_NAMES[c] for c in ROTATION_COLUMNS)  # the DOFs in degrees
 # recipe: library recipes only; fallback: the recipe where the activity has one, else the motion
 # compiled from the SMP; always: every motion compiled from its SMP (recipes ignored)
 COMPILE_MODES = ("recipe", "fallback", "always")
@@ -165,10 +167,18 @@ class ProceduralBackend:
         self.compile_mode = compile_mode
 
     # -- public verb ------------------------------------------------------------
-    def generate(self, smp_or_prompt: SMP | str, seed: int, duration_s: float | None = None) -> Motion:
-        """One motion for an SMP (or a prompt) and a seed."""
+    def generate(self, smp_or_prompt: SMP | str, seed: int, duration_s: float | None = None,
+                 offsets_deg: dict[str, float] | None = None) -> Motion:
+        """One motion for an SMP (or a prompt) and a seed; `offsets_deg` adds constant angles to
+        DOFs (posture, e.g. {"root_pitch": 5.0}), as fitted by motion-level simulation-in-the-loop."""
         smp, entry, prompt = self.resolve(smp_or_prompt)
         plan = self.plan(smp, seed, duration_s, entry=entry)
+        if offsets_deg:
+            unknown = sorted(set(offsets_deg) - set(ROTATION_DOF_NAMES))
+            if unknown:
+                raise ValidationError(f"unknown DOF(s) {', '.join(unknown)}", field="offsets_deg",
+                                      allowed=", ".join(ROTATION_DOF_NAMES))
+            plan.controls["offsets_deg"] = {k: round(float(v), 6) for k, v in sorted(offsets_deg.items())}
         return self._synthesize(plan, smp, seed, prompt)
 
     def resolve(self, smp_or_prompt: SMP | str) -> tuple[SMP, Any, str | None]:
@@ -265,6 +275,8 @@ class ProceduralBackend:
         f_breath = rng_style.uniform(0.2, 0.33)
         noise[:, DOF_INDEX["trunk_flex"]] += 0.6 * np.sin(2 * np.pi * f_breath * t + rng_style.uniform(0, 6.28))
         dofs = dofs + style + noise
+        for name, deg in c.get("offsets_deg", {}).items():
+            dofs[:, DOF_INDEX[name]] += deg
         low, high = limits_array()
         dofs = soft_limit(dofs, low, high)
         if c["mirrored"]:

@@ -54,6 +54,7 @@ from vsmp_imu.har.synthetic import take_budget
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.imu import simulate_kinematics
 from vsmp_imu.motion import Motion
+from vsmp_imu.pipeline.motionfit import MotionFitJob, fit_class_motion, fit_text
 from vsmp_imu.pipeline.records import Provenance, WindowRecord
 from vsmp_imu.pipeline.sample import (
     LocationTask,
@@ -289,7 +290,7 @@ def smp_variants(spec: GenerationSpec, base: Base, seed: int, key: str, library=
 
 def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list[tuple[str, Base]], slots: range,
                  seed: int, fold: str, fs_hz: float, locations: tuple[LocationTask, ...], library=None,
-                 motion_dir: Path | None = None) -> list[SampleTask]:
+                 motion_dir: Path | None = None, motion_fit: str = "") -> list[SampleTask]:
     """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants)."""
     variants = [(src, k, v) for src, base in bases
                 for k, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", library)]
@@ -302,9 +303,32 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
             backend=spec.backend, seed=int(rng_for(seed, fold, label, slot).integers(2**31)),
             fs_hz=fs_hz, locations=locations, sim_in_the_loop=spec.sim_in_the_loop,
             noise=spec.noise, duration_s=spec.duration_s, library_dirs=tuple(spec.library_dirs),
-            motion_dir=str(motion_dir) if motion_dir else None,
+            motion_dir=str(motion_dir) if motion_dir else None, motion_fit=motion_fit,
         ))
     return tasks
+
+
+# -- stage 2b: motion-level simulation-in-the-loop ------------------------------------------------
+def motion_fit_jobs(spec: GenerationSpec, info: DatasetInfo, sources, setup: FoldSetup, budget: np.ndarray,
+                    seed: int, fold: str, library=None) -> list[MotionFitJob]:
+    """One job per class with a budget: its (refined) base SMP, D_stat targets and real mean accelerations."""
+    jobs = []
+    for i, label in enumerate(info.label_names):
+        if budget[i] <= 0 or label not in sources:
+            continue
+        base = sources[label][0][1]
+        smp_json = ""
+        if isinstance(base, SMP):
+            smp_json = (Refiner(library).refine(base).smp if spec.refine else base).canonical_json()
+        mask = setup.d_stat.y == i
+        means = []
+        for loc in setup.plan[label]:
+            acc = setup.d_stat.X[mask][..., channel_index(info, loc)[:3]].reshape(-1, 3)
+            means.append(tuple(float(v) for v in acc.mean(axis=0)) if loc.gravity_included and len(acc) else None)
+        jobs.append(MotionFitJob(label, smp_json, spec.backend, tuple(spec.library_dirs), info.fs_hz,
+                                 setup.locations[label], tuple(means), int(mask.sum()),
+                                 int(rng_for(seed, fold, "motion-fit").integers(2**31))))
+    return jobs
 
 
 # -- stage 4: ground ----------------------------------------------------------------------------------
@@ -467,6 +491,7 @@ class FoldGenerator:
         self.cache_dir = cache_dir
         self.motion_dir = motion_dir
         self.library = library
+        self.motion_fits: dict[str, dict] = {}  # per class, set by `generate` (motion_fit)
 
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
                  budget: np.ndarray, seed: int, fold: str) -> FoldOutput:
@@ -476,6 +501,7 @@ class FoldGenerator:
         length = train.n_timesteps
         hop = max(1, int(round(spec.hop_fraction * length)))
         setup = prepare(spec, info, train, sources, seed, threads)
+        self.motion_fits = self.fit_motions(info, sources, setup, budget, seed, fold)
         job = None
         if spec.quality_filter:
             job = make_filter_job(info, train, seed, fold, spec.val_fraction, spec.min_validator_windows,
@@ -506,13 +532,24 @@ class FoldGenerator:
                       meta={"sample": np.array([records[i].sample for i in np.flatnonzero(selected)],
                                                dtype=object).astype(str)})
         summary = _summary(info, results, records, budget, out, tau, len(setup.d_stat), len(setup.d_rank))
+        if spec.motion_fit:
+            summary["motion_fit"] = self.motion_fits
         return FoldOutput(out, X, records, results, tasks, summary)
 
     # -- stages 2 + 3 on the executor --------------------------------------------------------------
+    def fit_motions(self, info, sources, setup: FoldSetup, budget, seed: int, fold: str) -> dict[str, dict]:
+        """Per class, the fitted motion parameters (empty without `motion_fit`)."""
+        if not self.config.motion_fit:
+            return {}
+        jobs = motion_fit_jobs(self.config, info, sources, setup, budget, seed, fold, self.library)
+        fits = self.executor.map(fit_class_motion, jobs, desc=f"fold {fold}: fitting {len(jobs)} class motions")
+        return {job.label: fit for job, fit in zip(jobs, fits, strict=True)}
+
     def tasks(self, info: DatasetInfo, label: str, bases, slots: range, seed: int, fold: str,
               locations: tuple[LocationTask, ...]) -> list[SampleTask]:
+        fit = fit_text(self.motion_fits.get(label))
         return sample_tasks(self.config, label, info.label_names.index(label), bases, slots, seed, fold,
-                            info.fs_hz, locations, self.library, self.motion_dir)
+                            info.fs_hz, locations, self.library, self.motion_dir, fit)
 
     def synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
         """Rounds of per-sample synthesis until every class has oversample x budget raw windows.

@@ -96,6 +96,7 @@ class SampleTask:
     motion_file: str | None = None  # a recorded motion (.npz, e.g. from video pose) used as is
     motion_digest: str | None = None  # content hash of motion_file (what the cache key sees)
     motion_dir: str | None = None  # where to save the motion (.npz), if anywhere; not hashed
+    motion_fit: str = ""  # the class's fitted motion parameters (pipeline.motionfit, JSON; empty: none)
 
     def content_hash(self) -> str:
         payload = asdict(self)
@@ -226,14 +227,27 @@ def _motion(task: SampleTask) -> tuple[Motion, str | None]:
         except pydantic.ValidationError as exc:
             raise SampleError(f"the SMP variant has {exc.error_count()} field(s) out of range: "
                               f"{exc.errors()[0]['msg']}", field="smp") from exc
-        motion, smp_id = backend_for(task.backend, task.library_dirs).generate(smp, task.seed, task.duration_s), \
-            smp.smp_id
+        motion, smp_id = _smp_motion(task, smp), smp.smp_id
     else:
         motion, smp_id = backend_for(task.backend, task.library_dirs).generate(task.prompt, task.seed,
                                                                                task.duration_s), None
     if not (np.isfinite(motion.positions).all() and np.isfinite(motion.rotations).all()):
         raise SampleError("the motion has non-finite joint positions or rotations", field="motion")
     return motion, smp_id
+
+
+def _smp_motion(task: SampleTask, smp: SMP) -> Motion:
+    """The SMP variant's motion; with a class motion fit, with this sample's draw of its parameters."""
+    backend = backend_for(task.backend, task.library_dirs)
+    if not task.motion_fit:
+        return backend.generate(smp, task.seed, task.duration_s)
+    from vsmp_imu.pipeline.motionfit import draw, realize
+
+    phi = draw(json.loads(task.motion_fit), task.seed)
+    fitted, offsets = realize(smp, phi)
+    motion = backend.generate(fitted, task.seed, task.duration_s, offsets_deg=offsets)
+    motion.meta.setdefault("controls", {})["motion_fit"] = phi
+    return motion
 
 
 def synthesize(task: SampleTask, motion_path: Path | None = None) -> SampleResult:

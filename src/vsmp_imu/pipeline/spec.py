@@ -43,6 +43,8 @@ class GenerationSpec:
     refine: bool = True
     uncertainty_conditioned: bool = True
     sim_in_the_loop: bool = True
+    # motion-level simulation-in-the-loop: per class, fit the motion's free parameters to D_stat
+    motion_fit: bool = False
     rank_grounding: bool = True
     per_class_rank: bool = False
     estimate_mounting: bool = True  # nominal dataset mounting frame from D_stat class means

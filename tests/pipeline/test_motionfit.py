@@ -1,0 +1,163 @@
+"""Motion-level simulation-in-the-loop (`pipeline.motionfit`): the per-class CEM over the motion's
+free parameters moves a mis-set parameter toward the truth, keeps a distribution, falls back
+where it cannot fit, and reaches the samples and the summary."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from vsmp_imu.grounding.align import Convention, ConventionAlignment
+from vsmp_imu.grounding.stats import TargetStatistics
+from vsmp_imu.imu import VirtualSensor, sensor_readings, simulate_kinematics
+from vsmp_imu.pipeline.fold import _summary_lists
+from vsmp_imu.pipeline.motionfit import (
+    MIN_FIT_WINDOWS,
+    PARAMS,
+    MotionFitJob,
+    bounds,
+    draw,
+    fit_class_motion,
+    fit_text,
+    realize,
+)
+from vsmp_imu.pipeline.sample import LocationTask, backend_for
+from vsmp_imu.smp.library import ActivityLibrary
+
+FS = 50.0
+LOCATION = "waist"
+CONVENTION = Convention(axes=("up", "forward", "left"), gravity_included=True)
+
+
+@pytest.fixture(scope="module")
+def walking():
+    smp = ActivityLibrary.load().match("walking").smp
+    d = smp.model_dump(mode="json")
+    d["execution_attributes"]["tempo"] = 1.0  # the SMP says medium tempo
+    d["execution_attributes"]["amplitude"] = 1.0
+    d["constraints"]["variant_fields"] = sorted({*d["constraints"]["variant_fields"], "tempo", "amplitude"})
+    return type(smp).model_validate(d)
+
+
+def real_windows(smp, phi: dict[str, float], seed: int) -> np.ndarray:
+    """'Real' windows of a motion performed with phi: simulated, aligned, cut as the dataset's are."""
+    fitted, offsets = realize(smp, phi)
+    motion = backend_for("procedural", ()).generate(fitted, seed, 30.0, offsets_deg=offsets)
+    sensor = VirtualSensor.at(LOCATION)
+    base = sensor.mounting_matrix()
+    kin = simulate_kinematics(motion, sensor, FS)
+    readings = sensor_readings(kin, base, None, None, 1.0, 1.0, True, None)[0]
+    aligned = ConventionAlignment(CONVENTION).transform(readings, kin.grav_seg @ base.T)
+    length, hop = int(2 * FS), int(FS)
+    return np.stack([aligned[s: s + length] for s in range(0, len(aligned) - length + 1, hop)])
+
+
+def job_for(smp, windows: np.ndarray, label: str = "walk") -> MotionFitJob:
+    """The job the fold builds: D_stat statistics of the class's windows, their mean acceleration."""
+    stats = TargetStatistics(FS).fit(windows, np.zeros(len(windows), int))
+    target = _summary_lists(stats.for_class(0)) if 0 in stats.per_class_ else None
+    loc = LocationTask(LOCATION, CONVENTION.as_dict(), True, target, tuple(Rotation.identity().as_quat()))
+    mean = tuple(float(v) for v in windows[..., :3].reshape(-1, 3).mean(0))
+    return MotionFitJob(label, smp.canonical_json(), "procedural", (), FS, (loc,), (mean,), len(windows), 7)
+
+
+@pytest.mark.parametrize("name,truth,share", [("tempo", 1.9, 0.5), ("amplitude", 0.2, 0.9)])
+def test_a_mis_set_parameter_moves_toward_the_truth(walking, name, truth, share):
+    """The 'real' performer differs in body and style from the fitted motion's; tempo is found more
+    than half way, amplitude (traded against posture in the same statistics) at least a tenth."""
+    phi = dict(zip(PARAMS, bounds(walking)[0], strict=True)) | {name: truth}
+    windows = real_windows(walking, phi, seed=101)
+    assert len(windows) >= MIN_FIT_WINDOWS
+    fit = fit_class_motion(job_for(walking, windows))
+    assert fit["fitted"] and fit["loss_best"] < fit["loss_nominal"]
+    k = PARAMS.index(name)
+    start = fit["nominal"][k]
+    assert start == 1.0
+    assert abs(fit["mean"][k] - truth) < share * abs(start - truth), fit
+    assert fit["low"][k] <= fit["mean"][k] <= fit["high"][k]
+
+
+def test_the_fit_is_a_distribution_the_samples_draw_from(walking):
+    windows = real_windows(walking, {"tempo": 1.6}, seed=5)
+    fit = fit_class_motion(job_for(walking, windows))
+    assert fit == fit_class_motion(job_for(walking, windows))  # same job, same bytes
+    draws = np.array([[draw(fit, seed)[p] for p in PARAMS] for seed in range(40)])
+    assert (draws >= np.array(fit["low"]) - 1e-9).all() and (draws <= np.array(fit["high"]) + 1e-9).all()
+    assert draws[:, PARAMS.index("tempo")].std() > 0.05  # the samples still vary
+    assert draw(fit, 3) == draw(fit, 3)
+
+
+def test_invariant_and_fixed_fields_never_change(walking):
+    d = walking.model_dump(mode="json")
+    d["constraints"]["variant_fields"] = []  # tempo and amplitude are not free
+    fixed = type(walking).model_validate(d)
+    nominal, low, high = bounds(fixed)
+    assert (low[:2] == high[:2]).all() and (nominal[:2] == low[:2]).all()
+    changed, offsets = realize(fixed, {"tempo": 1.0, "amplitude": 1.0, "root_pitch_deg": 4.0, "root_roll_deg": 0.0})
+    assert offsets == {"root_pitch": 4.0, "root_roll": 0.0}
+    moved, _ = realize(walking, {"tempo": 1.7})
+    before, after = walking.model_dump(), moved.model_dump()
+    assert after["execution_attributes"]["tempo"] == 1.7
+    for field in ("activity_label", "primitive_sequence", "motion_primitives", "body_parts", "object_contact",
+                  "constraints"):
+        assert after[field] == before[field]
+
+
+def test_a_class_with_too_few_windows_keeps_the_smp_defaults(walking):
+    windows = real_windows(walking, {}, seed=2)[: MIN_FIT_WINDOWS - 1]
+    fit = fit_class_motion(job_for(walking, windows))
+    assert fit == {"fitted": False, "reason": f"{MIN_FIT_WINDOWS - 1} D_stat window(s), fewer than "
+                   f"{MIN_FIT_WINDOWS}", "d_stat_windows": MIN_FIT_WINDOWS - 1}
+    assert fit_text(fit) == ""  # its samples get no motion parameters
+    job = job_for(walking, real_windows(walking, {}, seed=2))
+    not_smp = MotionFitJob(**{**job.__dict__, "smp_json": ""})
+    assert "not an SMP" in fit_class_motion(not_smp)["reason"]
+
+
+def test_the_fit_reaches_samples_and_summary(tiny_fold):
+    """With `motion_fit` on, the fold fits each class, records it in the summary and every sample's
+    motion controls hold its own draw; off, nothing changes."""
+    on, off = tiny_fold(motion_fit=True), tiny_fold(motion_fit=False)
+    assert "motion_fit" not in off.summary
+    fits = on.summary["motion_fit"]
+    assert set(fits) == {"walk"}
+    fit = fits["walk"]
+    assert fit["fitted"], fit
+    draws = set()
+    for sample in on.samples:
+        controls = sample.provenance.motion.controls
+        assert controls["motion_fit"] == draw(fit, sample.provenance.seed)
+        draws.add(json.dumps(controls["motion_fit"], sort_keys=True))
+        assert controls["offsets_deg"] == {"root_pitch": controls["motion_fit"]["root_pitch_deg"],
+                                           "root_roll": controls["motion_fit"]["root_roll_deg"]}
+    assert len(draws) > 1
+    for sample in off.samples:
+        assert "motion_fit" not in sample.provenance.motion.controls
+
+
+@pytest.fixture
+def tiny_fold(walking):
+    """One fold of the generator on 'real' walking windows (one class, one location)."""
+    from vsmp_imu.executor import LocalExecutor
+    from vsmp_imu.har.dataset import DatasetInfo, SensorLocation, imu_channel_names
+    from vsmp_imu.har.windows import Windows
+    from vsmp_imu.pipeline.fold import FoldGenerator
+    from vsmp_imu.pipeline.spec import GenerationSpec
+
+    windows = np.concatenate([real_windows(walking, {"tempo": 1.5}, seed=s) for s in (11, 12)])
+    names = imu_channel_names(None)
+    info = DatasetInfo(name="walkers", fs_hz=FS, label_names=("walk",), channel_names=names,
+                       locations=(SensorLocation(LOCATION, names, CONVENTION.axes, True, "m/s^2", "rad/s",
+                                                 "documented"),))
+    subjects = np.repeat(["1", "2"], len(windows) // 2 + 1)[: len(windows)]
+    train = Windows(windows, np.zeros(len(windows), int), subjects, info.label_names, names, FS)
+
+    def run(**switches):
+        spec = GenerationSpec(k=2, quality_filter=False, **switches)
+        generator = FoldGenerator(spec, LocalExecutor(1, show_progress=False))
+        return generator.generate(info, train, {"walk": [("test", walking)]}, np.array([20]), 0, "f1")
+
+    return run
