@@ -75,14 +75,18 @@ def _what_was_run(s: dict[str, Any], elapsed: float) -> str:
     return "\n".join(lines)
 
 
-def _caption_section(part: dict[str, Any], s: dict[str, Any]) -> list[str]:
+def caption_table(part: dict[str, Any]) -> str:
+    """Macro-F1 of Real-only and the four matched conditions (the `caption` part)."""
     rows = part["rows"]
-    out = ["## Strictly matched caption–SMP comparison (2×2)", ""]
     table = [["Real-only (reference)", _f1(rows["real"]), fmt_num(rows["real"]["n_synthetic_mean"], 0),
               str(rows["real"]["n"])]]
     for c in CONDITIONS:
         table.append([CONDITION_TITLES[c], _f1(rows[c]), fmt_num(rows[c]["n_synthetic_mean"], 0), str(rows[c]["n"])])
-    out += [markdown_table(["Variant", "Macro-F1 (%)", "synthetic windows / fold", "n"], table), ""]
+    return markdown_table(["Variant", "Macro-F1 (%)", "synthetic windows / fold", "n"], table)
+
+
+def _caption_section(part: dict[str, Any], s: dict[str, Any]) -> list[str]:
+    out = ["## Strictly matched caption–SMP comparison (2×2)", "", caption_table(part), ""]
     eff = part["effects"]
     if eff:
         out += [f"Main effect of the structured SMP representation: {100 * eff['representation']:+.2f} "
@@ -180,22 +184,32 @@ def _prompt_examples(prompts: list[dict[str, Any]]) -> list[str]:
             "All prompts of every fold are in `runs/caption/matched/*.json`.", ""]
 
 
-def _table_section(title: str, part: dict[str, Any], titles: dict[str, str], paper_note: str) -> list[str]:
+def variant_table(part: dict[str, Any], titles: dict[str, str]) -> str:
+    """Macro-F1 of each variant of the `components` or `grounding` part, paired with the full method."""
     rows = []
     for r in part["rows"]:
         paper = PAPER_MEANS.get(r["method"])
         rows.append([titles[r["method"]], _f1(r), _delta(r.get("delta_vs_full")), _se(r.get("delta_vs_full")),
                      _wtl(r.get("delta_vs_full")), "yes" if r.get("identical_to_full") else "",
                      f"{paper:.2f}" if paper else "–"])
-    return [f"## {title}", "", markdown_table(
+    return markdown_table(
         ["Variant", "Macro-F1 (%)", "Δ vs full (paired, points)", "SE", "wins/ties/losses vs full",
-         "identical to full", "paper (5-dataset mean)"], rows), "", paper_note, ""]
+         "identical to full", "paper (5-dataset mean)"], rows)
+
+
+def _table_section(title: str, part: dict[str, Any], titles: dict[str, str], paper_note: str) -> list[str]:
+    return [f"## {title}", "", variant_table(part, titles), "", paper_note, ""]
+
+
+def alpha_table(part: dict[str, Any]) -> str:
+    """Macro-F1 of VSMP-IMU at each alpha (the `alpha` part)."""
+    rows = [[f"{r['alpha']:g}", _f1(r), fmt_num(r["n_synthetic_mean"], 0), str(r["n"])] for r in part["rows"]]
+    return markdown_table(["alpha", "Macro-F1 (%)", "synthetic windows / fold", "n"], rows)
 
 
 def _alpha_section(part: dict[str, Any]) -> list[str]:
-    rows = [[f"{r['alpha']:g}", _f1(r), fmt_num(r["n_synthetic_mean"], 0), str(r["n"])] for r in part["rows"]]
     return ["## Sensitivity to the synthetic-to-real ratio alpha (VSMP-IMU, K = 4)", "",
-            markdown_table(["alpha", "Macro-F1 (%)", "synthetic windows / fold", "n"], rows), "",
+            alpha_table(part), "",
             f"Best alpha here: {part['best_alpha']:g} (paper: 0.5 for MM-Fit, UTD-MHAD, MMAct; 0.25 for "
             "PAMAP2 and HAD-AW)." if part["best_alpha"] is not None else "", ""]
 

@@ -32,6 +32,27 @@ def _group_order(r: GranularityResults) -> list[str]:
     return list(dict.fromkeys([x["group"] for x in r.groups] + list(r.taxonomy)))
 
 
+def group_table(r: GranularityResults) -> str:
+    """Group Macro-F1 per method (mean ± std, paired difference to Real-only) and the overall row."""
+    methods = r.settings["methods"]
+    overall = {o["method"]: o for o in r.overall}
+    headers = ["Group"] + [method_display(m) for m in methods]
+    rows = []
+    for g in _group_order(r):
+        row = [g]
+        for m in methods:
+            cell = next(x for x in r.groups if x["method"] == m and x["group"] == g)
+            text = _pct(cell["macro_f1_mean"], cell["macro_f1_std"])
+            d = cell.get("delta_vs_real")
+            if d and d["mean"] is not None:
+                text += f" ({100 * d['mean']:+.2f})"
+            row.append(text)
+        rows.append(row)
+    rows.append(["All classes (Macro-F1)"] + [_pct(overall[m]["macro_f1_mean"], overall[m]["macro_f1_std"])
+                                              for m in methods])
+    return markdown_table(headers, rows)
+
+
 def granularity_markdown(r: GranularityResults) -> str:
     s = r.settings
     budget = "full training data" if s["label_budget_percent"] is None else \
@@ -54,25 +75,10 @@ def granularity_markdown(r: GranularityResults) -> str:
                                                        for g in _group_order(r)], align=["l", "l", "r"]), ""]
     if r.ungrouped:
         out += [f"Classes in no group (left out of the group table): {', '.join(r.ungrouped)}.", ""]
-    overall = {o["method"]: o for o in r.overall}
-    headers = ["Group"] + [method_display(m) for m in methods]
-    rows = []
-    for g in _group_order(r):
-        row = [g]
-        for m in methods:
-            cell = next(x for x in r.groups if x["method"] == m and x["group"] == g)
-            text = _pct(cell["macro_f1_mean"], cell["macro_f1_std"])
-            d = cell.get("delta_vs_real")
-            if d and d["mean"] is not None:
-                text += f" ({100 * d['mean']:+.2f})"
-            row.append(text)
-        rows.append(row)
-    rows.append(["All classes (Macro-F1)"] + [_pct(overall[m]["macro_f1_mean"], overall[m]["macro_f1_std"])
-                                              for m in methods])
     out += ["## Group Macro-F1 (%)", "",
             "Mean ± std over folds x seeds of the mean F1 of a group's classes (those in the held-out "
             "subject's truth or predictions); in brackets the paired difference to Real-only.", "",
-            markdown_table(headers, rows), ""]
+            group_table(r), ""]
     out += ["## Per-class precision, recall and F1 (%)", "",
             "Means over folds x seeds (a class absent from a held-out subject's truth and predictions "
             "is not counted for that fold); support = test windows summed over folds x seeds.", ""]
