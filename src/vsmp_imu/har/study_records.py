@@ -176,14 +176,26 @@ def _control_activities(attribute: str) -> Callable[[dict[str, Any]], str]:
 def _ablation_part(part: str) -> Callable[[dict[str, Any]], str]:
     def render(results: dict[str, Any]) -> str:
         from vsmp_imu.studies.ablation import COMPONENT_TITLES, GROUNDING_TITLES
-        from vsmp_imu.studies.ablation_report import alpha_table, caption_table, variant_table
+        from vsmp_imu.studies.ablation_report import (
+            acceptance_table,
+            alpha_table,
+            caption_table,
+            effects_text,
+            paired_table,
+            variant_table,
+        )
 
-        data = results["parts"].get(part)
+        name = part.split(":")[0]
+        data = results["parts"].get(name)
         if data is None:
-            raise ConfigError(f"the ablation run has no '{part}' part",
+            raise ConfigError(f"the ablation run has no '{name}' part",
                               allowed=", ".join(results["parts"]) or "none")
         if part == "caption":
             return caption_table(data)
+        if part == "caption:paired":
+            return "\n\n".join(x for x in (effects_text(data), paired_table(data)) if x)
+        if part == "caption:acceptance":
+            return acceptance_table(data["accounting_pooled"])
         if part == "alpha":
             return alpha_table(data)
         return variant_table(data, COMPONENT_TITLES if part == "components" else GROUNDING_TITLES)
@@ -211,7 +223,10 @@ VIEWS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "control:checkpoints": ("control", _control_checkpoints),
     "control:repetitions": ("control", _control_activities("repetitions")),
     "control:duration": ("control", _control_activities("duration")),
+    "control:symmetry": ("control", _control_activities("symmetry")),
     "ablation:caption": ("ablation", _ablation_part("caption")),
+    "ablation:paired": ("ablation", _ablation_part("caption:paired")),
+    "ablation:acceptance": ("ablation", _ablation_part("caption:acceptance")),
     "ablation:components": ("ablation", _ablation_part("components")),
     "ablation:grounding": ("ablation", _ablation_part("grounding")),
     "ablation:alpha": ("ablation", _ablation_part("alpha")),

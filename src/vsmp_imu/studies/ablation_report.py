@@ -85,21 +85,44 @@ def caption_table(part: dict[str, Any]) -> str:
     return markdown_table(["Variant", "Macro-F1 (%)", "synthetic windows / fold", "n"], table)
 
 
-def _caption_section(part: dict[str, Any], s: dict[str, Any]) -> list[str]:
-    out = ["## Strictly matched caption–SMP comparison (2×2)", "", caption_table(part), ""]
+def effects_text(part: dict[str, Any]) -> str:
+    """The 2x2's main effects and interaction in one sentence ('' when not computed)."""
     eff = part["effects"]
-    if eff:
-        out += [f"Main effect of the structured SMP representation: {100 * eff['representation']:+.2f} "
-                f"Macro-F1 points; of explicit semantic variation: {100 * eff['variation']:+.2f}; "
-                f"interaction (S1 − S0) − (C1 − C0): {100 * eff['interaction']:+.2f} "
-                "(paper, mean of five datasets with HY-Motion: +2.90, +1.90, +0.72).", ""]
+    if not eff:
+        return ""
+    return (f"Main effect of the structured SMP representation: {100 * eff['representation']:+.2f} "
+            f"Macro-F1 points; of explicit semantic variation: {100 * eff['variation']:+.2f}; "
+            f"interaction (S1 − S0) − (C1 − C0): {100 * eff['interaction']:+.2f} "
+            "(paper, mean of five datasets with HY-Motion: +2.90, +1.90, +0.72).")
+
+
+def paired_table(part: dict[str, Any]) -> str:
+    """Paired differences of the 2x2 conditions (and Real-only) per (fold, seed), with SE and W/T/L."""
     keys = [f"{a}-{b}" for a, b in PAIRS]
     keys += [k for k in part["paired"] if k not in keys]
     paired = [[k.replace("-", " − ").replace("real", "Real-only"), _delta(part["paired"][k]),
                _se(part["paired"][k]), _wtl(part["paired"][k])] for k in keys if k in part["paired"]]
+    return markdown_table(["Comparison", "Δ Macro-F1 (points)", "SE", "wins/ties/losses"], paired)
+
+
+def acceptance_table(pooled: dict[str, Any]) -> str:
+    """Independent filter acceptance per condition and the complete-block acceptance."""
+    rows = []
+    for c in CONDITIONS:
+        reasons = ", ".join(f"{k} {v}" for k, v in sorted(pooled["rejected_by"][c].items(), key=lambda kv: -kv[1]))
+        rows.append([CONDITION_TITLES[c], fmt_pct(pooled["independent_acceptance"][c]), reasons or "–"])
+    rows.append(["Complete matched block", fmt_pct(pooled["block_acceptance"]), ""])
+    return markdown_table(["Condition", "Independent acceptance", "Rejected samples by filter"], rows)
+
+
+def _caption_section(part: dict[str, Any], s: dict[str, Any]) -> list[str]:
+    out = ["## Strictly matched caption–SMP comparison (2×2)", "", caption_table(part), ""]
+    effects = effects_text(part)
+    if effects:
+        out += [effects, ""]
     out += ["Paired differences over the same (fold, seed), mean ± std; SE = std / √n. A difference "
             "within about two SE of zero is not told apart from fold-to-fold noise.", "",
-            markdown_table(["Comparison", "Δ Macro-F1 (points)", "SE", "wins/ties/losses"], paired), ""]
+            paired_table(part), ""]
     n_folds = len(part["accounting"])
     same = [f"{k.replace('=', ' and ')} in {v} of {n_folds}" for k, v in part.get("identical_windows", {}).items() if v]
     if same:
@@ -132,12 +155,7 @@ def _accounting_tables(p: dict[str, Any], s: dict[str, Any]) -> list[str]:
                  f"{_ms(p['accepted_blocks'])} ({_ms(p['unfilled_blocks'])})", _ms(per_condition),
                  _ms(total), _ms(p["selected_windows_per_condition"])]]), "",
            "Independent filter acceptance before matched-block retention (all attempted samples):", ""]
-    rows = []
-    for c in CONDITIONS:
-        reasons = ", ".join(f"{k} {v}" for k, v in sorted(p["rejected_by"][c].items(), key=lambda kv: -kv[1]))
-        rows.append([CONDITION_TITLES[c], fmt_pct(p["independent_acceptance"][c]), reasons or "–"])
-    rows.append(["Complete matched block", fmt_pct(p["block_acceptance"]), ""])
-    out += [markdown_table(["Condition", "Independent acceptance", "Rejected samples by filter"], rows), "",
+    out += [acceptance_table(p), "",
             "Final downstream counts are identical across conditions: per class, every condition gives "
             "min(class budget, fewest retained windows of the four) windows.", ""]
     per_class = p.get("per_class") or {}
