@@ -25,6 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from scipy.stats import wilcoxon
 
 from vsmp_imu.errors import ConfigError, InputFileError
+from vsmp_imu.har.bench_records import BenchTable
 from vsmp_imu.har.metrics import mean_std
 from vsmp_imu.har.records import RecordSet, load_run
 from vsmp_imu.har.study_records import VIEWS, StudyRecord, StudyTable, load_study
@@ -69,7 +70,7 @@ class TableSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     id: str = Field(pattern=r"^[a-z0-9_-]+:[a-z0-9_-]+$")
     records: str
-    kind: Literal["groups", "paired", "classes", "synthetic", "study"]
+    kind: Literal["groups", "paired", "classes", "synthetic", "study", "benchmark"]
     methods: list[str] = Field(default_factory=list)
     metrics: list[Metric] = Field(default_factory=list)
     budgets: list[float] | None = None
@@ -79,12 +80,17 @@ class TableSpec(BaseModel):
     digits: int = Field(2, ge=0, le=4)
     row_header: str = "Group"
     view: str | None = None  # kind study: a table of the study's report (har.study_records.VIEWS)
+    source: str | None = None  # kind benchmark: the committed benchmark JSON (har.bench_records)
 
     @model_validator(mode="after")
     def _consistent(self) -> TableSpec:
         if self.kind == "study":
             if self.view not in VIEWS:
                 raise ValueError(f"a study table needs a view, one of {', '.join(VIEWS)}")
+            return self
+        if self.kind == "benchmark":
+            if self.source is None:
+                raise ValueError("a benchmark table needs the source JSON, e.g. benchmarks/results/run_all.json")
             return self
         if not self.methods:
             raise ValueError(f"a {self.kind} table needs methods")
@@ -375,6 +381,8 @@ class Publication:
         spec = next((t for t in self.catalogue.tables if t.id == table_id), None)
         if spec is None:
             raise ConfigError(f"no table '{table_id}' in {SPEC_FILE}", file=self.results_dir / SPEC_FILE)
+        if spec.kind == "benchmark":
+            return BenchTable(self.root, spec.id, spec.source).render()
         if spec.kind == "study":
             if spec.records not in self._studies:
                 self._studies[spec.records] = load_study(self.results_dir, spec.records)
