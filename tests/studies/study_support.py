@@ -46,3 +46,11 @@ def rebuild_study_tables(out: Path, command: str, views: dict[str, str], root: P
     assert code == 0, stdout + err
     text = (root / "README.md").read_text()
     return {m[1]: m[2] for m in re.finditer(r"<!-- report:(\S+) -->\n(.*?)<!-- /report -->", text, re.S)}
+
+
+def assert_blocks_in_report(blocks: dict[str, str], report: str) -> None:
+    """Every paragraph of every rebuilt block (less its source line) is printed as is in report.md."""
+    for table_id, block in blocks.items():
+        body = block.split("\n\nRecords: ")[0]
+        for paragraph in body.split("\n\n"):
+            assert paragraph in report, f"{table_id}: {paragraph[:80]}"

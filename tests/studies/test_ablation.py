@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from study_support import invoke
+from study_support import assert_blocks_in_report, invoke, rebuild_study_tables
 
 from vsmp_imu.studies.ablation import ALPHAS, COMPONENT_METHODS, GROUNDING_METHODS
 from vsmp_imu.studies.matched import CONDITIONS
@@ -158,3 +158,14 @@ def test_bad_input_gives_a_clean_message(cli, tmp_path, args, field):
     code, _, err = cli("study", "ablation", "-o", tmp_path / "out", *args)
     assert code == 2
     assert field in err
+
+
+def test_the_study_record_rebuilds_the_report_tables(ablation, tmp_path):
+    out, args, _, _, _ = ablation
+    views = ("caption", "paired", "acceptance", "components", "grounding", "alpha")
+    blocks = rebuild_study_tables(out, "vsmp-imu " + " ".join(str(a) for a in args),
+                                  {f"ablation:{v}": f"ablation:{v}" for v in views}, tmp_path)
+    assert_blocks_in_report(blocks, (out / "report.md").read_text())
+    kept = json.loads((tmp_path / "results/study/study.json").read_text())
+    assert "prompts" not in kept["parts"]["caption"]
+    assert kept["parts"]["components"] == json.loads((out / "results.json").read_text())["parts"]["components"]
