@@ -140,6 +140,7 @@ def test_a_dataset_without_a_taxonomy_needs_one(cli, tmp_path):
 def test_the_study_record_rebuilds_the_group_table(hapt_run, tmp_path):
     out = hapt_run[0]
     command = f"vsmp-imu study granularity -o {out} --protocol low-resource --budget 2 --folds 1"
-    blocks = rebuild_study_tables(out, command, {"granularity:main": "granularity:groups"}, tmp_path)
+    blocks = rebuild_study_tables(out, command, {"granularity:main": "granularity:groups",
+                                                           "granularity:classes": "granularity:classes"}, tmp_path)
     assert_blocks_in_report(blocks, (out / "report.md").read_text())
     assert "| Locomotion" in blocks["granularity:main"]

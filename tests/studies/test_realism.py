@@ -130,6 +130,7 @@ def test_the_study_record_rebuilds_the_distance_table(realism, tmp_path):
     _, _, paths = realism
     out = paths["report"].parent
     blocks = rebuild_study_tables(out, "vsmp-imu study realism -o out -d utd_mhad --fold 1",
-                                  {"realism:main": "realism:distances"}, tmp_path)
+                                  {"realism:main": "realism:distances", "realism:classes": "realism:classes"},
+                                  tmp_path)
     assert_blocks_in_report(blocks, paths["report"].read_text())
     assert "| Real, held-out subject |" in blocks["realism:main"]

@@ -203,18 +203,24 @@ def _ablation_part(part: str) -> Callable[[dict[str, Any]], str]:
     return render
 
 
-def _granularity_groups(results: dict[str, Any]) -> str:
-    from vsmp_imu.studies.granularity import GranularityResults
-    from vsmp_imu.studies.granularity_report import group_table
+def _granularity(table: str) -> Callable[[dict[str, Any]], str]:
+    def render(results: dict[str, Any]) -> str:
+        from vsmp_imu.studies import granularity_report
+        from vsmp_imu.studies.granularity import GranularityResults
 
-    return group_table(_fields(GranularityResults, results))
+        return getattr(granularity_report, table)(_fields(GranularityResults, results))
+
+    return render
 
 
-def _realism_distances(results: dict[str, Any]) -> str:
-    from vsmp_imu.studies.realism import RealismResults
-    from vsmp_imu.studies.realism_report import distance_table
+def _realism(table: str) -> Callable[[dict[str, Any]], str]:
+    def render(results: dict[str, Any]) -> str:
+        from vsmp_imu.studies import realism_report
+        from vsmp_imu.studies.realism import RealismResults
 
-    return distance_table(_fields(RealismResults, results))
+        return getattr(realism_report, table)(_fields(RealismResults, results))
+
+    return render
 
 
 # view name -> (study, the report builder's table)
@@ -230,8 +236,10 @@ VIEWS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "ablation:components": ("ablation", _ablation_part("components")),
     "ablation:grounding": ("ablation", _ablation_part("grounding")),
     "ablation:alpha": ("ablation", _ablation_part("alpha")),
-    "granularity:groups": ("granularity", _granularity_groups),
-    "realism:distances": ("realism", _realism_distances),
+    "granularity:groups": ("granularity", _granularity("group_table")),
+    "granularity:classes": ("granularity", _granularity("class_table")),
+    "realism:distances": ("realism", _realism("distance_table")),
+    "realism:classes": ("realism", _realism("class_distance_table")),
 }
 
 

@@ -53,6 +53,22 @@ def group_table(r: GranularityResults) -> str:
     return markdown_table(headers, rows)
 
 
+def class_table(r: GranularityResults) -> str:
+    """Per class (grouped): support and each method's precision / recall / F1 (%)."""
+    methods = r.settings["methods"]
+    headers = ["Group", "Class", "Support"] + [f"{method_display(m)} P / R / F1" for m in methods]
+    rows = []
+    for g, classes in [*((g, r.taxonomy[g]) for g in _group_order(r)), ("(ungrouped)", r.ungrouped)]:
+        for c in classes:
+            cells = [next(x for x in r.per_class if x["method"] == m and x["class"] == c) for m in methods]
+            if cells[0]["support"] == 0 and all(x["f1_mean"] is None for x in cells):
+                continue
+            rows.append([g, c, str(cells[0]["support"])] + [
+                " / ".join(fmt_num(None if x[k] is None else 100 * x[k], 1)
+                           for k in ("precision_mean", "recall_mean", "f1_mean")) for x in cells])
+    return markdown_table(headers, rows, align=["l", "l"] + ["r"] * (len(headers) - 2))
+
+
 def granularity_markdown(r: GranularityResults) -> str:
     s = r.settings
     budget = "full training data" if s["label_budget_percent"] is None else \
@@ -82,17 +98,7 @@ def granularity_markdown(r: GranularityResults) -> str:
     out += ["## Per-class precision, recall and F1 (%)", "",
             "Means over folds x seeds (a class absent from a held-out subject's truth and predictions "
             "is not counted for that fold); support = test windows summed over folds x seeds.", ""]
-    headers = ["Group", "Class", "Support"] + [f"{method_display(m)} P / R / F1" for m in methods]
-    rows = []
-    for g, classes in [*((g, r.taxonomy[g]) for g in _group_order(r)), ("(ungrouped)", r.ungrouped)]:
-        for c in classes:
-            cells = [next(x for x in r.per_class if x["method"] == m and x["class"] == c) for m in methods]
-            if cells[0]["support"] == 0 and all(x["f1_mean"] is None for x in cells):
-                continue
-            rows.append([g, c, str(cells[0]["support"])] + [
-                " / ".join(fmt_num(None if x[k] is None else 100 * x[k], 1)
-                           for k in ("precision_mean", "recall_mean", "f1_mean")) for x in cells])
-    out += [markdown_table(headers, rows, align=["l", "l"] + ["r"] * (len(headers) - 2)), "",
+    out += [class_table(r), "",
             "## Deviations from the paper", "",
             "- The paper evaluates UTD-MHAD under standard LOPO with DeepConvLSTM, five seeds, all eight "
             "subjects; the settings of this run are listed above (RF-ECDF is the CPU default).",

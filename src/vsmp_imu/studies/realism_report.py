@@ -52,6 +52,15 @@ def distance_table(r: RealismResults) -> str:
                            "mean KS"], rows)
 
 
+def class_distance_table(r: RealismResults) -> str:
+    """d_a per class (rows, in the dataset's order) and method or reference (columns)."""
+    present = [lab for lab in r.label_names if any(lab in m["per_class"] for m in r.methods)]
+    headers = ["Class"] + [_name(m["method"]) for m in r.methods]
+    rows = [[lab] + [fmt_num(m["per_class"].get(lab, {}).get("distance"), 3) for m in r.methods]
+            for lab in present]
+    return markdown_table(headers, rows)
+
+
 def realism_markdown(r: RealismResults) -> str:
     s, e = r.settings, r.encoder
     p = e["params"]
@@ -90,13 +99,7 @@ def realism_markdown(r: RealismResults) -> str:
             distance_table(r), "",
             f"Paper (UTD-MHAD, its encoder, 27 classes): {paper}. Distances depend on the encoder's "
             "feature scale: compare methods within one run, and against the two references.", ""]
-    labels = r.label_names
-    present = [lab for lab in labels if any(lab in m["per_class"] for m in r.methods)]
-    headers = ["Class"] + [_name(m["method"]) for m in r.methods]
-    rows = []
-    for lab in present:
-        rows.append([lab] + [fmt_num(m["per_class"].get(lab, {}).get("distance"), 3) for m in r.methods])
-    out += ["### d_a per class", "", markdown_table(headers, rows), ""]
+    out += ["### d_a per class", "", class_distance_table(r), ""]
     headers = ["Windows"] + r.channel_names
     rows = [[_name(m["method"])] + [fmt_num(m["ks_per_channel"][c], 3) for c in r.channel_names]
             for m in r.methods if m["method"] != SHUFFLED]
