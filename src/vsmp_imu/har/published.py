@@ -8,7 +8,8 @@ blocks that differ. A table whose records are not committed yet is declared
 under `unbacked` with the reason and the cost of its run: its block is left
 as written and reported as a warning. A `study` table renders one table of a
 committed `vsmp-imu study` run with the study's own report builder
-(`har.study_records`).
+(`har.study_records`); a `benchmark` table is the table a benchmark script
+writes from its committed JSON (`har.bench_records`).
 """
 
 from __future__ import annotations
