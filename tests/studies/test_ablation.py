@@ -8,7 +8,8 @@ import json
 import pytest
 from study_support import assert_blocks_in_report, invoke, rebuild_study_tables
 
-from vsmp_imu.studies.ablation import ALPHAS, COMPONENT_METHODS, GROUNDING_METHODS
+from vsmp_imu.studies.ablation import ALPHAS, COMPONENT_METHODS, GROUNDING_METHODS, AblationResults
+from vsmp_imu.studies.ablation_report import ablation_markdown
 from vsmp_imu.studies.matched import CONDITIONS
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -161,11 +162,17 @@ def test_bad_input_gives_a_clean_message(cli, tmp_path, args, field):
 
 
 def test_the_study_record_rebuilds_the_report_tables(ablation, tmp_path):
-    out, args, _, _, _ = ablation
+    _, args, _, results, _ = ablation
+    out = tmp_path / "out"  # the fixture's results.json as first written (a later test reruns two parts)
+    out.mkdir()
+    (out / "results.json").write_text(json.dumps(results))
+    report = ablation_markdown(AblationResults(**results))
     views = ("caption", "paired", "acceptance", "components", "grounding", "alpha")
+    root = tmp_path / "root"
+    root.mkdir()
     blocks = rebuild_study_tables(out, "vsmp-imu " + " ".join(str(a) for a in args),
-                                  {f"ablation:{v}": f"ablation:{v}" for v in views}, tmp_path)
-    assert_blocks_in_report(blocks, (out / "report.md").read_text())
-    kept = json.loads((tmp_path / "results/study/study.json").read_text())
+                                  {f"ablation:{v}": f"ablation:{v}" for v in views}, root)
+    assert_blocks_in_report(blocks, report)
+    kept = json.loads((root / "results/study/study.json").read_text())
     assert "prompts" not in kept["parts"]["caption"]
-    assert kept["parts"]["components"] == json.loads((out / "results.json").read_text())["parts"]["components"]
+    assert kept["parts"]["components"] == results["parts"]["components"]
