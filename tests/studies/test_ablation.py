@@ -6,9 +6,10 @@ from __future__ import annotations
 import json
 
 import pytest
-from study_support import invoke
+from study_support import assert_blocks_in_report, invoke, rebuild_study_tables
 
-from vsmp_imu.studies.ablation import ALPHAS, COMPONENT_METHODS, GROUNDING_METHODS
+from vsmp_imu.studies.ablation import ALPHAS, COMPONENT_METHODS, GROUNDING_METHODS, AblationResults
+from vsmp_imu.studies.ablation_report import ablation_markdown
 from vsmp_imu.studies.matched import CONDITIONS
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -158,3 +159,20 @@ def test_bad_input_gives_a_clean_message(cli, tmp_path, args, field):
     code, _, err = cli("study", "ablation", "-o", tmp_path / "out", *args)
     assert code == 2
     assert field in err
+
+
+def test_the_study_record_rebuilds_the_report_tables(ablation, tmp_path):
+    _, args, _, results, _ = ablation
+    out = tmp_path / "out"  # the fixture's results.json as first written (a later test reruns two parts)
+    out.mkdir()
+    (out / "results.json").write_text(json.dumps(results))
+    report = ablation_markdown(AblationResults(**results))
+    views = ("caption", "paired", "acceptance", "components", "grounding", "alpha")
+    root = tmp_path / "root"
+    root.mkdir()
+    blocks = rebuild_study_tables(out, "vsmp-imu " + " ".join(str(a) for a in args),
+                                  {f"ablation:{v}": f"ablation:{v}" for v in views}, root)
+    assert_blocks_in_report(blocks, report)
+    kept = json.loads((root / "results/study/study.json").read_text())
+    assert "prompts" not in kept["parts"]["caption"]
+    assert kept["parts"]["components"] == results["parts"]["components"]

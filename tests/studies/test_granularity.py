@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from study_support import FIXTURES, invoke
+from study_support import FIXTURES, assert_blocks_in_report, invoke, rebuild_study_tables
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.studies.granularity import default_taxonomy, load_taxonomy, match_taxonomy
@@ -135,3 +135,12 @@ def test_a_dataset_without_a_taxonomy_needs_one(cli, tmp_path):
     generic = FIXTURES / "datasets" / "generic" / "dataset.yaml"
     code, _, err = cli("study", "granularity", "-o", tmp_path / "out", "-d", generic, "--methods", "real")
     assert code == 2 and "--taxonomy" in err
+
+
+def test_the_study_record_rebuilds_the_group_table(hapt_run, tmp_path):
+    out = hapt_run[0]
+    command = f"vsmp-imu study granularity -o {out} --protocol low-resource --budget 2 --folds 1"
+    blocks = rebuild_study_tables(out, command, {"granularity:main": "granularity:groups",
+                                                           "granularity:classes": "granularity:classes"}, tmp_path)
+    assert_blocks_in_report(blocks, (out / "report.md").read_text())
+    assert "| Locomotion" in blocks["granularity:main"]

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from study_support import assert_blocks_in_report, rebuild_study_tables
 
 from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.studies.realism import (
@@ -123,3 +124,13 @@ def test_bad_input_gives_a_clean_message(cli, tmp_path, args, field):
     code, _, err = cli("study", "realism", "-o", tmp_path / "out", *args)
     assert code == 2
     assert field in err
+
+
+def test_the_study_record_rebuilds_the_distance_table(realism, tmp_path):
+    _, _, paths = realism
+    out = paths["report"].parent
+    blocks = rebuild_study_tables(out, "vsmp-imu study realism -o out -d utd_mhad --fold 1",
+                                  {"realism:main": "realism:distances", "realism:classes": "realism:classes"},
+                                  tmp_path)
+    assert_blocks_in_report(blocks, paths["report"].read_text())
+    assert "| Real, held-out subject |" in blocks["realism:main"]

@@ -71,7 +71,7 @@ def _head_commit() -> str | None:
 
 @report_app.command("import")
 def import_cmd(
-    run_dir: Path = typer.Argument(..., help="an `vsmp-imu evaluate` output folder"),
+    run_dir: Path = typer.Argument(..., help="a `vsmp-imu evaluate` or `vsmp-imu study` output folder"),
     name: str = typer.Option(..., "--name", help="record-set name, e.g. lr_rf"),
     command: str = typer.Option(..., "--command", help="the command that produced the run"),
     commit: str | None = typer.Option(
@@ -80,10 +80,13 @@ def import_cmd(
     note: str | None = typer.Option(None, "--note", help="how the run was made, if not by the command alone"),
     root: Path = typer.Option(Path("."), "--root", help="repository root (writes root/results/NAME/)"),
 ) -> None:
-    """Copy a run's records into results/NAME/ (records.jsonl + run.json)."""
+    """Copy a run's records into results/NAME/: records.jsonl + run.json for an evaluation,
+    study.json + run.json for a study (told by the command, `vsmp-imu study NAME ...`)."""
     from vsmp_imu.har.records import import_run
+    from vsmp_imu.har.study_records import import_study, study_of
 
-    folder = import_run(run_dir, name, command, root / "results", commit or _head_commit(), note)
+    load = import_study if study_of(command) else import_run
+    folder = load(run_dir, name, command, root / "results", commit or _head_commit(), note)
     console.print(f"wrote {folder}/", highlight=False)
 
 

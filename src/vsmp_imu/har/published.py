@@ -6,7 +6,10 @@ between `<!-- report:ID -->` and `<!-- /report -->`; `Publication.write`
 rewrites those blocks from the records and `Publication.check` lists the
 blocks that differ. A table whose records are not committed yet is declared
 under `unbacked` with the reason and the cost of its run: its block is left
-as written and reported as a warning.
+as written and reported as a warning. A `study` table renders one table of a
+committed `vsmp-imu study` run with the study's own report builder
+(`har.study_records`); a `benchmark` table is the table a benchmark script
+writes from its committed JSON (`har.bench_records`).
 """
 
 from __future__ import annotations
@@ -23,8 +26,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from scipy.stats import wilcoxon
 
 from vsmp_imu.errors import ConfigError, InputFileError
+from vsmp_imu.har.bench_records import BenchTable
 from vsmp_imu.har.metrics import mean_std
 from vsmp_imu.har.records import RecordSet, load_run
+from vsmp_imu.har.study_records import VIEWS, StudyRecord, StudyTable, load_study
 from vsmp_imu.io import read_structured, read_text, write_text
 
 SPEC_FILE = "tables.yaml"
@@ -67,8 +72,8 @@ class TableSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     id: str = Field(pattern=r"^[a-z0-9_-]+:[a-z0-9_-]+$")
     records: str
-    kind: Literal["groups", "paired", "classes", "synthetic"]
-    methods: list[str] = Field(min_length=1)
+    kind: Literal["groups", "paired", "classes", "synthetic", "study", "benchmark"]
+    methods: list[str] = Field(default_factory=list)
     metrics: list[Metric] = Field(default_factory=list)
     budgets: list[float] | None = None
     backbone: str | None = None
@@ -76,9 +81,21 @@ class TableSpec(BaseModel):
     bold: bool = False
     digits: int = Field(2, ge=0, le=4)
     row_header: str = "Group"
+    view: str | None = None  # kind study: a table of the study's report (har.study_records.VIEWS)
+    source: str | None = None  # kind benchmark: the committed benchmark JSON (har.bench_records)
 
     @model_validator(mode="after")
     def _consistent(self) -> TableSpec:
+        if self.kind == "study":
+            if self.view not in VIEWS:
+                raise ValueError(f"a study table needs a view, one of {', '.join(VIEWS)}")
+            return self
+        if self.kind == "benchmark":
+            if self.source is None:
+                raise ValueError("a benchmark table needs the source JSON, e.g. benchmarks/results/run_all.json")
+            return self
+        if not self.methods:
+            raise ValueError(f"a {self.kind} table needs methods")
         if self.kind == "paired" and self.baseline is None:
             raise ValueError("a paired table needs a baseline method")
         if self.kind in ("groups", "paired") and not self.metrics:
@@ -354,6 +371,7 @@ class Publication:
         self.results_dir = Path(results_dir) if results_dir else self.root / "results"
         self.catalogue = load_catalogue(self.results_dir / SPEC_FILE)
         self._sets: dict[str, RecordSet] = {}
+        self._studies: dict[str, StudyRecord] = {}
 
     def documents(self) -> list[Path]:
         found: list[Path] = []
@@ -365,6 +383,12 @@ class Publication:
         spec = next((t for t in self.catalogue.tables if t.id == table_id), None)
         if spec is None:
             raise ConfigError(f"no table '{table_id}' in {SPEC_FILE}", file=self.results_dir / SPEC_FILE)
+        if spec.kind == "benchmark":
+            return BenchTable(self.root, spec.id, spec.source).render()
+        if spec.kind == "study":
+            if spec.records not in self._studies:
+                self._studies[spec.records] = load_study(self.results_dir, spec.records)
+            return StudyTable(spec.id, spec.view, self._studies[spec.records]).render()
         if spec.records not in self._sets:
             self._sets[spec.records] = load_run(self.results_dir, spec.records)
         return TableBuilder(spec, self._sets[spec.records]).render()

@@ -75,27 +75,54 @@ def _what_was_run(s: dict[str, Any], elapsed: float) -> str:
     return "\n".join(lines)
 
 
-def _caption_section(part: dict[str, Any], s: dict[str, Any]) -> list[str]:
+def caption_table(part: dict[str, Any]) -> str:
+    """Macro-F1 of Real-only and the four matched conditions (the `caption` part)."""
     rows = part["rows"]
-    out = ["## Strictly matched caption–SMP comparison (2×2)", ""]
     table = [["Real-only (reference)", _f1(rows["real"]), fmt_num(rows["real"]["n_synthetic_mean"], 0),
               str(rows["real"]["n"])]]
     for c in CONDITIONS:
         table.append([CONDITION_TITLES[c], _f1(rows[c]), fmt_num(rows[c]["n_synthetic_mean"], 0), str(rows[c]["n"])])
-    out += [markdown_table(["Variant", "Macro-F1 (%)", "synthetic windows / fold", "n"], table), ""]
+    return markdown_table(["Variant", "Macro-F1 (%)", "synthetic windows / fold", "n"], table)
+
+
+def effects_text(part: dict[str, Any]) -> str:
+    """The 2x2's main effects and interaction in one sentence ('' when not computed)."""
     eff = part["effects"]
-    if eff:
-        out += [f"Main effect of the structured SMP representation: {100 * eff['representation']:+.2f} "
-                f"Macro-F1 points; of explicit semantic variation: {100 * eff['variation']:+.2f}; "
-                f"interaction (S1 − S0) − (C1 − C0): {100 * eff['interaction']:+.2f} "
-                "(paper, mean of five datasets with HY-Motion: +2.90, +1.90, +0.72).", ""]
+    if not eff:
+        return ""
+    return (f"Main effect of the structured SMP representation: {100 * eff['representation']:+.2f} "
+            f"Macro-F1 points; of explicit semantic variation: {100 * eff['variation']:+.2f}; "
+            f"interaction (S1 − S0) − (C1 − C0): {100 * eff['interaction']:+.2f} "
+            "(paper, mean of five datasets with HY-Motion: +2.90, +1.90, +0.72).")
+
+
+def paired_table(part: dict[str, Any]) -> str:
+    """Paired differences of the 2x2 conditions (and Real-only) per (fold, seed), with SE and W/T/L."""
     keys = [f"{a}-{b}" for a, b in PAIRS]
     keys += [k for k in part["paired"] if k not in keys]
     paired = [[k.replace("-", " − ").replace("real", "Real-only"), _delta(part["paired"][k]),
                _se(part["paired"][k]), _wtl(part["paired"][k])] for k in keys if k in part["paired"]]
+    return markdown_table(["Comparison", "Δ Macro-F1 (points)", "SE", "wins/ties/losses"], paired)
+
+
+def acceptance_table(pooled: dict[str, Any]) -> str:
+    """Independent filter acceptance per condition and the complete-block acceptance."""
+    rows = []
+    for c in CONDITIONS:
+        reasons = ", ".join(f"{k} {v}" for k, v in sorted(pooled["rejected_by"][c].items(), key=lambda kv: -kv[1]))
+        rows.append([CONDITION_TITLES[c], fmt_pct(pooled["independent_acceptance"][c]), reasons or "–"])
+    rows.append(["Complete matched block", fmt_pct(pooled["block_acceptance"]), ""])
+    return markdown_table(["Condition", "Independent acceptance", "Rejected samples by filter"], rows)
+
+
+def _caption_section(part: dict[str, Any], s: dict[str, Any]) -> list[str]:
+    out = ["## Strictly matched caption–SMP comparison (2×2)", "", caption_table(part), ""]
+    effects = effects_text(part)
+    if effects:
+        out += [effects, ""]
     out += ["Paired differences over the same (fold, seed), mean ± std; SE = std / √n. A difference "
             "within about two SE of zero is not told apart from fold-to-fold noise.", "",
-            markdown_table(["Comparison", "Δ Macro-F1 (points)", "SE", "wins/ties/losses"], paired), ""]
+            paired_table(part), ""]
     n_folds = len(part["accounting"])
     same = [f"{k.replace('=', ' and ')} in {v} of {n_folds}" for k, v in part.get("identical_windows", {}).items() if v]
     if same:
@@ -128,12 +155,7 @@ def _accounting_tables(p: dict[str, Any], s: dict[str, Any]) -> list[str]:
                  f"{_ms(p['accepted_blocks'])} ({_ms(p['unfilled_blocks'])})", _ms(per_condition),
                  _ms(total), _ms(p["selected_windows_per_condition"])]]), "",
            "Independent filter acceptance before matched-block retention (all attempted samples):", ""]
-    rows = []
-    for c in CONDITIONS:
-        reasons = ", ".join(f"{k} {v}" for k, v in sorted(p["rejected_by"][c].items(), key=lambda kv: -kv[1]))
-        rows.append([CONDITION_TITLES[c], fmt_pct(p["independent_acceptance"][c]), reasons or "–"])
-    rows.append(["Complete matched block", fmt_pct(p["block_acceptance"]), ""])
-    out += [markdown_table(["Condition", "Independent acceptance", "Rejected samples by filter"], rows), "",
+    out += [acceptance_table(p), "",
             "Final downstream counts are identical across conditions: per class, every condition gives "
             "min(class budget, fewest retained windows of the four) windows.", ""]
     per_class = p.get("per_class") or {}
@@ -180,22 +202,32 @@ def _prompt_examples(prompts: list[dict[str, Any]]) -> list[str]:
             "All prompts of every fold are in `runs/caption/matched/*.json`.", ""]
 
 
-def _table_section(title: str, part: dict[str, Any], titles: dict[str, str], paper_note: str) -> list[str]:
+def variant_table(part: dict[str, Any], titles: dict[str, str]) -> str:
+    """Macro-F1 of each variant of the `components` or `grounding` part, paired with the full method."""
     rows = []
     for r in part["rows"]:
         paper = PAPER_MEANS.get(r["method"])
         rows.append([titles[r["method"]], _f1(r), _delta(r.get("delta_vs_full")), _se(r.get("delta_vs_full")),
                      _wtl(r.get("delta_vs_full")), "yes" if r.get("identical_to_full") else "",
                      f"{paper:.2f}" if paper else "–"])
-    return [f"## {title}", "", markdown_table(
+    return markdown_table(
         ["Variant", "Macro-F1 (%)", "Δ vs full (paired, points)", "SE", "wins/ties/losses vs full",
-         "identical to full", "paper (5-dataset mean)"], rows), "", paper_note, ""]
+         "identical to full", "paper (5-dataset mean)"], rows)
+
+
+def _table_section(title: str, part: dict[str, Any], titles: dict[str, str], paper_note: str) -> list[str]:
+    return [f"## {title}", "", variant_table(part, titles), "", paper_note, ""]
+
+
+def alpha_table(part: dict[str, Any]) -> str:
+    """Macro-F1 of VSMP-IMU at each alpha (the `alpha` part)."""
+    rows = [[f"{r['alpha']:g}", _f1(r), fmt_num(r["n_synthetic_mean"], 0), str(r["n"])] for r in part["rows"]]
+    return markdown_table(["alpha", "Macro-F1 (%)", "synthetic windows / fold", "n"], rows)
 
 
 def _alpha_section(part: dict[str, Any]) -> list[str]:
-    rows = [[f"{r['alpha']:g}", _f1(r), fmt_num(r["n_synthetic_mean"], 0), str(r["n"])] for r in part["rows"]]
     return ["## Sensitivity to the synthetic-to-real ratio alpha (VSMP-IMU, K = 4)", "",
-            markdown_table(["alpha", "Macro-F1 (%)", "synthetic windows / fold", "n"], rows), "",
+            alpha_table(part), "",
             f"Best alpha here: {part['best_alpha']:g} (paper: 0.5 for MM-Fit, UTD-MHAD, MMAct; 0.25 for "
             "PAMAP2 and HAD-AW)." if part["best_alpha"] is not None else "", ""]
 

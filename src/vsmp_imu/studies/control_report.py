@@ -49,17 +49,23 @@ def _rho(d: dict[str, Any]) -> str:
     return f"rho={fmt_num(d.get('rho_per_set'))} (pooled {fmt_num(d.get('rho_pooled_all'))})"
 
 
-def _main_rows(results: ControlResults) -> tuple[list[str], list[list[str]]]:
-    has_validator = any(v.get("validator") is not None
-                        for v in results.retention["per_control"].values())
+def summary_table(summary: dict[str, Any], retention: dict[str, Any]) -> str:
+    """The paper's table layout: one row per control (in `ATTRIBUTES` order), from the
+    `summary` and `retention` of a run (in memory or as read back from results.json)."""
+    ordered = {a: summary[a] for a in ATTRIBUTES if a in summary}
+    return markdown_table(*_main_rows(ordered, retention))
+
+
+def _main_rows(summary: dict[str, Any], retention: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    has_validator = any(v.get("validator") is not None for v in retention["per_control"].values())
     headers = ["Control", "Motion agreement", "Motion compliance", "Raw-IMU agreement",
                "Grounded-IMU agreement", "Label retention (templates)"]
     if has_validator:
         headers.append("Label retention (validator)")
     rows = []
-    for attribute, s in results.summary.items():
+    for attribute, s in summary.items():
         cp = s["checkpoints"]
-        ret = results.retention["per_control"][attribute]
+        ret = retention["per_control"][attribute]
         if attribute == "symmetry":
             acc = cp["motion"]["accuracy"]
             row = [f"Acc.={fmt_pct(acc)}", fmt_pct(acc), "--", "--"]
@@ -79,12 +85,21 @@ def _main_rows(results: ControlResults) -> tuple[list[str], list[list[str]]]:
     return headers, rows
 
 
-def _detail_rows(results: ControlResults) -> list[list[str]]:
+def checkpoint_table(summary: dict[str, Any]) -> str:
+    """Every control at every checkpoint: rho three ways, ordering, unmeasured, counts or MAPE."""
+    ordered = {a: summary[a] for a in ATTRIBUTES if a in summary}
+    return markdown_table(["Control", "Checkpoint", "rho per set", "rho pooled per activity",
+                           "rho pooled (all)", "Ordering", "Unmeasured", "Other"],
+                          _detail_rows(ordered), align=["l", "l", "r", "r", "r", "r", "r", "l"])
+
+
+def _detail_rows(summary: dict[str, Any]) -> list[list[str]]:
     rows = []
-    for attribute, s in results.summary.items():
+    for attribute, s in summary.items():
         if attribute == "symmetry":
             continue
-        for cp, d in s["checkpoints"].items():
+        for cp in (c for c in CHECKPOINTS if c in s["checkpoints"]):
+            d = s["checkpoints"][cp]
             extra = ""
             if attribute == "repetitions":
                 extra = (f"within +-1 {fmt_pct(d['within_one'])}, exact {fmt_pct(d['exact'])}, "
@@ -165,8 +180,12 @@ def _violations_text(results: ControlResults, limit: int = 12) -> list[str]:
     return lines
 
 
-def _per_activity_table(results: ControlResults, attribute: str) -> str:
-    s = results.summary[attribute]
+def activity_table(summary: dict[str, Any], attribute: str) -> str:
+    """One control per activity: rho and ordering (within +-1 for counts, MAPE for duration)
+    at each checkpoint, or C_sym ranges for symmetry; activities in the study's order."""
+    s = summary[attribute]
+    order = [a for a in s.get("activities", []) if a in s["per_activity"]]
+    s = {**s, "per_activity": {a: s["per_activity"][a] for a in order + sorted(set(s["per_activity"]) - set(order))}}
     if attribute == "symmetry":
         headers = ["Activity", "Motion accuracy", "C_sym symmetric", "C_sym asymmetric"]
         rows = []
@@ -204,7 +223,7 @@ def render_markdown(results: ControlResults, figure: str | None) -> str:
         "",
         "## Summary (the paper's table layout)",
         "",
-        markdown_table(*_main_rows(results)),
+        summary_table(results.summary, results.retention),
         "",
         "rho is the Spearman correlation between requested level and measured value, computed in each "
         "matched set (one activity, one seed, every level) and averaged over the sets; *pooled* is "
@@ -216,9 +235,7 @@ def render_markdown(results: ControlResults, figure: str | None) -> str:
         "",
         "## Every checkpoint",
         "",
-        markdown_table(["Control", "Checkpoint", "rho per set", "rho pooled per activity",
-                        "rho pooled (all)", "Ordering", "Unmeasured", "Other"],
-                       _detail_rows(results), align=["l", "l", "r", "r", "r", "r", "r", "l"]),
+        checkpoint_table(results.summary),
         "",
         "## Targets",
         "",
@@ -266,7 +283,7 @@ def render_markdown(results: ControlResults, figure: str | None) -> str:
                      f"template confusions: {conf}")
     lines += ["", "## Per activity", ""]
     for attribute in results.summary:
-        lines += [f"### {CONTROL_TITLES[attribute]}", "", _per_activity_table(results, attribute), ""]
+        lines += [f"### {CONTROL_TITLES[attribute]}", "", activity_table(results.summary, attribute), ""]
     viol = _violations_text(results)
     lines += ["## Matched sets out of order", ""] + (viol or ["none"]) + [""]
     lines += ["## Grounding", "", f"- target: `{g['target']}`", f"- statistics: {g['statistics']}",

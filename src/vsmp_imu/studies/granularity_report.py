@@ -32,6 +32,43 @@ def _group_order(r: GranularityResults) -> list[str]:
     return list(dict.fromkeys([x["group"] for x in r.groups] + list(r.taxonomy)))
 
 
+def group_table(r: GranularityResults) -> str:
+    """Group Macro-F1 per method (mean ± std, paired difference to Real-only) and the overall row."""
+    methods = r.settings["methods"]
+    overall = {o["method"]: o for o in r.overall}
+    headers = ["Group"] + [method_display(m) for m in methods]
+    rows = []
+    for g in _group_order(r):
+        row = [g]
+        for m in methods:
+            cell = next(x for x in r.groups if x["method"] == m and x["group"] == g)
+            text = _pct(cell["macro_f1_mean"], cell["macro_f1_std"])
+            d = cell.get("delta_vs_real")
+            if d and d["mean"] is not None:
+                text += f" ({100 * d['mean']:+.2f})"
+            row.append(text)
+        rows.append(row)
+    rows.append(["All classes (Macro-F1)"] + [_pct(overall[m]["macro_f1_mean"], overall[m]["macro_f1_std"])
+                                              for m in methods])
+    return markdown_table(headers, rows)
+
+
+def class_table(r: GranularityResults) -> str:
+    """Per class (grouped): support and each method's precision / recall / F1 (%)."""
+    methods = r.settings["methods"]
+    headers = ["Group", "Class", "Support"] + [f"{method_display(m)} P / R / F1" for m in methods]
+    rows = []
+    for g, classes in [*((g, r.taxonomy[g]) for g in _group_order(r)), ("(ungrouped)", r.ungrouped)]:
+        for c in classes:
+            cells = [next(x for x in r.per_class if x["method"] == m and x["class"] == c) for m in methods]
+            if cells[0]["support"] == 0 and all(x["f1_mean"] is None for x in cells):
+                continue
+            rows.append([g, c, str(cells[0]["support"])] + [
+                " / ".join(fmt_num(None if x[k] is None else 100 * x[k], 1)
+                           for k in ("precision_mean", "recall_mean", "f1_mean")) for x in cells])
+    return markdown_table(headers, rows, align=["l", "l"] + ["r"] * (len(headers) - 2))
+
+
 def granularity_markdown(r: GranularityResults) -> str:
     s = r.settings
     budget = "full training data" if s["label_budget_percent"] is None else \
@@ -54,39 +91,14 @@ def granularity_markdown(r: GranularityResults) -> str:
                                                        for g in _group_order(r)], align=["l", "l", "r"]), ""]
     if r.ungrouped:
         out += [f"Classes in no group (left out of the group table): {', '.join(r.ungrouped)}.", ""]
-    overall = {o["method"]: o for o in r.overall}
-    headers = ["Group"] + [method_display(m) for m in methods]
-    rows = []
-    for g in _group_order(r):
-        row = [g]
-        for m in methods:
-            cell = next(x for x in r.groups if x["method"] == m and x["group"] == g)
-            text = _pct(cell["macro_f1_mean"], cell["macro_f1_std"])
-            d = cell.get("delta_vs_real")
-            if d and d["mean"] is not None:
-                text += f" ({100 * d['mean']:+.2f})"
-            row.append(text)
-        rows.append(row)
-    rows.append(["All classes (Macro-F1)"] + [_pct(overall[m]["macro_f1_mean"], overall[m]["macro_f1_std"])
-                                              for m in methods])
     out += ["## Group Macro-F1 (%)", "",
             "Mean ± std over folds x seeds of the mean F1 of a group's classes (those in the held-out "
             "subject's truth or predictions); in brackets the paired difference to Real-only.", "",
-            markdown_table(headers, rows), ""]
+            group_table(r), ""]
     out += ["## Per-class precision, recall and F1 (%)", "",
             "Means over folds x seeds (a class absent from a held-out subject's truth and predictions "
             "is not counted for that fold); support = test windows summed over folds x seeds.", ""]
-    headers = ["Group", "Class", "Support"] + [f"{method_display(m)} P / R / F1" for m in methods]
-    rows = []
-    for g, classes in [*((g, r.taxonomy[g]) for g in _group_order(r)), ("(ungrouped)", r.ungrouped)]:
-        for c in classes:
-            cells = [next(x for x in r.per_class if x["method"] == m and x["class"] == c) for m in methods]
-            if cells[0]["support"] == 0 and all(x["f1_mean"] is None for x in cells):
-                continue
-            rows.append([g, c, str(cells[0]["support"])] + [
-                " / ".join(fmt_num(None if x[k] is None else 100 * x[k], 1)
-                           for k in ("precision_mean", "recall_mean", "f1_mean")) for x in cells])
-    out += [markdown_table(headers, rows, align=["l", "l"] + ["r"] * (len(headers) - 2)), "",
+    out += [class_table(r), "",
             "## Deviations from the paper", "",
             "- The paper evaluates UTD-MHAD under standard LOPO with DeepConvLSTM, five seeds, all eight "
             "subjects; the settings of this run are listed above (RF-ECDF is the CPU default).",

@@ -41,6 +41,26 @@ def _short(labels: list[str]) -> list[str]:
     return labels if len(labels) <= 12 else [f"A{i + 1}" for i in range(len(labels))]
 
 
+def distance_table(r: RealismResults) -> str:
+    """Per method and reference: windows, classes, mean d_a, d_a / spread, coverage, mean KS."""
+    rows = []
+    for m in r.methods:
+        rows.append([_name(m["method"]), str(m["n_windows"]), str(m["classes"]), fmt_num(m["mean_distance"], 3),
+                     fmt_num(m["mean_relative_distance"], 2), fmt_num(m["mean_coverage"], 2),
+                     fmt_num(m["ks_mean"], 3)])
+    return markdown_table(["Windows", "n", "classes", "mean d_a", "mean d_a / spread", "coverage",
+                           "mean KS"], rows)
+
+
+def class_distance_table(r: RealismResults) -> str:
+    """d_a per class (rows, in the dataset's order) and method or reference (columns)."""
+    present = [lab for lab in r.label_names if any(lab in m["per_class"] for m in r.methods)]
+    headers = ["Class"] + [_name(m["method"]) for m in r.methods]
+    rows = [[lab] + [fmt_num(m["per_class"].get(lab, {}).get("distance"), 3) for m in r.methods]
+            for lab in present]
+    return markdown_table(headers, rows)
+
+
 def realism_markdown(r: RealismResults) -> str:
     s, e = r.settings, r.encoder
     p = e["params"]
@@ -68,11 +88,6 @@ def realism_markdown(r: RealismResults) -> str:
     out += [f"- Note: {n}." for n in s.get("dataset_notes", [])]
     for m, reason in r.skipped.items():
         out.append(f"- **Skipped {method_display(m)}**: {reason}.")
-    rows = []
-    for m in r.methods:
-        rows.append([_name(m["method"]), str(m["n_windows"]), str(m["classes"]), fmt_num(m["mean_distance"], 3),
-                     fmt_num(m["mean_relative_distance"], 2), fmt_num(m["mean_coverage"], 2),
-                     fmt_num(m["ks_mean"], 3)])
     paper = ", ".join(f"{method_display(k)} {v:.3f}" for k, v in PAPER.items())
     out += ["", "## Class-wise centroid distance", "",
             "d_a = ||mean synthetic embedding − mean real embedding|| of class a (Euclidean, original "
@@ -81,17 +96,10 @@ def realism_markdown(r: RealismResults) -> str:
             "spread (1 = as wide as the real class). The first two rows are references through the same "
             "computation: the held-out subject's real windows (the distance a new person's real data "
             "has) and the same windows with shuffled labels (right sensor domain, wrong classes).", "",
-            markdown_table(["Windows", "n", "classes", "mean d_a", "mean d_a / spread", "coverage",
-                            "mean KS"], rows), "",
+            distance_table(r), "",
             f"Paper (UTD-MHAD, its encoder, 27 classes): {paper}. Distances depend on the encoder's "
             "feature scale: compare methods within one run, and against the two references.", ""]
-    labels = r.label_names
-    present = [lab for lab in labels if any(lab in m["per_class"] for m in r.methods)]
-    headers = ["Class"] + [_name(m["method"]) for m in r.methods]
-    rows = []
-    for lab in present:
-        rows.append([lab] + [fmt_num(m["per_class"].get(lab, {}).get("distance"), 3) for m in r.methods])
-    out += ["### d_a per class", "", markdown_table(headers, rows), ""]
+    out += ["### d_a per class", "", class_distance_table(r), ""]
     headers = ["Windows"] + r.channel_names
     rows = [[_name(m["method"])] + [fmt_num(m["ks_per_channel"][c], 3) for c in r.channel_names]
             for m in r.methods if m["method"] != SHUFFLED]

@@ -1,0 +1,56 @@
+"""Benchmark tables rebuilt from the JSON a benchmark script commits (benchmarks/results/).
+
+A `benchmark` table names the JSON (`source`, relative to the repository
+root); the table is the script's own Markdown of it: for
+`benchmarks/results/run_all.json`, `table_rows` and `markdown` of
+`benchmarks/run_all.py` (what `run_all.py --report` writes to run_all.md).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+from types import ModuleType
+
+from vsmp_imu.errors import ConfigError, InputFileError
+from vsmp_imu.io import read_text
+
+# the script that writes (and renders) each benchmark JSON, relative to the repository root
+SCRIPTS = {"benchmarks/results/run_all.json": "benchmarks/run_all.py"}
+
+
+def _script(path: Path) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(f"_bench_{path.stem}", path)
+    if spec is None or spec.loader is None or not path.is_file():
+        raise InputFileError("the benchmark script that renders this table is missing", file=path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+class BenchTable:
+    """Render the benchmark table of one committed benchmark JSON, with its source line."""
+
+    def __init__(self, root: str | Path, table_id: str, source: str) -> None:
+        if source not in SCRIPTS:
+            raise ConfigError(f"table '{table_id}': no benchmark script renders '{source}'",
+                              field="source", allowed=", ".join(SCRIPTS))
+        self.root = Path(root)
+        self.table_id = table_id
+        self.source = source
+
+    def render(self) -> str:
+        path = self.root / self.source
+        if not path.is_file():
+            raise InputFileError(f"table '{self.table_id}': the benchmark results are not committed", file=path)
+        try:
+            results = json.loads(read_text(path))
+        except json.JSONDecodeError as exc:
+            raise InputFileError(f"not valid JSON: {exc}", file=path) from exc
+        script = _script(self.root / SCRIPTS[self.source])
+        table = script.markdown(script.table_rows(results)).rstrip("\n")
+        updates = results.get("updates", [])
+        later = f" and {len(updates)} later `--update` runs (listed in its `updates`)" if updates else ""
+        return (f"{table}\n\nRecords: `{self.source}`, from `{results.get('command')}` (started "
+                f"{results.get('started')}){later}; rebuilt by `vsmp-imu report --write`.\n")
