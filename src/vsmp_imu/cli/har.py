@@ -55,7 +55,12 @@ def evaluate_cmd(
         help="hapt, hapt12, mmfit, utd-mhad, mmact, pamap2, had-aw, or a dataset .yaml file",
     ),
     protocol: str = typer.Option(
-        "lopo", "--protocol", "-p", help="lopo | low-resource | long-tail"
+        "lopo", "--protocol", "-p", help="lopo | low-resource | long-tail | unseen"
+    ),
+    unseen: str = typer.Option(
+        None, "--unseen",
+        help="unseen protocol: classes or groups with no real training window (CLASS,CLASS or a "
+             "group such as transitions), or 'each' for leave-one-class-out",
     ),
     budgets: str = typer.Option(
         None, "--budgets", help="label budgets in percent for low-resource (default 1,5,10,25,50)"
@@ -115,7 +120,8 @@ def evaluate_cmd(
         backbones=chosen_backbones, methods=tuple(parse_csv(methods, option="--methods")),
         folds=_parse_folds(folds), seeds=seeds, rho=rho, window_s=window_s, overlap=overlap,
         data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device),
-        report_groups=_parse_groups(report_groups))
+        report_groups=_parse_groups(report_groups),
+        unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
@@ -170,7 +176,40 @@ def _shortfalls(summary: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
+def _unseen_set(row: dict[str, Any]) -> str:
+    names = row["unseen_classes"]
+    return names[0] if len(names) == 1 else f"{len(names)} classes"
+
+
+def _print_unseen(summary: list[dict[str, Any]]) -> None:
+    """The unseen protocol's table: unseen- and seen-class Macro-F1 and the confusion between
+    the two sides; a method that cannot make an unseen class is marked (it is the floor)."""
+    table = Table(title="Unseen protocol (%), over folds and seeds")
+    for col in ("unseen", "backbone", "method", "unseen F1", "seen F1", "seen→unseen", "unseen→seen",
+                "Macro-F1", "n"):
+        table.add_column(col)
+    for row in summary:
+        method = row["method"] + ("" if row["unseen_capable"] else " (no unseen windows)")
+        table.add_row(
+            _unseen_set(row), row["backbone"], method,
+            _pct(row["unseen_macro_f1_mean"], row["unseen_macro_f1_std"]),
+            _pct(row["seen_macro_f1_mean"], row["seen_macro_f1_std"]),
+            _pct(row["seen_as_unseen_mean"], row["seen_as_unseen_std"]),
+            _pct(row["unseen_as_seen_mean"], row["unseen_as_seen_std"]),
+            _pct(row["macro_f1_mean"], row["macro_f1_std"]), str(row["n"]),
+        )
+    console.print(table)
+    console.print("seen→unseen: share of seen-class test windows predicted as an unseen class; "
+                  "unseen→seen: the reverse. '(no unseen windows)': the method cannot make a class "
+                  "without real windows.", highlight=False)
+    for line in _shortfalls(summary):
+        console.print(f"[yellow]note:[/] {line}", highlight=False)
+
+
 def _print_summary(summary: list[dict[str, Any]]) -> None:
+    if summary and all(row.get("unseen_classes") for row in summary):
+        _print_unseen(summary)
+        return
     table = Table(title="Macro-F1 (%) over folds and seeds")
     for col in ("protocol", "budget", "backbone", "method", "Macro-F1", "Accuracy", "n"):
         table.add_column(col)
