@@ -222,7 +222,7 @@ def test_each_class_unseen_in_turn_gives_separate_records(tmp_path, tiny_dataset
     names = tiny_dataset.info.label_names
     assert sorted(tuple(r["unseen_classes"]) for r in results.records) == [(n,) for n in names]
     files = sorted(p.name for p in (tmp_path / "records").glob("*.json"))
-    assert len(files) == len(names) and all(f"unseen-{n}_" in " ".join(files) for n in names)
+    assert len(files) == len(names) and all(f"unseen-{n.replace('_', '-')}_" in " ".join(files) for n in names)
     assert len(results.summary) == len(names)
     digests = {json.loads(p.read_text())["settings_digest"] for p in (tmp_path / "records").glob("*.json")}
     assert len(digests) == len(names)  # the unseen set is part of the settings digest
