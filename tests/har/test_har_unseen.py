@@ -237,3 +237,59 @@ def test_unseen_option_needs_the_protocol_and_the_protocol_needs_the_option():
     with pytest.raises(ConfigError) as exc:
         EvalConfig(dataset="tiny", protocol="unseen").check()
     assert exc.value.field == "--unseen"
+
+
+# -- command line and report ---------------------------------------------------------------
+@pytest.mark.parametrize("args,message", [
+    (("--protocol", "unseen", "--unseen", "FLYING"), "unknown class or group 'FLYING'"),
+    (("--protocol", "unseen", "--unseen",
+      "WALKING,WALKING_UPSTAIRS,WALKING_DOWNSTAIRS,SITTING,STANDING,LAYING"), "between 1 and 5"),
+    (("--unseen", "WALKING"), "use --protocol unseen"),
+    (("--protocol", "unseen"), "needs the classes to hold out"),
+])
+def test_unseen_option_errors_exit_2(cli, tmp_path, args, message):
+    code, _, err = cli("evaluate", "--dataset", "hapt", *args, "-o", tmp_path / "out")
+    assert code == 2
+    assert "--unseen" in err and message in " ".join(err.split())
+    assert not (tmp_path / "out" / "results.json").exists()
+
+
+def test_unseen_on_the_command_line(cli, fixtures_dir, tmp_path):
+    out = tmp_path / "unseen"
+    code, stdout, _ = cli("evaluate", "--dataset", fixtures_dir / "generic" / "dataset.yaml",
+                          "--protocol", "unseen", "--unseen", "sit", "--methods", "real,classical",
+                          "--backbones", "rf", "--jobs", "1", "-o", out)
+    assert code == 0, stdout
+    results = json.loads((out / "results.json").read_text())
+    assert {r["method"] for r in results["records"]} == {"real", "classical"}
+    for r in results["records"]:
+        assert r["unseen_classes"] == ["sit"] and r["unseen_capable"] is False
+        assert r["n_synthetic_unseen"] == 0 and r["unseen_macro_f1"] is not None
+    for row in results["summary"]:
+        assert row["unseen_classes"] == ["sit"] and row["unseen_capable"] is False
+    text = " ".join(stdout.split())
+    assert "Unseen: sit" in text and "unseen F1" in text and "seen→uns." in text
+    assert "real*/rf" in text and "classical*/rf" in text and "(the floor)" in text
+    assert len(list((out / "records").glob("unseen_full_unseen-sit_*.json"))) == len(results["records"])
+
+
+def test_report_table_of_unseen_figures(tmp_path):
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    def record(method, fold, unseen_f1, capable):
+        return {"method": method, "fold": fold, "seed": 0, "backbone": "rf", "budget": None,
+                "macro_f1": 0.5, "unseen_macro_f1": unseen_f1, "seen_macro_f1": 0.9,
+                "seen_as_unseen": 0.01, "unseen_as_seen": 1 - unseen_f1, "unseen_capable": capable}
+
+    records = [record("real", "1", 0.0, False), record("real", "2", 0.0, False),
+               record("vsmp", "1", 0.4, True), record("vsmp", "2", 0.6, True)]
+    spec = TableSpec(id="unseen:main", records="unseen", kind="groups", methods=["real", "vsmp"],
+                     metrics=[{"label": "unseen classes", "metric": "unseen"},
+                              {"label": "seen taken for unseen", "metric": "seen_as_unseen"}])
+    table = TableBuilder(spec, RecordSet("unseen", "vsmp-imu evaluate ...", None, None, {}, (), tuple(records))
+                         ).render()
+    assert "| unseen classes | 0.00 ± 0.00 | 50.00 ± 14.14 |" in table
+    assert "| seen taken for unseen | 1.00 ± 0.00 | 1.00 ± 0.00 |" in table
+    assert "Real-only cannot make windows of a class without real windows" in table
+    assert "VSMP-IMU cannot" not in table

@@ -176,34 +176,40 @@ def _shortfalls(summary: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
-def _unseen_set(row: dict[str, Any]) -> str:
+def _unseen_title(row: dict[str, Any]) -> str:
     names = row["unseen_classes"]
-    return names[0] if len(names) == 1 else f"{len(names)} classes"
+    return names[0] if len(names) == 1 else f"{len(names)} classes ({', '.join(names)})"
 
 
 def _print_unseen(summary: list[dict[str, Any]]) -> None:
-    """The unseen protocol's table: unseen- and seen-class Macro-F1 and the confusion between
-    the two sides; a method that cannot make an unseen class is marked (it is the floor)."""
-    table = Table(title="Unseen protocol (%), over folds and seeds")
-    for col in ("unseen", "backbone", "method", "unseen F1", "seen F1", "seen→unseen", "unseen→seen",
-                "Macro-F1", "n"):
-        table.add_column(col)
+    """The unseen protocol's tables, one per unseen set: unseen- and seen-class Macro-F1 and the
+    confusion between the two sides; a method that cannot make an unseen class is starred (the
+    floor)."""
+    sets: dict[tuple[str, ...], list[dict[str, Any]]] = {}
     for row in summary:
-        method = row["method"] + ("" if row["unseen_capable"] else " (no unseen windows)")
-        table.add_row(
-            _unseen_set(row), row["backbone"], method,
-            _pct(row["unseen_macro_f1_mean"], row["unseen_macro_f1_std"]),
-            _pct(row["seen_macro_f1_mean"], row["seen_macro_f1_std"]),
-            _pct(row["seen_as_unseen_mean"], row["seen_as_unseen_std"]),
-            _pct(row["unseen_as_seen_mean"], row["unseen_as_seen_std"]),
-            _pct(row["macro_f1_mean"], row["macro_f1_std"]), str(row["n"]),
-        )
-    console.print(table)
-    console.print("seen→unseen: share of seen-class test windows predicted as an unseen class; "
-                  "unseen→seen: the reverse. '(no unseen windows)': the method cannot make a class "
-                  "without real windows.", highlight=False)
+        sets.setdefault(tuple(row["unseen_classes"]), []).append(row)
+    for rows in sets.values():
+        table = Table(title=f"Unseen: {_unseen_title(rows[0])}; % over folds and seeds")
+        for col in ("method", "unseen F1", "seen F1", "seen→uns.", "uns.→seen", "n"):
+            table.add_column(col)
+        for row in rows:
+            star = "" if row["unseen_capable"] else "*"
+            table.add_row(
+                f"{row['method']}{star}/{row['backbone']}",
+                _pct(row["unseen_macro_f1_mean"], row["unseen_macro_f1_std"]),
+                _pct(row["seen_macro_f1_mean"], row["seen_macro_f1_std"]),
+                _share(row["seen_as_unseen_mean"]), _share(row["unseen_as_seen_mean"]), str(row["n"]),
+            )
+        console.print(table)
+    console.print("seen→uns.: share of seen-class test windows predicted as an unseen class; "
+                  "uns.→seen: the reverse; * cannot make windows of a class without real windows "
+                  "(the floor).", highlight=False)
     for line in _shortfalls(summary):
         console.print(f"[yellow]note:[/] {line}", highlight=False)
+
+
+def _share(value: float | None) -> str:
+    return "–" if value is None else f"{100 * value:.1f}"
 
 
 def _print_summary(summary: list[dict[str, Any]]) -> None:
