@@ -271,6 +271,9 @@ def test_unseen_on_the_command_line(cli, fixtures_dir, tmp_path):
     assert "Unseen: sit" in text and "unseen F1" in text and "seen→uns." in text
     assert "real*/rf" in text and "classical*/rf" in text and "(the floor)" in text
     assert len(list((out / "records").glob("unseen_full_unseen-sit_*.json"))) == len(results["records"])
+    md = (out / "results.md").read_text()
+    assert "| Unseen | Backbone | Method | Unseen Macro-F1 |" in md and "| sit | RF | Real-only * |" in md
+    assert (out / "confusion_my_waist_phone_unseen_full_unseen-sit_rf_real.png").exists()
 
 
 def test_report_table_of_unseen_figures(tmp_path):

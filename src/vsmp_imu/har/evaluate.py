@@ -516,6 +516,7 @@ def summarize(
         class_summary.append(
             {
                 **dict(zip(SUMMARY_KEYS, key, strict=False)),
+                **({} if key[-1] is None else {"unseen_classes": list(key[-1])}),
                 "per_class": per_class,
                 "confusion": np.asarray(confusion).tolist(),
             }
