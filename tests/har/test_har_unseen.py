@@ -276,6 +276,22 @@ def test_unseen_on_the_command_line(cli, fixtures_dir, tmp_path):
     assert (out / "confusion_my_waist_phone_unseen_full_unseen-sit_rf_real.png").exists()
 
 
+def test_leave_one_class_out_prints_the_mean_unseen_f1(capsys):
+    from vsmp_imu.cli.har import _print_summary
+
+    def row(unseen, f1):
+        return {"unseen_classes": [unseen], "method": "vsmp", "backbone": "rf", "unseen_capable": True,
+                "unseen_macro_f1_mean": f1, "unseen_macro_f1_std": 0.0, "seen_macro_f1_mean": 0.9,
+                "seen_macro_f1_std": 0.0, "seen_as_unseen_mean": 0.0, "unseen_as_seen_mean": 0.5, "n": 3,
+                "n_synthetic_mean": 10, "n_synthetic_requested_mean": 10, "budget": None,
+                "protocol": "unseen"}
+
+    _print_summary([row("a", 0.2), row("b", 0.5)])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "Unseen: a" in out and "Unseen: b" in out
+    assert "vsmp/rf: mean unseen-class Macro-F1 over the 2 unseen sets 35.0 %" in out
+
+
 def test_report_table_of_unseen_figures(tmp_path):
     from vsmp_imu.har.published import TableBuilder, TableSpec
     from vsmp_imu.har.records import RecordSet

@@ -201,11 +201,24 @@ def _print_unseen(summary: list[dict[str, Any]]) -> None:
                 _share(row["seen_as_unseen_mean"]), _share(row["unseen_as_seen_mean"]), str(row["n"]),
             )
         console.print(table)
+    if len(sets) > 1:  # leave-one-class-out: the mean over the unseen sets
+        for (method, backbone), f1 in _mean_unseen_f1(summary).items():
+            console.print(f"{method}/{backbone}: mean unseen-class Macro-F1 over the {len(sets)} unseen "
+                          f"sets {_share(f1)} %", highlight=False)
     console.print("seen→uns.: share of seen-class test windows predicted as an unseen class; "
                   "uns.→seen: the reverse; * cannot make windows of a class without real windows "
                   "(the floor).", highlight=False)
     for line in _shortfalls(summary):
         console.print(f"[yellow]note:[/] {line}", highlight=False)
+
+
+def _mean_unseen_f1(summary: list[dict[str, Any]]) -> dict[tuple[str, str], float | None]:
+    """Per (method, backbone): the mean over the unseen sets of their unseen-class Macro-F1."""
+    values: dict[tuple[str, str], list[float]] = {}
+    for row in summary:
+        f1 = row["unseen_macro_f1_mean"]
+        values.setdefault((row["method"], row["backbone"]), []).extend([] if f1 is None else [f1])
+    return {key: (sum(v) / len(v) if v else None) for key, v in values.items()}
 
 
 def _share(value: float | None) -> str:
