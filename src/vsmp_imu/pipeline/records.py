@@ -92,13 +92,13 @@ class Provenance:
         return None if self.class_windows is None else self.class_windows > 0
 
     def as_dict(self) -> dict[str, Any]:
+        known = {} if self.class_windows is None else {"class_windows": self.class_windows}
         if self.failed:
-            return {"source": self.source, "label": self.label, "class_windows": self.class_windows}
+            return {"source": self.source, "label": self.label, **known}
         return {"source": self.source, "label": self.label, "variant": self.variant, "smp_id": self.smp_id,
                 "prompt": self.prompt, "backend": self.backend, "seed": self.seed,
                 "motion": self.motion.as_dict(), "motion_verdict": self.motion_verdict.as_dict(),
-                "locations": {name: loc.as_dict() for name, loc in self.locations.items()},
-                "class_windows": self.class_windows}
+                "locations": {name: loc.as_dict() for name, loc in self.locations.items()}, **known}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Provenance:
