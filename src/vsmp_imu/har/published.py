@@ -244,7 +244,8 @@ class TableBuilder:
         if not floor:
             return ""
         names = " and ".join(_method_name(m) for m in floor)
-        return (f"{names} cannot make windows of a class without real windows: their unseen-class "
+        whose = "their" if len(floor) > 1 else "its"
+        return (f"{names} cannot make windows of a class without real windows: {whose} unseen-class "
                 "figures are the floor (the model never sees those classes). ")
 
     def _n_runs(self) -> int:
