@@ -147,4 +147,4 @@ def register_all() -> None:
         def factory(_name: str = name, **params: Any):
             return make(_name, **params)
 
-        register_method(name, factory, entry.display)
+        register_method(name, factory, entry.display, unseen_classes=entry.unseen_classes)

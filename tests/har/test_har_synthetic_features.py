@@ -153,7 +153,7 @@ def test_check_protocol():
     assert check_protocol("long-tail") == "long-tail"
     with pytest.raises(ConfigError) as err:
         check_protocol("kfold")
-    assert err.value.field == "protocol" and err.value.allowed == "lopo, low-resource, long-tail"
+    assert err.value.field == "protocol" and err.value.allowed == "lopo, low-resource, long-tail, unseen, tstr"
 
 
 def test_subsample_per_class_draws_without_replacement_in_order():

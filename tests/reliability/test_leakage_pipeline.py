@@ -167,3 +167,50 @@ def test_the_instruments_see_a_deliberate_leak(instruments, marked, small_datase
         if name == "split_labels":  # labels carry no sentinel; the split is checked through its products
             continue
         assert instruments[name] and any(instruments[name]), f"instrument {name} missed the leak"
+
+
+UNSEEN_SENTINEL = 4343.0
+
+
+class UnseenMarkedDataset(SentinelDataset):
+    """Also marks every window of the unseen class (channel 1 = 4343 m/s^2), whoever's it is."""
+
+    def __init__(self, base, unseen: str) -> None:
+        super().__init__(base)
+        self.unseen = base.info.label_names.index(unseen)
+
+    def windows(self, window_s: float = 2.0, overlap: float = 0.5) -> Windows:
+        w = super().windows(window_s, overlap)
+        w.X[w.y == self.unseen, :, 1] = UNSEEN_SENTINEL
+        return w
+
+
+def test_unseen_class_reaches_no_fitted_part_of_the_pipeline(instruments, small_dataset, monkeypatch):
+    """Unseen protocol: neither the held-out subject nor any window of the unseen class reaches
+    D_stat, D_rank, the mounting estimate or the filters; the unseen class's samples are made all
+    the same, grounded on the seen classes, and their provenance says the class had no evidence."""
+    marked = UnseenMarkedDataset(load_dataset(small_dataset), "sitting")
+    made: list[VsmpMethod] = []
+    source = f"smp:{small_dataset.parent / 'smps'}"
+
+    def factory(**_):
+        made.append(VsmpMethod(spec=replace(SMALL, source=source)))
+        return made[-1]
+
+    monkeypatch.setitem(METHODS, "vsmp", factory)
+    # SENTINEL marks the held-out subject, UNSEEN_SENTINEL the unseen class: the instruments test both
+    monkeypatch.setattr(f"{__name__}.has_sentinel",
+                        lambda X: bool(np.isin(np.asarray(X), (SENTINEL, UNSEEN_SENTINEL)).any()))
+    config = EvalConfig(dataset=marked.info.name, protocol="unseen", unseen=("sitting",), backbones=("rf",),
+                        methods=("vsmp",), folds=(HELD,), alpha=0.5, policy="uniform",
+                        backbone_params={"rf": {"n_estimators": 10, "n_jobs": 1}})
+    (record,) = Evaluation(config, marked).run().records
+    assert record["n_synthetic_unseen"] > 0 and record["per_class_support"]["sitting"] > 0
+    for name in INSTRUMENTS:
+        assert instruments[name], f"instrument {name} never ran"
+        assert not any(instruments[name]), f"the unseen class or the held-out subject reached {name}"
+    records = made[0].last_output_.records
+    unseen = [r for r in records if r.label == "sitting"]
+    assert unseen and all(r.provenance.class_windows == 0 and r.provenance.class_evidence is False
+                          for r in unseen)
+    assert all(r.provenance.class_windows > 0 for r in records if r.label != "sitting")

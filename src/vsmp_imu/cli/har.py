@@ -55,7 +55,12 @@ def evaluate_cmd(
         help="hapt, hapt12, mmfit, utd-mhad, mmact, pamap2, had-aw, or a dataset .yaml file",
     ),
     protocol: str = typer.Option(
-        "lopo", "--protocol", "-p", help="lopo | low-resource | long-tail | tstr (train on synthetic only)"
+        "lopo", "--protocol", "-p", help="lopo | low-resource | long-tail | unseen | tstr (train on synthetic only)"
+    ),
+    unseen: str = typer.Option(
+        None, "--unseen",
+        help="unseen protocol: classes or groups with no real training window (CLASS,CLASS or a "
+             "group such as transitions), or 'each' for leave-one-class-out",
     ),
     budgets: str = typer.Option(
         None, "--budgets", help="label budgets in percent for low-resource (default 1,5,10,25,50)"
@@ -120,7 +125,8 @@ def evaluate_cmd(
         backbones=chosen_backbones, methods=tuple(parse_csv(methods, option="--methods")),
         folds=_parse_folds(folds), seeds=seeds, rho=rho, window_s=window_s, overlap=overlap,
         data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device),
-        report_groups=_parse_groups(report_groups))
+        report_groups=_parse_groups(report_groups),
+        unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
         motion_fit=motion_fit,
@@ -177,7 +183,59 @@ def _shortfalls(summary: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
+def _unseen_title(row: dict[str, Any]) -> str:
+    names = row["unseen_classes"]
+    return names[0] if len(names) == 1 else f"{len(names)} classes ({', '.join(names)})"
+
+
+def _print_unseen(summary: list[dict[str, Any]]) -> None:
+    """The unseen protocol's tables, one per unseen set: unseen- and seen-class Macro-F1 and the
+    confusion between the two sides; a method that cannot make an unseen class is starred (the
+    floor)."""
+    sets: dict[tuple[str, ...], list[dict[str, Any]]] = {}
+    for row in summary:
+        sets.setdefault(tuple(row["unseen_classes"]), []).append(row)
+    for rows in sets.values():
+        table = Table(title=f"Unseen: {_unseen_title(rows[0])}; % over folds and seeds")
+        for col in ("method", "unseen F1", "seen F1", "seen→uns.", "uns.→seen", "n"):
+            table.add_column(col)
+        for row in rows:
+            star = "" if row["unseen_capable"] else "*"
+            table.add_row(
+                f"{row['method']}{star}/{row['backbone']}",
+                _pct(row["unseen_macro_f1_mean"], row["unseen_macro_f1_std"]),
+                _pct(row["seen_macro_f1_mean"], row["seen_macro_f1_std"]),
+                _share(row["seen_as_unseen_mean"]), _share(row["unseen_as_seen_mean"]), str(row["n"]),
+            )
+        console.print(table)
+    if len(sets) > 1:  # leave-one-class-out: the mean over the unseen sets
+        for (method, backbone), f1 in _mean_unseen_f1(summary).items():
+            console.print(f"{method}/{backbone}: mean unseen-class Macro-F1 over the {len(sets)} unseen "
+                          f"sets {_share(f1)} %", highlight=False)
+    console.print("seen→uns.: share of seen-class test windows predicted as an unseen class; "
+                  "uns.→seen: the reverse; * cannot make windows of a class without real windows "
+                  "(the floor).", highlight=False)
+    for line in _shortfalls(summary):
+        console.print(f"[yellow]note:[/] {line}", highlight=False)
+
+
+def _mean_unseen_f1(summary: list[dict[str, Any]]) -> dict[tuple[str, str], float | None]:
+    """Per (method, backbone): the mean over the unseen sets of their unseen-class Macro-F1."""
+    values: dict[tuple[str, str], list[float]] = {}
+    for row in summary:
+        f1 = row["unseen_macro_f1_mean"]
+        values.setdefault((row["method"], row["backbone"]), []).extend([] if f1 is None else [f1])
+    return {key: (sum(v) / len(v) if v else None) for key, v in values.items()}
+
+
+def _share(value: float | None) -> str:
+    return "–" if value is None else f"{100 * value:.1f}"
+
+
 def _print_summary(summary: list[dict[str, Any]]) -> None:
+    if summary and all(row.get("unseen_classes") for row in summary):
+        _print_unseen(summary)
+        return
     table = Table(title="Macro-F1 (%) over folds and seeds")
     for col in ("protocol", "budget", "backbone", "method", "Macro-F1", "Accuracy", "n"):
         table.add_column(col)

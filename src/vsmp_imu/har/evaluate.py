@@ -24,7 +24,7 @@ import numpy as np
 from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.backbones import BACKBONES, make_backbone
 from vsmp_imu.har.dataset import HarDataset
-from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std
+from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std, unseen_metrics
 from vsmp_imu.har.protocols import (
     DEFAULT_BUDGETS,
     DEFAULT_RHO,
@@ -32,20 +32,23 @@ from vsmp_imu.har.protocols import (
     check_protocol,
     parse_budgets,
     require_two_subjects,
+    resolve_unseen,
     split_fold,
 )
-from vsmp_imu.har.records import RUN_KEYS, SPLIT_KEYS
+from vsmp_imu.har.records import RUN_KEYS, SPLIT_KEYS, UNSEEN_KEYS
 from vsmp_imu.har.synthetic import (
     ALPHA_RANGE,
     BUDGET_POLICIES,
     DEFAULT_ALPHA,
     METHODS,
+    UNSEEN_CAPABLE,
     FoldContext,
     check_synthetic,
     make_method,
     mix,
     synthetic_budget,
     take_budget,
+    unseen_budget,
 )
 from vsmp_imu.har.windows import Windows, concat_windows, natural_key
 from vsmp_imu.io import dumps_json, remove_stale_temps, write_json
@@ -60,6 +63,7 @@ RESULT_FIELDS = (
     "tail_macro_f1",
 )
 SUMMARY_KEYS = ("dataset", "protocol", "budget", "backbone", "method")
+UNSEEN_METRICS = ("unseen_macro_f1", "seen_macro_f1", "seen_as_unseen", "unseen_as_seen")
 # Bumped whenever the harness changes how a record is computed (invalidates old records).
 HARNESS_VERSION = 1
 
@@ -93,6 +97,8 @@ class EvalConfig:
     backbone_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     method_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    # unseen protocol: class and group names (one unseen set), or ("each",) (one set per class)
+    unseen: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         """Normalise the budgets: (None,) outside low-resource, the default budgets when none are
@@ -114,6 +120,12 @@ class EvalConfig:
                 field="--budgets",
                 allowed="use --protocol low-resource",
             )
+        if self.unseen and self.protocol != "unseen":
+            raise ConfigError("unseen classes apply to the unseen protocol only", field="--unseen",
+                              allowed="use --protocol unseen")
+        if self.protocol == "unseen" and not self.unseen:
+            raise ConfigError("the unseen protocol needs the classes to hold out of training",
+                              field="--unseen", allowed="CLASS[,CLASS...], a group name, or each")
         _check_known(self.backbones, BACKBONES, "backbone", "--backbones")
         _check_known(self.methods, METHODS, "method", "--methods")
         if not ALPHA_RANGE[0] <= self.alpha <= ALPHA_RANGE[1]:
@@ -156,10 +168,12 @@ class EvalResults:
 Progress = Callable[[str, int, int], None]
 
 
-def _run_name(seed: int, fold: str, budget: float | None, method: str, backbone: str) -> str:
+def _run_name(seed: int, fold: str, budget: float | None, method: str, backbone: str,
+              unseen: tuple[str, ...] | None = None) -> str:
     """'seed 0 fold 3 5% vsmp/dclstm': one record of the evaluation, for progress lines."""
     share = "" if budget is None else f" {budget:g}%"
-    return f"seed {seed} fold {fold}{share} {method}/{backbone}"
+    hidden = "" if unseen is None else f" unseen {'+'.join(unseen)}"
+    return f"seed {seed} fold {fold}{share}{hidden} {method}/{backbone}"
 
 
 def _slug(text: Any) -> str:
@@ -183,6 +197,7 @@ class Evaluation:
         self.config = config.check()
         self.dataset = dataset
         self.output_dir = Path(output_dir) if output_dir is not None else None
+        self.unseen_sets = self._unseen_sets()
 
     # -- set-up ----------------------------------------------------------------------------
     def _groups(self) -> dict[str, tuple[str, ...]]:
@@ -197,6 +212,21 @@ class Evaluation:
                 )
             groups[name] = tuple(members)
         return groups
+
+    def _unseen_sets(self) -> tuple[tuple[str, ...] | None, ...]:
+        """The unseen class sets evaluated in turn ((None,) outside the unseen protocol)."""
+        if self.config.protocol != "unseen":
+            return (None,)
+        info = self.dataset.info
+        return resolve_unseen(self.config.unseen, info.label_names, self._groups())
+
+    def _cells(self) -> list[tuple[float | None, tuple[str, ...] | None]]:
+        """(label budget, unseen class set) pairs, each a separate split of every fold."""
+        return [(b, u) for b in self.config.budgets for u in self.unseen_sets]
+
+    def _unseen_indices(self, unseen: tuple[str, ...] | None) -> tuple[int, ...] | None:
+        names = self.dataset.info.label_names
+        return None if unseen is None else tuple(names.index(n) for n in unseen)
 
     def folds(self, windows: Windows) -> list[str]:
         available = windows.unique_subjects()
@@ -213,7 +243,7 @@ class Evaluation:
             )
         return sorted(dict.fromkeys(wanted), key=natural_key)
 
-    def _digest(self, backbone: str, method: str) -> str:
+    def _digest(self, backbone: str, method: str, unseen: tuple[str, ...] | None = None) -> str:
         """Hash of every setting a record depends on (besides its key)."""
         c = self.config
         params = make_backbone(backbone, **c.backbone_params.get(backbone, {})).get_params()
@@ -233,17 +263,21 @@ class Evaluation:
             "method": method,
             "method_params": c.method_params.get(method, {}),
         }
+        if unseen is not None:  # absent otherwise: the other protocols' records stay valid
+            payload["unseen"] = list(unseen)
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
-    def _record_path(self, budget, method, backbone, fold, seed) -> Path | None:
+    def _record_path(self, budget, method, backbone, fold, seed, unseen=None) -> Path | None:
         if self.output_dir is None:
             return None
+        hidden = () if unseen is None else ("unseen-" + "+".join(unseen),)
         name = "_".join(
             _slug(p)
             for p in (
                 self.config.protocol,
                 _budget_slug(budget),
+                *hidden,
                 method,
                 backbone,
                 f"fold-{fold}",
@@ -275,19 +309,21 @@ class Evaluation:
         folds = self.folds(windows)
         if self.output_dir is not None:
             remove_stale_temps(self.output_dir)  # leftovers of a killed run
-        digests = {(m, b): self._digest(b, m) for m in c.methods for b in c.backbones}
-        total = len(c.seeds) * len(folds) * len(c.budgets) * len(c.methods) * len(c.backbones)
+        cells = self._cells()
+        digests = {(m, b, u): self._digest(b, m, u)
+                   for m in c.methods for b in c.backbones for _, u in cells}
+        total = len(c.seeds) * len(folds) * len(cells) * len(c.methods) * len(c.backbones)
         records: list[dict[str, Any]] = []
         done = 0
         for seed in c.seeds:
             for fold in folds:
-                for budget in c.budgets:
+                for budget, unseen in cells:
                     split = None
                     for method in c.methods:
                         pending = []
                         for backbone in c.backbones:
-                            path = self._record_path(budget, method, backbone, fold, seed)
-                            record = self._load_record(path, digests[(method, backbone)])
+                            path = self._record_path(budget, method, backbone, fold, seed, unseen)
+                            record = self._load_record(path, digests[(method, backbone, unseen)])
                             if record is not None:
                                 # groups may differ from the run that wrote the record
                                 record["group_macro_f1"] = group_macro_f1(
@@ -296,7 +332,7 @@ class Evaluation:
                                 records.append(record)
                                 done += 1
                                 if progress:
-                                    run = _run_name(seed, fold, budget, method, backbone)
+                                    run = _run_name(seed, fold, budget, method, backbone, unseen)
                                     progress(f"{run} (cached)", done, total)
                             else:
                                 pending.append((backbone, path))
@@ -304,7 +340,8 @@ class Evaluation:
                             continue
                         if split is None:
                             split = split_fold(
-                                windows, fold, c.protocol, seed, budget, c.rho, c.val_fraction
+                                windows, fold, c.protocol, seed, budget, c.rho, c.val_fraction,
+                                self._unseen_indices(unseen),
                             )
                         train, n_syn, n_asked = self._training_windows(split, method, seed, budget)
                         for backbone, path in pending:
@@ -312,13 +349,14 @@ class Evaluation:
                                 split, train, n_syn, backbone, method, fold, seed, budget, groups
                             )
                             record["n_synthetic_requested"] = n_asked
-                            record["settings_digest"] = digests[(method, backbone)]
+                            record.update(self._unseen_fields(split, train, method, record))
+                            record["settings_digest"] = digests[(method, backbone, unseen)]
                             if path is not None:
                                 write_json(path, record)
                             records.append(record)
                             done += 1
                             if progress:
-                                run = _run_name(seed, fold, budget, method, backbone)
+                                run = _run_name(seed, fold, budget, method, backbone, unseen)
                                 f1 = 100 * record["macro_f1"]
                                 progress(f"{run}: Macro-F1 {f1:.2f}", done, total)
         results = summarize(records, self.dataset.info.label_names, groups)
@@ -341,7 +379,7 @@ class Evaluation:
         source = make_method(method, **c.method_params.get(method, {}))
         if source is None or len(split.fit) == 0:
             return split.fit, 0, 0
-        wanted = synthetic_budget(split.fit.class_counts(), c.alpha, c.policy, split.tail)
+        wanted = self._budget(split)
         names = split.fit.label_names
         context = FoldContext(
             dataset=self.dataset.info,
@@ -354,6 +392,7 @@ class Evaluation:
             alpha=c.alpha,
             protocol=c.protocol,
             label_budget=budget,
+            unseen=tuple(names[i] for i in split.unseen or ()),
         )
         synthetic = source.generate(context)
         check_synthetic(split.fit, synthetic, method)
@@ -361,6 +400,27 @@ class Evaluation:
         if c.protocol == "tstr":
             return synthetic_only(synthetic, method, split.fold), len(synthetic), int(np.sum(wanted))
         return mix(split.fit, synthetic, method), len(synthetic), int(np.sum(wanted))
+
+    def _budget(self, split) -> np.ndarray:
+        """Synthetic windows wanted per class (the unseen protocol's rule for its unseen classes)."""
+        c, counts = self.config, split.fit.class_counts()
+        if split.unseen is not None:
+            return unseen_budget(counts, c.alpha, c.policy, split.unseen)
+        return synthetic_budget(counts, c.alpha, c.policy, split.tail)
+
+    @staticmethod
+    def _unseen_fields(split, train: Windows, method: str, record: dict[str, Any]) -> dict[str, Any]:
+        """The unseen protocol's record fields: the unseen classes, whether the method can make
+        them, how many synthetic windows of them it mixed in, and `unseen_metrics`."""
+        if split.unseen is None:
+            return {}
+        synthetic = np.char.startswith(train.subjects.astype(str), "synthetic:")
+        return {
+            "unseen_classes": [split.test.label_names[i] for i in split.unseen],
+            "unseen_capable": method in UNSEEN_CAPABLE,
+            "n_synthetic_unseen": int(np.sum(synthetic & np.isin(train.y, split.unseen))),
+            **unseen_metrics(record["confusion"], split.unseen),
+        }
 
     def _fit_one(
         self,
@@ -440,10 +500,12 @@ def summarize(
     records = sorted(records, key=_record_sort_key)
     blocks: dict[tuple, list[dict[str, Any]]] = {}
     for r in records:
-        blocks.setdefault(tuple(r[k] for k in SUMMARY_KEYS), []).append(r)
+        blocks.setdefault(_summary_key(r), []).append(r)
     summary, class_summary = [], []
     for key, rs in blocks.items():
-        row = dict(zip(SUMMARY_KEYS, key, strict=True))
+        row = dict(zip(SUMMARY_KEYS, key, strict=False))
+        if key[-1] is not None:
+            row |= _unseen_summary(key[-1], rs)
         for metric in ("macro_f1", "accuracy", "head_macro_f1", "tail_macro_f1"):
             mean, std, n = mean_std([r.get(metric) for r in rs])
             row[f"{metric}_mean"], row[f"{metric}_std"] = mean, std
@@ -465,7 +527,8 @@ def summarize(
         confusion = np.sum([np.asarray(r["confusion"]) for r in rs if r.get("confusion")], axis=0)
         class_summary.append(
             {
-                **dict(zip(SUMMARY_KEYS, key, strict=True)),
+                **dict(zip(SUMMARY_KEYS, key, strict=False)),
+                **({} if key[-1] is None else {"unseen_classes": list(key[-1])}),
                 "per_class": per_class,
                 "confusion": np.asarray(confusion).tolist(),
             }
@@ -480,6 +543,22 @@ def summarize(
     )
 
 
+def _summary_key(r: dict[str, Any]) -> tuple:
+    """A summary row's key: SUMMARY_KEYS and the unseen classes (None outside the protocol)."""
+    unseen = r.get("unseen_classes")
+    return (*(r[k] for k in SUMMARY_KEYS), None if unseen is None else tuple(unseen))
+
+
+def _unseen_summary(unseen: tuple[str, ...], rs: list[dict[str, Any]]) -> dict[str, Any]:
+    """The unseen protocol's summary fields: its figures' mean and std over the runs."""
+    row: dict[str, Any] = {"unseen_classes": list(unseen),
+                           "unseen_capable": all(r.get("unseen_capable") for r in rs)}
+    for metric in UNSEEN_METRICS:
+        row[f"{metric}_mean"], row[f"{metric}_std"], _ = mean_std([r.get(metric) for r in rs])
+    row["n_synthetic_unseen_mean"] = mean_std([r.get("n_synthetic_unseen") for r in rs])[0]
+    return row
+
+
 def _extra_fields(r: dict[str, Any]) -> dict[str, Any]:
     # wall times stay in the record files: results.json must not depend on them
     keep = (
@@ -492,6 +571,8 @@ def _extra_fields(r: dict[str, Any]) -> dict[str, Any]:
         "epochs",
         "best_epoch",
     )
+    if r.get("unseen_classes") is not None:
+        keep += UNSEEN_KEYS
     return {k: r.get(k) for k in keep}
 
 
@@ -503,6 +584,7 @@ def _record_sort_key(r: dict[str, Any]) -> tuple:
         budget,
         r["backbone"],
         r["method"],
+        tuple(r.get("unseen_classes") or ()),
         natural_key(r["fold"]),
         r["seed"],
     )

@@ -93,6 +93,27 @@ def group_macro_f1(
     }
 
 
+def unseen_metrics(confusion: np.ndarray, unseen: Sequence[int]) -> dict[str, float | None]:
+    """The unseen protocol's figures from a confusion matrix (rows: truth): Macro-F1 over the
+    unseen classes and over the seen ones, the share of seen-class test windows predicted as
+    an unseen class (`seen_as_unseen`) and of unseen-class windows predicted as a seen one
+    (`unseen_as_seen`); None where the test holds no window of that side."""
+    confusion = np.asarray(confusion, dtype=float)
+    is_unseen = np.zeros(len(confusion), bool)
+    is_unseen[list(unseen)] = True
+
+    def share(truth: np.ndarray, predicted: np.ndarray) -> float | None:
+        total = confusion[truth].sum()
+        return float(confusion[np.ix_(truth, predicted)].sum() / total) if total else None
+
+    return {
+        "unseen_macro_f1": macro_f1_from_confusion(confusion, np.flatnonzero(is_unseen).tolist()),
+        "seen_macro_f1": macro_f1_from_confusion(confusion, np.flatnonzero(~is_unseen).tolist()),
+        "seen_as_unseen": share(~is_unseen, is_unseen),
+        "unseen_as_seen": share(is_unseen, ~is_unseen),
+    }
+
+
 def mean_std(values: Sequence[float | None]) -> tuple[float | None, float | None, int]:
     """Mean, sample standard deviation (0 for a single value) and count, skipping None."""
     vals = np.array([v for v in values if v is not None], dtype=float)

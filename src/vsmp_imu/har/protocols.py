@@ -1,11 +1,13 @@
-"""LOPO protocols (paper, Experimental Setup, Protocols): standard, low-resource and
-long-tail; validation subjects drawn from the training subjects of each fold. `tstr`
-(train on synthetic, test on real) splits as `lopo` without validation subjects: the
-synthetic source sees every training subject, and the model trains on its windows only."""
+"""LOPO protocols (paper, Experimental Setup, Protocols): standard, low-resource,
+long-tail and `unseen` (classes with no real training window); validation subjects
+drawn from the training subjects of each fold. `tstr` (train on synthetic, test on
+real) splits as `lopo` without validation subjects: the synthetic source sees every
+training subject, and the model trains on its windows only."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,7 +16,9 @@ from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.windows import Windows, natural_key
 from vsmp_imu.seeding import rng_for
 
-PROTOCOLS = ("lopo", "low-resource", "long-tail", "tstr")
+PROTOCOLS = ("lopo", "low-resource", "long-tail", "unseen", "tstr")
+# `--unseen each`: every class unseen in turn (leave-one-class-out).
+EACH_CLASS = "each"
 # Label budgets of the low-resource protocol, percent of labelled training windows.
 DEFAULT_BUDGETS = (1.0, 5.0, 10.0, 25.0, 50.0)
 # Maximum head-to-tail imbalance ratio of the long-tail protocol.
@@ -37,7 +41,8 @@ def require_two_subjects(subjects: list[str], dataset) -> None:
 class FoldSplit:
     """The windows of one fold: `fit` (trains the model), `val` (early stopping and
     threshold selection; subjects disjoint from `fit`), `test` (the held-out subject).
-    `head`/`tail` are class indices (long-tail protocol only)."""
+    `head`/`tail` are class indices (long-tail protocol only); `unseen` the class indices
+    without any real training window (unseen protocol only: their windows are in `test` only)."""
 
     fold: str
     fit: Windows
@@ -46,6 +51,7 @@ class FoldSplit:
     val_subjects: tuple[str, ...]
     head: tuple[int, ...] | None = None
     tail: tuple[int, ...] | None = None
+    unseen: tuple[int, ...] | None = None
 
 
 def check_protocol(protocol: str, field: str = "protocol") -> str:
@@ -124,12 +130,14 @@ def split_fold(
     budget_percent: float | None = None,
     rho: float = DEFAULT_RHO,
     val_fraction: float = DEFAULT_VAL_FRACTION,
+    unseen: Sequence[int] | None = None,
 ) -> FoldSplit:
     """The windows of one LOPO fold under a protocol.
 
     1. test = the held-out subject's windows; the pool = every other subject's.
     2. The protocol subsamples the pool (low-resource: budget% per class;
-       long-tail: n_r per class rank), seeded per (seed, fold, budget).
+       long-tail: n_r per class rank), seeded per (seed, fold, budget);
+       unseen: every window of the `unseen` classes leaves the pool.
     3. Validation subjects are drawn from the pool's subjects; fit = the rest
        (tstr: none, fit = the whole pool).
     The held-out subject's windows appear in `test` only.
@@ -154,12 +162,51 @@ def split_fold(
         rng = rng_for(seed, "long-tail", fold)
         pool = subsample_per_class(pool, long_tail_counts(counts, rho), rng)
         head, tail = head_tail(pool.class_counts())
+    elif protocol == "unseen":
+        unseen = check_unseen_indices(unseen, windows.label_names)
+        pool = pool[~np.isin(pool.y, unseen)]
     val_subjects = choose_val_subjects(pool.unique_subjects(), seed, fold, val_fraction)
     val = pool.where_subjects(val_subjects)
     fit = pool.where_subjects(val_subjects, keep=False)
     return FoldSplit(
-        fold=fold, fit=fit, val=val, test=test, val_subjects=val_subjects, head=head, tail=tail
+        fold=fold, fit=fit, val=val, test=test, val_subjects=val_subjects, head=head, tail=tail,
+        unseen=tuple(unseen) if protocol == "unseen" else None,
     )
+
+
+def check_unseen_indices(unseen: Sequence[int] | None, label_names: Sequence[str]) -> tuple[int, ...]:
+    """The unseen protocol's class indices: at least one, never every class."""
+    unseen = tuple(sorted({int(c) for c in unseen or ()}))
+    if not unseen or len(unseen) >= len(label_names) or unseen[0] < 0 or unseen[-1] >= len(label_names):
+        raise ConfigError(
+            f"the unseen protocol needs between 1 and {len(label_names) - 1} unseen classes "
+            f"(got {len(unseen)})", field="--unseen", allowed=", ".join(label_names))
+    return unseen
+
+
+def resolve_unseen(
+    text: str | Sequence[str], label_names: Sequence[str], groups: Mapping[str, Sequence[str]]
+) -> tuple[tuple[str, ...], ...]:
+    """The unseen class sets of `--unseen`: classes and group names (comma-separated) make one
+    set; `each` makes one set per class (leave-one-class-out). Names in dataset order."""
+    items = [t.strip() for t in (text.split(",") if isinstance(text, str) else text) if t.strip()]
+    names = list(label_names)
+    allowed = ", ".join([EACH_CLASS, *groups, *names])
+    if items == [EACH_CLASS]:
+        return tuple((name,) for name in names)
+    chosen: set[str] = set()
+    for item in items:
+        if item == EACH_CLASS:
+            raise ConfigError("'each' cannot be combined with class names", field="--unseen",
+                              allowed=allowed)
+        if item in groups:
+            chosen.update(groups[item])
+        elif item in names:
+            chosen.add(item)
+        else:
+            raise ConfigError(f"unknown class or group '{item}'", field="--unseen", allowed=allowed)
+    check_unseen_indices([names.index(n) for n in chosen if n in names], names)
+    return (tuple(n for n in names if n in chosen),)
 
 
 def parse_budgets(text: str | None, protocol: str) -> tuple[float | None, ...]:

@@ -49,16 +49,26 @@ METHOD_NAMES = {
 }
 
 
+# The unseen protocol's figures: Macro-F1 over the unseen / seen classes and the share of
+# seen-class test windows predicted as an unseen class (and the reverse).
+UNSEEN_METRICS = {"unseen": "unseen_macro_f1", "seen": "seen_macro_f1",
+                  "seen_as_unseen": "seen_as_unseen", "unseen_as_seen": "unseen_as_seen"}
+
+
 class Metric(BaseModel):
-    """One row (or column) of figures: `macro_f1`, `head`, `tail`, `group:NAME` or `class:NAME`."""
+    """One row (or column) of figures: `macro_f1`, `head`, `tail`, `group:NAME`, `class:NAME`,
+    or of the unseen protocol `unseen`, `seen`, `seen_as_unseen`, `unseen_as_seen`."""
 
     model_config = ConfigDict(extra="forbid")
     label: str
-    metric: str = Field(pattern=r"^(macro_f1|accuracy|head|tail|group:.+|class:.+)$")
+    metric: str = Field(pattern=r"^(macro_f1|accuracy|head|tail|unseen|seen|seen_as_unseen|unseen_as_seen"
+                                r"|group:.+|class:.+)$")
 
     def value(self, record: dict) -> float | None:
         if self.metric in ("macro_f1", "accuracy"):
             return record.get(self.metric)
+        if self.metric in UNSEEN_METRICS:
+            return record.get(UNSEEN_METRICS[self.metric])
         if self.metric in ("head", "tail"):
             return record.get(f"{self.metric}_macro_f1")
         kind, name = self.metric.split(":", 1)
@@ -243,7 +253,18 @@ class TableBuilder:
                   f"`{self.records.command}`")
         if self.records.code_commit:
             source += f" at commit {self.records.code_commit[:7]}"
-        return f"{table}\n\n{source}; rebuilt by `vsmp-imu report --write`.\n"
+        return f"{table}\n\n{self._floor_note()}{source}; rebuilt by `vsmp-imu report --write`.\n"
+
+    def _floor_note(self) -> str:
+        """Under the unseen protocol: the table's methods that cannot make an unseen class."""
+        floor = [m for m in self.spec.methods
+                 if any(r.get("unseen_capable") is False for r in self.records.select(method=m))]
+        if not floor:
+            return ""
+        names = " and ".join(_method_name(m) for m in floor)
+        whose = "their" if len(floor) > 1 else "its"
+        return (f"{names} cannot make windows of a class without real windows: {whose} unseen-class "
+                "figures are the floor (the model never sees those classes). ")
 
     def _n_runs(self) -> int:
         return len({(str(r["fold"]), r["seed"]) for r in self.records.records})

@@ -44,6 +44,16 @@ RECORD_KEYS = (
     "epochs",
     "best_epoch",
 )
+# What a record of the unseen protocol keeps besides (absent from the other protocols' records).
+UNSEEN_KEYS = (
+    "unseen_classes",
+    "unseen_capable",
+    "n_synthetic_unseen",
+    "unseen_macro_f1",
+    "seen_macro_f1",
+    "seen_as_unseen",
+    "unseen_as_seen",
+)
 RUN_FILE = "run.json"
 RECORDS_FILE = "records.jsonl"
 NAME_PATTERN = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
@@ -79,7 +89,7 @@ def check_name(name: str) -> str:
 def _sort_key(r: dict[str, Any]) -> tuple:
     budget = -1.0 if r.get("budget") is None else r["budget"]
     return (r["dataset"], r["protocol"], budget, r["backbone"], r["method"],
-            natural_key(str(r["fold"])), r["seed"])
+            tuple(r.get("unseen_classes") or ()), natural_key(str(r["fold"])), r["seed"])
 
 
 def compact(record: dict[str, Any]) -> dict[str, Any]:
@@ -88,7 +98,8 @@ def compact(record: dict[str, Any]) -> dict[str, Any]:
                if k not in record]
     if missing:
         raise InputFileError(f"an evaluation record lacks {', '.join(missing)}")
-    return {k: record.get(k) for k in RECORD_KEYS}
+    keys = RECORD_KEYS + (UNSEEN_KEYS if record.get("unseen_classes") is not None else ())
+    return {k: record.get(k) for k in keys}
 
 
 def _read_json(path: Path) -> Any:

@@ -74,6 +74,8 @@ def results_markdown(results: dict[str, Any]) -> str:
                 parts.append(_low_resource(rows, config))
             elif protocol == "long-tail":
                 parts.append(_long_tail(rows, config))
+            elif protocol == "unseen":
+                parts.append(_unseen(rows, config))
             else:
                 parts.append(_standard(rows, config))
             parts.append("")
@@ -180,6 +182,30 @@ def _long_tail(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
     return _table(header, out)
 
 
+def _unseen(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
+    """The unseen protocol: per unseen set and backbone, unseen- and seen-class Macro-F1 and the
+    share of seen-class windows taken for an unseen class (and the reverse)."""
+    header = ["Unseen", "Backbone", "Method", "Unseen Macro-F1", "Seen Macro-F1",
+              "Seen → unseen", "Unseen → seen", "All Macro-F1", "n"]
+    out = []
+    methods = config.get("methods")
+    for unseen in dict.fromkeys(tuple(r["unseen_classes"]) for r in rows):
+        for backbone in _ordered([r["backbone"] for r in rows], config.get("backbones")):
+            block = [r for r in rows if tuple(r["unseen_classes"]) == unseen and r["backbone"] == backbone]
+            order = _ordered([r["method"] for r in block], methods)
+            block.sort(key=lambda r: order.index(r["method"]))
+            for r in block:
+                star = "" if r["unseen_capable"] else " *"
+                out.append([", ".join(unseen), _backbone(backbone), _method(r["method"]) + star]
+                           + [_pct(r[f"{m}_mean"], r[f"{m}_std"]) for m in
+                              ("unseen_macro_f1", "seen_macro_f1", "seen_as_unseen", "unseen_as_seen",
+                               "macro_f1")] + [str(r["n"])])
+    note = ("\n\nSeen → unseen: share of the seen-class test windows predicted as an unseen class "
+            "(%); unseen → seen: the reverse. * cannot make windows of a class without real "
+            "windows: the floor.")
+    return _table(header, out) + note
+
+
 def confusion_figure(
     confusion: np.ndarray, label_names: Sequence[str], title: str, path: str | Path
 ) -> Path:
@@ -243,11 +269,14 @@ def write_report(results: dict[str, Any], output_dir: str | Path) -> list[Path]:
     labels = results["label_names"]
     for block in results["class_summary"]:
         budget = "full" if block["budget"] is None else f"{block['budget']:g}pct"
-        parts = (block["dataset"], block["protocol"], budget, block["backbone"], block["method"])
+        unseen = block.get("unseen_classes")
+        hidden = () if unseen is None else ("unseen-" + "+".join(unseen),)
+        parts = (block["dataset"], block["protocol"], budget, *hidden, block["backbone"], block["method"])
         name = "confusion_" + "_".join(parts) + ".png"
         title = (
             f"{block['dataset']} {block['protocol']}"
             + ("" if block["budget"] is None else f" {block['budget']:g}%")
+            + ("" if unseen is None else f" ({len(unseen)} unseen)")
             + f" — {_backbone(block['backbone'])}, {_method(block['method'])}"
         )
         written.append(

@@ -41,7 +41,8 @@ class FoldContext:
     `train` holds the real windows the model is trained on in this fold
     (after the protocol's subsampling, without the validation subjects and
     never the held-out subject). `budget` maps class names to the number of
-    synthetic windows wanted.
+    synthetic windows wanted. `unseen` names the classes without any real
+    training window (unseen protocol): `train` holds none of them.
     """
 
     dataset: DatasetInfo
@@ -54,6 +55,7 @@ class FoldContext:
     alpha: float
     protocol: str
     label_budget: float | None = None
+    unseen: tuple[str, ...] = ()
 
     @property
     def total_budget(self) -> int:
@@ -77,14 +79,24 @@ class SyntheticSource(Protocol):
 METHODS: dict[str, Callable[..., SyntheticSource] | None] = {"real": None}
 # Display names used in result tables.
 METHOD_DISPLAY = {"real": "Real-only"}
+# Methods that can make windows of a class with no real window (the unseen protocol).
+UNSEEN_CAPABLE: set[str] = set()
 
 
 def register_method(
-    name: str, factory: Callable[..., SyntheticSource] | None, display: str | None = None
+    name: str,
+    factory: Callable[..., SyntheticSource] | None,
+    display: str | None = None,
+    unseen_classes: bool = False,
 ) -> None:
-    """Make a synthetic source available under `name` (e.g. for `--methods`)."""
+    """Make a synthetic source available under `name` (e.g. for `--methods`); `unseen_classes`:
+    it can make windows of a class that has no real training window."""
     METHODS[name] = factory
     METHOD_DISPLAY[name] = display or name
+    if unseen_classes:
+        UNSEEN_CAPABLE.add(name)
+    else:
+        UNSEEN_CAPABLE.discard(name)
 
 
 def make_method(name: str, **params: Any) -> SyntheticSource | None:
@@ -135,6 +147,23 @@ def synthetic_budget(
     else:
         weights = np.where(present, 1.0 / np.maximum(counts, 1), 0.0)
     return apportion(total, weights)
+
+
+def unseen_budget(
+    counts: np.ndarray, alpha: float, policy: str, unseen: tuple[int, ...]
+) -> np.ndarray:
+    """The synthetic budget of the unseen protocol. Seen classes: `synthetic_budget` of their
+    real windows (none with the `tail` policy: the unseen classes are the tail). Each unseen
+    class (no real window): round(alpha x the median real windows of a seen class), as many
+    as a typical seen class would get under the uniform policy."""
+    counts = np.asarray(counts, dtype=np.int64).copy()
+    counts[list(unseen)] = 0
+    seen = counts[counts > 0]
+    budget = (np.zeros(len(counts), np.int64) if policy == "tail"
+              else synthetic_budget(counts, alpha, policy))
+    if len(seen):
+        budget[list(unseen)] = int(round(alpha * float(np.median(seen))))
+    return budget
 
 
 def take_budget(synthetic: Windows, budget: np.ndarray, rng: np.random.Generator) -> Windows:

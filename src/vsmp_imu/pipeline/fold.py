@@ -290,8 +290,10 @@ def smp_variants(spec: GenerationSpec, base: Base, seed: int, key: str, library=
 
 def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list[tuple[str, Base]], slots: range,
                  seed: int, fold: str, fs_hz: float, locations: tuple[LocationTask, ...], library=None,
-                 motion_dir: Path | None = None, motion_fit: str = "") -> list[SampleTask]:
-    """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants)."""
+                 motion_dir: Path | None = None, motion_fit: str = "",
+                 class_windows: int | None = None) -> list[SampleTask]:
+    """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants);
+    `class_windows`: the class's real training windows in the fold, kept in the provenance."""
     variants = [(src, k, v) for src, base in bases
                 for k, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", library)]
     tasks = []
@@ -304,6 +306,7 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
             fs_hz=fs_hz, locations=locations, sim_in_the_loop=spec.sim_in_the_loop,
             noise=spec.noise, duration_s=spec.duration_s, library_dirs=tuple(spec.library_dirs),
             motion_dir=str(motion_dir) if motion_dir else None, motion_fit=motion_fit,
+            class_windows=class_windows,
         ))
     return tasks
 
@@ -492,12 +495,14 @@ class FoldGenerator:
         self.motion_dir = motion_dir
         self.library = library
         self.motion_fits: dict[str, dict] = {}  # per class, set by `generate` (motion_fit)
+        self.class_windows_: dict[str, int] = {}  # per class, the real training windows of the fold
 
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
                  budget: np.ndarray, seed: int, fold: str) -> FoldOutput:
         """The synthetic set for one fold (train: the fold's real training windows only)."""
         spec, threads = self.config, self.threads()
         budget = np.asarray(budget, dtype=np.int64)
+        self.class_windows_ = dict(zip(info.label_names, train.class_counts().tolist(), strict=True))
         length = train.n_timesteps
         hop = max(1, int(round(spec.hop_fraction * length)))
         setup = prepare(spec, info, train, sources, seed, threads)
@@ -549,7 +554,8 @@ class FoldGenerator:
               locations: tuple[LocationTask, ...]) -> list[SampleTask]:
         fit = fit_text(self.motion_fits.get(label))
         return sample_tasks(self.config, label, info.label_names.index(label), bases, slots, seed, fold,
-                            info.fs_hz, locations, self.library, self.motion_dir, fit)
+                            info.fs_hz, locations, self.library, self.motion_dir, fit,
+                            self.class_windows_.get(label))
 
     def synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
         """Rounds of per-sample synthesis until every class has oversample x budget raw windows.

@@ -1,8 +1,10 @@
 """The records the fold stages pass on: a sample's provenance and one record per window.
 
 `Provenance` is what a synthetic sample remembers of how it was made (source,
-SMP variant, prompt, backend and seed, the motion, the motion verdict and per
-location theta, eta* and gamma). `WindowRecord` is one generated window (or a
+SMP variant, prompt, backend and seed, the motion, the motion verdict, per
+location theta, eta* and gamma, and how many real training windows of its class
+the fold's grounding and filter had: 0 for a class with no evidence, whose
+sample is grounded on what the other classes teach). `WindowRecord` is one generated window (or a
 failed sample) with its filter verdicts (`FilterVerdict`, the filters' own
 `Verdict`) and kept/selected flags. Both turn into plain dicts (`as_dict`)
 with exactly the keys the Parquet output and the per-sample cache store.
@@ -71,6 +73,7 @@ class Provenance:
     motion: MotionSummary | None = None
     motion_verdict: Verdict | None = None
     locations: dict[str, LocationProvenance] = field(default_factory=dict)
+    class_windows: int | None = None  # real training windows of the class in the fold (None: not known)
 
     @property
     def failed(self) -> bool:
@@ -83,21 +86,28 @@ class Provenance:
         """Motion time of the first IMU sample (of the first location)."""
         return next(iter(self.locations.values())).start_s if self.locations else 0.0
 
+    @property
+    def class_evidence(self) -> bool | None:
+        """Whether the fold had real windows of the sample's class (None: not known)."""
+        return None if self.class_windows is None else self.class_windows > 0
+
     def as_dict(self) -> dict[str, Any]:
+        known = {} if self.class_windows is None else {"class_windows": self.class_windows}
         if self.failed:
-            return {"source": self.source, "label": self.label}
+            return {"source": self.source, "label": self.label, **known}
         return {"source": self.source, "label": self.label, "variant": self.variant, "smp_id": self.smp_id,
                 "prompt": self.prompt, "backend": self.backend, "seed": self.seed,
                 "motion": self.motion.as_dict(), "motion_verdict": self.motion_verdict.as_dict(),
-                "locations": {name: loc.as_dict() for name, loc in self.locations.items()}}
+                "locations": {name: loc.as_dict() for name, loc in self.locations.items()}, **known}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Provenance:
         if "motion" not in d:
-            return cls(d["source"], d["label"])
+            return cls(d["source"], d["label"], class_windows=d.get("class_windows"))
         return cls(d["source"], d["label"], d["variant"], d["smp_id"], d["prompt"], d["backend"], d["seed"],
                    MotionSummary(**d["motion"]), Verdict(**d["motion_verdict"]),
-                   {name: LocationProvenance.from_dict(loc) for name, loc in d["locations"].items()})
+                   {name: LocationProvenance.from_dict(loc) for name, loc in d["locations"].items()},
+                   d.get("class_windows"))
 
 
 @dataclass

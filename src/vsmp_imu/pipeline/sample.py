@@ -97,6 +97,7 @@ class SampleTask:
     motion_digest: str | None = None  # content hash of motion_file (what the cache key sees)
     motion_dir: str | None = None  # where to save the motion (.npz), if anywhere; not hashed
     motion_fit: str = ""  # the class's fitted motion parameters (pipeline.motionfit, JSON; empty: none)
+    class_windows: int | None = None  # real training windows of the class in the fold (0: no evidence)
 
     def content_hash(self) -> str:
         payload = asdict(self)
@@ -271,10 +272,11 @@ def synthesize(task: SampleTask, motion_path: Path | None = None) -> SampleResul
         for loc in task.locations:
             signals[loc.name], locations[loc.name] = _location_signal(motion, task, loc)
         provenance = Provenance(task.source, task.label, task.variant, smp_id, task.prompt, task.backend,
-                                task.seed, summary, motion_verdict, locations)
+                                task.seed, summary, motion_verdict, locations, task.class_windows)
         return SampleResult(task.key, task.label_index, signals, provenance)
     except VsmpError as exc:  # a failed sample is recorded and filtered out
-        return SampleResult(task.key, task.label_index, {}, Provenance(task.source, task.label),
+        return SampleResult(task.key, task.label_index, {},
+                            Provenance(task.source, task.label, class_windows=task.class_windows),
                             error=f"{type(exc).__name__}: {exc}")
 
 
