@@ -109,6 +109,7 @@ class EvalRequest:
     data_dir: Path | None = None
     backbone_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    share_selection: bool = True  # do no harm (`vsmp_imu.har.noharm`)
 
 
 def evaluation(spec: GenerationSpec, request: EvalRequest):
@@ -133,6 +134,7 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
         methods=request.methods, folds=request.folds, seeds=tuple(range(request.seeds)), alpha=spec.alpha,
         policy=spec.policy, rho=request.rho, window_s=request.window_s, overlap=request.overlap,
         backbone_params=request.backbone_params, method_params=params, report_groups=request.report_groups,
+        share_selection=request.share_selection,
     )
     return Evaluation(config, ds, request.output)
 
