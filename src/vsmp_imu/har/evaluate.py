@@ -250,7 +250,7 @@ class Evaluation:
             "method": method,
             "method_params": c.method_params.get(method, {}),
         }
-        if c.share_selection:  # absent when off: records of runs before the selection stay valid
+        if c.share_selection and method != "real":  # absent when off: older records stay valid
             payload["share_selection"] = [list(c.selection_shares), c.selection_tolerance]
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
