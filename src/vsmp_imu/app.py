@@ -109,7 +109,7 @@ class EvalRequest:
     data_dir: Path | None = None
     backbone_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
-    share_selection: bool = True  # do no harm (`vsmp_imu.har.noharm`)
+    share_selection: str = "method"  # do no harm (`vsmp_imu.har.noharm`): off | method | class
 
 
 def evaluation(spec: GenerationSpec, request: EvalRequest):

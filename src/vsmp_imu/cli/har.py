@@ -95,10 +95,10 @@ def evaluate_cmd(
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder"),
     refill: int = typer.Option(0, "--refill", min=0, max=8,
                                help="VSMP-IMU: extra passes for classes short of their budget after filtering"),
-    share_selection: bool = typer.Option(
-        True, "--share-selection/--no-share-selection",
-        help="do no harm: per class, mix synthetic windows only where they do not lower that class's "
-             "soft F1 on the validation subjects"),
+    share_selection: str = typer.Option(
+        "method", "--share-selection",
+        help="do no harm: drop a method's synthetic windows where they measurably lower the validation "
+             "subjects' true-class probability: method (all together) | class (per class) | off"),
     output: Path = typer.Option(..., "--output", "-o", help="output folder"),
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
@@ -106,9 +106,11 @@ def evaluate_cmd(
     output_dir(output)
     executor_options(executor, address)
     from vsmp_imu.app import EvalRequest, evaluate, evaluation
+    from vsmp_imu.har.noharm import check_mode
     from vsmp_imu.har.protocols import parse_budgets
     from vsmp_imu.pipeline.spec import GenerationSpec
 
+    check_mode(share_selection)
     _positive(max_epochs, "--max-epochs")
     _positive(patience, "--patience")
     _positive(jobs, "--jobs")
@@ -203,11 +205,11 @@ def _share_notes(summary: list[dict[str, Any]]) -> list[str]:
         budget = "" if row["budget"] is None else f" {row['budget']:g}%"
         where = f"{row['method']} ({row['protocol']}{budget}, {row['backbone']})"
         if parts:
-            lines.append(f"{where}: no synthetic windows mixed (they lowered the class's validation soft F1) "
+            lines.append(f"{where}: no synthetic windows mixed (measured harm on the validation subjects) "
                          f"for {', '.join(parts)}")
         if unjudged:
-            lines.append(f"{where}: kept all synthetic windows without a validation window to judge them "
-                         f"for {', '.join(unjudged)}")
+            lines.append(f"{where}: no validation window of {', '.join(unjudged)} (kept unless the method "
+                         f"as a whole measured harm)")
     return lines
 
 

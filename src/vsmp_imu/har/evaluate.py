@@ -26,10 +26,9 @@ from vsmp_imu.har.backbones import BACKBONES, make_backbone
 from vsmp_imu.har.dataset import HarDataset
 from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std
 from vsmp_imu.har.noharm import (
-    DEFAULT_SHARES,
-    DEFAULT_TOLERANCE,
+    HARM_P,
     ShareSelector,
-    check_shares,
+    check_mode,
     choice_record,
     dropped_summary,
     shares_vector,
@@ -105,10 +104,8 @@ class EvalConfig:
     backbone_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     method_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
-    # do no harm: per class share of synthetic windows chosen on the validation subjects
-    share_selection: bool = False  # on by default on the command line (`app.EvalRequest`)
-    selection_shares: tuple[float, ...] = DEFAULT_SHARES
-    selection_tolerance: float = DEFAULT_TOLERANCE
+    # do no harm (`noharm`): off | method | class; `method` on the command line (`app.EvalRequest`)
+    share_selection: str = "off"
 
     def __post_init__(self) -> None:
         """Normalise the budgets: (None,) outside low-resource, the default budgets when none are
@@ -148,7 +145,7 @@ class EvalConfig:
             raise ConfigError("need at least one seed", field="--seeds", allowed="N >= 1")
         if not self.rho > 1 or not math.isfinite(self.rho):  # NaN fails both
             raise ConfigError(f"rho {self.rho:g} out of range", field="--rho", allowed="a finite rho > 1")
-        check_shares(self.selection_shares, self.selection_tolerance)
+        check_mode(self.share_selection)
         return self
 
 
@@ -250,8 +247,8 @@ class Evaluation:
             "method": method,
             "method_params": c.method_params.get(method, {}),
         }
-        if c.share_selection and method != "real":  # absent when off: older records stay valid
-            payload["share_selection"] = [list(c.selection_shares), c.selection_tolerance]
+        if c.share_selection != "off" and method != "real":  # absent when off: older records stay valid
+            payload["share_selection"] = [c.share_selection, HARM_P]
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -390,7 +387,7 @@ class Evaluation:
         (`noharm`), their synthetic count and the choice per class (None when not chosen)."""
         c = self.config
         is_real = train.meta["source"] == "real" if "source" in train.meta else np.ones(len(train), bool)
-        if not c.share_selection or is_real.all():
+        if c.share_selection == "off" or is_real.all():
             return train, int((~is_real).sum()), None
         real, synthetic = train[np.flatnonzero(is_real)], train[np.flatnonzero(~is_real)]
         state = int(
@@ -403,7 +400,7 @@ class Evaluation:
             model = make_backbone(backbone, **params)
             return model.fit(windows.X, windows.y, val.X if len(val) else None, val.y if len(val) else None)
 
-        selector = ShareSelector(c.selection_shares, c.selection_tolerance)
+        selector = ShareSelector(c.share_selection)
         choice = selector.choose(fit, real, synthetic, val)
         kept = take_shares(synthetic, shares_vector(choice, len(train.label_names)))
         mixed = concat_windows([real, kept]) if len(kept) else real

@@ -1,22 +1,26 @@
-"""Do no harm: how much of each class's synthetic windows to mix, chosen on validation subjects.
+"""Do no harm: whether to mix a method's synthetic windows, decided on the validation subjects.
 
-Before the final fit of a (method, backbone, fold, seed, budget), the backbone
-is fitted once per candidate share s (default 0 and 1): on the fit subjects'
-real windows plus the share s of every class's synthetic windows. Each class
-then keeps the largest share whose validation score for that class is within
-`tolerance` of the best share's. The score is a soft per-class F1 on the
-validation subjects' windows (from predicted probabilities, so one window that
-tips over does not decide):
+Before the final fit of a (method, backbone, fold, seed, budget) the backbone
+is fitted twice on the fit subjects: on their real windows alone and with
+all the synthetic windows. For every validation window the change in the
+probability given to its true class, d = p_with(y) - p_without(y), is the
+evidence. Synthetic windows are dropped only where they measurably hurt: the
+class-balanced mean of d (each class weighs the same, as in Macro-F1) is
+negative and a one-sided paired sign-flip test gives p < `HARM_P`; a handful
+of validation windows can therefore never drop anything (noise is not harm).
 
-    TP_c = sum_{y=c} p_c,  FP_c = sum_{y!=c} p_c,  FN_c = sum_{y=c} (1 - p_c),
-    soft F1_c = 2 TP_c / (2 TP_c + FP_c + FN_c).
+- `method` (the command line's default): one decision for all classes, over
+  all validation windows; the synthetic windows are kept or dropped together.
+- `class`: one decision per class, over that class's validation windows; a
+  class without validation windows keeps its synthetic windows. A class's
+  windows are also pushed by the other classes' synthetic windows (a larger
+  budget for rare classes lowers the probability of the common ones), so this
+  mode can drop a class's windows for harm they did not cause.
 
-The held-out subject takes no part: only `fit` and `val` of the fold are used.
-A class without validation windows cannot be judged and keeps all of its
-synthetic windows (its record says so). A backbone that trains on the
-validation subjects too (the Random Forest) is fitted for the choice on the
-fit subjects only and scored on the validation subjects; its final fit then
-adds the validation subjects as usual.
+The held-out subject takes no part: only the fold's fit and validation
+windows are used. A backbone that trains on the validation subjects too (the
+Random Forest) is fitted for this choice on the fit subjects only and scored
+on the validation subjects; its final fit then adds them as usual.
 """
 
 from __future__ import annotations
@@ -29,8 +33,9 @@ import numpy as np
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.har.windows import Windows, concat_windows
 
-DEFAULT_SHARES = (0.0, 1.0)
-DEFAULT_TOLERANCE = 0.0
+SELECTION_MODES = ("off", "method", "class")
+HARM_P = 0.05  # one-sided level at which a fall in validation probability counts as harm
+N_FLIPS = 2000  # random sign flips of the paired test (seeded: same data, same p)
 
 
 @dataclass(frozen=True)
@@ -41,42 +46,62 @@ class ClassShare:
     offered: int  # synthetic windows of the class before the choice
     kept: int
     n_val: int  # validation windows of the class
-    scores: dict[str, float] | None  # soft F1 per candidate share ("0", "1", ...)
+    mean_change: float | None  # mean d over the class's validation windows
     reason: str
 
 
-def check_shares(shares: Sequence[float], tolerance: float) -> tuple[float, ...]:
-    """Sorted candidate shares in [0, 1] that include 0 (Real-only for that class)."""
-    values = tuple(sorted({float(s) for s in shares}))
-    if not values or values[0] != 0.0 or values[-1] > 1.0 or values[0] < 0:
-        raise ConfigError(
-            f"synthetic shares {', '.join(f'{s:g}' for s in shares) or 'none'} not allowed",
-            field="no_harm_shares",
-            allowed="values in [0, 1], 0 among them (e.g. 0,1 or 0,0.5,1)",
-        )
-    if not 0 <= tolerance < 1:
-        raise ConfigError(f"tolerance {tolerance:g} out of range", field="no_harm_tolerance",
-                          allowed="0 <= tolerance < 1")
-    return values
+@dataclass(frozen=True)
+class Harm:
+    """The evidence over a set of validation windows."""
+
+    n: int
+    mean_change: float
+    p: float
+
+    @property
+    def hurts(self) -> bool:
+        return self.n > 0 and self.mean_change < 0 and self.p < HARM_P
+
+    def text(self) -> str:
+        return (f"validation p(true class) {self.mean_change:+.3f} on average over {self.n} windows, "
+                f"classes weighted equally (one-sided sign-flip p = {self.p:.2g})")
 
 
-def soft_f1(proba: np.ndarray, y: np.ndarray, n_classes: int) -> np.ndarray:
-    """Soft F1 per class from probabilities `(n, n_classes)` (NaN where a class has no window)."""
-    onehot = np.eye(n_classes)[y]
-    tp = (proba * onehot).sum(axis=0)
-    fp = (proba * (1 - onehot)).sum(axis=0)
-    fn = ((1 - proba) * onehot).sum(axis=0)
-    denom = 2 * tp + fp + fn
-    out = np.divide(2 * tp, denom, out=np.zeros(n_classes), where=denom > 0)
-    out[onehot.sum(axis=0) == 0] = np.nan
-    return out
+def check_mode(mode: str) -> str:
+    if mode not in SELECTION_MODES:
+        raise ConfigError(f"unknown share selection '{mode}'", field="--share-selection",
+                          allowed=", ".join(SELECTION_MODES))
+    return mode
 
 
-def full_proba(model, X: np.ndarray, n_classes: int) -> np.ndarray:
-    """`model.predict_proba(X)` with one column per class index (absent classes: 0)."""
-    out = np.zeros((len(X), n_classes))
-    out[:, np.asarray(model.classes_, dtype=np.int64)] = model.predict_proba(X)
-    return out
+def harm(change: np.ndarray, labels: np.ndarray | None = None) -> Harm:
+    """Class-balanced mean change (each label weighs the same; all windows alike without labels)
+    and the one-sided p of a paired sign-flip test that it is below zero (1 without evidence)."""
+    change = np.asarray(change, dtype=float)
+    if len(change) == 0:
+        return Harm(0, float("nan"), 1.0)
+    if labels is None:
+        weights = np.full(len(change), 1.0 / len(change))
+    else:
+        _, inverse, counts = np.unique(labels, return_inverse=True, return_counts=True)
+        weights = 1.0 / (counts[inverse] * len(counts))
+    observed = float(weights @ change)
+    size = weights * np.abs(change)
+    if not size.any():
+        return Harm(len(change), observed, 1.0)
+    rng = np.random.default_rng(0)
+    below = 0
+    for start in range(0, N_FLIPS, 250):  # chunks keep the sign matrix small
+        signs = rng.choice((-1.0, 1.0), size=(min(250, N_FLIPS - start), len(change)))
+        below += int(np.sum(signs @ size <= observed + 1e-12))
+    return Harm(len(change), observed, (1 + below) / (1 + N_FLIPS))
+
+
+def true_class_proba(model, windows: Windows, n_classes: int) -> np.ndarray:
+    """The probability `model` gives each window's own class (0 for a class it never saw)."""
+    full = np.zeros((len(windows), n_classes))
+    full[:, np.asarray(model.classes_, dtype=np.int64)] = model.predict_proba(windows.X)
+    return full[np.arange(len(windows)), windows.y]
 
 
 def take_shares(synthetic: Windows, shares: np.ndarray) -> Windows:
@@ -91,55 +116,40 @@ def take_shares(synthetic: Windows, shares: np.ndarray) -> Windows:
 Fit = Callable[[Windows], object]  # trains the backbone on windows, returns the fitted model
 
 
-def _reason(share: float, scores: dict[float, float], best: float) -> str:
-    top = max(scores)
-    if share == top:
-        gain = scores[top] - scores[0.0]
-        return f"kept: validation soft F1 {scores[top]:.3f} vs {scores[0.0]:.3f} without ({gain:+.3f})"
-    if share == 0.0:
-        return f"hurt validation soft F1 by {scores[0.0] - scores[top]:.3f} ({scores[top]:.3f} vs {scores[0.0]:.3f})"
-    return f"share {share:g} scored best ({best:.3f}; all: {scores[top]:.3f}, none: {scores[0.0]:.3f})"
-
-
 @dataclass
 class ShareSelector:
-    """Chooses per class the share of synthetic windows to mix (see the module docstring)."""
+    """Decides which synthetic windows to mix (see the module docstring)."""
 
-    shares: tuple[float, ...] = DEFAULT_SHARES
-    tolerance: float = DEFAULT_TOLERANCE
+    mode: str = "method"
 
     def choose(self, fit: Fit, real: Windows, synthetic: Windows, val: Windows) -> dict[int, ClassShare]:
-        """Per class index with synthetic windows: the share kept and why."""
-        shares = check_shares(self.shares, self.tolerance)
+        """Per class index with synthetic windows: the share kept (0 or 1) and why."""
+        check_mode(self.mode)
         n_classes = len(real.label_names)
         offered = np.bincount(synthetic.y, minlength=n_classes)
-        n_val = np.bincount(val.y, minlength=n_classes)
-        judged = [c for c in range(n_classes) if offered[c] > 0 and n_val[c] > 0]
-        scores: dict[float, np.ndarray] = {}
-        if judged:
-            for share in shares:
-                mixed = take_shares(synthetic, np.full(n_classes, share))
-                model = fit(_concat(real, mixed))
-                scores[share] = soft_f1(full_proba(model, val.X, n_classes), val.y, n_classes)
+        change = np.zeros(len(val))
+        if len(val) and len(synthetic):
+            without = true_class_proba(fit(real), val, n_classes)
+            change = true_class_proba(fit(concat_windows([real, synthetic])), val, n_classes) - without
+        overall = harm(change, val.y)
         out = {}
-        for c in np.flatnonzero(offered):
-            c = int(c)
-            if n_val[c] == 0:
-                out[c] = ClassShare(1.0, int(offered[c]), int(offered[c]), 0, None,
-                                    "no validation windows: kept all (harm cannot be measured)")
-                continue
-            per_share = {s: float(scores[s][c]) for s in shares}
-            best = max(per_share.values())
-            share = max(s for s in shares if per_share[s] >= best - self.tolerance)
-            kept = int(round(share * offered[c]))
-            out[c] = ClassShare(share, int(offered[c]), kept, int(n_val[c]),
-                                {f"{s:g}": round(v, 6) for s, v in per_share.items()},
-                                _reason(share, per_share, best))
+        for c in (int(c) for c in np.flatnonzero(offered)):
+            mine = harm(change[val.y == c])
+            mean = None if mine.n == 0 else round(mine.mean_change, 6)
+            drop, reason = self._decide(overall, mine)
+            out[c] = ClassShare(0.0 if drop else 1.0, int(offered[c]), 0 if drop else int(offered[c]),
+                                mine.n, mean, reason)
         return out
 
-
-def _concat(real: Windows, synthetic: Windows) -> Windows:
-    return concat_windows([real, synthetic]) if len(synthetic) else real
+    def _decide(self, overall: Harm, mine: Harm) -> tuple[bool, str]:
+        if self.mode == "method":
+            if overall.n == 0:
+                return False, "no validation windows: kept all (harm cannot be measured)"
+            return overall.hurts, ("dropped with the method's other synthetic windows: " if overall.hurts
+                                   else "kept: no measured harm, ") + overall.text()
+        if mine.n == 0:
+            return False, "no validation windows of the class: kept all (harm cannot be measured)"
+        return mine.hurts, ("dropped: hurt the class, " if mine.hurts else "kept: no measured harm, ") + mine.text()
 
 
 def shares_vector(choice: dict[int, ClassShare], n_classes: int) -> np.ndarray:
@@ -150,22 +160,17 @@ def shares_vector(choice: dict[int, ClassShare], n_classes: int) -> np.ndarray:
 
 
 def choice_record(choice: dict[int, ClassShare], label_names: Sequence[str]) -> dict[str, dict]:
-    """The choice as a record field: class name -> share, counts, scores and reason."""
+    """The choice as a record field: class name -> share, counts, mean change and reason."""
     return {label_names[c]: asdict(share) for c, share in sorted(choice.items())}
 
 
 def dropped_summary(records: Sequence[dict]) -> dict[str, dict]:
-    """Per class: in how many records its synthetic windows were dropped (share 0) or cut,
-    and the reasons' kinds counted."""
+    """Per class: in how many records it had synthetic windows, got none, or could not be judged."""
     out: dict[str, dict] = {}
     for r in records:
         for name, s in (r.get("synthetic_shares") or {}).items():
-            row = out.setdefault(name, {"runs": 0, "none": 0, "reduced": 0, "unjudged": 0})
+            row = out.setdefault(name, {"runs": 0, "none": 0, "unjudged": 0})
             row["runs"] += 1
-            if s["n_val"] == 0:
-                row["unjudged"] += 1
-            if s["share"] == 0:
-                row["none"] += 1
-            elif s["share"] < 1:
-                row["reduced"] += 1
+            row["unjudged"] += int(s["n_val"] == 0)
+            row["none"] += int(s["share"] == 0)
     return out
