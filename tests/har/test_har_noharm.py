@@ -12,7 +12,7 @@ from vsmp_imu.errors import ConfigError
 from vsmp_imu.har.backbones import RandomForestECDF
 from vsmp_imu.har.dataset import imu_channel_names
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
-from vsmp_imu.har.noharm import ShareSelector, check_shares, dropped_summary, soft_f1, take_shares
+from vsmp_imu.har.noharm import ShareSelector, dropped_summary, harm, shares_vector, take_shares
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.methods import register_all
 
@@ -35,31 +35,49 @@ def _rf_fit(windows: Windows):
     return RandomForestECDF(n_estimators=30, n_jobs=1, random_state=0).fit(windows.X, windows.y)
 
 
-def test_soft_f1_is_f1_for_hard_probabilities_and_nan_without_windows():
-    y = np.array([0, 0, 1, 1])
-    pred = np.array([0, 1, 1, 1])
-    proba = np.eye(3)[pred]
-    f1 = soft_f1(proba, y, 3)
-    assert f1[0] == pytest.approx(2 / 3)  # tp 1, fp 0, fn 1
-    assert f1[1] == pytest.approx(0.8)  # tp 2, fp 1, fn 0
-    assert np.isnan(f1[2])
-    assert soft_f1(np.full((4, 3), 1 / 3), y, 3)[0] < f1[0]  # unsure predictions score lower
+def test_harm_needs_evidence():
+    assert harm(np.array([])).p == 1 and not harm(np.array([])).hurts
+    assert harm(np.zeros(50)).p == 1
+    assert not harm(np.array([-0.2, -0.1, -0.3])).hurts  # three windows cannot show harm
+    rng = np.random.default_rng(0)
+    assert harm(rng.normal(-0.05, 0.05, 60)).hurts
+    assert not harm(rng.normal(0.0, 0.05, 60)).hurts
+    assert harm(np.full(40, -0.1)).p == harm(np.full(40, -0.1)).p  # seeded: same data, same p
 
 
-def test_label_noise_gets_share_zero_and_clean_synthetic_windows_are_kept():
+def test_classes_weigh_the_same_in_the_balanced_mean():
+    change = np.array([-0.1] * 90 + [0.5] * 10)
+    labels = np.array([0] * 90 + [1] * 10)
+    assert harm(change).mean_change == pytest.approx(-0.04)
+    assert harm(change, labels).mean_change == pytest.approx(0.2)
+    assert not harm(change, labels).hurts
+
+
+def test_label_noise_of_one_class_gets_share_zero_per_class_and_clean_windows_are_kept():
     rng = np.random.default_rng(0)
     real = _windows([0.0, 1.0, 2.0], [0, 1, 2], 6, rng, "1")
-    val = _windows([0.0, 1.0, 2.0], [0, 1, 2], 10, rng, "2")
-    # class 0's synthetic windows look like class 1 (label noise); class 2's are right
-    synthetic = _windows([1.0, 2.0], [0, 2], 30, rng, "synthetic")
-    choice = ShareSelector().choose(_rf_fit, real, synthetic, val)
-    assert choice[0].share == 0 and choice[0].kept == 0
-    assert choice[0].reason.startswith("hurt validation soft F1 by")
-    assert choice[0].scores["0"] > choice[0].scores["1"]
+    val = _windows([0.0, 1.0, 2.0], [0, 1, 2], 20, rng, "2")
+    # class 1's synthetic windows look like class 0 (label noise); class 2's are right
+    synthetic = _windows([0.0, 2.0], [1, 2], 30, rng, "synthetic")
+    choice = ShareSelector("class").choose(_rf_fit, real, synthetic, val)
+    assert choice[1].share == 0 and choice[1].kept == 0
+    assert choice[1].reason.startswith("dropped: hurt one-vs-rest")
     assert choice[2].share == 1 and choice[2].kept == 30
-    assert 1 not in choice  # no synthetic window offered, nothing chosen
-    kept = take_shares(synthetic, np.array([choice[0].share, 1.0, choice[2].share]))
+    assert 0 not in choice  # no synthetic window offered, nothing chosen
+    kept = take_shares(synthetic, shares_vector(choice, 3))
     assert set(kept.y.tolist()) == {2}
+
+
+def test_a_method_whose_windows_are_label_noise_is_dropped_whole():
+    rng = np.random.default_rng(2)
+    real = _windows([0.0, 1.0, 2.0], [0, 1, 2], 6, rng, "1")
+    val = _windows([0.0, 1.0, 2.0], [0, 1, 2], 20, rng, "2")
+    noise = _windows([1.0, 2.0, 0.0], [0, 1, 2], 30, rng, "synthetic")  # every label wrong
+    choice = ShareSelector("method").choose(_rf_fit, real, noise, val)
+    assert [choice[c].share for c in range(3)] == [0, 0, 0]
+    assert all("dropped with the method's other synthetic windows" in s.reason for s in choice.values())
+    right = _windows([0.0, 1.0, 2.0], [0, 1, 2], 30, rng, "synthetic")
+    assert all(s.share == 1 for s in ShareSelector("method").choose(_rf_fit, real, right, val).values())
 
 
 def test_a_class_without_validation_windows_keeps_its_windows_and_says_why():
@@ -67,19 +85,17 @@ def test_a_class_without_validation_windows_keeps_its_windows_and_says_why():
     real = _windows([0.0, 1.0, 2.0], [0, 1, 2], 6, rng, "1")
     val = _windows([0.0, 1.0], [0, 1], 5, rng, "2")
     synthetic = _windows([1.0, 2.0], [0, 2], 10, rng, "synthetic")
-    choice = ShareSelector().choose(_rf_fit, real, synthetic, val)
-    assert choice[2].share == 1 and choice[2].n_val == 0 and choice[2].scores is None
-    assert "no validation windows" in choice[2].reason
+    choice = ShareSelector("class").choose(_rf_fit, real, synthetic, val)
+    assert choice[2].share == 1 and choice[2].n_val == 0 and choice[2].mean_change is None
+    assert "no validation window of the class" in choice[2].reason
+    nothing = ShareSelector("class").choose(_rf_fit, real, synthetic, val[:0])
+    assert all(s.share == 1 and "no validation windows" in s.reason for s in nothing.values())
 
 
-def test_shares_must_include_zero_and_lie_in_the_unit_interval():
-    assert check_shares((1.0, 0.0, 0.5), 0.0) == (0.0, 0.5, 1.0)
-    for bad in ((1.0,), (0.0, 1.5), ()):
-        with pytest.raises(ConfigError) as err:
-            check_shares(bad, 0.0)
-        assert err.value.field == "no_harm_shares"
-    with pytest.raises(ConfigError):
-        EvalConfig(dataset="tiny", selection_tolerance=-0.1).check()
+def test_an_unknown_mode_is_a_config_error():
+    with pytest.raises(ConfigError) as err:
+        EvalConfig(dataset="tiny", share_selection="some").check()
+    assert err.value.field == "--share-selection"
 
 
 def _config(**kw) -> EvalConfig:
@@ -87,7 +103,7 @@ def _config(**kw) -> EvalConfig:
     base = dict(dataset="tiny", protocol="low-resource", budgets=(50.0,), backbones=("rf",),
                 methods=("real", "classical"), folds=("3",), seeds=(0, 1), alpha=1.0,
                 policy="scarcity", backbone_params={"rf": {"n_estimators": 10, "n_jobs": 1}},
-                share_selection=True)
+                share_selection="method")
     return EvalConfig(**{**base, **kw})
 
 
@@ -141,10 +157,11 @@ def test_records_carry_the_choice_and_the_summary_counts_it(tiny_dataset):
 
 
 def test_selection_off_mixes_everything_and_keeps_the_old_digest(tiny_dataset):
-    on, off = Evaluation(_config(), tiny_dataset), Evaluation(_config(share_selection=False), tiny_dataset)
+    on, off = Evaluation(_config(), tiny_dataset), Evaluation(_config(share_selection="off"), tiny_dataset)
     assert on._digest("rf", "classical") != off._digest("rf", "classical")
-    assert off._digest("rf", "classical") == Evaluation(
-        _config(share_selection=False, selection_tolerance=0.5), tiny_dataset)._digest("rf", "classical")
+    assert on._digest("rf", "real") == off._digest("rf", "real")
+    assert Evaluation(_config(share_selection="class"), tiny_dataset)._digest("rf", "classical") not in (
+        on._digest("rf", "classical"), off._digest("rf", "classical"))
     for r in off.run().records:
         assert r["synthetic_shares"] is None
         assert r["n_synthetic"] == r["n_synthetic_requested"]
@@ -162,8 +179,8 @@ def test_the_command_line_notes_name_classes_without_synthetic_windows():
     from vsmp_imu.cli.har import _share_notes
 
     row = {"method": "vsmp", "protocol": "low-resource", "budget": 1.0, "backbone": "rf",
-           "synthetic_shares": {"WALKING": {"runs": 30, "none": 12, "reduced": 0, "unjudged": 0},
-                                "SIT_TO_LIE": {"runs": 30, "none": 0, "reduced": 0, "unjudged": 30}}}
+           "synthetic_shares": {"WALKING": {"runs": 30, "none": 12, "unjudged": 0},
+                                "SIT_TO_LIE": {"runs": 30, "none": 0, "unjudged": 30}}}
     lines = _share_notes([row])
     assert "WALKING in 12/30 runs" in lines[0] and "SIT_TO_LIE" not in lines[0]
     assert "SIT_TO_LIE (30/30)" in lines[1]
@@ -185,6 +202,7 @@ def test_evaluate_and_generate_default_to_the_settings_that_measured_a_gain():
         params = inspect.signature(command).parameters
         assert params["alpha"].default.default == spec.alpha
         assert params["policy"].default.default == spec.policy
-    assert inspect.signature(evaluate_cmd).parameters["share_selection"].default.default is True
-    assert EvalRequest(dataset="x", output=None).share_selection is True
+    assert inspect.signature(evaluate_cmd).parameters["share_selection"].default.default == "method"
+    assert EvalRequest(dataset="x", output=None).share_selection == "method"
+    assert EvalConfig(dataset="x").share_selection == "off"
     assert (EvalConfig(dataset="x").alpha, EvalConfig(dataset="x").policy) == (0.5, "uniform")

@@ -226,7 +226,7 @@ def test_the_shares_table_counts_the_classes_that_got_no_synthetic_windows():
 
     def share(share, offered, n_val):
         return {"share": share, "offered": offered, "kept": round(share * offered), "n_val": n_val,
-                "scores": None, "reason": "r"}
+                "mean_change": None, "reason": "r"}
 
     records = []
     for fold in range(1, 5):

@@ -11,11 +11,13 @@ of validation windows can therefore never drop anything (noise is not harm).
 
 - `method` (the command line's default): one decision for all classes, over
   all validation windows; the synthetic windows are kept or dropped together.
-- `class`: one decision per class, over that class's validation windows; a
-  class without validation windows keeps its synthetic windows. A class's
-  windows are also pushed by the other classes' synthetic windows (a larger
-  budget for rare classes lowers the probability of the common ones), so this
-  mode can drop a class's windows for harm they did not cause.
+- `class`: one decision per class c, one-vs-rest: the evidence is the change
+  of p(c) on c's validation windows and minus the change of p(c) on the other
+  windows (synthetic windows of c that pull other classes' windows into c do
+  harm too), the two sides weighted equally. With no validation window of c
+  only the second side is left. Every class's synthetic windows are in the
+  fitted model at once, so a class can be charged with a change that another
+  class's windows caused.
 
 The held-out subject takes no part: only the fold's fit and validation
 windows are used. A backbone that trains on the validation subjects too (the
@@ -97,11 +99,11 @@ def harm(change: np.ndarray, labels: np.ndarray | None = None) -> Harm:
     return Harm(len(change), observed, (1 + below) / (1 + N_FLIPS))
 
 
-def true_class_proba(model, windows: Windows, n_classes: int) -> np.ndarray:
-    """The probability `model` gives each window's own class (0 for a class it never saw)."""
+def full_proba(model, windows: Windows, n_classes: int) -> np.ndarray:
+    """`model.predict_proba` with one column per class index (0 for a class it never saw)."""
     full = np.zeros((len(windows), n_classes))
     full[:, np.asarray(model.classes_, dtype=np.int64)] = model.predict_proba(windows.X)
-    return full[np.arange(len(windows)), windows.y]
+    return full
 
 
 def take_shares(synthetic: Windows, shares: np.ndarray) -> Windows:
@@ -127,29 +129,31 @@ class ShareSelector:
         check_mode(self.mode)
         n_classes = len(real.label_names)
         offered = np.bincount(synthetic.y, minlength=n_classes)
-        change = np.zeros(len(val))
+        change = np.zeros((len(val), n_classes))
         if len(val) and len(synthetic):
-            without = true_class_proba(fit(real), val, n_classes)
-            change = true_class_proba(fit(concat_windows([real, synthetic])), val, n_classes) - without
-        overall = harm(change, val.y)
+            without = full_proba(fit(real), val, n_classes)
+            change = full_proba(fit(concat_windows([real, synthetic])), val, n_classes) - without
+        overall = harm(change[np.arange(len(val)), val.y], val.y)
         out = {}
         for c in (int(c) for c in np.flatnonzero(offered)):
-            mine = harm(change[val.y == c])
-            mean = None if mine.n == 0 else round(mine.mean_change, 6)
-            drop, reason = self._decide(overall, mine)
+            own = val.y == c
+            mine = harm(np.where(own, change[:, c], -change[:, c]), own)
+            mean = None if not own.any() else round(float(change[own, c].mean()), 6)
+            drop, reason = self._decide(overall, mine, int(own.sum()))
             out[c] = ClassShare(0.0 if drop else 1.0, int(offered[c]), 0 if drop else int(offered[c]),
-                                mine.n, mean, reason)
+                                int(own.sum()), mean, reason)
         return out
 
-    def _decide(self, overall: Harm, mine: Harm) -> tuple[bool, str]:
+    def _decide(self, overall: Harm, mine: Harm, n_own: int) -> tuple[bool, str]:
+        if overall.n == 0:
+            return False, "no validation windows: kept all (harm cannot be measured)"
         if self.mode == "method":
-            if overall.n == 0:
-                return False, "no validation windows: kept all (harm cannot be measured)"
             return overall.hurts, ("dropped with the method's other synthetic windows: " if overall.hurts
                                    else "kept: no measured harm, ") + overall.text()
-        if mine.n == 0:
-            return False, "no validation windows of the class: kept all (harm cannot be measured)"
-        return mine.hurts, ("dropped: hurt the class, " if mine.hurts else "kept: no measured harm, ") + mine.text()
+        side = "" if n_own else " (no validation window of the class: judged on the others' windows)"
+        verdict = "dropped: hurt one-vs-rest, " if mine.hurts else "kept: no measured harm one-vs-rest, "
+        return mine.hurts, verdict + mine.text().replace("p(true class)", "p(class) for the class, -p(class) "
+                                                        "for the others,") + side
 
 
 def shares_vector(choice: dict[int, ClassShare], n_classes: int) -> np.ndarray:
