@@ -96,7 +96,7 @@ def evaluate_cmd(
     refill: int = typer.Option(0, "--refill", min=0, max=8,
                                help="VSMP-IMU: extra passes for classes short of their budget after filtering"),
     share_selection: str = typer.Option(
-        "method", "--share-selection",
+        "off", "--share-selection",
         help="do no harm: drop a method's synthetic windows where they measurably lower the validation "
              "subjects' true-class probability: method (all together) | class (per class) | off"),
     output: Path = typer.Option(..., "--output", "-o", help="output folder"),

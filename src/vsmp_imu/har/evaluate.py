@@ -104,7 +104,7 @@ class EvalConfig:
     backbone_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     method_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
-    # do no harm (`noharm`): off | method | class; `method` on the command line (`app.EvalRequest`)
+    # do no harm (`noharm`): off | method | class
     share_selection: str = "off"
 
     def __post_init__(self) -> None:

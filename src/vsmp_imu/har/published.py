@@ -266,8 +266,11 @@ class TableBuilder:
         for budget in self.budgets():
             base = self.runs(s.baseline, budget, self.baseline_records)
             for method in s.methods:
-                runs = self.same_runs({f"baseline {s.baseline}": base, method: self.runs(method, budget)},
-                                      budget)[method]
+                mine = self.runs(method, budget)
+                if self.baseline_records is not None:  # another set: the runs this one has
+                    keys = {(str(r["fold"]), r["seed"]) for r in mine}
+                    base = [r for r in base if (str(r["fold"]), r["seed"]) in keys]
+                runs = self.same_runs({f"baseline {s.baseline}": base, method: mine}, budget)[method]
                 cells = [paired_test(runs, base, m).cell(s.digits) for m in s.metrics]
                 name = _method_name(method)
                 if self.baseline_records is not None:
