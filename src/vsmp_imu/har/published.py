@@ -267,9 +267,10 @@ class TableBuilder:
             base = self.runs(s.baseline, budget, self.baseline_records)
             for method in s.methods:
                 mine = self.runs(method, budget)
-                if self.baseline_records is not None:  # another set: the runs this one has
-                    keys = {(str(r["fold"]), r["seed"]) for r in mine}
-                    base = [r for r in base if (str(r["fold"]), r["seed"]) in keys]
+                if self.baseline_records is not None:  # another set: the runs both have
+                    both = _run_keys(mine) & _run_keys(base)
+                    mine = [r for r in mine if (str(r["fold"]), r["seed"]) in both]
+                    base = [r for r in base if (str(r["fold"]), r["seed"]) in both]
                 runs = self.same_runs({f"baseline {s.baseline}": base, method: mine}, budget)[method]
                 cells = [paired_test(runs, base, m).cell(s.digits) for m in s.metrics]
                 name = _method_name(method)
@@ -328,6 +329,10 @@ class TableBuilder:
         header = self._lead_header() + ["Method", "synthetic windows kept", "classes that got none (runs)",
                                         "not judged: no validation window (runs)"]
         return _markdown(header, rows)
+
+
+def _run_keys(records: Sequence[dict]) -> set[tuple[str, int]]:
+    return {(str(r["fold"]), r["seed"]) for r in records}
 
 
 def _class_counts(choices: Sequence[dict], test, n_runs: int) -> str:
