@@ -139,6 +139,9 @@ class EvalRequest:
     backbone_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
     unseen: tuple[str, ...] = ()  # unseen protocol: classes, group names or ("each",)
+    # do no harm (`vsmp_imu.har.noharm`): off | method | class; off by default because the guard
+    # measured below mixing every synthetic window on HAPT12 (docs/results.md)
+    share_selection: str = "off"
 
 
 def evaluation(spec: GenerationSpec, request: EvalRequest):
@@ -167,6 +170,7 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
         policy=spec.policy, rho=request.rho, window_s=request.window_s, overlap=request.overlap,
         backbone_params=request.backbone_params, method_params=params, report_groups=request.report_groups,
         unseen=request.unseen,
+        share_selection=request.share_selection,
     )
     return Evaluation(config, ds, request.output)
 

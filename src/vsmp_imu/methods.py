@@ -2,7 +2,8 @@
 
 The har room knows only the plug-in point (`vsmp_imu.har.synthetic`); this
 module, above all rooms, names the sources: Classical Aug, the IMUTube- and
-IMUGPT-2.0-style baselines, VSMP-IMU and its ablation variants. Each entry
+IMUGPT-2.0-style baselines, VSMP-IMU, its ablation variants and VSMP-IMU
+combined with Classical Aug (`vsmp+classical`). Each entry
 says what the method is (`kind`), what it needs and which generation-spec
 fields it fixes (`switches`: an ablation variant's switched-off stages, a
 baseline's chain). Modules are imported only when a method is used.
@@ -95,6 +96,9 @@ REGISTRY: dict[str, Method] = {m.name: m for m in (
     Method("imugpt", "IMUGPT 2.0", "baseline", "vsmp_imu.baselines.generative:ImuGptMethod",
            unseen_classes=True, switches={**BASELINE_CHAIN, "redundancy_filter": True}),
     *VSMP_VARIANTS,
+    # VSMP-IMU windows and classical augmentation of the real and VSMP-IMU windows, one budget
+    Method("vsmp+classical", "VSMP-IMU + Classical Aug.", "vsmp", "vsmp_imu.pipeline.combined:VsmpClassicalMethod",
+           unseen_classes=True),
 )}
 
 

@@ -87,3 +87,9 @@ class TinyDataset:
 @pytest.fixture
 def tiny_dataset():
     return TinyDataset.make()
+
+
+@pytest.fixture
+def tiny_factory():
+    """`TinyDataset.make`: for tests that need several independent copies of the tiny dataset."""
+    return TinyDataset.make

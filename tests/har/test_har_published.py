@@ -218,3 +218,37 @@ def test_a_table_whose_columns_cover_different_runs_is_an_error(tmp_path, repo):
     import_run(run, "demo", "cmd", repo / "results")
     with pytest.raises(ConfigError, match=r"do not have the same runs at budget 1 \(real 8, vsmp 4\)"):
         Publication(repo).check()
+
+
+def test_the_shares_table_counts_the_classes_that_got_no_synthetic_windows():
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    def share(share, offered, n_val):
+        return {"share": share, "offered": offered, "kept": round(share * offered), "n_val": n_val,
+                "mean_change": None, "reason": "r"}
+
+    records = []
+    for fold in range(1, 5):
+        r = _record("vsmp", fold, 0, 1.0, 0.6)
+        r["synthetic_shares"] = {"WALKING": share(0.0 if fold <= 3 else 1.0, 10, 2),
+                                 "SIT_TO_LIE": share(1.0, 30, 0)}
+        records.append(r)
+    spec = TableSpec(id="x:shares", records="x", kind="shares", budgets=[1], methods=["vsmp"])
+    table = TableBuilder(spec, RecordSet("x", "cmd", None, None, {}, LABELS, tuple(records))).render()
+    # kept: 4 x 30 (SIT_TO_LIE) + 10 (WALKING, once) of 160 offered
+    assert "| 1 % | VSMP-IMU | 81 % | WALKING 3/4 | SIT_TO_LIE 4/4 |" in table
+
+
+def test_a_paired_table_can_take_its_baseline_from_another_record_set():
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    before = [_record("vsmp", fold, 0, 1.0, 0.5) for fold in range(1, 7)]
+    after = [_record("vsmp", fold, 0, 1.0, 0.5 + 0.01 * fold) for fold in range(1, 7)]
+    spec = TableSpec(id="x:before", records="after", kind="paired", baseline="vsmp", baseline_records="before",
+                     budgets=[1], methods=["vsmp"], metrics=[{"label": "all", "metric": "macro_f1"}])
+    table = TableBuilder(spec, RecordSet("after", "cmd a", "abcdef1", None, {}, LABELS, tuple(after)),
+                         RecordSet("before", "cmd b", "1234567", None, {}, LABELS, tuple(before))).render()
+    assert "| 1 % | VSMP-IMU vs. VSMP-IMU of `before` | +3.50 (6/6, p = 0.031) |" in table
+    assert "against `results/before/`, from `cmd b` at commit 1234567" in table

@@ -124,6 +124,29 @@ class ClassicalAugmentation:
             out = time_warp(out, self.warp_sigma, self.warp_knots, rng)
         return out
 
+    def augment_pool(
+        self,
+        X: np.ndarray,
+        y: np.ndarray,
+        budget: np.ndarray,
+        channel_std: np.ndarray,
+        groups: list[list[int]],
+        rng: np.random.Generator,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`budget[c]` augmented copies of windows of class c drawn from `X` with replacement:
+        (windows, labels, index in `X` of the window each one came from)."""
+        xs, ys, origin = [], [], []
+        for c, n in enumerate(budget):
+            pool = np.flatnonzero(y == c)
+            if n <= 0 or len(pool) == 0:
+                continue
+            for i in rng.choice(pool, size=int(n), replace=True):
+                xs.append(self.augment(X[i], channel_std, groups, rng))
+                ys.append(c)
+                origin.append(i)
+        out = np.stack(xs).astype(np.float32) if xs else np.zeros((0, *X.shape[1:]), np.float32)
+        return out, np.array(ys, dtype=np.int64), np.array(origin, dtype=np.int64)
+
     def generate(self, context: FoldContext) -> Windows:
         real = context.train
         rng = rng_for(
@@ -134,28 +157,15 @@ class ClassicalAugmentation:
             if len(real)
             else np.ones(real.n_channels)
         )
-        groups = sensor_triplets(real.channel_names)
-        xs, ys, origin = [], [], []
-        for c, n in enumerate(context.budget_vector()):
-            pool = np.flatnonzero(real.y == c)
-            if n <= 0 or len(pool) == 0:
-                continue
-            for i in rng.choice(pool, size=int(n), replace=True):
-                xs.append(self.augment(real.X[i], std, groups, rng))
-                ys.append(c)
-                origin.append(i)
-        if not xs:
-            X = np.zeros((0, real.n_timesteps, real.n_channels), np.float32)
-        else:
-            X = np.stack(xs).astype(np.float32)
-        origin = np.array(origin, dtype=np.int64)
+        X, ys, origin = self.augment_pool(real.X, real.y, context.budget_vector(), std,
+                                          sensor_triplets(real.channel_names), rng)
         meta = {"source": np.full(len(ys), self.name), "origin_index": origin}
         for key in ("recording", "start"):  # provenance: the real window each one came from
             if key in real.meta:
                 meta[f"origin_{key}"] = real.meta[key][origin]
         return Windows(
             X=X,
-            y=np.array(ys, dtype=np.int64),
+            y=ys,
             subjects=np.full(len(ys), "classical"),
             label_names=real.label_names,
             channel_names=real.channel_names,

@@ -19,8 +19,10 @@ def generate_cmd(
     source: str = typer.Option("library", "--source", help=SOURCE_HELP),
     k: int = typer.Option(4, "--k", min=1, max=64, help="SMP variants per base SMP"),
     backend: str = typer.Option("procedural", "--backend", help="procedural | compiled | hymotion"),
-    alpha: float = typer.Option(0.5, "--alpha", help="Synthetic windows = alpha x real training windows"),
-    policy: str = typer.Option("uniform", "--policy", help="Budget policy: uniform | tail | scarcity"),
+    alpha: float = typer.Option(2.0, "--alpha", help="Synthetic windows = alpha x real training windows "
+                                "(the paper: 0.5)"),
+    policy: str = typer.Option("scarcity", "--policy", help="Budget policy: uniform | tail | scarcity "
+                               "(the paper: uniform)"),
     seed: int = typer.Option(0, "--seed"),
     window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0),
     overlap: float = typer.Option(0.5, "--overlap", min=0.0, max=0.95),

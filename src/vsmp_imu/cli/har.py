@@ -71,9 +71,9 @@ def evaluate_cmd(
     ),
     folds: str = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3"),
     seeds: int = typer.Option(1, "--seeds", max=1000, help="number of seeds (0..N-1)"),
-    alpha: float = typer.Option(0.5, "--alpha", help="synthetic-to-real ratio, 0.1..2.0"),
+    alpha: float = typer.Option(2.0, "--alpha", help="synthetic-to-real ratio, 0.1..2.0 (the paper: 0.5)"),
     policy: str = typer.Option(
-        "uniform", "--policy", help="synthetic budget per class: uniform | tail | scarcity"
+        "scarcity", "--policy", help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform)"
     ),
     rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
     window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0, help="window length in seconds"),
@@ -104,6 +104,10 @@ def evaluate_cmd(
                                help="VSMP-IMU: extra passes for classes short of their budget after filtering"),
     cache_dir: Path = typer.Option(None, "--cache-dir",
                                    help="generated-sample cache (default: the cache directory, see `vsmp-imu cache info`)"),
+    share_selection: str = typer.Option(
+        "off", "--share-selection",
+        help="do no harm: drop a method's synthetic windows where they measurably lower the validation "
+             "subjects' true-class probability: method (all together) | class (per class) | off"),
     output: Path = typer.Option(..., "--output", "-o", help="output folder"),
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
@@ -112,9 +116,11 @@ def evaluate_cmd(
     output_dir(cache_dir, "--cache-dir")
     executor_options(executor, address)
     from vsmp_imu.app import EvalRequest, evaluate, evaluation
+    from vsmp_imu.har.noharm import check_mode
     from vsmp_imu.har.protocols import parse_budgets
     from vsmp_imu.pipeline.spec import GenerationSpec
 
+    check_mode(share_selection)
     _positive(max_epochs, "--max-epochs")
     _positive(patience, "--patience")
     _positive(jobs, "--jobs")
@@ -125,7 +131,7 @@ def evaluate_cmd(
         backbones=chosen_backbones, methods=tuple(parse_csv(methods, option="--methods")),
         folds=_parse_folds(folds), seeds=seeds, rho=rho, window_s=window_s, overlap=overlap,
         data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device),
-        report_groups=_parse_groups(report_groups),
+        report_groups=_parse_groups(report_groups), share_selection=share_selection,
         unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
@@ -250,8 +256,25 @@ def _print_summary(summary: list[dict[str, Any]]) -> None:
             str(row["n"]),
         )
     console.print(table)
-    for line in _shortfalls(summary):
+    for line in _shortfalls(summary) + _share_notes(summary):
         console.print(f"[yellow]note:[/] {line}", highlight=False)
+
+
+def _share_notes(summary: list[dict[str, Any]]) -> list[str]:
+    """One line per row where the share selection mixed no synthetic window of some class."""
+    lines = []
+    for row in summary:
+        shares = row.get("synthetic_shares") or {}
+        parts = [f"{name} in {s['none']}/{s['runs']} runs" for name, s in shares.items() if s["none"]]
+        unjudged = [f"{name} ({s['unjudged']}/{s['runs']})" for name, s in shares.items() if s["unjudged"]]
+        budget = "" if row["budget"] is None else f" {row['budget']:g}%"
+        where = f"{row['method']} ({row['protocol']}{budget}, {row['backbone']})"
+        if parts:
+            lines.append(f"{where}: no synthetic windows mixed (measured harm on the validation subjects) "
+                         f"for {', '.join(parts)}")
+        if unjudged:
+            lines.append(f"{where}: the validation subjects had no window of {', '.join(unjudged)}")
+    return lines
 
 
 @dataset_app.command("list")

@@ -25,6 +25,15 @@ from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.backbones import BACKBONES, make_backbone
 from vsmp_imu.har.dataset import HarDataset
 from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std, unseen_metrics
+from vsmp_imu.har.noharm import (
+    HARM_P,
+    ShareSelector,
+    check_mode,
+    choice_record,
+    dropped_summary,
+    shares_vector,
+    take_shares,
+)
 from vsmp_imu.har.protocols import (
     DEFAULT_BUDGETS,
     DEFAULT_RHO,
@@ -39,8 +48,8 @@ from vsmp_imu.har.records import RUN_KEYS, SPLIT_KEYS, UNSEEN_KEYS
 from vsmp_imu.har.synthetic import (
     ALPHA_RANGE,
     BUDGET_POLICIES,
-    DEFAULT_ALPHA,
     METHODS,
+    PAPER_ALPHA,
     UNSEEN_CAPABLE,
     FoldContext,
     check_synthetic,
@@ -88,7 +97,9 @@ class EvalConfig:
     methods: tuple[str, ...] = ("real",)
     folds: tuple[str, ...] | None = None
     seeds: tuple[int, ...] = (0,)
-    alpha: float = DEFAULT_ALPHA
+    # the harness's own defaults are the paper's (the studies rely on them); the command line
+    # and `app.evaluation` fill them from the GenerationSpec, whose defaults are the working ones
+    alpha: float = PAPER_ALPHA
     policy: str = "uniform"
     window_s: float = 2.0
     overlap: float = 0.5
@@ -99,6 +110,8 @@ class EvalConfig:
     report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
     # unseen protocol: class and group names (one unseen set), or ("each",) (one set per class)
     unseen: tuple[str, ...] = ()
+    # do no harm (`noharm`): off | method | class
+    share_selection: str = "off"
 
     def __post_init__(self) -> None:
         """Normalise the budgets: (None,) outside low-resource, the default budgets when none are
@@ -144,6 +157,7 @@ class EvalConfig:
             raise ConfigError("need at least one seed", field="--seeds", allowed="N >= 1")
         if not self.rho > 1 or not math.isfinite(self.rho):  # NaN fails both
             raise ConfigError(f"rho {self.rho:g} out of range", field="--rho", allowed="a finite rho > 1")
+        check_mode(self.share_selection)
         return self
 
 
@@ -265,6 +279,8 @@ class Evaluation:
         }
         if unseen is not None:  # absent otherwise: the other protocols' records stay valid
             payload["unseen"] = list(unseen)
+        if c.share_selection != "off" and method != "real":  # absent when off: older records stay valid
+            payload["share_selection"] = [c.share_selection, HARM_P]
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -345,9 +361,13 @@ class Evaluation:
                             )
                         train, n_syn, n_asked = self._training_windows(split, method, seed, budget)
                         for backbone, path in pending:
-                            record = self._fit_one(
-                                split, train, n_syn, backbone, method, fold, seed, budget, groups
+                            mixed, n_mixed, shares = self._select_shares(
+                                split, train, backbone, method, fold, seed, budget
                             )
+                            record = self._fit_one(
+                                split, mixed, n_mixed, backbone, method, fold, seed, budget, groups
+                            )
+                            record["synthetic_shares"] = shares
                             record["n_synthetic_requested"] = n_asked
                             record.update(self._unseen_fields(split, train, method, record))
                             record["settings_digest"] = digests[(method, backbone, unseen)]
@@ -421,6 +441,31 @@ class Evaluation:
             "n_synthetic_unseen": int(np.sum(synthetic & np.isin(train.y, split.unseen))),
             **unseen_metrics(record["confusion"], split.unseen),
         }
+    def _select_shares(
+        self, split, train: Windows, backbone: str, method: str, fold: str, seed: int, budget
+    ) -> tuple[Windows, int, dict[str, dict] | None]:
+        """Do no harm: the training windows with each class's chosen share of synthetic windows
+        (`noharm`), their synthetic count and the choice per class (None when not chosen)."""
+        c = self.config
+        is_real = train.meta["source"] == "real" if "source" in train.meta else np.ones(len(train), bool)
+        if c.share_selection == "off" or is_real.all():
+            return train, int((~is_real).sum()), None
+        real, synthetic = train[np.flatnonzero(is_real)], train[np.flatnonzero(~is_real)]
+        state = int(
+            child_seed(seed, "share-selection", backbone, method, fold, _budget_slug(budget)).generate_state(1)[0]
+        )
+        params = {**c.backbone_params.get(backbone, {}), "random_state": state}
+        val = split.val
+
+        def fit(windows: Windows):
+            model = make_backbone(backbone, **params)
+            return model.fit(windows.X, windows.y, val.X if len(val) else None, val.y if len(val) else None)
+
+        selector = ShareSelector(c.share_selection)
+        choice = selector.choose(fit, real, synthetic, val)
+        kept = take_shares(synthetic, shares_vector(choice, len(train.label_names)))
+        mixed = concat_windows([real, kept]) if len(kept) else real
+        return mixed, len(kept), choice_record(choice, train.label_names)
 
     def _fit_one(
         self,
@@ -514,6 +559,7 @@ def summarize(
         asked = [r.get("n_synthetic_requested") for r in rs]  # absent in records of older runs
         row["n_synthetic_mean"] = mean_std([r.get("n_synthetic") for r in rs])[0]
         row["n_synthetic_requested_mean"] = None if None in asked else mean_std(asked)[0]
+        row["synthetic_shares"] = dropped_summary(rs)
         group_names = sorted({g for r in rs for g in (r.get("group_macro_f1") or {})})
         row["group_macro_f1"] = {}
         for g in group_names:
@@ -568,6 +614,7 @@ def _extra_fields(r: dict[str, Any]) -> dict[str, Any]:
         "per_class_support",
         *SPLIT_KEYS,
         "val_subjects",
+        "synthetic_shares",
         "epochs",
         "best_epoch",
     )

@@ -46,6 +46,7 @@ METHOD_NAMES = {
     "imutube": "IMUTube-style",
     "vsmp": "VSMP-IMU",
     "vsmp-motion-fit": "VSMP-IMU + motion fit",
+    "vsmp+classical": "VSMP-IMU + Classical Aug",
 }
 
 
@@ -82,12 +83,14 @@ class TableSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     id: str = Field(pattern=r"^[a-z0-9_-]+:[a-z0-9_-]+$")
     records: str
-    kind: Literal["groups", "paired", "classes", "synthetic", "study", "benchmark"]
+    kind: Literal["groups", "paired", "classes", "synthetic", "shares", "study", "benchmark"]
     methods: list[str] = Field(default_factory=list)
     metrics: list[Metric] = Field(default_factory=list)
     budgets: list[float] | None = None
     backbone: str | None = None
     baseline: str | None = None
+    # paired: the baseline's runs from another record set (the same method before a change)
+    baseline_records: str | None = None
     bold: bool = False
     digits: int = Field(2, ge=0, le=4)
     row_header: str = "Group"
@@ -208,21 +211,23 @@ def _budget_name(budget: float | None) -> str:
 class TableBuilder:
     """Render one `TableSpec` from its record set."""
 
-    def __init__(self, spec: TableSpec, records: RecordSet) -> None:
+    def __init__(self, spec: TableSpec, records: RecordSet, baseline_records: RecordSet | None = None) -> None:
         self.spec = spec
         self.records = records
+        self.baseline_records = baseline_records
 
-    def runs(self, method: str, budget: float | None) -> list[dict]:
+    def runs(self, method: str, budget: float | None, records: RecordSet | None = None) -> list[dict]:
         where = {"method": method}
         if budget is not None:
             where["budget"] = budget
         if self.spec.backbone is not None:
             where["backbone"] = self.spec.backbone
-        found = self.records.select(**where)
+        records = records or self.records
+        found = records.select(**where)
         if not found:
             what = f"method '{method}'" + ("" if budget is None else f", budget {budget:g}")
             raise ConfigError(
-                f"table '{self.spec.id}': record set '{self.records.name}' has no record of {what}",
+                f"table '{self.spec.id}': record set '{records.name}' has no record of {what}",
                 field="methods/budgets",
                 allowed="the methods, budgets and backbone the records hold",
             )
@@ -253,6 +258,10 @@ class TableBuilder:
                   f"`{self.records.command}`")
         if self.records.code_commit:
             source += f" at commit {self.records.code_commit[:7]}"
+        if self.baseline_records is not None:
+            other = self.baseline_records
+            source += (f"; against `results/{other.name}/`, from `{other.command}`"
+                       + (f" at commit {other.code_commit[:7]}" if other.code_commit else ""))
         return f"{table}\n\n{self._floor_note()}{source}; rebuilt by `vsmp-imu report --write`.\n"
 
     def _floor_note(self) -> str:
@@ -294,12 +303,19 @@ class TableBuilder:
         s = self.spec
         rows = []
         for budget in self.budgets():
-            base = self.runs(s.baseline, budget)
+            base = self.runs(s.baseline, budget, self.baseline_records)
             for method in s.methods:
-                runs = self.same_runs({s.baseline: base, method: self.runs(method, budget)},
-                                      budget)[method]
+                mine = self.runs(method, budget)
+                if self.baseline_records is not None:  # another set: the runs both have
+                    both = _run_keys(mine) & _run_keys(base)
+                    mine = [r for r in mine if (str(r["fold"]), r["seed"]) in both]
+                    base = [r for r in base if (str(r["fold"]), r["seed"]) in both]
+                runs = self.same_runs({f"baseline {s.baseline}": base, method: mine}, budget)[method]
                 cells = [paired_test(runs, base, m).cell(s.digits) for m in s.metrics]
-                rows.append(self._lead(budget) + [_method_name(method)] + cells)
+                name = _method_name(method)
+                if self.baseline_records is not None:
+                    name += f" vs. {_method_name(s.baseline)} of `{self.baseline_records.name}`"
+                rows.append(self._lead(budget) + [name] + cells)
         header = self._lead_header() + ["Method"] + [m.label for m in s.metrics]
         return _markdown(header, rows)
 
@@ -334,6 +350,41 @@ class TableBuilder:
         header = self._lead_header() + ["Method", "Synthetic windows per run (mean)",
                                         "median", "asked for (mean)", "delivered"]
         return _markdown(header, rows)
+
+    def _shares(self) -> str:
+        """The do-no-harm choice: per method, the synthetic windows kept of those offered, the
+        classes that got none (in how many runs) and those without a validation window."""
+        rows = []
+        for budget in self.budgets():
+            for method in self.spec.methods:
+                runs = self.runs(method, budget)
+                choices = [r.get("synthetic_shares") or {} for r in runs]
+                offered = sum(s["offered"] for c in choices for s in c.values())
+                kept = sum(s["kept"] for c in choices for s in c.values())
+                rows.append(self._lead(budget) + [
+                    _method_name(method), f"{100 * kept / offered:.0f} %" if offered else "–",
+                    _class_counts(choices, lambda s: s["share"] == 0, len(runs)),
+                    _class_counts(choices, lambda s: s["n_val"] == 0, len(runs))])
+        header = self._lead_header() + ["Method", "synthetic windows kept", "classes that got none (runs)",
+                                        "not judged: no validation window (runs)"]
+        return _markdown(header, rows)
+
+
+def _run_keys(records: Sequence[dict]) -> set[tuple[str, int]]:
+    return {(str(r["fold"]), r["seed"]) for r in records}
+
+
+def _class_counts(choices: Sequence[dict], test, n_runs: int) -> str:
+    """'WALKING 12, SITTING 3' (of n_runs): classes by how many runs pass `test`, most first."""
+    counts: dict[str, int] = {}
+    for choice in choices:
+        for name, share in choice.items():
+            if test(share):
+                counts[name] = counts.get(name, 0) + 1
+    if not counts:
+        return "none"
+    ranked = sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))
+    return ", ".join(f"{name} {n}/{n_runs}" for name, n in ranked)
 
 
 def _bold_best(cells: list[str], values: Sequence[float | None]) -> list[str]:
@@ -410,9 +461,11 @@ class Publication:
             if spec.records not in self._studies:
                 self._studies[spec.records] = load_study(self.results_dir, spec.records)
             return StudyTable(spec.id, spec.view, self._studies[spec.records]).render()
-        if spec.records not in self._sets:
-            self._sets[spec.records] = load_run(self.results_dir, spec.records)
-        return TableBuilder(spec, self._sets[spec.records]).render()
+        for name in (spec.records, spec.baseline_records):
+            if name is not None and name not in self._sets:
+                self._sets[name] = load_run(self.results_dir, name)
+        baseline = self._sets[spec.baseline_records] if spec.baseline_records else None
+        return TableBuilder(spec, self._sets[spec.records], baseline).render()
 
     def _expected(self, block: Block, unbacked: dict[str, str], outcome: Outcome) -> str | None:
         if block.table_id in unbacked:

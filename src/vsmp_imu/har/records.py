@@ -41,6 +41,7 @@ RECORD_KEYS = (
     "tail_macro_f1",
     "per_class_f1",
     *SPLIT_KEYS,
+    "synthetic_shares",  # the do-no-harm choice per class (None where not chosen)
     "epochs",
     "best_epoch",
 )

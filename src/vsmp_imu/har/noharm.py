@@ -1,0 +1,184 @@
+"""Do no harm: whether to mix a method's synthetic windows, decided on the validation subjects.
+
+Before the final fit of a (method, backbone, fold, seed, budget) the backbone
+is fitted twice on the fit subjects: on their real windows alone and with
+all the synthetic windows. For every validation window the change in the
+probability given to its true class, d = p_with(y) - p_without(y), is the
+evidence. Synthetic windows are dropped only where they measurably hurt: the
+class-balanced mean of d (each class weighs the same, as in Macro-F1) is
+negative and a one-sided paired sign-flip test gives p < `HARM_P`; a handful
+of validation windows can therefore never drop anything (noise is not harm).
+
+- `method`: one decision for all classes, over
+  all validation windows; the synthetic windows are kept or dropped together.
+- `class`: one decision per class c, one-vs-rest: the evidence is the change
+  of p(c) on c's validation windows and minus the change of p(c) on the other
+  windows (synthetic windows of c that pull other classes' windows into c do
+  harm too), the two sides weighted equally. With no validation window of c
+  only the second side is left. Every class's synthetic windows are in the
+  fitted model at once, so a class can be charged with a change that another
+  class's windows caused.
+
+Off by default (`--share-selection off`): on HAPT12 with 1 % of the labels the
+guard dropped windows that helped on the held-out subjects, and at 5 % it
+changed nothing (docs/results.md).
+
+The held-out subject takes no part: only the fold's fit and validation
+windows are used. A backbone that trains on the validation subjects too (the
+Random Forest) is fitted for this choice on the fit subjects only and scored
+on the validation subjects; its final fit then adds them as usual.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from vsmp_imu.errors import ConfigError
+from vsmp_imu.har.windows import Windows, concat_windows
+
+SELECTION_MODES = ("off", "method", "class")
+HARM_P = 0.05  # one-sided level at which a fall in validation probability counts as harm
+N_FLIPS = 2000  # random sign flips of the paired test (seeded: same data, same p)
+
+
+@dataclass(frozen=True)
+class ClassShare:
+    """The share of one class's synthetic windows kept, and why."""
+
+    share: float
+    offered: int  # synthetic windows of the class before the choice
+    kept: int
+    n_val: int  # validation windows of the class
+    mean_change: float | None  # mean d over the class's validation windows
+    reason: str
+
+
+@dataclass(frozen=True)
+class Harm:
+    """The evidence over a set of validation windows."""
+
+    n: int
+    mean_change: float
+    p: float
+
+    @property
+    def hurts(self) -> bool:
+        return self.n > 0 and self.mean_change < 0 and self.p < HARM_P
+
+    def text(self) -> str:
+        return (f"validation p(true class) {self.mean_change:+.3f} on average over {self.n} windows, "
+                f"classes weighted equally (one-sided sign-flip p = {self.p:.2g})")
+
+
+def check_mode(mode: str) -> str:
+    if mode not in SELECTION_MODES:
+        raise ConfigError(f"unknown share selection '{mode}'", field="--share-selection",
+                          allowed=", ".join(SELECTION_MODES))
+    return mode
+
+
+def harm(change: np.ndarray, labels: np.ndarray | None = None) -> Harm:
+    """Class-balanced mean change (each label weighs the same; all windows alike without labels)
+    and the one-sided p of a paired sign-flip test that it is below zero (1 without evidence)."""
+    change = np.asarray(change, dtype=float)
+    if len(change) == 0:
+        return Harm(0, float("nan"), 1.0)
+    if labels is None:
+        weights = np.full(len(change), 1.0 / len(change))
+    else:
+        _, inverse, counts = np.unique(labels, return_inverse=True, return_counts=True)
+        weights = 1.0 / (counts[inverse] * len(counts))
+    observed = float(weights @ change)
+    size = weights * np.abs(change)
+    if not size.any():
+        return Harm(len(change), observed, 1.0)
+    rng = np.random.default_rng(0)
+    below = 0
+    for start in range(0, N_FLIPS, 250):  # chunks keep the sign matrix small
+        signs = rng.choice((-1.0, 1.0), size=(min(250, N_FLIPS - start), len(change)))
+        below += int(np.sum(signs @ size <= observed + 1e-12))
+    return Harm(len(change), observed, (1 + below) / (1 + N_FLIPS))
+
+
+def full_proba(model, windows: Windows, n_classes: int) -> np.ndarray:
+    """`model.predict_proba` with one column per class index (0 for a class it never saw)."""
+    full = np.zeros((len(windows), n_classes))
+    full[:, np.asarray(model.classes_, dtype=np.int64)] = model.predict_proba(windows.X)
+    return full
+
+
+def take_shares(synthetic: Windows, shares: np.ndarray) -> Windows:
+    """The first round(share_c x n_c) synthetic windows of each class c (order kept)."""
+    keep = np.zeros(len(synthetic), bool)
+    for c, share in enumerate(shares):
+        idx = np.flatnonzero(synthetic.y == c)
+        keep[idx[: int(round(share * len(idx)))]] = True
+    return synthetic[np.flatnonzero(keep)]
+
+
+Fit = Callable[[Windows], object]  # trains the backbone on windows, returns the fitted model
+
+
+@dataclass
+class ShareSelector:
+    """Decides which synthetic windows to mix (see the module docstring)."""
+
+    mode: str = "method"
+
+    def choose(self, fit: Fit, real: Windows, synthetic: Windows, val: Windows) -> dict[int, ClassShare]:
+        """Per class index with synthetic windows: the share kept (0 or 1) and why."""
+        check_mode(self.mode)
+        n_classes = len(real.label_names)
+        offered = np.bincount(synthetic.y, minlength=n_classes)
+        change = np.zeros((len(val), n_classes))
+        if len(val) and len(synthetic):
+            without = full_proba(fit(real), val, n_classes)
+            change = full_proba(fit(concat_windows([real, synthetic])), val, n_classes) - without
+        overall = harm(change[np.arange(len(val)), val.y], val.y)
+        out = {}
+        for c in (int(c) for c in np.flatnonzero(offered)):
+            own = val.y == c
+            mine = harm(np.where(own, change[:, c], -change[:, c]), own)
+            mean = None if not own.any() else round(float(change[own, c].mean()), 6)
+            drop, reason = self._decide(overall, mine, int(own.sum()))
+            out[c] = ClassShare(0.0 if drop else 1.0, int(offered[c]), 0 if drop else int(offered[c]),
+                                int(own.sum()), mean, reason)
+        return out
+
+    def _decide(self, overall: Harm, mine: Harm, n_own: int) -> tuple[bool, str]:
+        if overall.n == 0:
+            return False, "no validation windows: kept all (harm cannot be measured)"
+        if self.mode == "method":
+            return overall.hurts, ("dropped with the method's other synthetic windows: " if overall.hurts
+                                   else "kept: no measured harm, ") + overall.text()
+        side = "" if n_own else " (no validation window of the class: judged on the others' windows)"
+        verdict = "dropped: hurt one-vs-rest, " if mine.hurts else "kept: no measured harm one-vs-rest, "
+        return mine.hurts, verdict + mine.text().replace("p(true class)", "p(class) for the class, -p(class) "
+                                                        "for the others,") + side
+
+
+def shares_vector(choice: dict[int, ClassShare], n_classes: int) -> np.ndarray:
+    out = np.ones(n_classes)
+    for c, share in choice.items():
+        out[c] = share.share
+    return out
+
+
+def choice_record(choice: dict[int, ClassShare], label_names: Sequence[str]) -> dict[str, dict]:
+    """The choice as a record field: class name -> share, counts, mean change and reason."""
+    return {label_names[c]: asdict(share) for c, share in sorted(choice.items())}
+
+
+def dropped_summary(records: Sequence[dict]) -> dict[str, dict]:
+    """Per class: in how many records it had synthetic windows, got none, or could not be judged."""
+    out: dict[str, dict] = {}
+    for r in records:
+        for name, s in (r.get("synthetic_shares") or {}).items():
+            row = out.setdefault(name, {"runs": 0, "none": 0, "unjudged": 0})
+            row["runs"] += 1
+            row["unjudged"] += int(s["n_val"] == 0)
+            row["none"] += int(s["share"] == 0)
+    return out
