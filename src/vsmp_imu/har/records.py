@@ -157,17 +157,23 @@ def import_run(
     return folder
 
 
-def load_run(results_dir: str | Path, name: str) -> RecordSet:
-    """Read `results_dir/NAME/`; a missing or malformed file is an `InputFileError`."""
-    folder = Path(results_dir) / name
-    meta_path, records_path = folder / RUN_FILE, folder / RECORDS_FILE
-    for path in (meta_path, records_path):
+def require_files(results_dir: str | Path, name: str, files: tuple[str, ...], how: str) -> list[Path]:
+    """The paths of `files` in `results_dir/NAME/`; an `InputFileError` saying how to import the
+    set (`vsmp-imu report import HOW`) where one is missing."""
+    paths = [Path(results_dir) / name / f for f in files]
+    for path in paths:
         if not path.is_file():
             raise InputFileError(
-                f"record set '{name}' has no {path.name}; import its run with "
-                f"`vsmp-imu report import RUN_DIR --name {name} --command ...`",
+                f"record set '{name}' has no {path.name}; import its run with `vsmp-imu report import {how}`",
                 file=path,
             )
+    return paths
+
+
+def load_run(results_dir: str | Path, name: str) -> RecordSet:
+    """Read `results_dir/NAME/`; a missing or malformed file is an `InputFileError`."""
+    meta_path, records_path = require_files(results_dir, name, (RUN_FILE, RECORDS_FILE),
+                                            f"RUN_DIR --name {name} --command ...")
     meta = _read_json(meta_path)
     if not isinstance(meta, dict) or not isinstance(meta.get("command"), str):
         raise InputFileError("needs an object with a 'command' string", file=meta_path)

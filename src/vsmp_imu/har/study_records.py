@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from vsmp_imu.errors import ConfigError, InputFileError
-from vsmp_imu.har.records import RUN_FILE, check_name
+from vsmp_imu.har.records import RUN_FILE, check_name, require_files
 from vsmp_imu.io import dumps_json, read_text, write_text
 
 STUDY_FILE = "study.json"
@@ -123,15 +123,8 @@ def is_study_set(results_dir: str | Path, name: str) -> bool:
 
 def load_study(results_dir: str | Path, name: str) -> StudyRecord:
     """Read `results_dir/NAME/` of a study; a missing or malformed file is an `InputFileError`."""
-    folder = Path(results_dir) / name
-    meta_path, study_path = folder / RUN_FILE, folder / STUDY_FILE
-    for path in (meta_path, study_path):
-        if not path.is_file():
-            raise InputFileError(
-                f"record set '{name}' has no {path.name}; import its study run with "
-                f"`vsmp-imu report import OUT_DIR --name {name} --command 'vsmp-imu study ...'`",
-                file=path,
-            )
+    meta_path, study_path = require_files(results_dir, name, (RUN_FILE, STUDY_FILE),
+                                          f"OUT_DIR --name {name} --command 'vsmp-imu study ...'")
     meta = _read_json(meta_path)
     if not isinstance(meta, dict) or meta.get("study") not in REQUIRED or not isinstance(meta.get("command"), str):
         raise InputFileError(f"needs an object with 'command' and 'study' (one of {', '.join(STUDIES)})",
