@@ -47,6 +47,7 @@ METHOD_NAMES = {
     "vsmp": "VSMP-IMU",
     "vsmp-motion-fit": "VSMP-IMU + motion fit",
     "vsmp+classical": "VSMP-IMU + Classical Aug",
+    "vsmp-class-rank": "VSMP-IMU, per-class rank",
 }
 
 
