@@ -14,6 +14,7 @@ from collections import defaultdict
 
 import numpy as np
 import pytest
+from har_spies import Spy
 
 from vsmp_imu.baselines.classical import ClassicalAugmentation
 from vsmp_imu.har import normalize
@@ -31,31 +32,12 @@ def fingerprints(X: np.ndarray) -> set[int]:
     return {int(v) for v in ch[exact, 0] // 1000}
 
 
-class Spy:
-    """Records what `fit` receives and what is predicted after fitting (the early-stopping
-    predictions on validation windows inside `fit` are counted as validation)."""
-
-    def fit(self, X, y, X_val=None, y_val=None):
-        SEEN["fit"] |= fingerprints(X)
-        if X_val is not None:
-            SEEN["val"] |= fingerprints(X_val)
-        self._fitting = True
-        try:
-            return super().fit(X, y, X_val, y_val)
-        finally:
-            self._fitting = False
-
-    def predict_proba(self, X):
-        SEEN["val_predict" if getattr(self, "_fitting", False) else "predict"] |= fingerprints(X)
-        return super().predict_proba(X)
-
-
 class SpyRF(Spy, RandomForestECDF):
-    pass
+    seen, marks = SEEN, staticmethod(fingerprints)
 
 
 class SpyDCLSTM(Spy, DeepConvLSTM):
-    pass
+    seen, marks = SEEN, staticmethod(fingerprints)
 
 
 def _record_context(context: FoldContext) -> None:

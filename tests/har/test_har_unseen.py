@@ -7,6 +7,7 @@ from collections import defaultdict
 
 import numpy as np
 import pytest
+from har_spies import Spy
 
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.har import normalize
@@ -107,30 +108,12 @@ class MarkedDataset:
         return Windows(X, w.y, w.subjects, w.label_names, w.channel_names, w.fs_hz, meta=dict(w.meta))
 
 
-class Spy:
-    """Records what `fit` trains and validates on and what is predicted after fitting."""
-
-    def fit(self, X, y, X_val=None, y_val=None):
-        SEEN["fit"] |= fingerprints(X)
-        if X_val is not None:
-            SEEN["val"] |= fingerprints(X_val)
-        self._fitting = True
-        try:
-            return super().fit(X, y, X_val, y_val)
-        finally:
-            self._fitting = False
-
-    def predict_proba(self, X):
-        SEEN["val_predict" if getattr(self, "_fitting", False) else "predict"] |= fingerprints(X)
-        return super().predict_proba(X)
-
-
 class SpyRF(Spy, RandomForestECDF):
-    pass
+    seen, marks = SEEN, staticmethod(fingerprints)
 
 
 class SpyDCLSTM(Spy, DeepConvLSTM):
-    pass
+    seen, marks = SEEN, staticmethod(fingerprints)
 
 
 class MakerSource:

@@ -1,0 +1,33 @@
+"""Backbones that record what they are given: the leakage tests' spies.
+
+A test module subclasses `Spy` with a backbone and sets `seen` (where to record) and
+`marks` (which marked windows an array holds).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+
+class Spy:
+    """Records what `fit` trains and validates on and what is predicted after fitting (the
+    early-stopping predictions on validation windows inside `fit` count as validation)."""
+
+    seen: dict[str, set]
+    marks: Callable[[np.ndarray], set]
+
+    def fit(self, X, y, X_val=None, y_val=None):
+        self.seen["fit"] |= self.marks(X)
+        if X_val is not None:
+            self.seen["val"] |= self.marks(X_val)
+        self._fitting = True
+        try:
+            return super().fit(X, y, X_val, y_val)
+        finally:
+            self._fitting = False
+
+    def predict_proba(self, X):
+        self.seen["val_predict" if getattr(self, "_fitting", False) else "predict"] |= self.marks(X)
+        return super().predict_proba(X)
