@@ -59,7 +59,7 @@ class Method:
         """The method's `method_params` in an evaluation (plain values, recorded)."""
         if not self.generative:
             return {}
-        params = {name: getattr(spec, name) for name in OPTION_FIELDS}
+        params = {name: getattr(self.spec(spec), name) for name in OPTION_FIELDS}
         params.update({name: value for name, value in spec.changed().items()
                        if name in PIPELINE_FIELDS and name not in OPTION_FIELDS and name not in self.switches})
         if self.kind == "vsmp":

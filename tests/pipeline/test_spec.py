@@ -68,9 +68,12 @@ def test_method_params_keep_the_recorded_shape():
     """The parameters an evaluation records for its methods (their settings digest) are those
     of the earlier per-method dicts: the options, the variant name or the baselines' k = 1."""
     spec = GenerationSpec(cache_dir="c")
-    options = {"source": "library", "k": 4, "backend": "procedural", "per_class_rank": False, "library_dirs": (),
+    options = {"source": "library", "k": 4, "backend": "procedural", "per_class_rank": True, "library_dirs": (),
                "workers": 1, "executor": "local", "address": None, "cache_dir": "c"}
     assert REGISTRY["vsmp-class-rank"].params(spec) == {**options, "variant": "vsmp-class-rank"}
+    # a variant's switch is what its records say, not the spec's value
+    assert REGISTRY["vsmp-pooled-rank"].params(spec) == {**options, "per_class_rank": False,
+                                                         "variant": "vsmp-pooled-rank"}
     assert REGISTRY["imugpt"].params(spec) == {**options, "k": 1}
     assert REGISTRY["imutube"].params(replace(spec, clips="clips")) == {**options, "k": 1, "source": "video:clips"}
     assert REGISTRY["classical"].params(spec) == {}

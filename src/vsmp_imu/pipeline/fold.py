@@ -117,10 +117,11 @@ def channel_index(info: DatasetInfo, loc: SensorLocation) -> np.ndarray:
 
 
 def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: Windows, plan,
-                       per_class: bool, threads: int = 1) -> dict[str, RankGrounder]:
+                       spec: GenerationSpec, threads: int = 1) -> dict[str, RankGrounder]:
     """Stage 4's rank grounders, one per location: F_v from the samples' signals there, G_r from
-    D_rank's windows of the classes worn there. Locations no sample uses, or without any real
-    window, get none. `threads` fit the channels side by side (same result)."""
+    D_rank's windows of the classes worn there (pooled or per class as `spec` says). Locations no
+    sample uses, or without any real window, get none. `threads` fit the channels side by side
+    (same result)."""
     grounders = {}
     for loc in info.locations:
         users = [r for r in samples if loc.name in r.signals]
@@ -133,7 +134,7 @@ def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: W
         cols = channel_index(info, loc)
         syn = np.concatenate([r.signals[loc.name] for r in users])
         labels = np.concatenate([np.full(len(r.signals[loc.name]), r.label_index) for r in users])
-        grounders[loc.name] = RankGrounder(per_class=per_class, threads=threads).fit(
+        grounders[loc.name] = RankGrounder(per_class=spec.per_class_rank, threads=threads).fit(
             syn, real.X[..., cols].astype(np.float64), labels, real.y)
     return grounders
 
@@ -341,7 +342,7 @@ def ground(spec: GenerationSpec, info: DatasetInfo, ok: list[SampleResult], d_ra
     are without rank grounding."""
     if not spec.rank_grounding or not ok:
         return [dict(r.signals) for r in ok]
-    grounders = fit_rank_grounders(info, ok, d_rank, plan, spec.per_class_rank, threads)
+    grounders = fit_rank_grounders(info, ok, d_rank, plan, spec, threads)
     missing = sorted({name for r in ok for name in r.signals} - set(grounders))
     if missing:
         raise ValidationError(f"D_rank has no real window at location(s) {', '.join(missing)}",

@@ -48,7 +48,9 @@ class GenerationSpec:
     # motion-level simulation-in-the-loop: per class, fit the motion's free parameters to D_stat
     motion_fit: bool = False
     rank_grounding: bool = True
-    per_class_rank: bool = False
+    # one rank map per class where the class has real windows enough (RankGrounder's
+    # min_class_samples), the pooled map otherwise (the paper's); measured in docs/results.md
+    per_class_rank: bool = True
     estimate_mounting: bool = True  # nominal dataset mounting frame from D_stat class means
     # the validator judges a class only after training on at least this many of its real windows
     min_validator_windows: int = 10

@@ -599,7 +599,7 @@ class MatchedBlockGenerator:
             for cond in CONDITIONS:
                 if c.spec.rank_grounding and not grounders.get(cond):  # fitted once, on the first samples
                     ok = [r for r in results[cond].values() if not r.error and r.signals]
-                    grounders[cond] = fit_rank_grounders(info, ok, d_rank, loc_plan, self.config.spec.per_class_rank)
+                    grounders[cond] = fit_rank_grounders(info, ok, d_rank, loc_plan, self.config.spec)
                 grounders.setdefault(cond, {})
             judged = {cond: self._judge(info, results[cond], grounders[cond], filters, length, hop)
                       for cond in CONDITIONS}
