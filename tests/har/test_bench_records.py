@@ -105,8 +105,18 @@ def test_an_unknown_view_is_refused(tmp_path):
 
 
 def test_the_committed_views_render_from_the_committed_json():
-    for source, view, head in ((SOURCE, "per_sample", "| method | s per sample here |"),
+    for source, view, head in ((SOURCE, "targets", "| target | measured | status |"),
+                               (SOURCE, "per_sample", "| method | s per sample here |"),
                                (SOURCE, "scaling", "| executor | whole fold, 1 → 2 workers |"),
                                ("benchmarks/results/motion_controls.json", "controls", "| check | result |")):
         rendered = BenchTable(REPO_ROOT, "b:x", source, view).render()
         assert rendered.startswith(head) and "Records: " in rendered
+
+
+def test_a_target_missed_in_the_stage_reads_not_met():
+    from vsmp_imu.har.bench_records import _script
+
+    run_all = _script(REPO_ROOT / "benchmarks/run_all.py")
+    figures, status = run_all._scaling_cells({**SCALING, "met": False, "met_synthesis": True})
+    assert status == "whole fold NOT met, synthesis replay met"
+    assert figures.startswith("whole fold **1.83×** (1, 2, 2, 1 workers: 10.0, 5.0, 7.0, 12.0 s)")
