@@ -188,7 +188,7 @@ def test_a_run_stopped_by_sigterm_or_ctrl_c_resumes_byte_identical(small_dataset
 
 
 def _check_evaluate_resume(small_dataset, tmp_path, n_kills, seed):
-    # the output folder is part of the settings (cache path): the reference runs there first
+    # the reference runs in the folder the resumed run will use, then moves aside
     out = tmp_path / "run"
     elapsed = _timed(_evaluate_args(small_dataset, out, 1))
     reference = tmp_path / "reference"
