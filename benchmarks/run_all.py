@@ -905,6 +905,165 @@ def table_rows(res: dict) -> list[tuple[str, str, str, str, str]]:
     return rows
 
 
+# -- tables composed from some stages (`vsmp-imu report`, kind benchmark with a view) ------------
+def stage_command(res: dict, stage: str) -> dict:
+    """The run (the first one or an `--update`) that measured `stage` last: the latest one started
+    before the stage finished whose `--stages` names it (or that ran every stage)."""
+    finished = res["stages"][stage]["finished"]
+    runs = [{"command": res["command"], "started": res["started"]}, *res.get("updates", [])]
+    named = [r for r in runs if r["started"] <= finished and ("--stages" not in r["command"]
+                                                              or stage in _stages_of(r["command"]))]
+    return max(named, key=lambda r: r["started"]) if named else runs[0]
+
+
+def _stages_of(command: str) -> list[str]:
+    words = command.split()
+    return words[words.index("--stages") + 1].split(",")
+
+
+def _provenance(res: dict, stages: tuple[str, ...]) -> str:
+    """Which stages of run_all.json a table shows, by which command and when."""
+    by_run: dict[str, list[str]] = defaultdict(list)
+    for stage in stages:
+        by_run[stage_command(res, stage)["command"]].append(stage)
+    parts = []
+    for command, names in by_run.items():
+        finished = ", ".join(f"{n} {res['stages'][n]['finished']}" for n in names)
+        parts.append(f"`{command}` (finished: {finished})")
+    named = ", ".join(f"`{s}`" for s in stages)
+    return f"{'stage' if len(stages) == 1 else 'stages'} {named} of `benchmarks/results/run_all.json`, from " + \
+        "; ".join(parts)
+
+
+COST_METHODS = (("classical", "Classical Aug"), ("imutube", "IMUTube-style"), ("imugpt", "IMUGPT-2.0-style"),
+                ("vsmp", "VSMP-IMU"))
+# what each method's sample is and what its time includes (the figures come from the stage)
+COST_WHAT = {
+    "imugpt": "one motion from an offline description (library captions × modifiers; no LLM call), procedural "
+              "backend, IMU, plausibility and redundancy filters, rank grounding",
+    "vsmp": "one motion from an SMP variant (library SMPs: no video extraction), procedural backend, IMU, CEM, "
+            "alignment, rank grounding, all three filters",
+}
+PAPER_BOUND = {"classical": "< "}  # the paper gives Classical Aug's cost as a bound
+
+
+def _cost_what(name: str, fig: dict) -> str:
+    if name == "classical":
+        return f"one augmented window ({fig['windows']:,} windows in {fig['wall_s']:.2f} s)".replace(",", " ")
+    if name == "imutube":
+        pose = fig["pose_s_per_clip"]
+        clips = " and ".join(f"{s:.1f} s for `{clip}`" for clip, s in pose.items())
+        return (f"one clip → MediaPipe pose → SMPL-22 motion → IMU → rank grounding; pose extraction {clips}, "
+                f"mean {sum(pose.values()) / len(pose):.1f} s per clip, plus {fig['pipeline_s_per_sample']:.3f} s "
+                f"per sample for the rest of the pipeline ({fig['samples']} samples from the {len(pose)} clips)")
+    return (f"{COST_WHAT[name]} ({fig['samples']} samples in {fig['wall_s']:.1f} s; "
+            f"{fig['s_per_selected_window']:.3f} s per selected window)")
+
+
+def cost_view(res: dict) -> tuple[str, str]:
+    """Seconds per synthetic sample of each method (stage `cost`) beside the paper's."""
+    cost = res["stages"]["cost"]
+    lines = ["| method | s per sample here | what a sample is and what the time includes | paper |",
+             "| --- | ---: | --- | ---: |"]
+    for name, label in COST_METHODS:
+        fig = cost["methods"][name]
+        paper = f"{PAPER_BOUND.get(name, '')}{fig['paper_s_per_sample']:g}"
+        if "skipped" in fig:
+            lines.append(f"| {label} | – | not measured: {fig['skipped']} | {paper} |")
+            continue
+        digits = 4 if name == "classical" else 3 if fig["s_per_sample"] < 1 else 2
+        lines.append(f"| {label} | {fig['s_per_sample']:.{digits}f} | {_cost_what(name, fig)} | {paper} |")
+    setting = (f"One HAPT12 fold (held-out subject {HOLDOUT}), α = {cost['alpha']:g}, {cost['workers']} worker, "
+               "no cache.")
+    return "\n".join(lines) + "\n\n" + setting + "\n", _provenance(res, ("cost",))
+
+
+SCALING_EXECUTORS = (("scaling_local", "local pool"), ("scaling_ray", "Ray, local instance"),
+                     ("scaling_ray_nice0", "Ray, local instance, `RAY_worker_niceness=0`"))
+
+
+def _mean(runs: list[dict], workers: int, key: str) -> float:
+    values = [r[key] for r in runs if r["workers"] == workers]
+    return sum(values) / len(values)
+
+
+def scaling_view(res: dict) -> tuple[str, str]:
+    """Walls and ratios of the scaling stages: means of the runs per worker count."""
+    lines = ["| executor | whole fold, 1 → 2 workers | speedup | synthesis step (with the filter job), "
+             "1 → 2 workers | speedup | synthesis replay ({n} tasks, 1, 2, 2, 1 workers) |",
+             "| --- | --- | ---: | --- | ---: | ---: |"]
+    shown, tasks = [], set()
+    for stage, label in SCALING_EXECUTORS:
+        fig = res["stages"].get(stage)
+        if not fig or "error" in fig:
+            continue
+        shown.append(stage)
+        tasks.add(fig["replay_tasks"])
+        runs = fig["fold_runs"]
+        if stage == "scaling_ray":
+            label += f" (workers at niceness {', '.join(map(str, fig['worker_niceness']))}, Ray's default)"
+        lines.append(f"| {label} | {_mean(runs, 1, 'wall_s'):.1f} s → {_mean(runs, 2, 'wall_s'):.1f} s | "
+                     f"{fig['speedup_fold']:.2f}× | {_mean(runs, 1, 'synthesis_map_s'):.1f} s → "
+                     f"{_mean(runs, 2, 'synthesis_map_s'):.1f} s | {fig['speedup_synthesis']:.2f}× | "
+                     f"{fig['speedup_synthesis_abba']:.2f}× |")
+    lines[0] = lines[0].format(n="/".join(str(t) for t in sorted(tasks)))
+    alpha = {res["stages"][s]["alpha"] for s in shown}
+    setting = (f"One HAPT12 fold (held-out subject {HOLDOUT}), α = {'/'.join(f'{a:g}' for a in sorted(alpha))}, "
+               "no cache; the fold with 1, 2, 2 and 1 workers (walls: the mean of the two runs per count; "
+               "speedup: the ratio of the summed walls).")
+    return "\n".join(lines) + "\n\n" + setting + "\n", _provenance(res, tuple(shown))
+
+
+def _met(ok: bool) -> str:
+    return "met" if ok else "NOT met"
+
+
+def _scaling_cells(fig: dict) -> tuple[str, str]:
+    walls = ", ".join(f"{r['wall_s']:.1f}" for r in fig["fold_runs"])
+    order = ", ".join(str(r["workers"]) for r in fig["fold_runs"])
+    figures = (f"whole fold **{fig['speedup_fold']:.2f}×** ({order} workers: {walls} s), synthesis step of the "
+               f"fold {fig['speedup_synthesis']:.2f}×, synthesis replay **{fig['speedup_synthesis_abba']:.2f}×**")
+    status = f"whole fold {_met(fig['met'])}, synthesis replay {_met(fig['met_synthesis'])}"
+    return figures, status
+
+
+def targets_view(res: dict) -> tuple[str, str]:
+    """The speed targets and what the committed stages measured against them."""
+    st = res["stages"]
+    chain, post, rf = st["chain"], st["post_motion"], st["har_rf"]
+    rows = [(f"whole embedded chain ≥ {CHAIN_TARGET:g} synthetic samples/s on {CORES} cores",
+             f"**{chain['samples_per_s']:.1f} samples/s** ({chain['samples']} samples of one HAPT12 fold in "
+             f"{chain['wall_s']:.1f} s, {chain['workers']} workers)", _met(chain["met"])),
+            (f"post-motion stages (IMU simulation + CEM + alignment + grounding + filter) ≥ "
+             f"{POST_MOTION_TARGET:g} samples/s per core",
+             f"**{post['per_sample_per_s_per_core']:.1f} samples/s per core** per sample ({post['samples']} "
+             f"samples of one HAPT12 fold, α = {post['alpha']:g}, one core); {post['per_s_per_core']:.1f} with "
+             "the fold's once-per-fold fits counted (below)",
+             f"{_met(post['met'])} per sample; the per-fold fits are a fixed cost of "
+             f"{post['per_fold_fits_s']:.0f} s per fold")]
+    folds = "all 30 folds measured" if not rf["extrapolated"] else f"{rf['folds_run']} folds, extrapolated"
+    rows.append((f"HAPT 30-fold RF-ECDF LOPO ≤ {RF_TARGET_S / 60:g} min",
+                 f"**{rf['thirty_fold_s']:.0f} s** ({folds}, n_jobs {rf['n_jobs']}; Macro-F1 "
+                 f"{100 * rf['macro_f1']:.2f} ± {100 * rf['macro_f1_std']:.2f})", _met(rf["met"])))
+    figures, status = _scaling_cells(st["scaling_local"])
+    rows.append((f"1 → 2 workers ≥ {SCALING_TARGET:g}× on generation, local pool", figures, status))
+    figures, status = _scaling_cells(st["scaling_ray"])
+    nice0 = st.get("scaling_ray_nice0")
+    if nice0 and "error" not in nice0:
+        other, other_status = _scaling_cells(nice0)
+        figures += f"; with Ray's workers at niceness 0: {other.replace('**', '')}"
+        status += f"; at niceness 0: {other_status}"
+    rows.append((f"1 → 2 workers ≥ {SCALING_TARGET:g}× on generation, local Ray", figures, status))
+    lines = ["| target | measured | status |", "| --- | --- | --- |"]
+    lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]
+    stages = ("chain", "post_motion", "har_rf", "scaling_local", "scaling_ray",
+              *(("scaling_ray_nice0",) if nice0 and "error" not in nice0 else ()))
+    return "\n".join(lines) + "\n", _provenance(res, stages)
+
+
+VIEWS = {"per_sample": cost_view, "scaling": scaling_view, "targets": targets_view}
+
+
 def print_table(rows) -> None:
     widths = [max(len(r[i]) for r in rows + [("figure", "value", "peak memory", "target", "status")])
               for i in range(5)]

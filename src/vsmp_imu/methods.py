@@ -19,7 +19,8 @@ from typing import Any
 from vsmp_imu.pipeline.spec import PIPELINE_FIELDS, GenerationSpec
 
 # The spec fields every generative method is given in an evaluation's `method_params`
-# (the records' settings digest covers them); other pipeline fields go along only where they
+# (recorded with the run; the records' settings digest covers them but the run fields, which
+# `vsmp_imu.har.synthetic.RUN_PARAMS` names); other pipeline fields go along only where they
 # differ from the defaults.
 OPTION_FIELDS = ("source", "k", "backend", "per_class_rank", "library_dirs", "workers", "executor",
                  "address", "cache_dir")

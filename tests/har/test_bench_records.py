@@ -54,3 +54,69 @@ def test_unknown_sources_and_missing_results_are_refused(tmp_path):
     (tmp_path / "results/tables.yaml").write_text(CATALOGUE.replace(f"    source: {SOURCE}\n", ""))
     with pytest.raises(ConfigError, match="needs the source JSON"):
         Publication(tmp_path)
+
+
+def _fold_run(workers: int, wall: float, synthesis: float) -> dict:
+    return {"workers": workers, "wall_s": wall, "synthesis_map_s": synthesis}
+
+
+SCALING = {"fold_runs": [_fold_run(1, 10.0, 8.0), _fold_run(2, 5.0, 4.0), _fold_run(2, 7.0, 4.2),
+                         _fold_run(1, 12.0, 8.4)],
+           "speedup_fold": 22 / 12, "speedup_synthesis": 16.4 / 8.2, "speedup_synthesis_abba": 1.9,
+           "replay_tasks": 60, "alpha": 0.05, "worker_niceness": [0], "finished": "2026-01-01T02:00:00"}
+
+
+def _views_root(tmp_path: Path) -> Path:
+    root = _root(tmp_path, {"scaling_local": SCALING})
+    results = json.loads((root / SOURCE).read_text())
+    results["updates"] = [
+        {"command": "python benchmarks/run_all.py --stages scaling_local --update", "started": "2026-01-01T01:00:00"},
+        {"command": "python benchmarks/run_all.py --stages cem --update", "started": "2026-01-01T01:30:00"},
+        {"command": "python benchmarks/run_all.py --stages scaling_local --update", "started": "2026-01-01T03:00:00"},
+    ]
+    (root / SOURCE).write_text(json.dumps(results))
+    (root / "results/tables.yaml").write_text(
+        CATALOGUE + f"  - id: scale:scaling\n    records: run_all\n    kind: benchmark\n    source: {SOURCE}\n"
+                    "    view: scaling\n")
+    (root / "BENCHMARKS.md").write_text("<!-- report:scale:scaling -->\nold\n<!-- /report -->\n")
+    return root
+
+
+def test_a_view_composes_the_stage_figures_and_names_the_run_that_measured_them(tmp_path):
+    root = _views_root(tmp_path)
+    rendered = BenchTable(root, "scale:scaling", SOURCE, "scaling").render()
+    # means of the two runs per worker count; the ratios as the stage computed them
+    assert "| local pool | 11.0 s → 6.0 s | 1.83× | 8.2 s → 4.1 s | 2.00× | 1.90× |" in rendered
+    assert "(60 tasks, 1, 2, 2, 1 workers)" in rendered and "α = 0.05" in rendered
+    # the update that ran the stage before it finished, not the later one nor one of another stage
+    assert ("stage `scaling_local` of `benchmarks/results/run_all.json`, from `python benchmarks/run_all.py "
+            "--stages scaling_local --update` (finished: scaling_local 2026-01-01T02:00:00)") in rendered
+    Publication(root).check(write=True)
+    assert not Publication(root).check().differing
+    text = (root / "BENCHMARKS.md").read_text()
+    (root / "BENCHMARKS.md").write_text(text.replace("11.0 s", "10.0 s"))
+    assert Publication(root).check().differing == ["BENCHMARKS.md: table 'scale:scaling'"]
+
+
+def test_an_unknown_view_is_refused(tmp_path):
+    root = _views_root(tmp_path)
+    with pytest.raises(ConfigError, match="has no view 'other'"):
+        BenchTable(root, "b:x", SOURCE, "other").render()
+
+
+def test_the_committed_views_render_from_the_committed_json():
+    for source, view, head in ((SOURCE, "targets", "| target | measured | status |"),
+                               (SOURCE, "per_sample", "| method | s per sample here |"),
+                               (SOURCE, "scaling", "| executor | whole fold, 1 → 2 workers |"),
+                               ("benchmarks/results/motion_controls.json", "controls", "| check | result |")):
+        rendered = BenchTable(REPO_ROOT, "b:x", source, view).render()
+        assert rendered.startswith(head) and "Records: " in rendered
+
+
+def test_a_target_missed_in_the_stage_reads_not_met():
+    from vsmp_imu.har.bench_records import _script
+
+    run_all = _script(REPO_ROOT / "benchmarks/run_all.py")
+    figures, status = run_all._scaling_cells({**SCALING, "met": False, "met_synthesis": True})
+    assert status == "whole fold NOT met, synthesis replay met"
+    assert figures.startswith("whole fold **1.83×** (1, 2, 2, 1 workers: 10.0, 5.0, 7.0, 12.0 s)")

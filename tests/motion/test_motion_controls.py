@@ -99,3 +99,40 @@ def test_symmetry_full(backend, library):
 def test_plausible_for_every_seed(backend, library, name):
     for seed in SEEDS:
         assert selfcheck.is_plausible(backend.generate(library.get(name).smp, seed=seed)), (name, seed)
+
+
+def _study():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "study_motion_controls.py"
+    spec = importlib.util.spec_from_file_location("study_motion_controls", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_study_groups_are_the_library_files_and_the_committed_record_has_them(library):
+    from motion_cases import MMFIT, PAMAP2, SYMMETRY_VARIANT, UTD_MHAD_OTHERS
+
+    study = _study()
+    groups = study.groups(library)
+    assert sorted(groups["added"]) == sorted(UTD_MHAD_OTHERS + MMFIT + PAMAP2)
+    assert sorted(groups["added_symmetry"]) == sorted(set(SYMMETRY_VARIANT) - set(SYMMETRY_ACTIVITIES))
+    assert sorted(groups["periodic"]) == sorted(_periodic(library))
+    # the table of docs/motion.md is rebuilt from this record: it must cover today's library
+    import json
+
+    record = json.loads(study.OUT.read_text())
+    assert record["controls"]["groups"] == groups
+
+
+def test_the_study_table_reads_the_recorded_cases():
+    study = _study()
+    cases = [["a", level, seed, measured] for seed, values in ((0, (3, 6, 9)), (1, (3, 7, 9)))
+             for level, measured in zip((3, 6, 9), values, strict=True)]
+    record = {"cases": {"repetitions": cases}}
+    loaded = study._loaded(record, "repetitions")
+    assert selfcheck.within_one(loaded) == 1.0 and len(loaded) == 6
+    assert study._misses(loaded) == "a at 6: 7 (seed 1)"
+    assert study._misses(loaded[:3]) == "all exact"

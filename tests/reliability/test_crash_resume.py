@@ -11,6 +11,7 @@ atomic-write temporary, `*.tmp`) may be left anywhere, cache included.
 
 from __future__ import annotations
 
+import json
 import os
 import random
 import shutil
@@ -187,7 +188,7 @@ def test_a_run_stopped_by_sigterm_or_ctrl_c_resumes_byte_identical(small_dataset
 
 
 def _check_evaluate_resume(small_dataset, tmp_path, n_kills, seed):
-    # the output folder is part of the settings (cache path): the reference runs there first
+    # the reference runs in the folder the resumed run will use, then moves aside
     out = tmp_path / "run"
     elapsed = _timed(_evaluate_args(small_dataset, out, 1))
     reference = tmp_path / "reference"
@@ -211,3 +212,22 @@ def test_evaluate_with_vsmp_resumes_after_sigkills(small_dataset, tmp_path):
 @pytest.mark.slow
 def test_evaluate_with_vsmp_resumes_after_many_sigkills(small_dataset, tmp_path):
     _check_evaluate_resume(small_dataset, tmp_path, 10, seed=3)
+
+
+def test_evaluate_resumes_with_another_sample_cache_and_worker_count(small_dataset, tmp_path):
+    """Where the samples are cached and how many workers make them change no record: a rerun
+    with other ones reuses every record and generates nothing; another alpha recomputes."""
+    out = tmp_path / "run"
+    _timed([*_evaluate_args(small_dataset, out, 1), "--cache-dir", str(tmp_path / "cache-a")])
+    records = tree_bytes(out, ("records",))
+    moved = run_cli(*_evaluate_args(small_dataset, out, 2), "--cache-dir", str(tmp_path / "cache-b"))
+    assert moved.returncode == 0, moved.stderr[-2000:]
+    assert "(cached)" in moved.stdout + moved.stderr
+    assert tree_bytes(out, ("records",)) == records and not (tmp_path / "cache-b").exists()
+    config = json.loads((out / "results.json").read_text())["config"]
+    assert config["method_params"]["vsmp"]["workers"] == 2  # recorded, for the reader
+    other = [*_evaluate_args(small_dataset, out, 2), "--cache-dir", str(tmp_path / "cache-b")]
+    other[other.index("--alpha") + 1] = "0.6"
+    recomputed = run_cli(*other)
+    assert recomputed.returncode == 0, recomputed.stderr[-2000:]
+    assert "(cached)" not in recomputed.stdout + recomputed.stderr and (tmp_path / "cache-b").is_dir()

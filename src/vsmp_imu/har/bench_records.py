@@ -4,6 +4,9 @@ A `benchmark` table names the JSON (`source`, relative to the repository
 root); the table is the script's own Markdown of it: for
 `benchmarks/results/run_all.json`, `table_rows` and `markdown` of
 `benchmarks/run_all.py` (what `run_all.py --report` writes to run_all.md).
+A table with a `view` is one of the script's `VIEWS`: a function of the JSON
+giving the Markdown and a line on the measurements it shows (which stages, by
+which command, when).
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ from vsmp_imu.errors import ConfigError, InputFileError
 from vsmp_imu.io import read_text
 
 # the script that writes (and renders) each benchmark JSON, relative to the repository root
-SCRIPTS = {"benchmarks/results/run_all.json": "benchmarks/run_all.py"}
+SCRIPTS = {"benchmarks/results/run_all.json": "benchmarks/run_all.py",
+           "benchmarks/results/motion_controls.json": "benchmarks/study_motion_controls.py"}
 
 
 def _script(path: Path) -> ModuleType:
@@ -30,15 +34,17 @@ def _script(path: Path) -> ModuleType:
 
 
 class BenchTable:
-    """Render the benchmark table of one committed benchmark JSON, with its source line."""
+    """Render the benchmark table of one committed benchmark JSON (or one of its script's views),
+    with its source line."""
 
-    def __init__(self, root: str | Path, table_id: str, source: str) -> None:
+    def __init__(self, root: str | Path, table_id: str, source: str, view: str | None = None) -> None:
         if source not in SCRIPTS:
             raise ConfigError(f"table '{table_id}': no benchmark script renders '{source}'",
                               field="source", allowed=", ".join(SCRIPTS))
         self.root = Path(root)
         self.table_id = table_id
         self.source = source
+        self.view = view
 
     def render(self) -> str:
         path = self.root / self.source
@@ -49,8 +55,18 @@ class BenchTable:
         except json.JSONDecodeError as exc:
             raise InputFileError(f"not valid JSON: {exc}", file=path) from exc
         script = _script(self.root / SCRIPTS[self.source])
+        if self.view is not None:
+            return self._view(script, results)
         table = script.markdown(script.table_rows(results)).rstrip("\n")
         updates = results.get("updates", [])
         later = f" and {len(updates)} later `--update` runs (listed in its `updates`)" if updates else ""
         return (f"{table}\n\nRecords: `{self.source}`, from `{results.get('command')}` (started "
                 f"{results.get('started')}){later}; rebuilt by `vsmp-imu report --write`.\n")
+
+    def _view(self, script: ModuleType, results: dict) -> str:
+        views = getattr(script, "VIEWS", {})
+        if self.view not in views:
+            raise ConfigError(f"table '{self.table_id}': {SCRIPTS[self.source]} has no view '{self.view}'",
+                              field="view", allowed=", ".join(views) or "none")
+        table, provenance = views[self.view](results)
+        return f"{table.rstrip()}\n\nRecords: {provenance}; rebuilt by `vsmp-imu report --write`.\n"

@@ -23,6 +23,7 @@ import numpy as np
 
 from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.backbones import BACKBONES, make_backbone
+from vsmp_imu.har.backbones import RUN_PARAMS as BACKBONE_RUN_PARAMS
 from vsmp_imu.har.dataset import HarDataset
 from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std, unseen_metrics
 from vsmp_imu.har.noharm import (
@@ -50,6 +51,7 @@ from vsmp_imu.har.synthetic import (
     BUDGET_POLICIES,
     METHODS,
     PAPER_ALPHA,
+    RUN_PARAMS,
     UNSEEN_CAPABLE,
     FoldContext,
     check_synthetic,
@@ -257,11 +259,19 @@ class Evaluation:
             )
         return sorted(dict.fromkeys(wanted), key=natural_key)
 
-    def _digest(self, backbone: str, method: str, unseen: tuple[str, ...] | None = None) -> str:
-        """Hash of every setting a record depends on (besides its key)."""
+    def _digest(self, backbone: str, method: str, unseen: tuple[str, ...] | None = None,
+                with_run_params: bool = False) -> str:
+        """Hash of every setting a record depends on (besides its key).
+
+        Settings that decide only where and how fast a record is computed (the backbones' and
+        the methods' `RUN_PARAMS`) are left out; `with_run_params` keeps the methods' in, as
+        records written before they were left out have it."""
         c = self.config
         params = make_backbone(backbone, **c.backbone_params.get(backbone, {})).get_params()
-        params = {k: v for k, v in params.items() if k not in ("n_jobs", "n_threads", "verbose")}
+        params = {k: v for k, v in params.items() if k not in BACKBONE_RUN_PARAMS}
+        method_params = c.method_params.get(method, {})
+        if not with_run_params:
+            method_params = {k: v for k, v in method_params.items() if k not in RUN_PARAMS}
         payload = {
             "harness_version": HARNESS_VERSION,
             "dataset": c.dataset,
@@ -275,7 +285,7 @@ class Evaluation:
             "backbone": backbone,
             "backbone_params": params,
             "method": method,
-            "method_params": c.method_params.get(method, {}),
+            "method_params": method_params,
         }
         if unseen is not None:  # absent otherwise: the other protocols' records stay valid
             payload["unseen"] = list(unseen)
@@ -303,14 +313,22 @@ class Evaluation:
         return self.output_dir / "records" / f"{name}.json"
 
     @staticmethod
-    def _load_record(path: Path | None, digest: str) -> dict[str, Any] | None:
+    def _load_record(path: Path | None, digest: str, older: str) -> dict[str, Any] | None:
+        """The record at `path` if it was computed with these settings: its digest is `digest`,
+        or `older` (the digest with the run-only settings, as older records have it; such a
+        record is rewritten with `digest`)."""
         if path is None or not path.exists():
             return None
         try:
             record = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError):
             return None
-        return record if record.get("settings_digest") == digest else None
+        found = record.get("settings_digest")
+        if found == older != digest:
+            record["settings_digest"] = digest
+            write_json(path, record)
+            return record
+        return record if found == digest else None
 
     # -- running ---------------------------------------------------------------------------
     def run(self, progress: Progress | None = None) -> EvalResults:
@@ -328,6 +346,8 @@ class Evaluation:
         cells = self._cells()
         digests = {(m, b, u): self._digest(b, m, u)
                    for m in c.methods for b in c.backbones for _, u in cells}
+        older = {(m, b, u): self._digest(b, m, u, with_run_params=True)
+                 for m in c.methods for b in c.backbones for _, u in cells}
         total = len(c.seeds) * len(folds) * len(cells) * len(c.methods) * len(c.backbones)
         records: list[dict[str, Any]] = []
         done = 0
@@ -339,7 +359,8 @@ class Evaluation:
                         pending = []
                         for backbone in c.backbones:
                             path = self._record_path(budget, method, backbone, fold, seed, unseen)
-                            record = self._load_record(path, digests[(method, backbone, unseen)])
+                            key = (method, backbone, unseen)
+                            record = self._load_record(path, digests[key], older[key])
                             if record is not None:
                                 # groups may differ from the run that wrote the record
                                 record["group_macro_f1"] = group_macro_f1(

@@ -95,7 +95,9 @@ class TableSpec(BaseModel):
     bold: bool = False
     digits: int = Field(2, ge=0, le=4)
     row_header: str = "Group"
-    view: str | None = None  # kind study: a table of the study's report (har.study_records.VIEWS)
+    # kind study: a table of the study's report (har.study_records.VIEWS); kind benchmark: one of
+    # the benchmark script's VIEWS (none: the script's own table)
+    view: str | None = None
     source: str | None = None  # kind benchmark: the committed benchmark JSON (har.bench_records)
 
     @model_validator(mode="after")
@@ -457,7 +459,7 @@ class Publication:
         if spec is None:
             raise ConfigError(f"no table '{table_id}' in {SPEC_FILE}", file=self.results_dir / SPEC_FILE)
         if spec.kind == "benchmark":
-            return BenchTable(self.root, spec.id, spec.source).render()
+            return BenchTable(self.root, spec.id, spec.source, spec.view).render()
         if spec.kind == "study":
             if spec.records not in self._studies:
                 self._studies[spec.records] = load_study(self.results_dir, spec.records)

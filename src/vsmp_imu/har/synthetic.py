@@ -83,6 +83,9 @@ METHODS: dict[str, Callable[..., SyntheticSource] | None] = {"real": None}
 METHOD_DISPLAY = {"real": "Real-only"}
 # Methods that can make windows of a class with no real window (the unseen protocol).
 UNSEEN_CAPABLE: set[str] = set()
+# Method parameters that decide where a source runs, not what it gives (the same seed gives the
+# same windows whatever they are): a run records them but a record need not match them to be reused.
+RUN_PARAMS = ("executor", "workers", "address", "cache_dir", "gpus_per_task")
 
 
 def register_method(

@@ -22,6 +22,8 @@ BACKBONES: dict[str, type] = {
 }
 # Display names used in result tables (the paper's abbreviations).
 DISPLAY_NAMES = {"rf": "RF", "dclstm": "DCLSTM", "dclstm-attn": "DCLSTMA", "bilstm-attn": "BLSTMA"}
+# Backbone parameters that change how fast a model trains, not what it learns.
+RUN_PARAMS = ("n_jobs", "n_threads", "verbose")
 
 
 def register_backbone(name: str, cls: type, display: str | None = None) -> None:
@@ -52,6 +54,7 @@ def make_backbone(name: str, **params: Any):
 __all__ = [
     "BACKBONES",
     "DISPLAY_NAMES",
+    "RUN_PARAMS",
     "BiLSTMAttention",
     "DeepConvLSTM",
     "DeepConvLSTMAttention",

@@ -1,0 +1,115 @@
+"""Resuming an evaluation: run-only settings (where and how fast a record is computed) are
+recorded but need not match for a record to be reused; every other setting must."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from vsmp_imu.baselines.classical import ClassicalAugmentation
+from vsmp_imu.har.evaluate import EvalConfig, Evaluation
+from vsmp_imu.har.synthetic import METHOD_DISPLAY, METHODS, RUN_PARAMS
+from vsmp_imu.pipeline.spec import RUN_FIELDS
+
+RUN_A = {"workers": 1, "executor": "local", "address": None, "cache_dir": "/cache/a"}
+RUN_B = {"workers": 3, "executor": "ray", "address": "auto", "cache_dir": "/elsewhere/b",
+         "gpus_per_task": 0.5}
+# The digest the code before run-only settings left the digest gave a `pooled` record of
+# `_config()` on the tiny dataset (RUN_A, rf with 10 trees, fold 3).
+DIGEST_WITH_RUN_A = "386fbfc032b6ec96"
+
+
+class PooledSource:
+    """Classical Aug taking the run settings a generative method gets (and ignoring them)."""
+
+    name = "pooled"
+
+    def __init__(self, k: int = 2, **run: object) -> None:
+        unknown = set(run) - set(RUN_PARAMS)
+        assert not unknown, unknown
+        self.k = k
+
+    def generate(self, context):
+        return ClassicalAugmentation().generate(context)
+
+
+@pytest.fixture
+def pooled(monkeypatch):
+    monkeypatch.setitem(METHODS, "pooled", PooledSource)
+    monkeypatch.setitem(METHOD_DISPLAY, "pooled", "Pooled")
+
+
+def _config(run=RUN_A, n_jobs: int = 1, **kw) -> EvalConfig:
+    base = dict(dataset="tiny", backbones=("rf",), methods=("real", "pooled"), folds=("3",),
+                backbone_params={"rf": {"n_estimators": 10, "n_jobs": n_jobs}},
+                method_params={"pooled": {"k": 2, **run}})
+    return EvalConfig(**{**base, **kw})
+
+
+def _run(config, dataset, out) -> list[str]:
+    lines: list[str] = []
+    Evaluation(config, dataset, out).run(lambda d, done, total: lines.append(d))
+    return lines
+
+
+def _files(out) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted((out / "records").glob("*.json"))}
+
+
+def test_the_spec_run_fields_are_the_harness_run_params():
+    assert set(RUN_FIELDS) == set(RUN_PARAMS)
+
+
+def test_run_only_settings_leave_the_digest_and_the_others_change_it(pooled, tiny_dataset):
+    digest = Evaluation(_config(), tiny_dataset)._digest("rf", "pooled")
+    assert Evaluation(_config(RUN_B, n_jobs=2), tiny_dataset)._digest("rf", "pooled") == digest
+    changed = [_config(alpha=0.6), _config(policy="tail"), _config(window_s=1.0),
+               _config(method_params={"pooled": {"k": 3, **RUN_A}}),
+               _config(backbone_params={"rf": {"n_estimators": 11, "n_jobs": 1}})]
+    others = {Evaluation(c, tiny_dataset)._digest("rf", "pooled") for c in changed}
+    assert digest not in others and len(others) == len(changed)
+
+
+def test_resuming_with_another_cache_and_worker_count_reuses_the_records(pooled, tiny_factory, tmp_path):
+    out = tmp_path / "run"
+    first = _run(_config(), tiny_factory(), out)
+    assert not any("(cached)" in line for line in first) and len(first) == 2
+    files = _files(out)
+    results = json.loads((out / "results.json").read_text())
+    again = _run(_config(RUN_B, n_jobs=2), tiny_factory(), out)
+    assert all(line.endswith("(cached)") for line in again) and len(again) == 2
+    assert _files(out) == files
+    resumed = json.loads((out / "results.json").read_text())
+    assert resumed["records"] == results["records"]
+    # the run settings are still recorded: the last run's, for the reader
+    assert resumed["config"]["method_params"]["pooled"] == {"k": 2, **RUN_B}
+    assert resumed["config"]["backbone_params"]["rf"]["n_jobs"] == 2
+
+
+def test_resuming_with_another_alpha_recomputes(pooled, tiny_factory, tmp_path):
+    out = tmp_path / "run"
+    _run(_config(), tiny_factory(), out)
+    again = _run(_config(RUN_B, alpha=0.6), tiny_factory(), out)
+    assert not any("(cached)" in line for line in again) and len(again) == 2
+
+
+def test_a_record_whose_digest_has_the_run_settings_still_resumes(pooled, tiny_factory, tmp_path):
+    out = tmp_path / "run"
+    _run(_config(), tiny_factory(), out)
+    files = _files(out)
+    (name,) = [n for n in files if "_pooled_" in n]
+    record = json.loads(files[name])
+    digest = record["settings_digest"]
+    assert digest != DIGEST_WITH_RUN_A
+    path = out / "records" / name
+    path.write_text(json.dumps({**record, "settings_digest": DIGEST_WITH_RUN_A}), encoding="utf-8")
+    # the same run settings as the record was written with: reused, and its digest brought up to date
+    lines = _run(_config(), tiny_factory(), out)
+    assert all(line.endswith("(cached)") for line in lines)
+    assert json.loads(path.read_text())["settings_digest"] == digest
+    assert _files(out) == files
+    # other run settings cannot be told from an older digest: recomputed
+    path.write_text(json.dumps({**record, "settings_digest": DIGEST_WITH_RUN_A}), encoding="utf-8")
+    lines = _run(_config(RUN_B), tiny_factory(), out)
+    assert [line.endswith("(cached)") for line in lines] == [True, False]
