@@ -108,3 +108,46 @@ def test_per_class_needs_labels_and_transform_checks_channels(rng):
     with pytest.raises(ValidationError) as err:
         g.transform(np.zeros((4, 3)))
     assert err.value.field == "channels" and err.value.message == "expected 2 channels, got 3"
+
+
+def _classes(rng, means, n_windows, scale=1.0):
+    x = np.concatenate([rng.normal(m, scale, (n, 50, 1)) for m, n in zip(means, n_windows, strict=True)])
+    return x, np.repeat(np.arange(len(means)), n_windows)
+
+
+@pytest.mark.parametrize("per_class", [False, True])
+def test_a_class_without_real_windows_does_not_shape_the_pooled_map(rng, per_class):
+    # synthetic classes 0, 1 (seen) and 2 (unseen: no real window), real classes 0 and 1
+    syn, ys = _classes(rng, [-2.0, 2.0, 8.0], [20, 20, 20], scale=0.5)
+    real, yr = _classes(rng, [-1.0, 1.0], [20, 20], scale=0.3)
+    with_unseen = RankGrounder(per_class=per_class).fit(syn, real, ys, yr)
+    seen = ys < 2
+    without = RankGrounder(per_class=per_class).fit(syn[seen], real, ys[seen], yr)
+    assert with_unseen.mapping(2) == "pooled"
+    # the seen classes map as if the unseen class had not been generated (to rounding: the
+    # class-balance weights differ by a common factor)
+    assert np.allclose(with_unseen.transform(syn[seen], ys[seen]), without.transform(syn[seen], ys[seen]),
+                       rtol=0, atol=1e-9)
+    # the unseen class takes the seen classes' map: its values land above the seen ones, not
+    # squeezed into the real classes' range as a pooled F_v with it would squeeze them
+    unseen = with_unseen.transform(syn[~seen], ys[~seen])
+    assert unseen.mean() > real.max() - 0.1
+    assert np.allclose(unseen, without.transform(syn[~seen]), rtol=0, atol=1e-9)
+
+
+def test_a_pool_of_unseen_classes_only_is_left_as_it_is(rng):
+    syn, ys = _classes(rng, [5.0, 9.0], [10, 10])
+    real, yr = _classes(rng, [-1.0, 1.0], [10, 10])
+    g = RankGrounder(per_class=True).fit(syn, real, ys + 2, yr)  # synthetic classes 2, 3; real 0, 1
+    assert g.unmapped_ == frozenset({2, 3}) and g.mapping(2) == "none"
+    assert np.array_equal(g.transform(syn, ys + 2), syn)
+    # without labels a caller asks for the pooled map, as before
+    assert not np.allclose(g.transform(syn), syn)
+
+
+def test_labels_change_nothing_for_the_pooled_map(rng):
+    syn, ys = _classes(rng, [-2.0, 2.0], [15, 5])
+    real, yr = _classes(rng, [-1.0, 1.0], [10, 10])
+    g = RankGrounder().fit(syn, real, ys, yr)
+    assert g.mapping(0) == g.mapping(1) == "pooled"
+    assert np.array_equal(g.transform(syn, ys), g.transform(syn))

@@ -155,7 +155,13 @@ class RankGrounder:
     class mix matches the real one before F_v is taken: the synthetic pool is
     generated with its own class proportions (rare classes oversampled, motions
     of different lengths), and an unweighted pooled F_v would shift every
-    class's values. `per_class=True` fits one map per class instead.
+    class's values. `per_class=True` fits one map per class instead (a class with fewer than
+    `min_class_samples` samples on either side keeps the pooled map).
+
+    Classes with no real sample (an unseen class) never shape F_v: the pooled map is fitted on
+    the synthetic classes the real data has and carries over to them. When the synthetic pool
+    holds no such class, nothing says how its values become real ones, and `transform` with
+    labels leaves them as they are (`unmapped_`); without labels it applies the pooled map.
     `threads` > 1 fits and maps the channels side by side (same result).
     """
 
@@ -180,11 +186,19 @@ class RankGrounder:
             )
         self.n_channels_ = syn.shape[1]
         weights = None
-        if self.class_balanced and synthetic_labels is not None and real_labels is not None:
-            weights = _balance_weights(_sample_labels(synthetic, synthetic_labels),
-                                       _sample_labels(real, real_labels))
+        pooled = syn
+        self.unmapped_: frozenset[int] = frozenset()
+        if synthetic_labels is not None and real_labels is not None:
+            syn_lab = _sample_labels(synthetic, synthetic_labels)
+            if self.class_balanced:
+                weights = _balance_weights(syn_lab, _sample_labels(real, real_labels))
+            known = np.isin(syn_lab, np.unique(real_labels))
+            if known.any() and not known.all():  # F_v from the classes the real data has
+                pooled, weights = syn[known], None if weights is None else weights[known]
+            elif not known.any():  # nothing learns how synthetic values become real ones
+                self.unmapped_ = frozenset(int(c) for c in np.unique(syn_lab))
         per_window = _samples_per_window(real)
-        self.overall_ = _ChannelMap(syn, rea, self.n_quantiles, weights, self.threads, per_window)
+        self.overall_ = _ChannelMap(pooled, rea, self.n_quantiles, weights, self.threads, per_window)
         self.per_class_: dict[int, _ChannelMap] = {}
         if self.per_class:
             if synthetic_labels is None or real_labels is None:
@@ -205,14 +219,22 @@ class RankGrounder:
         x = np.asarray(x, dtype=np.float64)
         if x.shape[-1] != self.n_channels_:
             raise ValidationError(f"expected {self.n_channels_} channels, got {x.shape[-1]}", field="channels")
-        if not self.per_class_ or labels is None:
+        if labels is None:
             return self.overall_.apply(x)
         out = np.empty_like(x)
         labels = np.asarray(labels)
         for cls in np.unique(labels):
             mask = labels == cls
-            out[mask] = self.per_class_.get(int(cls), self.overall_).apply(x[mask])
+            out[mask] = x[mask] if int(cls) in self.unmapped_ else \
+                self.per_class_.get(int(cls), self.overall_).apply(x[mask])
         return out
+
+    def mapping(self, label: int) -> str:
+        """How `transform` maps class `label` given its labels: 'class' (its own map), 'pooled' or
+        'none' (no class of the synthetic pool had real windows: values left as they are)."""
+        if label in self.unmapped_:
+            return "none"
+        return "class" if label in self.per_class_ else "pooled"
 
 
 def _balance_weights(syn_labels: np.ndarray, real_labels: np.ndarray) -> np.ndarray:

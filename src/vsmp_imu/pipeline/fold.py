@@ -351,10 +351,8 @@ def ground(spec: GenerationSpec, info: DatasetInfo, ok: list[SampleResult], d_ra
     for name, grounder in grounders.items():  # all samples of a location mapped at once
         users = [i for i, r in enumerate(ok) if name in r.signals]
         signals = [ok[i].signals[name] for i in users]
-        labels = None
-        if spec.per_class_rank:
-            labels = np.concatenate([np.full(len(sig), ok[i].label_index)
-                                     for i, sig in zip(users, signals, strict=True)])
+        labels = np.concatenate([np.full(len(sig), ok[i].label_index)
+                                 for i, sig in zip(users, signals, strict=True)])
         mapped = grounder.transform(np.concatenate(signals), labels)
         for i, part in zip(users, np.split(mapped, np.cumsum([len(sig) for sig in signals])[:-1]), strict=True):
             out[i][name] = part
