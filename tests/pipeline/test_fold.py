@@ -86,7 +86,10 @@ def test_rank_grounding_matches_d_rank_and_keeps_order(hapt12, library, fold):
     info, _ = hapt12
     from vsmp_imu.pipeline.fold import ground, location_plan
 
-    grounded = ground(GenerationSpec(**SMALL), info, ok, d_rank, location_plan(info))
+    grounded, mappings = ground(GenerationSpec(**SMALL), info, ok, d_rank, location_plan(info))
+    # every class has real windows here: none is left unmapped
+    assert set(mappings) == {"waist"} and set(mappings["waist"].values()) <= {"class", "pooled"}
+    assert set(mappings["waist"]) == {info.label_names[r.label_index] for r in ok}
     syn = np.concatenate([g["waist"] for g in grounded])
     labels = np.concatenate([np.full(len(g["waist"]), r.label_index) for g, r in zip(grounded, ok, strict=True)])
     real_share = np.bincount(d_rank.y, minlength=info.n_classes) / len(d_rank)

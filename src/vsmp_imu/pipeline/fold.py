@@ -337,12 +337,24 @@ def motion_fit_jobs(spec: GenerationSpec, info: DatasetInfo, sources, setup: Fol
 
 # -- stage 4: ground ----------------------------------------------------------------------------------
 def ground(spec: GenerationSpec, info: DatasetInfo, ok: list[SampleResult], d_rank: Windows, plan,
-           threads: int = 1) -> list[dict[str, np.ndarray]]:
-    """Rank grounding per location (F_v from all of `ok`, G_r from D_rank); the signals as they
-    are without rank grounding."""
+           threads: int = 1) -> tuple[list[dict[str, np.ndarray]], dict]:
+    """Rank grounding per location (F_v from all of `ok`, G_r from D_rank) and how each class was
+    mapped there (`rank_mappings`); the signals as they are, and no mappings, without it."""
     if not spec.rank_grounding or not ok:
-        return [dict(r.signals) for r in ok]
+        return [dict(r.signals) for r in ok], {}
     grounders = fit_rank_grounders(info, ok, d_rank, plan, spec, threads)
+    return apply_rank_grounders(ok, grounders), rank_mappings(info, grounders, ok)
+
+
+def rank_mappings(info: DatasetInfo, grounders: dict[str, RankGrounder], ok: list[SampleResult]) -> dict:
+    """How each location's rank grounding mapped each class it saw: 'class', 'pooled' or 'none'."""
+    return {name: {info.label_names[i]: g.mapping(i)
+                   for i in sorted({r.label_index for r in ok if name in r.signals})}
+            for name, g in grounders.items()}
+
+
+def apply_rank_grounders(ok: list[SampleResult], grounders: dict[str, RankGrounder]) -> list[dict[str, np.ndarray]]:
+    """The samples' signals mapped by their location's grounder (each class by its own mapping)."""
     missing = sorted({name for r in ok for name in r.signals} - set(grounders))
     if missing:
         raise ValidationError(f"D_rank has no real window at location(s) {', '.join(missing)}",
@@ -515,7 +527,7 @@ class FoldGenerator:
         for attempt in range(spec.refill + 1):
             results = [r for label in info.label_names for r in by_class[label]]
             ok = [r for r in results if not r.error and r.signals]
-            grounded = ground(spec, info, ok, setup.d_rank, setup.plan, threads)  # F_v from all samples so far
+            grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads)  # F_v from all so far
             windows = window(info, ok, grounded, length, hop)
             windows.records += failed_records(info, results)
             keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads)
@@ -536,6 +548,8 @@ class FoldGenerator:
                       meta={"sample": np.array([records[i].sample for i in np.flatnonzero(selected)],
                                                dtype=object).astype(str)})
         summary = _summary(info, results, records, budget, out, tau, len(setup.d_stat), len(setup.d_rank))
+        if rank_map:  # per location and class: its own map, the pooled one, or none (no evidence)
+            summary["rank_map"] = rank_map
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
         return FoldOutput(out, X, records, results, tasks, summary)
