@@ -82,6 +82,24 @@ def test_phase_duration_from_velocity_landmarks(move_s):
     assert 2.5 < phase.peak_s < 2.5 + move_s
 
 
+def test_elbow_measures_read_the_hinge_not_the_forearm_twist():
+    # a fast 100 deg pronation, then a slower elbow flexion: the pronation turns the
+    # forearm segment (and its sensor), but the elbow measures read the flexion alone
+    t = np.arange(int(5 * FPS)) / FPS
+    flex = 10 + 90 * minimum_jerk((t - 2.5) / 0.9)
+    alone = _motion({"left_elbow_flex": flex}, len(t))
+    turned = _motion({"left_elbow_flex": flex, "left_wrist_rot": 100 * minimum_jerk((t - 1.0) / 0.5)}, len(t))
+    phase = measure.phase_duration(turned, ["left_elbow"])
+    assert phase.duration_s == pytest.approx(0.744 * 0.9, rel=0.06)
+    assert 2.5 < phase.peak_s < 3.4
+    assert measure.range_of_motion(turned, ["left_elbow"]) == pytest.approx(np.radians(90), rel=0.03)
+    assert measure.mean_joint_speed(turned, ["left_elbow"]) == pytest.approx(
+        measure.mean_joint_speed(alone, ["left_elbow"]), rel=0.02)
+    # the twist is still measured, as the forearm's
+    twist = [measure.joint_plane_ranges(m)[("forearm", "transverse")] for m in (alone, turned)]
+    assert twist[1] > twist[0] + 80
+
+
 def test_symmetry_score_separates_lagged_arms():
     sym = _curls(4, 1.0)
     asym = _curls(4, 1.0, lag_s=0.3)

@@ -13,6 +13,7 @@ Conventions of this implementation (documented in docs/motion.md):
   world position relative to its first frame;
 - joint angles are local joint rotations (relative to the parent joint)
   relative to the first frame, projected on their main axis of variation;
+  an elbow's leaves out the forearm's twist about its long axis (pronation);
 - repetitions are peaks of the principal component of the principal
   joints' trajectories that carries the cycles: axes are fitted on the
   joints' velocities, and the first of the first three whose velocity is
@@ -108,13 +109,49 @@ def joint_trajectories(motion: Motion, joints: Sequence[str]) -> np.ndarray:
 
 
 def local_rotations(motion: Motion, joints: Sequence[str]) -> list[Rotation]:
-    """Each joint's rotation relative to its parent (the root: its world rotation)."""
+    """Each joint's rotation relative to its parent (the root: its world rotation).
+
+    An elbow's is its hinge alone: the forearm's twist about its own long axis
+    (pronation / supination, which the forearm segment carries so that a watch
+    turns with it) is left out, as it is a forearm movement, not the elbow's
+    (`joint_plane_ranges` reports it as the forearm's).
+    """
     out = []
     for j in _indices(motion, joints):
         glob = Rotation.from_quat(motion.rotations[:, j])
         p = motion.parents[j]
-        out.append(glob if p < 0 else Rotation.from_quat(motion.rotations[:, p]).inv() * glob)
+        local = glob if p < 0 else Rotation.from_quat(motion.rotations[:, p]).inv() * glob
+        wrist = _forearm_end(motion, j)
+        out.append(local if wrist is None else _without_twist(local, _bone_axis(motion, j, wrist)))
     return out
+
+
+def _forearm_end(motion: Motion, j: int) -> int | None:
+    """The wrist below joint `j` when `j` is an elbow, else None."""
+    name = motion.joint_names[j]
+    if not name.endswith("_elbow"):
+        return None
+    wrist = name.removesuffix("elbow") + "wrist"
+    if wrist not in motion.joint_names:
+        return None
+    k = motion.joint_names.index(wrist)
+    return k if motion.parents[k] == j else None
+
+
+def _bone_axis(motion: Motion, j: int, child: int) -> np.ndarray:
+    """(T, 3) unit direction from joint `j` to `child` in `j`'s own frame."""
+    bone = motion.positions[:, child] - motion.positions[:, j]
+    axis = Rotation.from_quat(motion.rotations[:, j]).inv().apply(bone)
+    return axis / np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-12)
+
+
+def _without_twist(local: Rotation, axis: np.ndarray) -> Rotation:
+    """The swing of `local` = swing * twist, the twist being about `axis` (child frame)."""
+    q = local.as_quat()
+    twist = np.concatenate([np.sum(q[:, :3] * axis, axis=1, keepdims=True) * axis, q[:, 3:]], axis=1)
+    norm = np.linalg.norm(twist, axis=1, keepdims=True)
+    twist = np.where(norm > 1e-9, twist / np.maximum(norm, 1e-12), [0.0, 0.0, 0.0, 1.0])
+    return local * Rotation.from_quat(twist).inv()
 
 
 def joint_angles(motion: Motion, joints: Sequence[str]) -> np.ndarray:
