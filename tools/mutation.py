@@ -56,6 +56,11 @@ GROUPS = (
     Group("smp", ("smp/augment.py", "smp/schema.py"),
           ("tests/smp/test_smp_augment.py", "tests/smp/test_smp_exact_draws.py",
            "tests/smp/test_smp_library.py")),
+    Group("motion", ("motion/compiler.py", "motion/lexicon.py", "motion/anatomy.py"),
+          ("tests/motion/test_motion_compiler.py", "tests/motion/test_motion_lexicon.py",
+           "tests/motion/test_motion_procedural.py")),
+    Group("motionfit", ("pipeline/motionfit.py",), ("tests/pipeline/test_motionfit.py",)),
+    Group("noharm", ("har/noharm.py",), ("tests/har/test_har_noharm.py",)),
 )
 
 
@@ -69,6 +74,9 @@ def _pyproject(group: Group) -> str:
         "only_mutate = " + json.dumps([f"src/vsmp_imu/{f}" for f in group.files]),
         "pytest_add_cli_args_test_selection = " + json.dumps([t for t in group.tests if (ROOT / t).exists()]),
         'pytest_add_cli_args = ["-m", "not slow", "-p", "no:cacheprovider", "-q"]',
+        # mutants run in processes forked from a server that has only collected the tests,
+        # so no cache filled by the unmutated stats run (compile_recipe, the SMP library) is inherited
+        'process_isolation = "forkserver"',
         "use_git_change_detection = false",
         "",
     ]

@@ -216,3 +216,67 @@ def test_committed_records_keep_the_choice(tiny_dataset, tmp_path):
     import_run(tmp_path / "run", "tiny", "vsmp-imu evaluate ...", tmp_path / "results")
     records = load_run(tmp_path / "results", "tiny").records
     assert {r["method"]: r["synthetic_shares"] is not None for r in records} == {"real": False, "classical": True}
+
+
+def test_the_sign_flip_p_counts_the_flips_at_or_below_the_observed_mean():
+    """p = (1 + #flips with mean <= observed) / (1 + N_FLIPS): all-negative changes of 20 windows are
+    beaten by no flip (p at its floor), all-positive ones by every flip (p = 1); one window is a coin."""
+    from vsmp_imu.har.noharm import HARM_P, N_FLIPS, Harm
+
+    assert harm(np.full(20, -0.1)).p == 1 / (1 + N_FLIPS)
+    assert harm(np.full(20, 0.1)).p == 1.0
+    coin = harm(np.array([-0.3]))
+    assert 0.45 < coin.p < 0.55 and coin.mean_change == pytest.approx(-0.3)
+    three = harm(np.array([-0.2, -0.1, -0.3]))  # all signs negative: 1 flip in 8
+    assert 0.1 < three.p < 0.15 and three.n == 3
+    assert Harm(30, -0.01, HARM_P - 1e-9).hurts and not Harm(30, -0.01, HARM_P).hurts
+    assert not Harm(30, 0.0, 0.0).hurts and not Harm(0, -1.0, 0.0).hurts
+
+
+def test_the_evidence_text_names_the_mean_the_windows_and_p():
+    from vsmp_imu.har.noharm import Harm
+
+    assert Harm(12, -0.0314, 0.0123).text() == ("validation p(true class) -0.031 on average over 12 windows, "
+                                                "classes weighted equally (one-sided sign-flip p = 0.012)")
+
+
+def test_full_proba_puts_each_column_at_its_class_index():
+    class TwoOfFour:
+        classes_ = np.array([1, 3])
+
+        def predict_proba(self, X):
+            return np.tile([0.25, 0.75], (len(X), 1))
+
+    from vsmp_imu.har.noharm import full_proba
+
+    rng = np.random.default_rng(0)
+    w = _windows([0.0], [0], 3, rng, "1")
+    assert full_proba(TwoOfFour(), w, 4).tolist() == [[0.0, 0.25, 0.0, 0.75]] * 3
+
+
+def test_take_shares_keeps_the_first_windows_of_each_class_in_order():
+    rng = np.random.default_rng(0)
+    synthetic = _windows([0.0, 1.0, 2.0], [0, 1, 2], 4, rng, "s")
+    kept = take_shares(synthetic, np.array([0.5, 0.0, 1.0]))
+    assert kept.y.tolist() == [0, 0, 2, 2, 2, 2]
+    assert np.array_equal(kept.X, np.concatenate([synthetic.X[:2], synthetic.X[8:]]))
+    assert shares_vector({1: _share(0.0), 2: _share(1.0)}, 3).tolist() == [1.0, 0.0, 1.0]
+
+
+def _share(value: float):
+    from vsmp_imu.har.noharm import ClassShare
+
+    return ClassShare(value, 4, int(4 * value), 2, None, "why")
+
+
+def test_the_dropped_summary_counts_runs_empty_classes_and_unjudged_ones():
+    from dataclasses import asdict
+
+    from vsmp_imu.har.noharm import choice_record
+
+    first = choice_record({1: _share(0.0), 0: replace(_share(1.0), n_val=0)}, ("a", "b"))
+    assert list(first) == ["a", "b"] and first["b"] == asdict(_share(0.0))
+    second = choice_record({0: _share(1.0), 1: _share(1.0)}, ("a", "b"))
+    records = [{"synthetic_shares": first}, {"synthetic_shares": None}, {"synthetic_shares": second}]
+    assert dropped_summary(records) == {"a": {"runs": 2, "none": 0, "unjudged": 1},
+                                        "b": {"runs": 2, "none": 1, "unjudged": 0}}

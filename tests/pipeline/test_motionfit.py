@@ -161,3 +161,43 @@ def tiny_fold(walking):
         return generator.generate(info, train, {"walk": [("test", walking)]}, np.array([20]), 0, "f1")
 
     return run
+
+
+def _fit(mean, std, low, high) -> dict:
+    return {"fitted": True, "params": list(PARAMS), "mean": mean, "std": std, "low": low, "high": high}
+
+
+def test_a_draw_is_the_mean_plus_the_spread_times_the_samples_own_normals():
+    """Away from the bounds, phi = mean + max(std, DRAW_MIN_STD) * z, z the sample's 'motion-fit' normals."""
+    from vsmp_imu.pipeline.motionfit import DRAW_MIN_STD
+    from vsmp_imu.seeding import rng_for
+
+    mean, std = [1.0, 1.0, 0.0, 0.0], [0.4, 0.01, 3.0, 0.5]
+    fit = _fit(mean, std, [-1e3] * 4, [1e3] * 4)
+    for seed in (0, 7, 123):
+        z = rng_for(seed, "motion-fit").standard_normal(4)
+        spread = np.maximum(std, DRAW_MIN_STD)
+        assert spread[1] == DRAW_MIN_STD[1] and spread[0] == 0.4  # the floor lifts only the narrow spread
+        expected = np.round(np.array(mean) + spread * z, 4)
+        assert list(draw(fit, seed).values()) == pytest.approx(expected, abs=1e-12)
+        assert list(draw(fit, seed)) == list(PARAMS)
+
+
+def test_a_draw_stays_within_both_bounds_and_a_fixed_parameter_never_moves():
+    """A mean on the lower bound puts about half the draws below it before clipping: every one is
+    clipped to the bound; a parameter with low == high (not a variant field) is the bound itself."""
+    fit = _fit([0.0, 1.0, 15.0, -15.0], [0.5, 0.0, 5.0, 5.0], [0.0, 1.0, -15.0, -15.0], [2.0, 1.0, 15.0, 15.0])
+    draws = np.array([list(draw(fit, seed).values()) for seed in range(60)])
+    assert draws[:, 0].min() == 0.0 and (draws[:, 0] == 0.0).sum() > 10  # clipped from below, not dropped
+    assert draws[:, 2].max() == 15.0 and (draws[:, 2] == 15.0).sum() > 10  # clipped from above
+    assert draws[:, 3].min() == -15.0 and (draws[:, 3] == -15.0).sum() > 10
+    assert (draws[:, 1] == 1.0).all()
+    assert draws[:, 0].max() > 0.1  # the free ones still vary
+
+
+def test_the_fit_text_is_canonical_json():
+    """Key order of the fit does not change the text the sample task carries (same job, same bytes)."""
+    fit = {"mean": [1.0], "fitted": True, "params": ["tempo"]}
+    assert fit_text(fit) == '{"fitted": true, "mean": [1.0], "params": ["tempo"]}'
+    assert fit_text(dict(reversed(fit.items()))) == fit_text(fit)
+    assert fit_text({"fitted": False, "reason": "x"}) == "" and fit_text(None) == ""
