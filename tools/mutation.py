@@ -57,7 +57,8 @@ GROUPS = (
           ("tests/smp/test_smp_augment.py", "tests/smp/test_smp_exact_draws.py",
            "tests/smp/test_smp_library.py")),
     Group("motion", ("motion/compiler.py", "motion/lexicon.py", "motion/anatomy.py"),
-          ("tests/motion/test_motion_compiler.py", "tests/motion/test_motion_lexicon.py",
+          ("tests/motion/test_motion_compiler.py", "tests/motion/test_motion_compiler_rules.py",
+           "tests/motion/test_motion_lexicon.py",
            "tests/motion/test_motion_procedural.py")),
     Group("motionfit", ("pipeline/motionfit.py",), ("tests/pipeline/test_motionfit.py",)),
     Group("noharm", ("har/noharm.py",), ("tests/har/test_har_noharm.py",)),
@@ -145,8 +146,18 @@ def rerun(group: Group) -> dict:
     if survivors:
         shutil.rmtree(where / "tests")
         shutil.copytree(ROOT / "tests", where / "tests", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        _select_tests(where, group)
         _mutmut(where, survivors)
     return collect(group)
+
+
+def _select_tests(where: Path, group: Group) -> None:
+    """Point the copy's test selection at the group's current tests (new test files included),
+    keeping the file's time: it marks when the run started."""
+    pyproject = where / "pyproject.toml"
+    started = pyproject.stat().st_mtime
+    pyproject.write_text(_pyproject(group))
+    os.utime(pyproject, (started, started))
 
 
 def collect(group: Group) -> dict:

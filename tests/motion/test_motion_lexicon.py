@@ -112,3 +112,21 @@ def test_library_captions_and_aliases_agree_with_the_primitives(library):
     # floors below the rates benchmarks/study_compiled_motion.py reports
     assert captions / n_captions >= 0.70
     assert aliases / n_aliases >= 0.45
+
+
+def test_rom_is_the_fraction_of_the_normative_range_to_a_tenth_of_a_degree():
+    from vsmp_imu.motion.anatomy import rom
+
+    assert rom("shoulder", "flexion", 0.5) == 90.0
+    assert rom("wrist", "radial_deviation", 0.33) == 6.6  # 6.6 exactly, not 6.60000001
+    assert rom("knee", "flexion") == 135.0
+    assert MOVEMENTS["shoulder_flexion"].pose == {"shoulder_flex": 90.0}  # the table is built with it
+
+
+def test_a_movement_takes_its_limb_from_its_joint_unless_told():
+    from vsmp_imu.motion.anatomy import Movement
+
+    assert [Movement("m", joint, "sagittal", {}).limb for joint in ("wrist", "knee", "trunk")] == [
+        "arm", "leg", "none"]
+    assert Movement("m", "knee", "sagittal", {}, limb="arm").limb == "arm"
+    assert MOVEMENTS["squat"].limb == "leg" and MOVEMENTS["elbow_flexion"].limb == "arm"

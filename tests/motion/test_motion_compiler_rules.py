@@ -1,0 +1,97 @@
+"""The compiler's pose rules on their own (`motion.compiler`): the lunge's rear leg, the arm circle, the
+hop and the pelvis travel of a change of posture, each checked value by value."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from vsmp_imu.motion import compiler
+from vsmp_imu.motion.anatomy import MOVEMENTS, SEAT_SHIFT_M
+from vsmp_imu.motion.dofs import DOF_INDEX, N_DOFS
+from vsmp_imu.motion.lexicon import Reading
+
+
+def _reading(**kw) -> Reading:
+    base = dict(movements=(), context=(), returns=False, there_and_back=False, hold=False, arm_side=None,
+                leg_side=None, direction=0, counter_clockwise=False, posture=None)
+    return Reading(**{**base, **kw})
+
+
+def _step(parts=(), **kw) -> compiler.Step:
+    return compiler.Step("p", _reading(**kw), tuple(parts))
+
+
+def _col(name: str) -> int:
+    return DOF_INDEX[name]
+
+
+@pytest.mark.parametrize("front,back", [("left", "right"), ("right", "left")])
+def test_the_lunge_rear_leg_extends_the_hip_and_bends_the_knee(front, back):
+    assert compiler._lunge("hip_flex", 70.0, front) == [(_col(f"{front}_hip_flex"), 70.0),
+                                                        (_col(f"{back}_hip_flex"), -15.0)]
+    assert compiler._lunge("knee_flex", 90.0, front)[1] == (_col(f"{back}_knee_flex"), 85.0)
+    assert compiler._lunge("ankle_flex", 10.0, front)[1] == (_col(f"{back}_ankle_flex"), -20.0)
+    assert compiler._lunge("hip_abd", 5.0, front)[1] == (_col(f"{back}_hip_abd"), 0.0)  # other stems: rear at 0
+
+
+def test_an_arm_circle_goes_up_out_down_and_back_on_the_named_arm():
+    before = np.linspace(-1.0, 1.0, N_DOFS)
+    keys = compiler._circle(_step(parts=("left_hand",)), before)
+    assert [(at, ease) for at, _, ease in keys] == [(0.25, "smooth"), (0.5, "smooth"), (0.75, "smooth"),
+                                                      (1.0, "stop")]
+    flex, abd = _col("left_shoulder_flex"), _col("left_shoulder_abd")
+    r = compiler.CIRCLE_DEG
+    for (_, vec, _), (d_flex, d_abd) in zip(keys, [(r, r), (0.0, 2 * r), (-r, r), (0.0, 0.0)], strict=True):
+        assert vec[flex] - before[flex] == pytest.approx(d_flex, abs=1e-9)
+        assert vec[abd] - before[abd] == pytest.approx(d_abd, abs=1e-9)
+        others = np.delete(vec - before, [flex, abd])
+        assert not others.any()  # the right arm and everything else stay
+    ccw = compiler._circle(_step(parts=("left_hand",), counter_clockwise=True), before)
+    assert ccw[0][1][flex] - before[flex] == pytest.approx(-r)
+    assert ccw[0][1][abd] - before[abd] == pytest.approx(r)
+
+
+def test_a_circle_without_a_named_side_uses_the_right_arm_and_words_beat_parts():
+    before = np.zeros(N_DOFS)
+    plain = compiler._circle(_step(), before)[0][1]
+    assert plain[_col("right_shoulder_abd")] == pytest.approx(compiler.CIRCLE_DEG)
+    assert plain[_col("left_shoulder_abd")] == 0.0
+    both = compiler._circle(_step(parts=("left_hand", "right_hand")), before)[0][1]
+    assert both[_col("left_shoulder_abd")] == both[_col("right_shoulder_abd")] == pytest.approx(compiler.CIRCLE_DEG)
+    worded = compiler._circle(_step(parts=("right_hand",), arm_side="left"), before)[0][1]
+    assert worded[_col("left_shoulder_abd")] == pytest.approx(compiler.CIRCLE_DEG)
+    assert worded[_col("right_shoulder_abd")] == 0.0
+
+
+def test_a_hop_crouches_takes_off_and_lands_on_the_target():
+    before = np.zeros(N_DOFS)
+    target = np.zeros(N_DOFS)
+    target[_col("left_shoulder_flex")] = 100.0
+    keys = compiler._hop(before, target)
+    assert [(at, ease) for at, _, ease in keys] == [(0.3, "stop"), (0.6, "smooth"), (1.0, "stop")]
+    crouch, air, land = (vec for _, vec, _ in keys)
+    assert crouch[_col("left_shoulder_flex")] == pytest.approx(30.0)  # 0.7 before + 0.3 target
+    assert air[_col("left_shoulder_flex")] == pytest.approx(80.0)  # 0.2 before + 0.8 target
+    for side in ("left", "right"):
+        for stem, extra in compiler.HOP_CROUCH.items():
+            assert crouch[_col(f"{side}_{stem}")] == pytest.approx(extra)
+        assert air[_col(f"{side}_ankle_flex")] == pytest.approx(-25.0)
+        assert air[_col(f"{side}_knee_flex")] == 0.0
+    assert air[_col("root_dy")] == pytest.approx(MOVEMENTS["jump"].pose["root_dy"]) and crouch[_col("root_dy")] == 0.0
+    assert land is target
+    in_place = compiler._hop(before, before.copy())
+    assert [at for at, _, _ in in_place] == [0.3, 0.6, 0.99]  # a hop in place still ends on its own key
+    assert np.array_equal(in_place[-1][1], before)
+
+
+@pytest.mark.parametrize("src,dst,shift", [
+    ("standing", "sitting", SEAT_SHIFT_M), ("kneeling", "lying", SEAT_SHIFT_M), ("standing", "lying", SEAT_SHIFT_M),
+    ("sitting", "standing", -SEAT_SHIFT_M), ("lying", "kneeling", -SEAT_SHIFT_M),
+    ("sitting", "lying", 0.0), ("standing", "kneeling", 0.0), ("lying", "sitting", 0.0), ("standing", None, 0.0),
+])
+def test_the_pelvis_travels_onto_a_seat_behind_the_feet_and_back(src, dst, shift):
+    assert compiler._posture_shift(src, dst, 0.25) == pytest.approx(0.25 + shift)
+    assert math.isclose(compiler._posture_shift(src, dst, 0.0), shift)
