@@ -95,3 +95,25 @@ def test_a_hop_crouches_takes_off_and_lands_on_the_target():
 def test_the_pelvis_travels_onto_a_seat_behind_the_feet_and_back(src, dst, shift):
     assert compiler._posture_shift(src, dst, 0.25) == pytest.approx(0.25 + shift)
     assert math.isclose(compiler._posture_shift(src, dst, 0.0), shift)
+
+
+def test_standing_and_lying_pass_through_sitting_and_a_seat_through_a_crouch():
+    before = np.zeros(N_DOFS)
+    before[_col("left_elbow_flex")] = 40.0
+    step = _step()
+    down = compiler._via("standing", "lying", before, [], step, None, -0.3)
+    up = compiler._via("lying", "standing", before, [], step, None, -0.3)
+    for via in (down, up):
+        assert via[_col("left_hip_flex")] == via[_col("right_knee_flex")] == 88.0  # the sitting pose
+        assert via[_col("left_elbow_flex")] == 55.0  # the sitting pose's arms, not the ones before
+    assert down[_col("root_dz")] == pytest.approx(-0.3)  # already on the seat's level
+    assert up[_col("root_dz")] == pytest.approx(-0.3 + SEAT_SHIFT_M)
+    before[_col("root_dz")] = 0.1
+    for src, dst in (("standing", "sitting"), ("sitting", "standing")):
+        crouch = compiler._via(src, dst, before, [], step, None, -0.3)
+        for side in ("left", "right"):
+            assert [crouch[_col(f"{side}_{s}")] for s in ("hip_flex", "knee_flex", "ankle_flex")] == [92, 105, 24]
+        assert crouch[_col("trunk_flex")] == 32 and crouch[_col("left_elbow_flex")] == 40.0  # arms as they were
+        assert crouch[_col("root_dz")] == pytest.approx(0.5 * (0.1 - 0.3))  # half way down (or up)
+    for src, dst in (("sitting", "lying"), ("standing", "kneeling"), ("kneeling", "sitting"), ("standing", None)):
+        assert compiler._via(src, dst, before, [], step, None, -0.3) is None

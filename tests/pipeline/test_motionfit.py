@@ -201,3 +201,32 @@ def test_the_fit_text_is_canonical_json():
     assert fit_text(fit) == '{"fitted": true, "mean": [1.0], "params": ["tempo"]}'
     assert fit_text(dict(reversed(fit.items()))) == fit_text(fit)
     assert fit_text({"fitted": False, "reason": "x"}) == "" and fit_text(None) == ""
+
+
+def test_the_motion_loss_is_the_sensor_level_l_sim_plus_the_gravity_angle(walking):
+    """One candidate's loss: StreamObjective's L_sim of the class's motion at eta = 0 against D_stat,
+    plus LAMBDA_GRAVITY x the angle between the simulated and the real mean accelerometer direction."""
+    from vsmp_imu.grounding.calibrate import ETA_NOMINAL, StreamObjective
+    from vsmp_imu.pipeline.motionfit import LAMBDA_GRAVITY, _Objective
+    from vsmp_imu.seeding import rng_for
+
+    job = job_for(walking, real_windows(walking, {"tempo": 1.4}, seed=3))
+    plain = MotionFitJob(**{**job.__dict__, "mean_acc": (None,)})
+    objective = _Objective(plain, walking)
+    assert objective.seed == int(rng_for(job.seed, "motion-fit", "walk").integers(2**31))
+    assert _Objective(MotionFitJob(**{**job.__dict__, "label": "run"}), walking).seed != objective.seed
+    phi = dict(zip(PARAMS, bounds(walking)[0], strict=True)) | {"root_pitch_deg": 4.0}
+    smp, offsets = realize(walking, phi)
+    sensor = VirtualSensor.at(LOCATION)
+    kin = simulate_kinematics(objective.backend.generate(smp, objective.seed, offsets_deg=offsets), sensor, FS)
+    stream = StreamObjective(kin, job.locations[0].stat_summary(), CONVENTION, sensor.mounting_matrix())
+    grav = np.array([True])
+    l_sim = float(stream(ETA_NOMINAL[None], grav)[0])
+    assert l_sim > 0.01
+    assert objective.one(phi) == pytest.approx(l_sim, rel=1e-9)
+    sim_mean = stream.mean_acc(ETA_NOMINAL[None], grav)[0]
+    side = np.cross(sim_mean, [0.0, 0.0, 1.0])
+    for real, angle in ((2.0 * sim_mean, 0.0), (-sim_mean, np.pi), (side, np.pi / 2)):
+        with_gravity = MotionFitJob(**{**job.__dict__, "mean_acc": (tuple(real),)})
+        expected = l_sim + LAMBDA_GRAVITY * angle
+        assert _Objective(with_gravity, walking).one(phi) == pytest.approx(expected, abs=1e-5)
