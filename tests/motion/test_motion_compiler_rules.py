@@ -117,3 +117,37 @@ def test_standing_and_lying_pass_through_sitting_and_a_seat_through_a_crouch():
         assert crouch[_col("root_dz")] == pytest.approx(0.5 * (0.1 - 0.3))  # half way down (or up)
     for src, dst in (("sitting", "lying"), ("standing", "kneeling"), ("kneeling", "sitting"), ("standing", None)):
         assert compiler._via(src, dst, before, [], step, None, -0.3) is None
+
+
+def test_each_return_undoes_the_latest_open_outward_primitive():
+    steps = [_step() for _ in range(8)]
+    for step, action in zip(steps, ["go", "go", "return", "return", "hold", "return", "go", "return"], strict=True):
+        step.action = action
+    assert compiler._matches(steps) == {1: 2, 0: 3, 6: 7}  # nested, and a return with nothing open is skipped
+    assert compiler._matches(steps[:2]) == {}
+
+
+def test_a_limb_movement_takes_the_side_its_words_or_its_body_parts_name():
+    leg, arm = MOVEMENTS["knee_bend"], MOVEMENTS["elbow_flexion"]
+    assert (leg.limb, arm.limb) == ("leg", "arm")
+    worded = _step(leg_side="left", arm_side="right")
+    assert compiler._limb_sides(leg, worded, None) == ("left",)
+    assert compiler._limb_sides(arm, worded, None) == ("right",)
+    parts = _step(parts=("left_thigh", "right_forearm"))
+    assert compiler._limb_sides(leg, parts, None) == ("left",)
+    assert compiler._limb_sides(arm, parts, None) == ("right",)
+
+
+def test_gait_alternates_its_waves_and_a_compiled_entry_is_named_after_the_label():
+    from pathlib import Path
+
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    walking = ActivityLibrary.load().match("walking").smp
+    cycle = compiler.compile_recipe_data(walking)["cycle"]
+    assert cycle["alternate"] is True
+    assert cycle["wave"] == {k: [list(p) for p in v] for k, v in MOVEMENTS["walk"].waves.items()}
+    entry = compiler.compiled_entry(walking)
+    assert entry.path == Path() and entry.name == compiler._slug(walking.activity_label)
+    assert compiler.compiled_entry(walking, "w", Path("a.yaml")).path == Path("a.yaml")
+    assert compiler._slug("Hammer curl") == "hammer_curl" and compiler._slug("") == "activity"
