@@ -230,3 +230,17 @@ def test_the_motion_loss_is_the_sensor_level_l_sim_plus_the_gravity_angle(walkin
         with_gravity = MotionFitJob(**{**job.__dict__, "mean_acc": (tuple(real),)})
         expected = l_sim + LAMBDA_GRAVITY * angle
         assert _Objective(with_gravity, walking).one(phi) == pytest.approx(expected, abs=1e-5)
+
+
+def test_the_angle_between_mean_accelerations_is_exact_at_both_ends():
+    """0 for the same direction, pi for the opposite one, pi/2 across, never NaN: rounding puts the
+    cosine of a vector with itself just past +-1 for about one vector in five."""
+    from vsmp_imu.pipeline.motionfit import _angle
+
+    rng = np.random.default_rng(0)
+    for scale in (9.81, 300.0):
+        for a in rng.normal(0.0, scale, (20, 3)):
+            assert _angle(a, a) == pytest.approx(0.0, abs=1e-6) and _angle(a, 2.0 * a) == pytest.approx(0.0, abs=1e-6)
+            assert _angle(a, -a) == pytest.approx(np.pi, abs=1e-6)
+            assert _angle(a, np.cross(a, [1.0, 2.0, 3.0])) == pytest.approx(np.pi / 2)
+    assert _angle(np.array([0.0, 0.0, 9.81]), np.array([0.0, 9.81, 9.81])) == pytest.approx(np.pi / 4)
