@@ -151,3 +151,28 @@ def test_gait_alternates_its_waves_and_a_compiled_entry_is_named_after_the_label
     assert entry.path == Path() and entry.name == compiler._slug(walking.activity_label)
     assert compiler.compiled_entry(walking, "w", Path("a.yaml")).path == Path("a.yaml")
     assert compiler._slug("Hammer curl") == "hammer_curl" and compiler._slug("") == "activity"
+
+
+def test_without_words_the_sides_come_from_the_parts_then_the_dominant_segments_then_the_dominant_side():
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    leg, arm = MOVEMENTS["knee_bend"], MOVEMENTS["elbow_flexion"]
+    mixed = _step(parts=("left_lower_leg", "right_upper_arm", "pelvis"))
+    assert compiler._limb_sides(leg, mixed, None) == ("left",)
+    assert compiler._limb_sides(arm, mixed, None) == ("right",)
+    smp = ActivityLibrary.load().match("bicep curls").smp.model_copy(deep=True)
+    assert compiler._limb_sides(arm, _step(parts=("left_hand", "right_upper_arm")), smp) == ("left", "right")
+    smp.body_parts.dominant_moving_segments = ["left_lower_leg", "right_upper_arm", "pelvis"]
+    assert compiler._limb_sides(leg, _step(), smp) == ("left",)
+    assert compiler._limb_sides(arm, _step(), smp) == ("right",)
+    smp.body_parts.dominant_moving_segments = []
+    smp.execution_attributes.dominant_side = "left"
+    smp.execution_attributes.symmetry = "asymmetric"
+    assert compiler._limb_sides(arm, _step(), smp) == ("left",)
+    smp.execution_attributes.dominant_side = "right"
+    assert compiler._limb_sides(leg, _step(), smp) == ("right",)
+    smp.execution_attributes.symmetry = "symmetric"
+    assert compiler._limb_sides(arm, _step(), smp) == ("left", "right")
+    smp.execution_attributes.symmetry = "asymmetric"
+    smp.body_parts.dominant_moving_segments = ["left_forearm"]  # a named segment beats the dominant side
+    assert compiler._limb_sides(arm, _step(), smp) == ("left",)
