@@ -58,6 +58,7 @@ GROUPS = (
            "tests/smp/test_smp_library.py")),
     Group("motion", ("motion/compiler.py", "motion/lexicon.py", "motion/anatomy.py"),
           ("tests/motion/test_motion_compiler.py", "tests/motion/test_motion_compiler_rules.py",
+           "tests/motion/test_motion_compiler_content.py",
            "tests/motion/test_motion_lexicon.py",
            "tests/motion/test_motion_procedural.py")),
     Group("motionfit", ("pipeline/motionfit.py",), ("tests/pipeline/test_motionfit.py",)),

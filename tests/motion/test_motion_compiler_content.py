@@ -1,0 +1,102 @@
+"""What `compile_recipe_data` writes, checked against the rules in the compiler's docstring: the poses each
+primitive reaches (movement targets from `motion.anatomy`), the returns, the timing from the relative
+durations and the speed limit, the cycle, the side, the principal joints."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vsmp_imu.motion.anatomy import MOVEMENTS, SEAT_SHIFT_M
+from vsmp_imu.motion.compiler import MAX_MEAN_DEG_S, STATIC_HOLD_S, compile_recipe_data
+from vsmp_imu.motion.dofs import BUILTIN_POSES
+from vsmp_imu.smp.library import ActivityLibrary
+
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "compiled_activities"
+
+
+@pytest.fixture(scope="module")
+def library() -> ActivityLibrary:
+    return ActivityLibrary.load()
+
+
+@pytest.fixture(scope="module")
+def fixtures() -> ActivityLibrary:
+    return ActivityLibrary.load([FIXTURES])
+
+
+def _changed(data: dict, key: str) -> dict[str, float]:
+    """The DOFs a key pose sets away from the base pose."""
+    base = data["base_pose"]
+    return {k: v for k, v in data["poses"][key].items() if abs(v - base[k]) > 1e-9}
+
+
+def _keys(data: dict, primitive: str) -> list:
+    return data["primitives"][primitive]["keys"]
+
+
+def test_a_curl_reaches_the_elbow_flexion_target_and_returns_in_its_share_of_the_time(fixtures):
+    data = compile_recipe_data(fixtures.get("hammer_curl_kettlebell").smp)
+    elbow = MOVEMENTS["elbow_flexion"].pose["elbow_flex"]
+    assert (data["kind"], data["side"], data["rest_s"]) == ("periodic", "bilateral", 0.3)
+    assert data["cycle"] == {"primitives": ["curl_up", "lower"], "ramp": 0.25} and "continuous" not in data
+    [(at, up, ease)] = _keys(data, "curl_up")
+    assert (at, ease) == (1.0, "stop")
+    assert _changed(data, up) == {"left_elbow_flex": elbow, "right_elbow_flex": elbow}
+    [(at, down, ease)] = _keys(data, "lower")
+    assert (at, ease) == (1.0, "stop") and _changed(data, down) == {}  # back to where the curl started
+    # relative durations 0.45 / 0.55 of the two nominal excursions; the curl is held to the speed limit
+    nominal = 2 * MOVEMENTS["elbow_flexion"].nominal_s
+    assert data["primitives"]["lower"]["duration_s"] == pytest.approx(0.55 * nominal, abs=1e-4)
+    travel = np.hypot(elbow - data["base_pose"]["left_elbow_flex"], elbow - data["base_pose"]["right_elbow_flex"])
+    assert travel / MAX_MEAN_DEG_S > 0.45 * nominal
+    assert data["primitives"]["curl_up"]["duration_s"] == pytest.approx(travel / MAX_MEAN_DEG_S, abs=1e-4)
+    assert data["principal_joints"] == data["symmetry_joints"] == ["left_elbow", "right_elbow"]
+    assert data["locomotion"] == "none" and data["amplitude_exempt"] == [] and "asymmetry" not in data
+
+
+def test_a_jab_goes_out_and_back_on_the_right_arm_only(fixtures):
+    data = compile_recipe_data(fixtures.get("right_jab").smp)
+    assert (data["kind"], data["side"]) == ("periodic", "right")
+    assert data["asymmetry"] == {"lag_s": 0.0, "imbalance": 1.0}
+    (at_out, out, _), (at_back, back, _) = _keys(data, "punch")
+    assert (at_out, at_back) == (0.5, 1.0)
+    assert set(_changed(data, out)) == {"right_shoulder_flex", "right_elbow_flex"} and _changed(data, back) == {}
+    assert data["principal_joints"] == ["right_elbow", "right_shoulder"]
+    assert data["symmetry_joints"] == ["right_elbow", "left_elbow", "right_shoulder", "left_shoulder"]
+
+
+def test_walking_is_a_continuous_wave_cycle_from_the_gait_pose(library):
+    data = compile_recipe_data(library.get("walking").smp)
+    assert (data["kind"], data["rest_s"], data["continuous"], data["locomotion"]) == ("periodic", 0.0, True,
+                                                                                     "forward")
+    assert data["cycle"]["primitives"] == ["left_step", "right_step"] and data["cycle"]["ramp"] == 0.0
+    assert all(p["keys"] == [] for p in data["primitives"].values())  # the waves move the legs, not keys
+    for stem, value in MOVEMENTS["walk"].pose.items():
+        for dof in (f"left_{stem}", f"right_{stem}", stem):
+            if dof in data["base_pose"]:
+                assert data["base_pose"][dof] == pytest.approx(value)
+    assert {"left_knee", "right_knee", "left_hip", "right_hip"} <= set(data["principal_joints"][:4])
+
+
+def test_stand_to_sit_crouches_on_the_way_and_lands_on_the_seat(library):
+    data = compile_recipe_data(library.get("stand_to_sit").smp)
+    assert (data["kind"], data["side"]) == ("discrete", "bilateral") and "cycle" not in data
+    assert _keys(data, "stand") == []  # the first primitive sets the start: standing
+    (at_via, via, ease_via), (at_seat, seat, ease_seat) = _keys(data, "lean_and_lower")
+    assert (at_via, ease_via, at_seat, ease_seat) == (0.5, "smooth", 1.0, "stop")
+    crouch = _changed(data, via)
+    assert crouch["root_dz"] == pytest.approx(SEAT_SHIFT_M / 2) and crouch["left_knee_flex"] == 105.0
+    sitting = _changed(data, seat)
+    assert sitting["root_dz"] == pytest.approx(SEAT_SHIFT_M)
+    assert sitting["left_knee_flex"] == sitting["right_knee_flex"] == BUILTIN_POSES["sitting"]["knee_flex"]
+    assert "root_dz" in data["amplitude_exempt"] and "knee_flex" in data["amplitude_exempt"]
+
+
+def test_sitting_still_is_a_static_hold(library):
+    data = compile_recipe_data(library.get("sitting").smp)
+    assert (data["kind"], data["rest_s"], data["continuous"], data["side"]) == ("static", 0.0, True, "none")
+    assert [p["duration_s"] for p in data["primitives"].values()] == [STATIC_HOLD_S]
+    assert data["principal_joints"] == ["pelvis"] and data["symmetry_joints"] == []
