@@ -84,6 +84,8 @@ def test_the_fit_is_a_distribution_the_samples_draw_from(walking):
     windows = real_windows(walking, {"tempo": 1.6}, seed=5)
     fit = fit_class_motion(job_for(walking, windows))
     assert fit == fit_class_motion(job_for(walking, windows))  # same job, same bytes
+    values = [v for k in ("mean", "std", "best") for v in fit[k]]
+    assert all(round(v, 6) == v for v in values) and any(round(v, 5) != v for v in values)  # 6 decimals
     draws = np.array([[draw(fit, seed)[p] for p in PARAMS] for seed in range(40)])
     assert (draws >= np.array(fit["low"]) - 1e-9).all() and (draws <= np.array(fit["high"]) + 1e-9).all()
     assert draws[:, PARAMS.index("tempo")].std() > 0.05  # the samples still vary
@@ -244,3 +246,39 @@ def test_the_angle_between_mean_accelerations_is_exact_at_both_ends():
             assert _angle(a, -a) == pytest.approx(np.pi, abs=1e-6)
             assert _angle(a, np.cross(a, [1.0, 2.0, 3.0])) == pytest.approx(np.pi / 2)
     assert _angle(np.array([0.0, 0.0, 9.81]), np.array([0.0, 9.81, 9.81])) == pytest.approx(np.pi / 4)
+
+
+def _with(smp, **attributes):
+    d = smp.model_dump(mode="json")
+    d["execution_attributes"].update(attributes)
+    return type(smp).model_validate(d)
+
+
+def test_the_bounds_stay_on_the_scale_and_an_unknown_level_is_fixed_at_medium(walking):
+    fast = _with(walking, tempo="fast", amplitude="small")
+    nominal, low, high = bounds(fast)
+    assert nominal.tolist() == [2.0, 0.0, 0.0, 0.0]
+    assert low.tolist() == [1.0, 0.0, -15.0, -15.0] and high.tolist() == [2.0, 1.0, 15.0, 15.0]
+    unknown = _with(walking, tempo="unknown")
+    assert unknown.tempo_level() is None
+    nominal, low, high = bounds(unknown)
+    assert nominal[0] == low[0] == high[0] == 1.0  # a variant field without a level does not move
+
+
+def test_realize_rewrites_only_the_levels_that_change(walking):
+    smp = _with(walking, tempo="fast", amplitude="medium")
+    same, _ = realize(smp, {"tempo": 2.0, "amplitude": 1.0})
+    assert same.execution_attributes.tempo == "fast" and same.execution_attributes.amplitude == "medium"
+    moved, _ = realize(smp, {"tempo": 2.0, "amplitude": 1.4})
+    assert moved.execution_attributes.tempo == "fast" and moved.execution_attributes.amplitude == 1.4
+    unknown = _with(walking, tempo="unknown")
+    kept, _ = realize(unknown, {"tempo": 1.0})  # an unknown level counts as medium
+    assert kept.execution_attributes.tempo == "unknown"
+
+
+def test_a_class_that_cannot_be_fitted_says_why(walking):
+    job = job_for(walking, real_windows(walking, {}, seed=2))
+    assert fit_class_motion(MotionFitJob(**{**job.__dict__, "smp_json": ""})) == {
+        "fitted": False, "reason": "the class's source is not an SMP", "d_stat_windows": job.n_windows}
+    assert fit_class_motion(MotionFitJob(**{**job.__dict__, "backend": "hymotion"})) == {
+        "fitted": False, "reason": "the hymotion backend has no motion parameters", "d_stat_windows": job.n_windows}
