@@ -282,3 +282,12 @@ def test_a_class_that_cannot_be_fitted_says_why(walking):
         "fitted": False, "reason": "the class's source is not an SMP", "d_stat_windows": job.n_windows}
     assert fit_class_motion(MotionFitJob(**{**job.__dict__, "backend": "hymotion"})) == {
         "fitted": False, "reason": "the hymotion backend has no motion parameters", "d_stat_windows": job.n_windows}
+
+
+def test_exactly_min_fit_windows_are_enough_and_the_count_alone_decides(walking):
+    windows = real_windows(walking, {}, seed=2)[:MIN_FIT_WINDOWS]
+    job = job_for(walking, windows)
+    assert job.n_windows == MIN_FIT_WINDOWS and job.locations[0].target is not None
+    assert fit_class_motion(job)["fitted"]
+    fewer = MotionFitJob(**{**job.__dict__, "n_windows": MIN_FIT_WINDOWS - 1})  # targets present, count short
+    assert not fit_class_motion(fewer)["fitted"]
