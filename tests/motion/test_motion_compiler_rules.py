@@ -67,23 +67,28 @@ def test_a_circle_without_a_named_side_uses_the_right_arm_and_words_beat_parts()
 
 
 def test_a_hop_crouches_takes_off_and_lands_on_the_target():
-    before = np.zeros(N_DOFS)
-    target = np.zeros(N_DOFS)
-    target[_col("left_shoulder_flex")] = 100.0
+    before = np.linspace(-10.0, 10.0, N_DOFS)
+    target = before.copy()
+    target[_col("left_shoulder_flex")] += 100.0
     keys = compiler._hop(before, target)
     assert [(at, ease) for at, _, ease in keys] == [(0.3, "stop"), (0.6, "smooth"), (1.0, "stop")]
     crouch, air, land = (vec for _, vec, _ in keys)
-    assert crouch[_col("left_shoulder_flex")] == pytest.approx(30.0)  # 0.7 before + 0.3 target
-    assert air[_col("left_shoulder_flex")] == pytest.approx(80.0)  # 0.2 before + 0.8 target
+    shoulder = _col("left_shoulder_flex")
+    assert crouch[shoulder] == pytest.approx(before[shoulder] + 30.0)  # 0.7 before + 0.3 target
+    assert air[shoulder] == pytest.approx(before[shoulder] + 80.0)  # 0.2 before + 0.8 target
     for side in ("left", "right"):
         for stem, extra in compiler.HOP_CROUCH.items():
-            assert crouch[_col(f"{side}_{stem}")] == pytest.approx(extra)
-        assert air[_col(f"{side}_ankle_flex")] == pytest.approx(-25.0)
-        assert air[_col(f"{side}_knee_flex")] == 0.0
-    assert air[_col("root_dy")] == pytest.approx(MOVEMENTS["jump"].pose["root_dy"]) and crouch[_col("root_dy")] == 0.0
+            assert crouch[_col(f"{side}_{stem}")] == pytest.approx(before[_col(f"{side}_{stem}")] + extra)
+        ankle = _col(f"{side}_ankle_flex")
+        assert air[ankle] == pytest.approx(before[ankle] - 25.0)
+        assert air[_col(f"{side}_knee_flex")] == pytest.approx(before[_col(f"{side}_knee_flex")])
+    dy = _col("root_dy")
+    assert air[dy] == pytest.approx(before[dy] + MOVEMENTS["jump"].pose["root_dy"])
+    assert crouch[dy] == pytest.approx(before[dy])
     assert land is target
     in_place = compiler._hop(before, before.copy())
-    assert [at for at, _, _ in in_place] == [0.3, 0.6, 0.99]  # a hop in place still ends on its own key
+    # a hop in place still ends on its own key, just before the primitive's end
+    assert [(at, ease) for at, _, ease in in_place] == [(0.3, "stop"), (0.6, "smooth"), (0.99, "stop")]
     assert np.array_equal(in_place[-1][1], before)
 
 

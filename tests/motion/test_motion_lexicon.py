@@ -119,6 +119,7 @@ def test_rom_is_the_fraction_of_the_normative_range_to_a_tenth_of_a_degree():
 
     assert rom("shoulder", "flexion", 0.5) == 90.0
     assert rom("wrist", "radial_deviation", 0.33) == 6.6  # 6.6 exactly, not 6.60000001
+    assert rom("wrist", "radial_deviation", 0.333) == 6.7  # to a tenth of a degree
     assert rom("knee", "flexion") == 135.0
     assert MOVEMENTS["shoulder_flexion"].pose == {"shoulder_flex": 90.0}  # the table is built with it
 
@@ -130,3 +131,26 @@ def test_a_movement_takes_its_limb_from_its_joint_unless_told():
         "arm", "leg", "none"]
     assert Movement("m", "knee", "sagittal", {}, limb="arm").limb == "arm"
     assert MOVEMENTS["squat"].limb == "leg" and MOVEMENTS["elbow_flexion"].limb == "arm"
+
+
+OUTWARD_LOWERING = ("squat", "knee_bend", "lunge", "elbow_flexion", "trunk_flexion", "sit_down", "sit_down_floor",
+                    "lie_down", "lie_prone", "kneel", "jump", "walk", "run", "stairs_down", "stairs_up")
+
+
+@pytest.mark.parametrize("movement", OUTWARD_LOWERING)
+def test_lowering_into_a_movement_goes_out_unless_it_comes_back(movement):
+    """'lower the body into a squat' goes out; 'lower back down' and 'return' come back."""
+    from vsmp_imu.motion.lexicon import _outward_lowering
+
+    assert _outward_lowering("lower the body", (movement,))
+    for words in ("lower back down", "lower again", "returning to the start", "lower back to the start"):
+        assert not _outward_lowering(words, (movement,)), words
+
+
+def test_lowering_the_arms_comes_back():
+    from vsmp_imu.motion.lexicon import _outward_lowering
+
+    assert not _outward_lowering("lower the arms", ("shoulder_abduction", "shoulder_flexion"))
+    assert read_primitive("lower", "lower the body into a squat").movements == ("squat",)
+    assert not read_primitive("lower", "lower the body into a squat").returns
+    assert read_primitive("lower", "lower the arms to the sides").returns
