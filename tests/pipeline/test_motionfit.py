@@ -291,3 +291,36 @@ def test_exactly_min_fit_windows_are_enough_and_the_count_alone_decides(walking)
     assert fit_class_motion(job)["fitted"]
     fewer = MotionFitJob(**{**job.__dict__, "n_windows": MIN_FIT_WINDOWS - 1})  # targets present, count short
     assert not fit_class_motion(fewer)["fitted"]
+
+
+def test_the_cem_searches_within_the_bounds_and_keeps_fixed_parameters_still(walking, monkeypatch):
+    """On a known landscape (a bowl whose pitch optimum lies below the bound), the fit's CEM keeps every
+    candidate in bounds, never spreads a fixed parameter, and finds the free optimum."""
+    from vsmp_imu.grounding.calibrate import MIN_STD_FRACTION
+    from vsmp_imu.pipeline import motionfit
+
+    optimum, scale = np.array([-5.0, 1.0, -5.0, 5.0]), np.array([1.0, 1.0, 10.0, 10.0])
+
+    class Bowl:
+        def __init__(self, job, smp):
+            pass
+
+        def __call__(self, phis):
+            return (((phis - optimum) / scale) ** 2).sum(axis=1)
+
+    monkeypatch.setattr(motionfit, "_Objective", Bowl)
+    d = walking.model_dump(mode="json")
+    d["constraints"]["variant_fields"] = ["tempo"]  # amplitude fixed
+    d["execution_attributes"]["tempo"] = "slow"  # level 0: the tempo optimum lies below its lower bound
+    slow = type(walking).model_validate(d)
+    job = job_for(slow, real_windows(walking, {}, seed=2))
+    fit = fit_class_motion(job)
+    assert fit["evaluations"] == 1 + motionfit.N_ITERATIONS * motionfit.N_CANDIDATES
+    assert (fit["low"][:2], fit["high"][:2]) == ([0.0, 1.0], [1.0, 1.0])
+    assert fit["std"][1] == 0.0 and fit["mean"][1] == fit["nominal"][1] == 1.0
+    assert fit["best"][0] == 0.0 and fit["mean"][0] >= 0.0  # pressed against the bound, not past it
+    assert abs(fit["mean"][3] - 5.0) < 1.0 and fit["mean"][2] < 0.0  # toward the free optimum
+    assert fit["std"][0] == pytest.approx(MIN_STD_FRACTION)  # collapsed onto the bound: the floor holds it open
+    floor = MIN_STD_FRACTION * (np.array(fit["high"]) - np.array(fit["low"]))
+    assert (np.array(fit["std"]) >= floor - 1e-9).all()
+    assert fit["loss_nominal"] == pytest.approx(float(Bowl(None, None)(np.array([fit["nominal"]]))[0]), abs=1e-6)
