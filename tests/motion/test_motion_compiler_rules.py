@@ -181,3 +181,19 @@ def test_without_words_the_sides_come_from_the_parts_then_the_dominant_segments_
     smp.execution_attributes.symmetry = "asymmetric"
     smp.body_parts.dominant_moving_segments = ["left_forearm"]  # a named segment beats the dominant side
     assert compiler._limb_sides(arm, _step(), smp) == ("left",)
+
+
+def _actions(*actions: str) -> list[compiler.Step]:
+    steps = [_step() for _ in actions]
+    for step, action in zip(steps, actions, strict=True):
+        step.action = action
+    return steps
+
+
+def test_the_repeated_cycle_peels_off_the_set_up_and_the_final_return():
+    # gait: the cycle runs from the first to the last gait primitive
+    assert compiler._cycle_span(_actions("hold", "gait", "hold", "gait", "hold", "hold")) == ([0], [1, 2, 3], [4, 5])
+    assert compiler._cycle_span(_actions("gait", "gait")) == ([], [0, 1], [])
+    # raise the guard ... lower the guard: the outer go / return pair and the leading hold are set-up
+    assert compiler._cycle_span(_actions("hold", "go", "go", "return", "return")) == ([0, 1], [2, 3], [4])
+    assert compiler._cycle_span(_actions("go", "return")) == ([], [0, 1], [])

@@ -301,11 +301,14 @@ def test_the_cem_searches_within_the_bounds_and_keeps_fixed_parameters_still(wal
 
     optimum, scale = np.array([-5.0, 1.0, -5.0, 5.0]), np.array([1.0, 1.0, 10.0, 10.0])
 
+    scored = []
+
     class Bowl:
         def __init__(self, job, smp):
             pass
 
         def __call__(self, phis):
+            scored.append(phis)
             return (((phis - optimum) / scale) ** 2).sum(axis=1)
 
     monkeypatch.setattr(motionfit, "_Objective", Bowl)
@@ -318,9 +321,17 @@ def test_the_cem_searches_within_the_bounds_and_keeps_fixed_parameters_still(wal
     assert fit["evaluations"] == 1 + motionfit.N_ITERATIONS * motionfit.N_CANDIDATES
     assert (fit["low"][:2], fit["high"][:2]) == ([0.0, 1.0], [1.0, 1.0])
     assert fit["std"][1] == 0.0 and fit["mean"][1] == fit["nominal"][1] == 1.0
+    floor = MIN_STD_FRACTION * (np.array(fit["high"]) - np.array(fit["low"]))
     assert fit["best"][0] == 0.0 and fit["mean"][0] >= 0.0  # pressed against the bound, not past it
     assert abs(fit["mean"][3] - 5.0) < 1.0 and fit["mean"][2] < 0.0  # toward the free optimum
     assert fit["std"][0] == pytest.approx(MIN_STD_FRACTION)  # collapsed onto the bound: the floor holds it open
-    floor = MIN_STD_FRACTION * (np.array(fit["high"]) - np.array(fit["low"]))
+    # the kept distribution: mean and spread of the best quarter (10 of 41) of every candidate scored
+    phis = np.concatenate(scored)
+    losses = Bowl(None, None)(phis)
+    elite = phis[np.argsort(losses, kind="stable")[:10]]
+    assert fit["mean"] == pytest.approx(elite.mean(0), abs=1e-6)
+    assert fit["std"] == pytest.approx(np.maximum(elite.std(0), floor), abs=1e-6)
+    assert fit["best"] == pytest.approx(phis[np.argmin(losses)], abs=1e-6)
+    assert fit["loss_best"] == pytest.approx(losses.min(), abs=1e-6)
     assert (np.array(fit["std"]) >= floor - 1e-9).all()
     assert fit["loss_nominal"] == pytest.approx(float(Bowl(None, None)(np.array([fit["nominal"]]))[0]), abs=1e-6)
