@@ -154,3 +154,39 @@ def test_lowering_the_arms_comes_back():
     assert read_primitive("lower", "lower the body into a squat").movements == ("squat",)
     assert not read_primitive("lower", "lower the body into a squat").returns
     assert read_primitive("lower", "lower the arms to the sides").returns
+
+
+def test_text_is_lower_case_with_single_spaces():
+    from vsmp_imu.motion.lexicon import normalize_text
+
+    assert normalize_text(" Raise_the-LEFT/arm   now ") == "raise the left arm now"
+
+
+@pytest.mark.parametrize(("text", "expected"), [
+    ("squat down bending the knees", ("squat",)),  # a squat already bends the knees
+    ("lunge forward bending the knees", ("lunge", "trunk_flexion")),
+    ("jog up the stairs walking", ("run", "stairs_up")),  # running is not also walking
+    ("press the dumbbells overhead raising the arms forward", ("shoulder_flexion_overhead",)),
+    ("sit down bending the knees and leaning the trunk forward", ("sit_down",)),  # the posture change has them
+])
+def test_redundant_movements_are_pruned(text, expected):
+    assert movements_in(text) == expected
+
+
+def test_directions_and_sides_come_from_the_words():
+    from vsmp_imu.motion.lexicon import _direction, _sides
+
+    assert [_direction(t) for t in ("turn toward the right", "step leftward", "rightward", "turn to the left",
+                                    "twist")] == [-1, 1, -1, 1, 0]
+    assert _sides("kick with the left leg and swing the right arm") == ("right", "left")
+    assert _sides("raise the right arm and the left arm") == ("right", None)  # the side named first acts
+    assert _sides("the left knee then the right knee") == (None, "left")
+    kick = read_primitive("kick", "kick the right leg forward while the left arm swings back")
+    assert (kick.leg_side, kick.arm_side, kick.movements) == ("right", None, ("leg_kick",))  # the other limb is dropped
+
+
+@pytest.mark.parametrize(("words", "posture"), [("sit on the chair", "sitting"), ("lie on the back", "lying"),
+                                                ("kneel", "kneeling"), ("stand still", "standing"),
+                                                ("wave the hand", None)])
+def test_the_posture_a_primitive_names(words, posture):
+    assert read_primitive("p", words).posture == posture
