@@ -280,3 +280,21 @@ def test_the_dropped_summary_counts_runs_empty_classes_and_unjudged_ones():
     records = [{"synthetic_shares": first}, {"synthetic_shares": None}, {"synthetic_shares": second}]
     assert dropped_summary(records) == {"a": {"runs": 2, "none": 0, "unjudged": 1},
                                         "b": {"runs": 2, "none": 1, "unjudged": 0}}
+
+
+def test_the_decision_and_its_reason_in_each_mode():
+    from vsmp_imu.har.noharm import Harm
+
+    hurt, fine, empty = Harm(40, -0.05, 0.01), Harm(40, 0.02, 0.9), Harm(0, float("nan"), 1.0)
+    method, per_class = ShareSelector("method"), ShareSelector("class")
+    assert method._decide(empty, hurt, 3) == (False, "no validation windows: kept all (harm cannot be measured)")
+    assert method._decide(hurt, fine, 3) == (True, "dropped with the method's other synthetic windows: "
+                                             + hurt.text())
+    assert method._decide(fine, hurt, 3) == (False, "kept: no measured harm, " + fine.text())
+    one_vs_rest = "p(class) for the class, -p(class) for the others,"
+    drop, reason = per_class._decide(fine, hurt, 3)
+    assert drop and reason == "dropped: hurt one-vs-rest, " + hurt.text().replace("p(true class)", one_vs_rest)
+    keep, reason = per_class._decide(hurt, fine, 0)
+    assert not keep and reason == ("kept: no measured harm one-vs-rest, "
+                                   + fine.text().replace("p(true class)", one_vs_rest)
+                                   + " (no validation window of the class: judged on the others' windows)")
