@@ -332,6 +332,7 @@ def test_the_cem_searches_within_the_bounds_and_keeps_fixed_parameters_still(wal
     assert fit["mean"] == pytest.approx(elite.mean(0), abs=1e-6)
     assert fit["std"] == pytest.approx(np.maximum(elite.std(0), floor), abs=1e-6)
     assert fit["best"] == pytest.approx(phis[np.argmin(losses)], abs=1e-6)
-    assert fit["loss_best"] == pytest.approx(losses.min(), abs=1e-6)
+    assert fit["loss_best"] == round(float(losses.min()), 6) and fit["loss_best"] != round(float(losses.min()), 7)
+    assert fit["loss_nominal"] == round(float(losses[0]), 6) and fit["d_stat_windows"] == job.n_windows
     assert (np.array(fit["std"]) >= floor - 1e-9).all()
     assert fit["loss_nominal"] == pytest.approx(float(Bowl(None, None)(np.array([fit["nominal"]]))[0]), abs=1e-6)
