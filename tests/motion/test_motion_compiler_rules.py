@@ -197,3 +197,32 @@ def test_the_repeated_cycle_peels_off_the_set_up_and_the_final_return():
     # raise the guard ... lower the guard: the outer go / return pair and the leading hold are set-up
     assert compiler._cycle_span(_actions("hold", "go", "go", "return", "return")) == ([0, 1], [2, 3], [4])
     assert compiler._cycle_span(_actions("go", "return")) == ([], [0, 1], [])
+
+
+def _closed(action: str, keys: list, current: np.ndarray, start: np.ndarray) -> list:
+    step = _actions(action)[0]
+    step.keys = list(keys)
+    compiler._close(step, np.zeros(N_DOFS), current, start)
+    return step.keys
+
+
+def test_the_last_primitive_of_a_cycle_ends_where_the_cycle_started():
+    start, away = np.full(N_DOFS, 10.0), np.full(N_DOFS, 40.0)
+    # already there (within a hundredth of CHANGE_DEG, the bound included): nothing to add
+    assert _closed("hold", [], start.copy(), start) == []
+    edge = np.where(np.arange(N_DOFS) == 0, 0.01 * compiler.CHANGE_DEG, 0.0)
+    assert _closed("hold", [], edge, np.zeros(N_DOFS)) == []
+    # half a degree off is not there
+    off = start.copy()
+    off[3] += 0.5
+    [(at, pose, ease)] = _closed("hold", [], off, start)
+    assert (at, ease) == (1.0, "stop") and np.array_equal(pose, start)
+    # an outward primitive goes out and comes back within its time
+    (at1, out, _), (at2, back, ease) = _closed("go", [(1.0, away, "stop")], away, start)
+    assert (at1, at2, ease) == (0.5, 1.0, "stop") and out is away and np.array_equal(back, start)
+    # keys that end elsewhere end at the start instead, at the same time
+    keys = _closed("back", [(0.5, away, "stop"), (1.0, away, "smooth")], start.copy(), start)
+    assert keys[0][1] is away and keys[-1][0] == 1.0 and keys[-1][2] == "stop" and np.array_equal(keys[-1][1], start)
+    # a hold that ends away from the start gets a key back; gait is left to its waves
+    assert len(_closed("hold", [], away, start)) == 1
+    assert _closed("gait", [], away, start) == []
