@@ -226,3 +226,33 @@ def test_the_last_primitive_of_a_cycle_ends_where_the_cycle_started():
     # a hold that ends away from the start gets a key back; gait is left to its waves
     assert len(_closed("hold", [], away, start)) == 1
     assert _closed("gait", [], away, start) == []
+
+
+def test_a_reset_puts_its_dofs_back_to_the_base_on_both_sides():
+    base, current = np.zeros(N_DOFS), np.full(N_DOFS, 30.0)
+    out = compiler._reset(current, [MOVEMENTS["leg_straighten"], MOVEMENTS["elbow_flexion"]], base)
+    reset = [f"{s}_{stem}" for s in ("left", "right") for stem in ("hip_flex", "knee_flex", "ankle_flex")]
+    reset += ["root_dz", "trunk_flex"]
+    for name, col in DOF_INDEX.items():
+        assert out[col] == (0.0 if name in reset else 30.0), name
+    assert current[DOF_INDEX["root_dz"]] == 30.0  # a copy, not the pose itself
+
+
+def test_the_shape_of_a_primitive_follows_its_kind_and_action():
+    before, target = np.zeros(N_DOFS), np.full(N_DOFS, 5.0)
+    circle = compiler._shape(_step(), [MOVEMENTS["arm_circumduction"]], before, target)
+    assert [at for at, _, _ in circle] == [0.25, 0.5, 0.75, 1.0]
+    jump = [MOVEMENTS["jump"]]
+    hop = compiler._shape(_actions("go")[0], jump, before, target)
+    assert [(at, ease) for at, _, ease in hop] == [(0.3, "stop"), (0.6, "smooth"), (1.0, "stop")]
+    hop_back = compiler._shape(_actions("back")[0], jump, before, target)
+    assert [(at, ease) for at, _, ease in hop_back][3:] == [(1.0, "stop")] and hop_back[3][1] is before
+    excursion = [MOVEMENTS["elbow_flexion"]]
+    out_and_back = [(0.5, target, "stop"), (1.0, before, "stop")]
+    for action, moves in (("back", excursion), ("back", [MOVEMENTS["arm_pendulum_swing"]]),
+                          ("return", [MOVEMENTS["arm_pendulum_swing"]])):
+        assert compiler._shape(_actions(action)[0], moves, before, target) == out_and_back, action
+    assert compiler._shape(_actions("go")[0], [MOVEMENTS["arm_pendulum_swing"]], before, target) == [
+        (1.0, target, "stop")]  # a swing that goes out stays out
+    assert compiler._shape(_actions("go")[0], excursion, before, target) == [(1.0, target, "stop")]
+    assert compiler._shape(_actions("return")[0], excursion, before, target) == [(1.0, target, "stop")]
