@@ -256,3 +256,61 @@ def test_the_shape_of_a_primitive_follows_its_kind_and_action():
         (1.0, target, "stop")]  # a swing that goes out stays out
     assert compiler._shape(_actions("go")[0], excursion, before, target) == [(1.0, target, "stop")]
     assert compiler._shape(_actions("return")[0], excursion, before, target) == [(1.0, target, "stop")]
+
+
+def test_paired_joints_list_each_side_with_its_mirror_and_drop_the_centre():
+    assert compiler._paired(["right_elbow", "left_elbow", "spine3", "left_knee"]) == [
+        "right_elbow", "left_elbow", "left_knee", "right_knee"]
+    assert compiler._paired(["pelvis"]) == []
+    assert [compiler._joint(d) for d in ("left_wrist_rot", "right_toe_flex", "root_dx", "head_tilt")] == [
+        "left_elbow", "right_foot", "pelvis", "head"]
+
+
+def test_a_turn_without_a_side_goes_back_through_the_middle_or_toward_the_dominant_side():
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    smp = ActivityLibrary.load().match("bicep curls").smp.model_copy(deep=True)
+    pose = np.zeros(N_DOFS)
+    pose[_col("trunk_twist")] = 20.0
+    assert compiler._twist_hint(pose, smp) == -1  # twisted left: back to the right
+    pose[_col("trunk_twist")] = -20.0
+    assert compiler._twist_hint(pose, smp) == 1
+    pose[_col("trunk_twist")] = compiler.CHANGE_DEG  # not yet twisted
+    smp.execution_attributes.dominant_side = "right"
+    assert compiler._twist_hint(pose, smp) == -1
+    smp.execution_attributes.dominant_side = "left"
+    assert compiler._twist_hint(pose, smp) == 1
+
+
+def test_turning_targets_take_the_words_side_then_the_hint_and_root_travel_adds_up():
+    twist = MOVEMENTS["trunk_rotation"]
+    stem, value = next(iter(twist.pose.items()))
+    assert stem == "trunk_twist"
+    current = np.zeros(N_DOFS)
+    current[_col("root_dz")] = 0.5
+    col = _col(stem)
+    assert compiler._targets(twist, stem, value, _step(direction=-1), None, current, 1) == [(col, -value)]
+    assert compiler._targets(twist, stem, value, _step(), None, current, -1) == [(col, -value)]
+    assert compiler._targets(twist, stem, value, _step(), None, current, 0) == [(col, value)]
+    squat = MOVEMENTS["squat"]
+    assert compiler._targets(squat, "root_dz", -0.27, _step(), None, current, 0) == [
+        (_col("root_dz"), pytest.approx(0.23))]
+    assert compiler._targets(squat, "trunk_flex", 32, _step(), None, current, 0) == [(_col("trunk_flex"), 32.0)]
+    assert compiler._targets(squat, "knee_flex", 105, _step(), None, current, 0) == [
+        (_col("left_knee_flex"), 105.0), (_col("right_knee_flex"), 105.0)]
+
+
+def test_the_speed_limit_counts_every_dof_and_root_travel_in_centimetres():
+    step = _step()
+    step.start = np.zeros(N_DOFS)
+    assert compiler._slowest(step) == 0.0  # no keys
+    a = np.zeros(N_DOFS)
+    a[_col("left_elbow_flex")], a[_col("right_elbow_flex")] = 120.0, 160.0  # 200 degrees together
+    b = a.copy()
+    b[_col("root_dz")] = 1.0  # one metre counts as 100
+    step.keys = [(0.5, a, "stop"), (1.0, b, "stop")]
+    assert compiler._slowest(step) == pytest.approx(max(200.0 / 0.5, 100.0 / 0.5) / compiler.MAX_MEAN_DEG_S)
+    step.keys = [(0.0, a, "stop")]  # a key at the start: the time step is floored, not zero
+    assert compiler._slowest(step) == pytest.approx(200.0 / 1e-3 / compiler.MAX_MEAN_DEG_S)
+    step.start = None
+    assert compiler._slowest(step) == 0.0
