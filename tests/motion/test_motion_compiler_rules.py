@@ -314,3 +314,19 @@ def test_the_speed_limit_counts_every_dof_and_root_travel_in_centimetres():
     assert compiler._slowest(step) == pytest.approx(200.0 / 1e-3 / compiler.MAX_MEAN_DEG_S)
     step.start = None
     assert compiler._slowest(step) == 0.0
+
+
+def test_durations_follow_the_action_and_the_movement():
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    smp = ActivityLibrary.load().match("bicep curls").smp  # repeated: not static; its 2 shares do not fit 5 steps
+    steps = _actions("hold", "back", "back", "go", "go")
+    moves = [(), (MOVEMENTS["elbow_flexion"],), (MOVEMENTS["leg_kick"],), (MOVEMENTS["arm_circumduction"],),
+             (MOVEMENTS["elbow_flexion"], MOVEMENTS["jump"])]
+    for step, m in zip(steps, moves, strict=True):
+        step.movements = m
+    compiler._durations(steps, smp)
+    flex, kick = MOVEMENTS["elbow_flexion"].nominal_s, MOVEMENTS["leg_kick"].nominal_s
+    assert kick < 0.6 <= flex
+    assert [s.duration_s for s in steps] == pytest.approx([compiler.HOLD_S, 2.0 * flex, 1.6 * kick, 1.6,
+                                                           max(flex, MOVEMENTS["jump"].nominal_s)])
