@@ -298,3 +298,31 @@ def test_the_decision_and_its_reason_in_each_mode():
     assert not keep and reason == ("kept: no measured harm one-vs-rest, "
                                    + fine.text().replace("p(true class)", one_vs_rest)
                                    + " (no validation window of the class: judged on the others' windows)")
+
+
+def test_the_method_decision_weighs_the_classes_equally():
+    """90 validation windows of class 0 lose 0.1 of p(true class), 10 of class 1 gain 0.5: over windows the
+    mean falls (-0.04), over classes it rises (+0.2), and the method keeps its windows."""
+
+    def windows(labels, subject):
+        X = np.zeros((len(labels), 20, len(CHANNELS)), np.float32)
+        X[:, :, 1] = np.asarray(labels)[:, None]
+        return Windows(X, np.asarray(labels), np.full(len(labels), subject), ("a", "b"), CHANNELS, 10.0)
+
+    real, synthetic, val = windows([0, 1] * 5, "1"), windows([0, 1] * 3, "s"), windows([0] * 90 + [1] * 10, "2")
+
+    class Model:
+        classes_ = np.array([0, 1])
+
+        def __init__(self, mixed: bool):
+            self.mixed = mixed
+
+        def predict_proba(self, X):
+            level = X[:, 0, 1]
+            p1 = np.where(level > 0.5, 1.0 if self.mixed else 0.5, 0.3 if self.mixed else 0.2)
+            return np.stack([1 - p1, p1], axis=1)
+
+    choice = ShareSelector("method").choose(lambda w: Model(len(w) > len(real)), real, synthetic, val)
+    assert [choice[c].share for c in (0, 1)] == [1.0, 1.0]
+    assert "p(true class) +0.200 on average over 100 windows" in choice[0].reason
+    assert harm(np.array([-0.1] * 90 + [0.5] * 10)).hurts  # the same evidence unweighted would drop them
