@@ -326,3 +326,8 @@ def test_the_method_decision_weighs_the_classes_equally():
     assert [choice[c].share for c in (0, 1)] == [1.0, 1.0]
     assert "p(true class) +0.200 on average over 100 windows" in choice[0].reason
     assert harm(np.array([-0.1] * 90 + [0.5] * 10)).hurts  # the same evidence unweighted would drop them
+    # one-vs-rest, the class's own windows and the others' weigh the same: +0.5 on 10 against -0.1 on 90
+    per_class = ShareSelector("class").choose(lambda w: Model(len(w) > len(real)), real, synthetic, val)
+    assert [per_class[c].share for c in (0, 1)] == [1.0, 1.0]
+    assert "+0.200 on average over 100 windows" in per_class[1].reason
+    assert per_class[1].mean_change == pytest.approx(0.5) and per_class[0].mean_change == pytest.approx(-0.1)

@@ -292,6 +292,14 @@ def test_turning_targets_take_the_words_side_then_the_hint_and_root_travel_adds_
     assert compiler._targets(twist, stem, value, _step(direction=-1), None, current, 1) == [(col, -value)]
     assert compiler._targets(twist, stem, value, _step(), None, current, -1) == [(col, -value)]
     assert compiler._targets(twist, stem, value, _step(), None, current, 0) == [(col, value)]
+    for turning in ("trunk_lean", "root_yaw", "head_turn"):
+        assert compiler._targets(twist, turning, 10.0, _step(direction=-1), None, current, 0) == [
+            (_col(turning), -10.0)]
+    assert compiler._targets(twist, "trunk_flex", 10.0, _step(direction=-1), None, current, 0) == [
+        (_col("trunk_flex"), 10.0)]  # not a turn: the side does not flip it
+    lunge = MOVEMENTS["lunge"]
+    assert compiler._targets(lunge, "hip_flex", 80.0, _step(leg_side="right"), None, current, 0) == [
+        (_col("right_hip_flex"), 80.0), (_col("left_hip_flex"), -15.0)]
     squat = MOVEMENTS["squat"]
     assert compiler._targets(squat, "root_dz", -0.27, _step(), None, current, 0) == [
         (_col("root_dz"), pytest.approx(0.23))]
