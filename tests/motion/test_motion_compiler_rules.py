@@ -338,3 +338,15 @@ def test_durations_follow_the_action_and_the_movement():
     assert kick < 0.6 <= flex
     assert [s.duration_s for s in steps] == pytest.approx([compiler.HOLD_S, 2.0 * flex, 1.6 * kick, 1.6,
                                                            max(flex, MOVEMENTS["jump"].nominal_s)])
+
+
+def test_a_movements_first_dof_wins_over_another_movements_side_dofs():
+    """Curl while pressing overhead: the press's straight elbow (a side DOF) yields to the curl's elbow."""
+    curl, press = MOVEMENTS["elbow_flexion"], MOVEMENTS["shoulder_flexion_overhead"]
+    assert list(press.pose)[1] == "elbow_flex" and list(curl.pose)[0] == "elbow_flex"
+    out = compiler._apply(np.zeros(N_DOFS), [curl, press], _step(arm_side="left"), None, 0)
+    assert out[_col("left_elbow_flex")] == curl.pose["elbow_flex"]
+    assert out[_col("left_shoulder_flex")] == press.pose["shoulder_flex"]
+    assert out[_col("right_elbow_flex")] == 0.0
+    alone = compiler._apply(np.zeros(N_DOFS), [press], _step(arm_side="left"), None, 0)
+    assert alone[_col("left_elbow_flex")] == press.pose["elbow_flex"]  # its side DOF applies when uncontested
