@@ -100,3 +100,7 @@ def test_sitting_still_is_a_static_hold(library):
     assert (data["kind"], data["rest_s"], data["continuous"], data["side"]) == ("static", 0.0, True, "none")
     assert [p["duration_s"] for p in data["primitives"].values()] == [STATIC_HOLD_S]
     assert data["principal_joints"] == ["pelvis"] and data["symmetry_joints"] == []
+    for stem, value in BUILTIN_POSES["sitting"].items():  # the start posture is the base pose
+        for dof in (f"left_{stem}", f"right_{stem}", stem):
+            if dof in data["base_pose"]:
+                assert data["base_pose"][dof] == pytest.approx(value), dof

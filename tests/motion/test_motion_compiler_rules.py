@@ -350,3 +350,15 @@ def test_a_movements_first_dof_wins_over_another_movements_side_dofs():
     assert out[_col("right_elbow_flex")] == 0.0
     alone = compiler._apply(np.zeros(N_DOFS), [press], _step(arm_side="left"), None, 0)
     assert alone[_col("left_elbow_flex")] == press.pose["elbow_flex"]  # its side DOF applies when uncontested
+
+
+def test_apply_skips_resets_and_passes_the_turn_hint_on():
+    current = np.zeros(N_DOFS)
+    current[_col("trunk_flex")] = 30.0
+    out = compiler._apply(current, [MOVEMENTS["trunk_upright"], MOVEMENTS["elbow_flexion"]],
+                          _step(arm_side="right"), None, 0)
+    assert out[_col("trunk_flex")] == 30.0  # a reset is _reset's job, not a target
+    assert out[_col("right_elbow_flex")] == MOVEMENTS["elbow_flexion"].pose["elbow_flex"]
+    twist = MOVEMENTS["trunk_rotation"]
+    turned = compiler._apply(current, [twist], _step(), None, -1)
+    assert turned[_col("trunk_twist")] == -twist.pose["trunk_twist"]
