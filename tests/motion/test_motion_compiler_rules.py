@@ -197,6 +197,13 @@ def test_the_repeated_cycle_peels_off_the_set_up_and_the_final_return():
     # raise the guard ... lower the guard: the outer go / return pair and the leading hold are set-up
     assert compiler._cycle_span(_actions("hold", "go", "go", "return", "return")) == ([0, 1], [2, 3], [4])
     assert compiler._cycle_span(_actions("go", "return")) == ([], [0, 1], [])
+    assert compiler._cycle_span(_actions("go", "hold", "return")) == ([0], [1], [2])
+    assert compiler._cycle_span(_actions("hold", "go")) == ([0], [1], [])
+    assert compiler._cycle_span(_actions("go")) == ([], [0], [])
+    # a trailing hold is peeled once a set-up was, and never down to a single primitive
+    assert compiler._cycle_span(_actions("hold", "go", "go", "hold")) == ([0], [1, 2], [3])
+    assert compiler._cycle_span(_actions("go", "go", "hold")) == ([], [0, 1, 2], [])
+    assert compiler._cycle_span(_actions("hold", "go", "hold")) == ([0], [1, 2], [])
 
 
 def _closed(action: str, keys: list, current: np.ndarray, start: np.ndarray) -> list:
