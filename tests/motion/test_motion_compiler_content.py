@@ -104,3 +104,29 @@ def test_sitting_still_is_a_static_hold(library):
         for dof in (f"left_{stem}", f"right_{stem}", stem):
             if dof in data["base_pose"]:
                 assert data["base_pose"][dof] == pytest.approx(value), dof
+
+
+def _sided(pose: dict[str, float], data: dict) -> dict[str, float]:
+    """A pose written on both sides (side DOFs) or on its centre DOF, as the base pose holds it."""
+    out = {}
+    for stem, value in pose.items():
+        for dof in (f"left_{stem}", f"right_{stem}", stem):
+            if dof in data["base_pose"] and value:
+                out[dof] = float(value)
+    return out
+
+
+def test_gait_starts_from_standing_plus_its_own_pose(library):
+    walk = compile_recipe_data(library.get("walking").smp)  # walking's gait pose is empty: plain standing
+    assert {k: v for k, v in walk["base_pose"].items() if v} == _sided(BUILTIN_POSES["standing"], walk)
+    run = compile_recipe_data(library.get("running").smp)
+    expected = _sided(BUILTIN_POSES["standing"], run) | _sided(MOVEMENTS["run"].pose, run)
+    assert {k: v for k, v in run["base_pose"].items() if v} == expected
+
+
+def test_the_first_primitive_sets_the_start_with_its_excursions(library):
+    """Sit-ups start lying on the back with the elbows bent (hands behind the head)."""
+    data = compile_recipe_data(library.get("situps").smp)
+    assert data["base_pose"]["root_pitch"] == BUILTIN_POSES["lying"]["root_pitch"]
+    elbow = MOVEMENTS["elbow_flexion"].pose["elbow_flex"]
+    assert data["base_pose"]["left_elbow_flex"] == data["base_pose"]["right_elbow_flex"] == elbow
