@@ -93,6 +93,8 @@ def test_stand_to_sit_crouches_on_the_way_and_lands_on_the_seat(library):
     assert sitting["root_dz"] == pytest.approx(SEAT_SHIFT_M)
     assert sitting["left_knee_flex"] == sitting["right_knee_flex"] == BUILTIN_POSES["sitting"]["knee_flex"]
     assert "root_dz" in data["amplitude_exempt"] and "knee_flex" in data["amplitude_exempt"]
+    [(_, settled, _)] = _keys(data, "settle_upright")  # a discrete motion is not closed: it stays seated
+    assert _changed(data, settled)["root_dz"] == pytest.approx(SEAT_SHIFT_M)
 
 
 def test_sitting_still_is_a_static_hold(library):
@@ -130,3 +132,15 @@ def test_the_first_primitive_sets_the_start_with_its_excursions(library):
     assert data["base_pose"]["root_pitch"] == BUILTIN_POSES["lying"]["root_pitch"]
     elbow = MOVEMENTS["elbow_flexion"].pose["elbow_flex"]
     assert data["base_pose"]["left_elbow_flex"] == data["base_pose"]["right_elbow_flex"] == elbow
+
+
+def test_a_cycle_without_its_set_up_ends_where_it_started(library):
+    wave = compile_recipe_data(library.get("right_hand_wave").smp)
+    assert list(wave["primitives"]) == ["raise_hand", "sweep_out", "sweep_back", "lower_hand"]
+    assert wave["cycle"]["primitives"] == ["sweep_out", "sweep_back"]  # raising and lowering the hand are set-up
+    jacks = compile_recipe_data(library.get("jumping_jacks").smp)
+    assert jacks["cycle"]["primitives"] == ["jump_open", "jump_close"]
+    (at_out, out, _), (at_end, end, ease) = _keys(jacks, "jump_close")
+    assert (at_out, at_end, ease) == (0.5, 1.0, "stop")
+    assert _changed(jacks, end) == {}  # closed: back to the standing start, ready for the next jump
+    assert jacks["poses"][out] == jacks["poses"][_keys(jacks, "jump_open")[-1][1]]
