@@ -143,4 +143,3 @@ def test_a_cycle_without_its_set_up_ends_where_it_started(library):
     (at_out, out, _), (at_end, end, ease) = _keys(jacks, "jump_close")
     assert (at_out, at_end, ease) == (0.5, 1.0, "stop")
     assert _changed(jacks, end) == {}  # closed: back to the standing start, ready for the next jump
-    assert jacks["poses"][out] == jacks["poses"][_keys(jacks, "jump_open")[-1][1]]
