@@ -96,6 +96,7 @@ def test_an_unknown_mode_is_a_config_error():
     with pytest.raises(ConfigError) as err:
         EvalConfig(dataset="tiny", share_selection="some").check()
     assert err.value.field == "--share-selection"
+    assert "Allowed: off, method, class." in str(err.value)
 
 
 def _config(**kw) -> EvalConfig:
