@@ -226,6 +226,8 @@ def test_the_motion_loss_is_the_sensor_level_l_sim_plus_the_gravity_angle(walkin
     l_sim = float(stream(ETA_NOMINAL[None], grav)[0])
     assert l_sim > 0.01
     assert objective.one(phi) == pytest.approx(l_sim, rel=1e-9)
+    twice = MotionFitJob(**{**job.__dict__, "locations": job.locations * 2, "mean_acc": (None, None)})
+    assert _Objective(twice, walking).one(phi) == pytest.approx(2 * l_sim, rel=1e-9)  # locations add up
     sim_mean = stream.mean_acc(ETA_NOMINAL[None], grav)[0]
     side = np.cross(sim_mean, [0.0, 0.0, 1.0])
     for real, angle in ((2.0 * sim_mean, 0.0), (-sim_mean, np.pi), (side, np.pi / 2)):
