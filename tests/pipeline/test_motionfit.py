@@ -228,6 +228,14 @@ def test_the_motion_loss_is_the_sensor_level_l_sim_plus_the_gravity_angle(walkin
     assert objective.one(phi) == pytest.approx(l_sim, rel=1e-9)
     twice = MotionFitJob(**{**job.__dict__, "locations": job.locations * 2, "mean_acc": (None, None)})
     assert _Objective(twice, walking).one(phi) == pytest.approx(2 * l_sim, rel=1e-9)  # locations add up
+    tilt = Rotation.from_euler("x", 30, degrees=True)  # a nominal mounting away from the placement's own
+    loc = job.locations[0]
+    tilted = LocationTask(LOCATION, CONVENTION.as_dict(), True, loc.target, tuple(tilt.as_quat()))
+    on_tilt = MotionFitJob(**{**job.__dict__, "locations": (tilted,), "mean_acc": (None,)})
+    expected = StreamObjective(kin, loc.stat_summary(), CONVENTION, tilt.as_matrix() @ sensor.mounting_matrix())
+    l_tilt = float(expected(ETA_NOMINAL[None], grav)[0])
+    assert l_tilt != pytest.approx(l_sim, rel=1e-3)
+    assert _Objective(on_tilt, walking).one(phi) == pytest.approx(l_tilt, rel=1e-9)
     sim_mean = stream.mean_acc(ETA_NOMINAL[None], grav)[0]
     side = np.cross(sim_mean, [0.0, 0.0, 1.0])
     for real, angle in ((2.0 * sim_mean, 0.0), (-sim_mean, np.pi), (side, np.pi / 2)):
