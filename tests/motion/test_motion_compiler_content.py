@@ -4,6 +4,7 @@ durations and the speed limit, the cycle, the side, the principal joints."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -52,7 +53,7 @@ def test_a_curl_reaches_the_elbow_flexion_target_and_returns_in_its_share_of_the
     assert data["primitives"]["lower"]["duration_s"] == pytest.approx(0.55 * nominal, abs=1e-4)
     travel = np.hypot(elbow - data["base_pose"]["left_elbow_flex"], elbow - data["base_pose"]["right_elbow_flex"])
     assert travel / MAX_MEAN_DEG_S > 0.45 * nominal
-    assert data["primitives"]["curl_up"]["duration_s"] == pytest.approx(travel / MAX_MEAN_DEG_S, abs=1e-4)
+    assert data["primitives"]["curl_up"]["duration_s"] == round(travel / MAX_MEAN_DEG_S, 4)  # to 4 decimals
     assert data["principal_joints"] == data["symmetry_joints"] == ["left_elbow", "right_elbow"]
     assert data["locomotion"] == "none" and data["amplitude_exempt"] == [] and "asymmetry" not in data
 
@@ -65,6 +66,12 @@ def test_a_jab_goes_out_and_back_on_the_right_arm_only(fixtures):
     assert (at_out, at_back) == (0.5, 1.0)
     assert set(_changed(data, out)) == {"right_shoulder_flex", "right_elbow_flex"} and _changed(data, back) == {}
     assert data["principal_joints"] == ["right_elbow", "right_shoulder"]
+    jab = fixtures.get("right_jab").smp
+    d = jab.model_dump(mode="json")
+    d["motion_primitives"] = json.loads(json.dumps(d["motion_primitives"]).replace("right", "left"))
+    d["execution_attributes"]["dominant_side"] = "left"
+    left = compile_recipe_data(type(jab).model_validate(d))  # the same jab with the left fist
+    assert left["side"] == "left" and left["asymmetry"] == {"lag_s": 0.0, "imbalance": 1.0}
     assert data["symmetry_joints"] == ["right_elbow", "left_elbow", "right_shoulder", "left_shoulder"]
 
 
@@ -79,6 +86,9 @@ def test_walking_is_a_continuous_wave_cycle_from_the_gait_pose(library):
             if dof in data["base_pose"]:
                 assert data["base_pose"][dof] == pytest.approx(value)
     assert {"left_knee", "right_knee", "left_hip", "right_hip"} <= set(data["principal_joints"][:4])
+    assert "stair_swing" not in data
+    upstairs = compile_recipe_data(library.get("walking_upstairs").smp)
+    assert upstairs["locomotion"] == "stairs_up" and upstairs["stair_swing"] == (0.5, 0.7)
 
 
 def test_stand_to_sit_crouches_on_the_way_and_lands_on_the_seat(library):
