@@ -281,6 +281,10 @@ def test_realize_rewrites_only_the_levels_that_change(walking):
     assert same.execution_attributes.tempo == "fast" and same.execution_attributes.amplitude == "medium"
     moved, _ = realize(smp, {"tempo": 2.0, "amplitude": 1.4})
     assert moved.execution_attributes.tempo == "fast" and moved.execution_attributes.amplitude == 1.4
+    slower, _ = realize(smp, {"tempo": 1.0})  # the amplitude's level, not the tempo's: it changes
+    assert slower.tempo_level() == 1.0
+    fine, _ = realize(smp, {"amplitude": 1.23456})
+    assert fine.execution_attributes.amplitude == 1.2346  # levels to 4 decimals
     unknown = _with(walking, tempo="unknown")
     kept, _ = realize(unknown, {"tempo": 1.0})  # an unknown level counts as medium
     assert kept.execution_attributes.tempo == "unknown"
