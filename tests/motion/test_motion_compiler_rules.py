@@ -4,6 +4,7 @@ hop and the pelvis travel of a change of posture, each checked value by value.""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -194,6 +195,9 @@ def test_the_repeated_cycle_peels_off_the_set_up_and_the_final_return():
     # gait: the cycle runs from the first to the last gait primitive
     assert compiler._cycle_span(_actions("hold", "gait", "hold", "gait", "hold", "hold")) == ([0], [1, 2, 3], [4, 5])
     assert compiler._cycle_span(_actions("gait", "gait")) == ([], [0, 1], [])
+    assert compiler._cycle_span(_actions("gait", "hold", "gait", "hold", "gait", "hold")) == (
+        [], [0, 1, 2, 3, 4], [5])  # from the first to the last gait primitive, not the second
+    assert compiler._cycle_span(_actions("hold", "gait", "gait", "return")) == ([0], [1, 2], [3])
     # raise the guard ... lower the guard: the outer go / return pair and the leading hold are set-up
     assert compiler._cycle_span(_actions("hold", "go", "go", "return", "return")) == ([0, 1], [2, 3], [4])
     assert compiler._cycle_span(_actions("go", "return")) == ([], [0, 1], [])
@@ -228,8 +232,10 @@ def test_the_last_primitive_of_a_cycle_ends_where_the_cycle_started():
     (at1, out, _), (at2, back, ease) = _closed("go", [(1.0, away, "stop")], away, start)
     assert (at1, at2, ease) == (0.5, 1.0, "stop") and out is away and np.array_equal(back, start)
     # keys that end elsewhere end at the start instead, at the same time
-    keys = _closed("back", [(0.5, away, "stop"), (1.0, away, "smooth")], start.copy(), start)
-    assert keys[0][1] is away and keys[-1][0] == 1.0 and keys[-1][2] == "stop" and np.array_equal(keys[-1][1], start)
+    mid = np.full(N_DOFS, 25.0)
+    keys = _closed("back", [(0.3, away, "stop"), (0.6, mid, "smooth"), (1.0, away, "smooth")], start.copy(), start)
+    assert [(at, ease) for at, _, ease in keys] == [(0.3, "stop"), (0.6, "smooth"), (1.0, "stop")]
+    assert keys[0][1] is away and keys[1][1] is mid and np.array_equal(keys[-1][1], start)
     # a hold that ends away from the start gets a key back; gait is left to its waves
     assert len(_closed("hold", [], away, start)) == 1
     assert _closed("gait", [], away, start) == []
@@ -376,3 +382,16 @@ def test_apply_skips_resets_and_passes_the_turn_hint_on():
 def test_a_relative_root_travel_is_applied_once():
     out = compiler._apply(np.zeros(N_DOFS), [MOVEMENTS["jump"]], _step(), None, 0)
     assert out[_col("root_dy")] == pytest.approx(MOVEMENTS["jump"].pose["root_dy"])
+
+
+def test_structural_entries_of_the_sequence_are_not_primitives():
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    smp = ActivityLibrary.load([Path(__file__).resolve().parents[1] / "fixtures" / "compiled_activities"]).get(
+        "hammer_curl_kettlebell").smp
+    d = smp.model_dump(mode="json")
+    d["primitive_sequence"] = ["curl_up", "Repeat", "lower", "repeat cycle"]
+    d["primitive_durations"] = {"type": "unknown", "values": []}
+    steps = compiler._steps(type(smp).model_validate(d))
+    assert [s.name for s in steps] == ["curl_up", "lower"]
+    assert [s.action for s in steps] == ["go", "return"]
