@@ -153,3 +153,13 @@ def test_a_cycle_without_its_set_up_ends_where_it_started(library):
     (at_out, out, _), (at_end, end, ease) = _keys(jacks, "jump_close")
     assert (at_out, at_end, ease) == (0.5, 1.0, "stop")
     assert _changed(jacks, end) == {}  # closed: back to the standing start, ready for the next jump
+
+
+def test_the_first_gait_primitive_sets_the_gait_pose(library):
+    """Walk then run: the base is walking's (plain standing), not running's bent elbows."""
+    smp = library.get("walking").smp
+    d = smp.model_dump(mode="json")
+    d["motion_primitives"][1]["description"] = "run forward"
+    data = compile_recipe_data(type(smp).model_validate(d))
+    assert data["base_pose"]["left_elbow_flex"] == BUILTIN_POSES["standing"]["elbow_flex"]
+    assert MOVEMENTS["run"].pose["elbow_flex"] != BUILTIN_POSES["standing"]["elbow_flex"]
