@@ -141,9 +141,11 @@ def resume(group: Group) -> dict:
 
 
 def rerun(group: Group) -> dict:
-    """Re-test the survivors of a finished run against the current tests (new tests copied in)."""
+    """Re-test the survivors of a finished run against the current tests (new tests copied in),
+    except those excluded.json argues equivalent or import-time."""
     where = BUILD / group.name
-    survivors = [n for n, s in _outcomes(where).items() if s == "survived"]
+    rules = json.loads(EXCLUDED.read_text()) if EXCLUDED.exists() else []
+    survivors = [n for n, s in _outcomes(where).items() if s == "survived" and _exclusion(n, rules) is None]
     if survivors:
         shutil.rmtree(where / "tests")
         shutil.copytree(ROOT / "tests", where / "tests", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
