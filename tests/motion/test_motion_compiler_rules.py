@@ -395,3 +395,54 @@ def test_structural_entries_of_the_sequence_are_not_primitives():
     steps = compiler._steps(type(smp).model_validate(d))
     assert [s.name for s in steps] == ["curl_up", "lower"]
     assert [s.action for s in steps] == ["go", "return"]
+
+
+def _library_smp(name: str):
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    return ActivityLibrary.load().get(name).smp.model_copy(deep=True)
+
+
+def test_a_motion_is_periodic_when_its_smp_or_its_gait_says_so():
+    smp = _library_smp("bicep_curls")
+    ts = smp.temporal_structure
+    ts.is_repetitive, ts.periodicity, ts.repetition_count = False, "none", "unknown"
+    assert smp.repetition_count() is None and not compiler._periodic(smp, [])
+    ts.is_repetitive = True
+    assert compiler._periodic(smp, [])
+    ts.is_repetitive, ts.periodicity = False, "cyclic"
+    assert compiler._periodic(smp, [])
+    ts.periodicity = "none"
+    for count, periodic in ((1, False), (2, True)):
+        ts.repetition_count = count
+        assert smp.repetition_count() == count and compiler._periodic(smp, []) is periodic
+    ts.repetition_count = "unknown"
+    assert compiler._periodic(smp, _actions("hold", "gait")) and not compiler._periodic(smp, _actions("go"))
+
+
+def test_the_start_posture_comes_from_the_first_primitive_then_gait_then_a_seat():
+    smp = _library_smp("bicep_curls")
+    smp.object_contact.environment_contact, smp.object_contact.objects = [], ["dumbbells"]
+    sit = _step()
+    sit.movements = (MOVEMENTS["sit_down"],)
+    assert compiler._start_posture(smp, [sit]) == MOVEMENTS["sit_down"].posture == "sitting"
+    lie = _step(posture="lying")  # a hold that names its posture
+    assert compiler._sets_start(lie) and compiler._start_posture(smp, [lie]) == "lying"
+    curl = _step(posture="sitting")  # names a posture but moves: it does not set the start
+    curl.action, curl.movements = "go", (MOVEMENTS["elbow_flexion"],)
+    assert not compiler._sets_start(curl) and compiler._start_posture(smp, [curl]) == "standing"
+    smp.object_contact.objects = ["office chair"]
+    assert compiler._start_posture(smp, [curl]) == "sitting"  # a seat among the contacts
+    assert compiler._start_posture(smp, [curl, *_actions("gait")]) == "standing"  # gait stands
+    rise = _step()
+    rise.action, rise.movements = "go", (MOVEMENTS["stand_up"],)
+    assert compiler._start_posture(smp, [curl, rise]) == "standing"  # a change of support: not seated
+
+
+def test_a_primitive_sets_the_start_when_it_holds_or_names_a_posture_with_resets_only():
+    moving = _actions("go")[0]
+    assert not compiler._sets_start(moving)  # no posture named, no movement: not all resets by default
+    assert compiler._sets_start(_actions("hold")[0])
+    upright = _step(posture="standing")
+    upright.action, upright.movements = "go", (MOVEMENTS["trunk_upright"],)
+    assert compiler._sets_start(upright)
