@@ -163,3 +163,24 @@ def test_the_first_gait_primitive_sets_the_gait_pose(library):
     data = compile_recipe_data(type(smp).model_validate(d))
     assert data["base_pose"]["left_elbow_flex"] == BUILTIN_POSES["standing"]["elbow_flex"]
     assert MOVEMENTS["run"].pose["elbow_flex"] != BUILTIN_POSES["standing"]["elbow_flex"]
+
+
+def _last(data: dict, primitive: str) -> dict[str, float]:
+    return _changed(data, _keys(data, primitive)[-1][1])
+
+
+def test_a_return_goes_back_to_where_its_own_outward_primitive_started(library):
+    """Raise the hands, clap, separate: separating returns to the raised hands, lowering to the start."""
+    data = compile_recipe_data(library.get("two_hand_front_clap").smp)
+    assert _last(data, "separate") == _last(data, "raise_hands") != {}
+    assert _last(data, "clap") != _last(data, "raise_hands")
+    assert _last(data, "lower_hands") == {}
+
+
+def test_standing_up_from_a_squat_straightens_the_legs_and_the_trunk(library):
+    """'stand up' names the posture the squat never left: it becomes a movement back to straight legs."""
+    data = compile_recipe_data(library.get("squats").smp)
+    down, up = _last(data, "squat_down"), _last(data, "stand_up")
+    assert down["left_knee_flex"] == 105.0 and down["trunk_flex"] == 32.0
+    assert up == _last(data, "clasp_hands")  # the clasped hands stay, legs and trunk are straight again
+    assert [at for at, _, _ in _keys(data, "stand_up")] == [1.0]
