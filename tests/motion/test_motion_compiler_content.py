@@ -171,7 +171,11 @@ def _last(data: dict, primitive: str) -> dict[str, float]:
 
 def test_a_return_goes_back_to_where_its_own_outward_primitive_started(library):
     """Raise the hands, clap, separate: separating returns to the raised hands, lowering to the start."""
-    data = compile_recipe_data(library.get("two_hand_front_clap").smp)
+    smp = library.get("two_hand_front_clap").smp.model_copy(deep=True)
+    smp.temporal_structure.is_repetitive, smp.temporal_structure.periodicity = False, "single"
+    smp.temporal_structure.repetition_count = 1
+    data = compile_recipe_data(smp)  # one clap: no cycle to close, each return alone says where it goes
+    assert data["kind"] == "discrete"
     assert _last(data, "separate") == _last(data, "raise_hands") != {}
     assert _last(data, "clap") != _last(data, "raise_hands")
     assert _last(data, "lower_hands") == {}
