@@ -56,6 +56,13 @@ GROUPS = (
     Group("smp", ("smp/augment.py", "smp/schema.py"),
           ("tests/smp/test_smp_augment.py", "tests/smp/test_smp_exact_draws.py",
            "tests/smp/test_smp_library.py")),
+    Group("motion", ("motion/compiler.py", "motion/lexicon.py", "motion/anatomy.py"),
+          ("tests/motion/test_motion_compiler.py", "tests/motion/test_motion_compiler_rules.py",
+           "tests/motion/test_motion_compiler_content.py",
+           "tests/motion/test_motion_lexicon.py",
+           "tests/motion/test_motion_procedural.py")),
+    Group("motionfit", ("pipeline/motionfit.py",), ("tests/pipeline/test_motionfit.py",)),
+    Group("noharm", ("har/noharm.py",), ("tests/har/test_har_noharm.py",)),
 )
 
 
@@ -69,6 +76,9 @@ def _pyproject(group: Group) -> str:
         "only_mutate = " + json.dumps([f"src/vsmp_imu/{f}" for f in group.files]),
         "pytest_add_cli_args_test_selection = " + json.dumps([t for t in group.tests if (ROOT / t).exists()]),
         'pytest_add_cli_args = ["-m", "not slow", "-p", "no:cacheprovider", "-q"]',
+        # mutants run in processes forked from a server that has only collected the tests,
+        # so no cache filled by the unmutated stats run (compile_recipe, the SMP library) is inherited
+        'process_isolation = "forkserver"',
         "use_git_change_detection = false",
         "",
     ]
@@ -131,14 +141,26 @@ def resume(group: Group) -> dict:
 
 
 def rerun(group: Group) -> dict:
-    """Re-test the survivors of a finished run against the current tests (new tests copied in)."""
+    """Re-test the survivors of a finished run against the current tests (new tests copied in),
+    except those excluded.json argues equivalent or import-time."""
     where = BUILD / group.name
-    survivors = [n for n, s in _outcomes(where).items() if s == "survived"]
+    rules = json.loads(EXCLUDED.read_text()) if EXCLUDED.exists() else []
+    survivors = [n for n, s in _outcomes(where).items() if s == "survived" and _exclusion(n, rules) is None]
     if survivors:
         shutil.rmtree(where / "tests")
         shutil.copytree(ROOT / "tests", where / "tests", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        _select_tests(where, group)
         _mutmut(where, survivors)
     return collect(group)
+
+
+def _select_tests(where: Path, group: Group) -> None:
+    """Point the copy's test selection at the group's current tests (new test files included),
+    keeping the file's time: it marks when the run started."""
+    pyproject = where / "pyproject.toml"
+    started = pyproject.stat().st_mtime
+    pyproject.write_text(_pyproject(group))
+    os.utime(pyproject, (started, started))
 
 
 def collect(group: Group) -> dict:

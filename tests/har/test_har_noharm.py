@@ -96,6 +96,7 @@ def test_an_unknown_mode_is_a_config_error():
     with pytest.raises(ConfigError) as err:
         EvalConfig(dataset="tiny", share_selection="some").check()
     assert err.value.field == "--share-selection"
+    assert "Allowed: off, method, class." in str(err.value)
 
 
 def _config(**kw) -> EvalConfig:
@@ -216,3 +217,138 @@ def test_committed_records_keep_the_choice(tiny_dataset, tmp_path):
     import_run(tmp_path / "run", "tiny", "vsmp-imu evaluate ...", tmp_path / "results")
     records = load_run(tmp_path / "results", "tiny").records
     assert {r["method"]: r["synthetic_shares"] is not None for r in records} == {"real": False, "classical": True}
+
+
+def test_the_sign_flip_p_counts_the_flips_at_or_below_the_observed_mean():
+    """p = (1 + #flips with mean <= observed) / (1 + N_FLIPS): all-negative changes of 20 windows are
+    beaten by no flip (p at its floor), all-positive ones by every flip (p = 1); one window is a coin."""
+    from vsmp_imu.har.noharm import HARM_P, N_FLIPS, Harm
+
+    assert harm(np.full(20, -0.1)).p == 1 / (1 + N_FLIPS)
+    assert harm(np.full(20, 0.1)).p == 1.0
+    coin = harm(np.array([-0.3]))
+    assert 0.45 < coin.p < 0.55 and coin.mean_change == pytest.approx(-0.3)
+    three = harm(np.array([-0.2, -0.1, -0.3]))  # all signs negative: 1 flip in 8
+    assert 0.1 < three.p < 0.15 and three.n == 3
+    assert Harm(30, -0.01, HARM_P - 1e-9).hurts and not Harm(30, -0.01, HARM_P).hurts
+    assert not Harm(30, 0.0, 0.0).hurts and not Harm(0, -1.0, 0.0).hurts
+
+
+def test_the_evidence_text_names_the_mean_the_windows_and_p():
+    from vsmp_imu.har.noharm import Harm
+
+    assert Harm(12, -0.0314, 0.0123).text() == ("validation p(true class) -0.031 on average over 12 windows, "
+                                                "classes weighted equally (one-sided sign-flip p = 0.012)")
+
+
+def test_full_proba_puts_each_column_at_its_class_index():
+    class TwoOfFour:
+        classes_ = np.array([1, 3])
+
+        def predict_proba(self, X):
+            return np.tile([0.25, 0.75], (len(X), 1))
+
+    from vsmp_imu.har.noharm import full_proba
+
+    rng = np.random.default_rng(0)
+    w = _windows([0.0], [0], 3, rng, "1")
+    assert full_proba(TwoOfFour(), w, 4).tolist() == [[0.0, 0.25, 0.0, 0.75]] * 3
+
+
+def test_take_shares_keeps_the_first_windows_of_each_class_in_order():
+    rng = np.random.default_rng(0)
+    synthetic = _windows([0.0, 1.0, 2.0], [0, 1, 2], 4, rng, "s")
+    kept = take_shares(synthetic, np.array([0.5, 0.0, 1.0]))
+    assert kept.y.tolist() == [0, 0, 2, 2, 2, 2]
+    assert np.array_equal(kept.X, np.concatenate([synthetic.X[:2], synthetic.X[8:]]))
+    assert shares_vector({1: _share(0.0), 2: _share(1.0)}, 3).tolist() == [1.0, 0.0, 1.0]
+
+
+def _share(value: float):
+    from vsmp_imu.har.noharm import ClassShare
+
+    return ClassShare(value, 4, int(4 * value), 2, None, "why")
+
+
+def test_the_dropped_summary_counts_runs_empty_classes_and_unjudged_ones():
+    from dataclasses import asdict
+
+    from vsmp_imu.har.noharm import choice_record
+
+    first = choice_record({1: _share(0.0), 0: replace(_share(1.0), n_val=0)}, ("a", "b"))
+    assert list(first) == ["a", "b"] and first["b"] == asdict(_share(0.0))
+    second = choice_record({0: _share(1.0), 1: _share(1.0)}, ("a", "b"))
+    records = [{"synthetic_shares": first}, {"synthetic_shares": None}, {"synthetic_shares": second}]
+    assert dropped_summary(records) == {"a": {"runs": 2, "none": 0, "unjudged": 1},
+                                        "b": {"runs": 2, "none": 1, "unjudged": 0}}
+
+
+def test_the_decision_and_its_reason_in_each_mode():
+    from vsmp_imu.har.noharm import Harm
+
+    hurt, fine, empty = Harm(40, -0.05, 0.01), Harm(40, 0.02, 0.9), Harm(0, float("nan"), 1.0)
+    method, per_class = ShareSelector("method"), ShareSelector("class")
+    assert method._decide(empty, hurt, 3) == (False, "no validation windows: kept all (harm cannot be measured)")
+    assert method._decide(hurt, fine, 3) == (True, "dropped with the method's other synthetic windows: "
+                                             + hurt.text())
+    assert method._decide(fine, hurt, 3) == (False, "kept: no measured harm, " + fine.text())
+    one_vs_rest = "p(class) for the class, -p(class) for the others,"
+    drop, reason = per_class._decide(fine, hurt, 3)
+    assert drop and reason == "dropped: hurt one-vs-rest, " + hurt.text().replace("p(true class)", one_vs_rest)
+    keep, reason = per_class._decide(hurt, fine, 0)
+    assert not keep and reason == ("kept: no measured harm one-vs-rest, "
+                                   + fine.text().replace("p(true class)", one_vs_rest)
+                                   + " (no validation window of the class: judged on the others' windows)")
+
+
+def test_the_method_decision_weighs_the_classes_equally():
+    """90 validation windows of class 0 lose 0.11 of p(true class), 10 of class 1 gain 0.5: over windows the
+    mean falls (-0.05), over classes it rises (+0.19), and the method keeps its windows."""
+
+    def windows(labels, subject):
+        X = np.zeros((len(labels), 20, len(CHANNELS)), np.float32)
+        X[:, :, 1] = np.asarray(labels)[:, None]
+        return Windows(X, np.asarray(labels), np.full(len(labels), subject), ("a", "b"), CHANNELS, 10.0)
+
+    real, synthetic, val = windows([0, 1] * 5, "1"), windows([0, 1] * 3, "s"), windows([0] * 90 + [1] * 10, "2")
+
+    class Model:
+        classes_ = np.array([0, 1])
+
+        def __init__(self, mixed: bool):
+            self.mixed = mixed
+
+        def predict_proba(self, X):
+            level = X[:, 0, 1]
+            p1 = np.where(level > 0.5, 1.0 if self.mixed else 0.5, 0.3123456 if self.mixed else 0.2)
+            return np.stack([1 - p1, p1], axis=1)
+
+    choice = ShareSelector("method").choose(lambda w: Model(len(w) > len(real)), real, synthetic, val)
+    assert [choice[c].share for c in (0, 1)] == [1.0, 1.0]
+    assert "p(true class) +0.194 on average over 100 windows" in choice[0].reason
+    assert harm(np.array([-0.1123456] * 90 + [0.5] * 10)).hurts  # the same evidence unweighted would drop them
+    # one-vs-rest, the class's own windows and the others' weigh the same: +0.5 on 10 against -0.11 on 90
+    per_class = ShareSelector("class").choose(lambda w: Model(len(w) > len(real)), real, synthetic, val)
+    assert [per_class[c].share for c in (0, 1)] == [1.0, 1.0]
+    assert "+0.194 on average over 100 windows" in per_class[1].reason
+    assert "no validation window of the class" not in per_class[1].reason
+    assert per_class[1].mean_change == 0.5 and per_class[0].mean_change == -0.112346  # to 6 decimals
+
+
+def test_the_sign_flip_draws_are_pinned():
+    """The flips come from default_rng(0): the same changes give the same p in every run and version
+    (committed records quote it in their reasons); 124 and 177 of the 2000 flips fall at or below."""
+    from vsmp_imu.har.noharm import N_FLIPS
+
+    x = np.array([-0.2, 0.1, -0.15, -0.05, 0.02, -0.3, 0.04, -0.12])
+    assert harm(x).p == (1 + 124) / (1 + N_FLIPS)
+    assert harm(x, np.array([0, 0, 1, 1, 1, 2, 2, 2])).p == (1 + 177) / (1 + N_FLIPS)
+
+
+def test_harm_without_evidence_reports_its_count_and_mean():
+    import math
+
+    empty = harm(np.array([]))
+    assert (empty.n, empty.p) == (0, 1.0) and math.isnan(empty.mean_change)
+    flat = harm(np.zeros(50))
+    assert (flat.n, flat.mean_change, flat.p) == (50, 0.0, 1.0)

@@ -112,3 +112,81 @@ def test_library_captions_and_aliases_agree_with_the_primitives(library):
     # floors below the rates benchmarks/study_compiled_motion.py reports
     assert captions / n_captions >= 0.70
     assert aliases / n_aliases >= 0.45
+
+
+def test_rom_is_the_fraction_of_the_normative_range_to_a_tenth_of_a_degree():
+    from vsmp_imu.motion.anatomy import rom
+
+    assert rom("shoulder", "flexion", 0.5) == 90.0
+    assert rom("wrist", "radial_deviation", 0.33) == 6.6  # 6.6 exactly, not 6.60000001
+    assert rom("wrist", "radial_deviation", 0.333) == 6.7  # to a tenth of a degree
+    assert rom("knee", "flexion") == 135.0
+    assert MOVEMENTS["shoulder_flexion"].pose == {"shoulder_flex": 90.0}  # the table is built with it
+
+
+def test_a_movement_takes_its_limb_from_its_joint_unless_told():
+    from vsmp_imu.motion.anatomy import Movement
+
+    assert [Movement("m", joint, "sagittal", {}).limb for joint in ("wrist", "knee", "trunk")] == [
+        "arm", "leg", "none"]
+    assert Movement("m", "knee", "sagittal", {}, limb="arm").limb == "arm"
+    assert MOVEMENTS["squat"].limb == "leg" and MOVEMENTS["elbow_flexion"].limb == "arm"
+
+
+OUTWARD_LOWERING = ("squat", "knee_bend", "lunge", "elbow_flexion", "trunk_flexion", "sit_down", "sit_down_floor",
+                    "lie_down", "lie_prone", "kneel", "jump", "walk", "run", "stairs_down", "stairs_up")
+
+
+@pytest.mark.parametrize("movement", OUTWARD_LOWERING)
+def test_lowering_into_a_movement_goes_out_unless_it_comes_back(movement):
+    """'lower the body into a squat' goes out; 'lower back down' and 'return' come back."""
+    from vsmp_imu.motion.lexicon import _outward_lowering
+
+    assert _outward_lowering("lower the body", (movement,))
+    for words in ("lower back down", "lower again", "returning to the start", "lower back to the start"):
+        assert not _outward_lowering(words, (movement,)), words
+
+
+def test_lowering_the_arms_comes_back():
+    from vsmp_imu.motion.lexicon import _outward_lowering
+
+    assert not _outward_lowering("lower the arms", ("shoulder_abduction", "shoulder_flexion"))
+    assert read_primitive("lower", "lower the body into a squat").movements == ("squat",)
+    assert not read_primitive("lower", "lower the body into a squat").returns
+    assert read_primitive("lower", "lower the arms to the sides").returns
+
+
+def test_text_is_lower_case_with_single_spaces():
+    from vsmp_imu.motion.lexicon import normalize_text
+
+    assert normalize_text(" Raise_the-LEFT/arm   now ") == "raise the left arm now"
+
+
+@pytest.mark.parametrize(("text", "expected"), [
+    ("squat down bending the knees", ("squat",)),  # a squat already bends the knees
+    ("lunge forward bending the knees", ("lunge", "trunk_flexion")),
+    ("jog up the stairs walking", ("run", "stairs_up")),  # running is not also walking
+    ("press the dumbbells overhead raising the arms forward", ("shoulder_flexion_overhead",)),
+    ("sit down bending the knees and leaning the trunk forward", ("sit_down",)),  # the posture change has them
+])
+def test_redundant_movements_are_pruned(text, expected):
+    assert movements_in(text) == expected
+
+
+def test_directions_and_sides_come_from_the_words():
+    from vsmp_imu.motion.lexicon import _direction, _sides
+
+    assert [_direction(t) for t in ("turn toward the right", "step leftward", "rightward", "turn to the left",
+                                    "twist")] == [-1, 1, -1, 1, 0]
+    assert _sides("kick with the left leg and swing the right arm") == ("right", "left")
+    assert _sides("raise the right arm and the left arm") == ("right", None)  # the side named first acts
+    assert _sides("the left knee then the right knee") == (None, "left")
+    kick = read_primitive("kick", "kick the right leg forward while the left arm swings back")
+    assert (kick.leg_side, kick.arm_side, kick.movements) == ("right", None, ("leg_kick",))  # the other limb is dropped
+
+
+@pytest.mark.parametrize(("words", "posture"), [("sit on the chair", "sitting"), ("lie on the back", "lying"),
+                                                ("kneel", "kneeling"), ("stand still", "standing"),
+                                                ("wave the hand", None)])
+def test_the_posture_a_primitive_names(words, posture):
+    assert read_primitive("p", words).posture == posture
