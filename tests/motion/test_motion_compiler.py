@@ -206,15 +206,17 @@ def test_compiled_backend_runs_a_hapt12_fold(library):
     from vsmp_imu.executor import LocalExecutor
     from vsmp_imu.har.datasets import load_dataset
     from vsmp_imu.har.synthetic import synthetic_budget
-    from vsmp_imu.pipeline.fold import FoldGenerator, GenerationConfig
+    from vsmp_imu.pipeline.fold import FoldGenerator
     from vsmp_imu.pipeline.sources import LibrarySmpSource
+    from vsmp_imu.pipeline.spec import GenerationSpec
 
     ds = load_dataset("hapt12")
     train = ds.windows().where_subjects(["2", "3", "4", "5"])
     budget = synthetic_budget(train.class_counts(), 0.05)
     sources = LibrarySmpSource(library).smps("hapt12", ds.info.label_names)
-    gen = FoldGenerator(GenerationConfig(backend="compiled", k=2, oversample=1.5, max_rounds=2),
+    gen = FoldGenerator(GenerationSpec(backend="compiled", k=2, oversample=1.5, max_rounds=2),
                         LocalExecutor(1, show_progress=False), None, library=library)
     out = gen.generate(ds.info, train, sources, budget, seed=0, fold="test")
     assert len(out.windows) > 0
-    assert all(r["provenance"]["backend"] == "compiled" for r in out.records if r["provenance"])
+    made = [r.provenance for r in out.records if not r.provenance.failed]
+    assert made and all(p.backend == "compiled" for p in made)

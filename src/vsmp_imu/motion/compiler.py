@@ -325,7 +325,8 @@ def _limb_sides(move: Movement, step: Step, smp: SMP) -> tuple[str, ...]:
 
 
 def _apply(current: np.ndarray, moves: list[Movement], step: Step, smp: SMP, direction_hint: int) -> np.ndarray:
-    """`current` with the movements' targets set (their first DOF last, so it wins)."""
+    """`current` with the movements' targets set (their first DOF last, so it wins); a relative
+    root travel counts from `current`, so setting it twice does not add it twice."""
     out = current.copy()
     for primary in (False, True):
         for move in moves:
@@ -333,7 +334,7 @@ def _apply(current: np.ndarray, moves: list[Movement], step: Step, smp: SMP, dir
             for stem, value in items:
                 if move.kind == "reset":
                     continue
-                for col, val in _targets(move, stem, value, step, smp, out, direction_hint):
+                for col, val in _targets(move, stem, value, step, smp, current, direction_hint):
                     out[col] = val
     return out
 
