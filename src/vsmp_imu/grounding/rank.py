@@ -185,32 +185,37 @@ class RankGrounder:
                 f"synthetic has {syn.shape[1]} channels but real has {rea.shape[1]}", field="channels"
             )
         self.n_channels_ = syn.shape[1]
-        weights = None
-        pooled = syn
-        self.unmapped_: frozenset[int] = frozenset()
-        if synthetic_labels is not None and real_labels is not None:
-            syn_lab = _sample_labels(synthetic, synthetic_labels)
-            if self.class_balanced:
-                weights = _balance_weights(syn_lab, _sample_labels(real, real_labels))
-            known = np.isin(syn_lab, np.unique(real_labels))
-            if known.any() and not known.all():  # F_v from the classes the real data has
-                pooled, weights = syn[known], None if weights is None else weights[known]
-            elif not known.any():  # nothing learns how synthetic values become real ones
-                self.unmapped_ = frozenset(int(c) for c in np.unique(syn_lab))
+        if self.per_class and (synthetic_labels is None or real_labels is None):
+            raise ValidationError("per_class grounding needs synthetic and real labels", field="labels")
+        labelled = synthetic_labels is not None and real_labels is not None
+        syn_lab = _sample_labels(synthetic, synthetic_labels) if labelled else None
+        rea_lab = _sample_labels(real, real_labels) if labelled else None
         per_window = _samples_per_window(real)
-        self.overall_ = _ChannelMap(pooled, rea, self.n_quantiles, weights, self.threads, per_window)
+        self.overall_ = self._pooled_map(syn, rea, syn_lab, rea_lab, per_window)
         self.per_class_: dict[int, _ChannelMap] = {}
         if self.per_class:
-            if synthetic_labels is None or real_labels is None:
-                raise ValidationError("per_class grounding needs synthetic and real labels", field="labels")
-            syn_lab = _sample_labels(synthetic, synthetic_labels)
-            rea_lab = _sample_labels(real, real_labels)
             for cls in np.intersect1d(np.unique(syn_lab), np.unique(rea_lab)):
                 s, r = syn[syn_lab == cls], rea[rea_lab == cls]
                 if min(len(s), len(r)) >= self.min_class_samples:
                     self.per_class_[int(cls)] = _ChannelMap(s, r, self.n_quantiles, threads=self.threads,
                                                             per_window=per_window)
         return self
+
+    def _pooled_map(self, syn: np.ndarray, rea: np.ndarray, syn_lab: np.ndarray | None,
+                    rea_lab: np.ndarray | None, per_window: int) -> _ChannelMap:
+        """The pooled pair, F_v from the synthetic classes the real data has (class-balanced);
+        sets `unmapped_` when it has none of them."""
+        self.unmapped_: frozenset[int] = frozenset()
+        weights = None
+        if syn_lab is not None and rea_lab is not None:
+            if self.class_balanced:
+                weights = _balance_weights(syn_lab, rea_lab)
+            known = np.isin(syn_lab, np.unique(rea_lab))
+            if known.any() and not known.all():
+                syn, weights = syn[known], None if weights is None else weights[known]
+            elif not known.any():  # nothing learns how synthetic values become real ones
+                self.unmapped_ = frozenset(int(c) for c in np.unique(syn_lab))
+        return _ChannelMap(syn, rea, self.n_quantiles, weights, self.threads, per_window)
 
     def transform(self, x: np.ndarray, labels: np.ndarray | None = None) -> np.ndarray:
         """Ground windows (N, T, C), or rows (N, C) with N labels (any (..., C) array when
