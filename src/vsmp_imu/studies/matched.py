@@ -478,8 +478,8 @@ class MatchedBlockGenerator:
                 if not self.config.spec.rank_grounding or name not in grounders:
                     g[name] = sig
                     continue
-                labels = np.full(len(sig), r.label_index) if self.config.spec.per_class_rank else None
-                g[name] = grounders[name].transform(sig, labels)
+                # labels always, as the pipeline's stage 4 (`apply_rank_grounders`) passes them
+                g[name] = grounders[name].transform(sig, np.full(len(sig), r.label_index))
             out.append(g)
         return out
 
