@@ -187,3 +187,20 @@ def test_elite_ties_are_broken_by_candidate_order(setup, spy):
     boundary = losses[elite[-1]]
     assert (losses == boundary).sum() > (losses[elite] == boundary).sum()  # the cut falls inside a tie group
     assert np.allclose(spy["eta"][2][0], eta1[elite].mean(0))
+
+
+@pytest.mark.parametrize("search", [False, True])
+def test_the_best_so_far_is_the_single_best_candidate_ever_scored(setup, monkeypatch, search):
+    # scripted losses: nominal 10; iteration 1 best 5 (candidate 3), iteration 2 best 4 (candidate 1)
+    # while its second best (7) is worse than 5: only the single best may decide an update
+    kin, noise = setup
+    scripted = iter([np.array([10.0]), np.array([9, 9, 9, 5, 9, 9, 9, 9, 9, 9.0]),
+                     np.array([7, 4, 8, 8, 8, 8, 8, 8, 8, 8.0])])
+    monkeypatch.setattr(cal, "sim_loss", lambda candidate, target: next(scripted))
+    z = np.random.default_rng(3).normal(size=(10, 11))
+    u = np.array([0.9, 0.1, 0.9, 0.1, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9])  # candidates 1 and 3 with gravity
+    res = SimInTheLoopCalibrator(n_iterations=2, n_candidates=10, search_gravity=search).calibrate(
+        kin, _target(kin, noise), Convention(gravity_included=False), ScriptedRng([z, z], [u, u]),
+        noise=noise)
+    assert res.loss_nominal == 10.0 and res.loss_history == [5.0, 4.0] and res.loss_final == 4.0
+    assert res.gravity_included is search  # candidate 1's flag, not candidate 0's

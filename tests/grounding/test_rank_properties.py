@@ -151,3 +151,12 @@ def test_labels_change_nothing_for_the_pooled_map(rng):
     g = RankGrounder().fit(syn, real, ys, yr)
     assert g.mapping(0) == g.mapping(1) == "pooled"
     assert np.array_equal(g.transform(syn, ys), g.transform(syn))
+
+
+def test_mapping_names_a_class_with_its_own_map(rng):
+    # class 0 has 20 windows of 50 samples on both sides (>= min_class_samples), class 1 only 2
+    syn, ys = _classes(rng, [-2.0, 2.0], [20, 2])
+    real, yr = _classes(rng, [-1.0, 1.0], [20, 2])
+    g = RankGrounder(per_class=True).fit(syn, real, ys, yr)
+    assert sorted(g.per_class_) == [0]
+    assert g.mapping(0) == "class" and g.mapping(1) == "pooled"
