@@ -21,7 +21,8 @@ from vsmp_imu.io import read_text
 
 # the script that writes (and renders) each benchmark JSON, relative to the repository root
 SCRIPTS = {"benchmarks/results/run_all.json": "benchmarks/run_all.py",
-           "benchmarks/results/motion_controls.json": "benchmarks/study_motion_controls.py"}
+           "benchmarks/results/motion_controls.json": "benchmarks/study_motion_controls.py",
+           "benchmarks/results/extract_clips.json": "benchmarks/bench_extract.py"}
 
 
 def _script(path: Path) -> ModuleType:
