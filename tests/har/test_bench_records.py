@@ -109,6 +109,7 @@ def test_the_committed_views_render_from_the_committed_json():
                                (SOURCE, "per_sample", "| method | s per sample here |"),
                                (SOURCE, "scaling", "| executor | whole fold, 1 → 2 workers |"),
                                ("benchmarks/results/motion_controls.json", "controls", "| check | result |"),
+                               (SOURCE, "scaling_cpu", "| executor | workers | wall |"),
                                ("benchmarks/results/extract_clips.json", "clips", "| clip | person found |")):
         rendered = BenchTable(REPO_ROOT, "b:x", source, view).render()
         assert rendered.startswith(head) and "Records: " in rendered
@@ -182,3 +183,46 @@ def test_the_extract_record_of_a_real_extraction_renders():
                           "0 identity switches | whole clip | ")
     tempo = clip["fields"]["tempo"]
     assert f"tempo {tempo['value']:.2f} (u = {tempo['uncertainty']:.2f}" in row
+
+
+HISTORY = "benchmarks/results/scaling_history.jsonl"
+
+
+def _scaling_fig(fold: float, replay: float) -> dict:
+    return {**SCALING, "speedup_fold": fold, "speedup_synthesis_abba": replay, "replay_tasks": 240,
+            "replay": [{"workers": w, "wall_s": 1.0, "load_avg_after": [0.1, 0.1, 0.1]} for w in (1, 2, 2, 1)],
+            "load_avg_at_start": [1.25, 1.0, 1.0], "finished": "2026-01-01T02:00:00"}
+
+
+def test_each_scaling_run_adds_one_line_and_the_views_read_the_history(tmp_path):
+    from vsmp_imu.har.bench_records import _script
+
+    run_all = _script(REPO_ROOT / "benchmarks/run_all.py")
+    root = _root(tmp_path, {})
+    path = root / HISTORY
+    for started, fold, commit in (("2026-01-01T00:00:00", 1.83, None), ("2026-01-02T00:00:00", 1.88, "abcdef123")):
+        results = {"stages": {"scaling_local": _scaling_fig(fold, 1.9), "cem": {}}, "machine": {"cpus": "2"}}
+        run = {"command": "python benchmarks/run_all.py", "started": started, "commit": commit, "dirty": True}
+        run_all.append_history(path, run_all.scaling_entry(results, ["scaling_local"], run))
+    lines = path.read_text().splitlines()
+    assert len(lines) == 2 and json.loads(lines[0])["executors"]["scaling_local"]["speedup_fold"] == 1.83
+    runs = BenchTable(root, "bench:scaling_runs", HISTORY, "scaling_runs").render()
+    assert ("| 2026-01-01T00:00:00 (code not recorded) | local pool | 1.83× (1, 2, 2, 1 workers: 10.0, 5.0, 7.0, "
+            "12.0 s) | 2.00× | 1.90× (240 tasks) | 1.2 |") in runs
+    assert "| 2026-01-02T00:00:00 (`abcdef1` + changes) | local pool | 1.88×" in runs
+    assert "`benchmarks/results/scaling_history.jsonl`, 2 runs of `benchmarks/run_all.py`" in runs
+    spread = BenchTable(root, "scale:scaling_spread", HISTORY, "scaling_spread").render()
+    assert "| local pool | 2 | 1.83–1.88× | 2.00× | 1.90× |" in spread
+    with pytest.raises(ConfigError, match="shown through a view"):
+        BenchTable(root, "b:x", HISTORY).render()
+
+
+def test_the_committed_history_starts_with_the_committed_run():
+    history = [json.loads(line) for line in (REPO_ROOT / HISTORY).read_text().splitlines()]
+    committed = json.loads((REPO_ROOT / SOURCE).read_text())["stages"]
+    for stage, fig in history[0]["executors"].items():
+        assert fig["speedup_fold"] == committed[stage]["speedup_fold"]
+        assert fig["finished"] == committed[stage]["finished"]
+    for view in ("scaling_runs", "scaling_spread"):
+        assert "Records: `benchmarks/results/scaling_history.jsonl`" in BenchTable(REPO_ROOT, "b:x", HISTORY,
+                                                                                 view).render()
