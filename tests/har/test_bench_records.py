@@ -110,6 +110,7 @@ def test_the_committed_views_render_from_the_committed_json():
                                (SOURCE, "scaling", "| executor | whole fold, 1 → 2 workers |"),
                                ("benchmarks/results/motion_controls.json", "controls", "| check | result |"),
                                (SOURCE, "scaling_cpu", "| executor | workers | wall |"),
+                               (SOURCE, "speed", "| what | measured |"), (SOURCE, "imu", "| what | measured |"),
                                ("benchmarks/results/extract_clips.json", "clips", "| clip | person found |")):
         rendered = BenchTable(REPO_ROOT, "b:x", source, view).render()
         assert rendered.startswith(head) and "Records: " in rendered
@@ -226,3 +227,14 @@ def test_the_committed_history_starts_with_the_committed_run():
     for view in ("scaling_runs", "scaling_spread"):
         assert "Records: `benchmarks/results/scaling_history.jsonl`" in BenchTable(REPO_ROOT, "b:x", HISTORY,
                                                                                  view).render()
+
+
+def test_the_speed_views_take_their_figures_from_the_stages():
+    stages = json.loads((REPO_ROOT / SOURCE).read_text())["stages"]
+    speed = BenchTable(REPO_ROOT, "b:x", SOURCE, "speed").render()
+    assert f"| {stages['chain']['samples_per_s']:.1f} synthetic samples/s |" in speed
+    assert f"{stages['scaling_local']['speedup_fold']:.2f}× on the local pool" in speed
+    assert f"| {stages['cost']['methods']['vsmp']['s_per_sample']:.3f} s |" in speed
+    imu = BenchTable(REPO_ROOT, "b:x", SOURCE, "imu").render()
+    assert f"({1e3 / stages['imu_simulation']['per_s_per_core']:.1f} ms per stream;" in imu
+    assert f"{stages['cem']['naive_over_vectorized']:.1f}× the vectorized one" in imu
