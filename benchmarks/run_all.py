@@ -1073,6 +1073,63 @@ def imu_view(res: dict) -> tuple[str, str]:
     return "\n".join(lines) + "\n", _provenance(res, ("imu_simulation", "cem"))
 
 
+def _thousands(n: int) -> str:
+    return f"{n:,}".replace(",", " ")
+
+
+def notes_view(res: dict) -> tuple[str, str]:
+    """The notes under the table of all figures: how some rows are made up, from their stages."""
+    st = res["stages"]
+    post, cem, dcl, rf = st["post_motion"], st["cem"], st["har_dclstm"], st["har_rf"]
+    per_sample_s = post["post_motion_s"] - post["per_fold_fits_s"]
+    notes = [
+        f"**Post-motion stages.** The fold of the chain row (HAPT12, held-out subject {HOLDOUT}, α = "
+        f"{post['alpha']:g}, {post['samples']} samples) run in the benchmark's own process with one worker and one "
+        f"BLAS thread, the motion synthesis timed and subtracted ({post['motion_s']:.1f} s of the "
+        f"{post['wall_s']:.1f} s). What remains, {post['post_motion_s']:.1f} s, is IMU simulation, CEM, alignment, "
+        f"rank grounding, windowing and the quality filter. {post['per_fold_fits_s']:.1f} s of it does not grow "
+        f"with the samples: the filter's fits on the fold's real windows (validator, plausibility thresholds, "
+        f"τ_nn: {post['filter_fits_s']:.1f} s) and the τ_cls selection ({post['tau_selection_s']:.1f} s). Per "
+        f"sample, then, {post['samples']} / {per_sample_s:.1f} s = {post['per_sample_per_s_per_core']:.1f} "
+        f"samples/s per core; with the per-fold costs spread over this fold's samples, "
+        f"{post['per_s_per_core']:.1f}. A fold with more samples (a larger α, K or refill) moves the second "
+        "figure towards the first.",
+        f"**CEM ratio.** The naive loop is the same bounded CEM (same random draws, same elites) scoring each of "
+        "the 64 candidates on its own: its readings simulated, summarized and compared. The vectorized CEM "
+        "simulates the kinematics once and scores all candidates with one set of linear moments. Both give the "
+        f"same η* (largest difference {cem['max_abs_eta_difference']:g} over {cem['naive_n']} calibrations). "
+        f"{1e3 * cem['vectorized_s']:.0f} ms against {cem['naive_loop_s']:.2f} s per calibration: "
+        f"{cem['naive_over_vectorized']:.0f}×.",
+        f"**DeepConvLSTM.** One HAPT fold (held-out subject {dcl['fold']}: {_thousands(dcl['n_train'])} training "
+        f"and {_thousands(dcl['n_val'])} validation windows), AdamW, batch 1024, {dcl['threads']} threads, capped at "
+        f"{dcl['max_epochs']} epochs (the default cap is 60 with patience 10): {dcl['wall_s']:.0f} s in all, "
+        f"{dcl['per_epoch_s']:.1f} s per epoch including data preparation and evaluation; Macro-F1 "
+        f"{100 * dcl['macro_f1']:.2f} after {dcl['epochs']} epochs.",
+        f"**HAR RF.** {rf['per_fold_s']:.1f} s per fold, {rf['folds_run']} folds, n_jobs {rf['n_jobs']}.",
+    ]
+    text = "\n".join(f"- {n}" for n in notes) + "\n"
+    return text, _provenance(res, ("post_motion", "cem", "har_dclstm", "har_rf"))
+
+
+def _load_range(res: dict) -> str:
+    loads = [f["load_avg_at_start"][0] for f in res["stages"].values() if "load_avg_at_start" in f]
+    return f"{min(loads):.1f}–{max(loads):.1f}"
+
+
+def run_view(res: dict) -> tuple[str, str]:
+    """The runs behind run_all.json: commands, dates, machine, software, load."""
+    runs = [{"command": res["command"], "started": res["started"]}, *res.get("updates", [])]
+    m = res["machine"]
+    versions = ", ".join(f"{k} {v}" for k, v in m["versions"].items() if v)
+    rows = [("commands", "; ".join(f"`{r['command']}` (started {r['started']})" for r in runs)),
+            ("machine", f"{m['cpu']}, {m['cpus']} CPUs ({m['threads_per_core']} thread per core, "
+                        f"{m['affinity_cores']} usable), {m['memory']} RAM"),
+            ("software", f"{m['platform']}, Python {m['python']}, {versions}"),
+            ("load average (1 min) at each stage's start", _load_range(res))]
+    lines = ["| | |", "| --- | --- |"] + [f"| {a} | {b} |" for a, b in rows]
+    return "\n".join(lines) + "\n", "`benchmarks/results/run_all.json` (its `command`, `updates` and `machine`)"
+
+
 def _met(ok: bool) -> str:
     return "met" if ok else "NOT met"
 
@@ -1207,7 +1264,7 @@ def _history_provenance(history: list[dict]) -> str:
 
 
 VIEWS = {"per_sample": cost_view, "scaling": scaling_view, "scaling_cpu": scaling_cpu_view, "targets": targets_view,
-         "speed": speed_view, "imu": imu_view, "scaling_runs": scaling_runs_view, "scaling_spread": scaling_spread_view}
+         "speed": speed_view, "imu": imu_view, "notes": notes_view, "run": run_view, "scaling_runs": scaling_runs_view, "scaling_spread": scaling_spread_view}
 
 
 def print_table(rows) -> None:

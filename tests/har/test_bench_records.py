@@ -111,6 +111,7 @@ def test_the_committed_views_render_from_the_committed_json():
                                ("benchmarks/results/motion_controls.json", "controls", "| check | result |"),
                                (SOURCE, "scaling_cpu", "| executor | workers | wall |"),
                                (SOURCE, "speed", "| what | measured |"), (SOURCE, "imu", "| what | measured |"),
+                               (SOURCE, "run", "| | |"), (SOURCE, "notes", "- **Post-motion stages.**"),
                                ("benchmarks/results/extract_clips.json", "clips", "| clip | person found |")):
         rendered = BenchTable(REPO_ROOT, "b:x", source, view).render()
         assert rendered.startswith(head) and "Records: " in rendered
@@ -238,3 +239,7 @@ def test_the_speed_views_take_their_figures_from_the_stages():
     imu = BenchTable(REPO_ROOT, "b:x", SOURCE, "imu").render()
     assert f"({1e3 / stages['imu_simulation']['per_s_per_core']:.1f} ms per stream;" in imu
     assert f"{stages['cem']['naive_over_vectorized']:.1f}× the vectorized one" in imu
+    notes = BenchTable(REPO_ROOT, "b:x", SOURCE, "notes").render()
+    post = stages["post_motion"]
+    assert f"= {post['per_sample_per_s_per_core']:.1f} samples/s per core" in notes
+    assert f"{post['samples']} / {post['post_motion_s'] - post['per_fold_fits_s']:.1f} s" in notes
