@@ -30,7 +30,9 @@ of that work only).
 Usage:  .venv/bin/python benchmarks/run_all.py [--quick] [--stages a,b] [--update]
         [--json PATH] [--markdown PATH] [--report]
 Writes the figures as JSON (default benchmarks/results/run_all[_quick].json)
-and the table as Markdown (same name, .md), and prints the table.
+and the table as Markdown (same name, .md), and prints the table. A run with a
+scaling stage (not `--quick`) also adds one line to the scaling history
+(benchmarks/results/scaling_history.jsonl; `--history PATH`, `--no-history`).
 """
 
 from __future__ import annotations
