@@ -30,7 +30,9 @@ of that work only).
 Usage:  .venv/bin/python benchmarks/run_all.py [--quick] [--stages a,b] [--update]
         [--json PATH] [--markdown PATH] [--report]
 Writes the figures as JSON (default benchmarks/results/run_all[_quick].json)
-and the table as Markdown (same name, .md), and prints the table.
+and the table as Markdown (same name, .md), and prints the table. A run with a
+scaling stage (not `--quick`) also adds one line to the scaling history
+(benchmarks/results/scaling_history.jsonl; `--history PATH`, `--no-history`).
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 VIDEO_DIR = REPO.parent / "shared" / "data" / "videos"
+HISTORY = HERE / "results" / "scaling_history.jsonl"  # one line per run with a scaling stage
 HOLDOUT = "1"  # the HAPT12 fold used by every generation figure
 CORES = 2
 STAGES = ("smp_augment", "procedural_motion", "imu_simulation", "cem", "align_rank", "post_motion", "chain",
@@ -1014,6 +1017,121 @@ def scaling_view(res: dict) -> tuple[str, str]:
     return "\n".join(lines) + "\n\n" + setting + "\n", _provenance(res, tuple(shown))
 
 
+def scaling_cpu_view(res: dict) -> tuple[str, str]:
+    """Where the cores' time went in each fold of the scaling stages (CPU-seconds per role)."""
+    lines = ["| executor | workers | wall | CPU-s driver | CPU-s workers | CPU-s Ray daemons | CPU-s in all | "
+             "cores busy |", "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    shown = []
+    for stage, label in SCALING_EXECUTORS:
+        fig = res["stages"].get(stage)
+        if not fig or "error" in fig:
+            continue
+        shown.append(stage)
+        for r in fig["fold_runs"]:
+            cpu = r["cpu_s"]
+            total = sum(cpu.values())
+            daemons = f"{cpu['ray daemons']:.1f}" if "ray daemons" in cpu else "–"
+            lines.append(f"| {label} | {r['workers']} | {r['wall_s']:.1f} s | {cpu['driver']:.1f} | "
+                         f"{cpu['workers']:.1f} | {daemons} | {total:.1f} | {total / r['wall_s']:.2f} |")
+    note = ("The fold of each scaling stage in the order it ran (1, 2, 2, 1 workers); with one local worker the "
+            "fold runs in the driver's process. Cores busy: CPU-seconds in all over the wall.")
+    return "\n".join(lines) + "\n\n" + note + "\n", _provenance(res, tuple(shown))
+
+
+def speed_view(res: dict) -> tuple[str, str]:
+    """The headline speed figures of README.md, from the committed stages."""
+    st = res["stages"]
+    chain, post, rf, cost = st["chain"], st["post_motion"], st["har_rf"], st["cost"]["methods"]["vsmp"]
+    ray = st.get("scaling_ray")
+    scaling = f"{st['scaling_local']['speedup_fold']:.2f}× on the local pool"
+    if ray and "error" not in ray:
+        scaling += f", {ray['speedup_fold']:.2f}× on a local Ray instance"
+    rows = [("whole embedded chain, one HAPT12 fold, 2 workers", f"{chain['samples_per_s']:.1f} synthetic samples/s"),
+            ("post-motion stages (IMU simulation, CEM, alignment, grounding, filter), one core",
+             f"{post['per_sample_per_s_per_core']:.1f} samples/s ({post['per_s_per_core']:.1f} counting the "
+             "filter's once-per-fold fits)"),
+            ("HAPT 30-fold RF-ECDF LOPO", f"{rf['thirty_fold_s']:.0f} s"),
+            ("one generation fold, 1 → 2 workers", scaling),
+            ("cost per synthetic sample, VSMP-IMU (procedural backend, no VLM), one worker",
+             f"{cost['s_per_sample']:.3f} s")]
+    lines = ["| what | measured |", "| --- | --- |"] + [f"| {a} | {b} |" for a, b in rows]
+    stages = ("chain", "post_motion", "har_rf", "scaling_local", *(("scaling_ray",) if "Ray" in scaling else ()),
+              "cost")
+    return "\n".join(lines) + "\n", _provenance(res, stages)
+
+
+def imu_view(res: dict) -> tuple[str, str]:
+    """The IMU simulation and CEM rates of docs/imu.md, from their stages."""
+    imu, cem = res["stages"]["imu_simulation"], res["stages"]["cem"]
+    rows = [(f"IMU simulation ({imu['note']}), one core",
+             f"{imu['per_s_per_core']:.1f} sensor streams/s ({1e3 / imu['per_s_per_core']:.1f} ms per stream; "
+             f"{imu['n']} streams)"),
+            (f"CEM, vectorized ({cem['note'].split(';')[0]}), one core",
+             f"{cem['per_s_per_core']:.1f} calibrations/s ({1e3 * cem['vectorized_s']:.0f} ms per calibration)"),
+            ("CEM scoring each candidate in a Python loop",
+             f"{cem['naive_loop_s']:.2f} s per calibration: {cem['naive_over_vectorized']:.1f}× the vectorized "
+             f"one (largest difference in η* {cem['max_abs_eta_difference']:g} over {cem['naive_n']} calibrations)")]
+    lines = ["| what | measured |", "| --- | --- |"] + [f"| {a} | {b} |" for a, b in rows]
+    return "\n".join(lines) + "\n", _provenance(res, ("imu_simulation", "cem"))
+
+
+def _thousands(n: int) -> str:
+    return f"{n:,}".replace(",", " ")
+
+
+def notes_view(res: dict) -> tuple[str, str]:
+    """The notes under the table of all figures: how some rows are made up, from their stages."""
+    st = res["stages"]
+    post, cem, dcl, rf = st["post_motion"], st["cem"], st["har_dclstm"], st["har_rf"]
+    per_sample_s = post["post_motion_s"] - post["per_fold_fits_s"]
+    notes = [
+        f"**Post-motion stages.** The fold of the chain row (HAPT12, held-out subject {HOLDOUT}, α = "
+        f"{post['alpha']:g}, {post['samples']} samples) run in the benchmark's own process with one worker and one "
+        f"BLAS thread, the motion synthesis timed and subtracted ({post['motion_s']:.1f} s of the "
+        f"{post['wall_s']:.1f} s). What remains, {post['post_motion_s']:.1f} s, is IMU simulation, CEM, alignment, "
+        f"rank grounding, windowing and the quality filter. {post['per_fold_fits_s']:.1f} s of it does not grow "
+        f"with the samples: the filter's fits on the fold's real windows (validator, plausibility thresholds, "
+        f"τ_nn: {post['filter_fits_s']:.1f} s) and the τ_cls selection ({post['tau_selection_s']:.1f} s). Per "
+        f"sample, then, {post['samples']} / {per_sample_s:.1f} s = {post['per_sample_per_s_per_core']:.1f} "
+        f"samples/s per core; with the per-fold costs spread over this fold's samples, "
+        f"{post['per_s_per_core']:.1f}. A fold with more samples (a larger α, K or refill) moves the second "
+        "figure towards the first.",
+        f"**CEM ratio.** The naive loop is the same bounded CEM (same random draws, same elites) scoring each of "
+        "the 64 candidates on its own: its readings simulated, summarized and compared. The vectorized CEM "
+        "simulates the kinematics once and scores all candidates with one set of linear moments. Both give the "
+        f"same η* (largest difference {cem['max_abs_eta_difference']:g} over {cem['naive_n']} calibrations). "
+        f"{1e3 * cem['vectorized_s']:.0f} ms against {cem['naive_loop_s']:.2f} s per calibration: "
+        f"{cem['naive_over_vectorized']:.0f}×.",
+        f"**DeepConvLSTM.** One HAPT fold (held-out subject {dcl['fold']}: {_thousands(dcl['n_train'])} training "
+        f"and {_thousands(dcl['n_val'])} validation windows), AdamW, batch 1024, {dcl['threads']} threads, capped at "
+        f"{dcl['max_epochs']} epochs (the default cap is 60 with patience 10): {dcl['wall_s']:.0f} s in all, "
+        f"{dcl['per_epoch_s']:.1f} s per epoch including data preparation and evaluation; Macro-F1 "
+        f"{100 * dcl['macro_f1']:.2f} after {dcl['epochs']} epochs.",
+        f"**HAR RF.** {rf['per_fold_s']:.1f} s per fold, {rf['folds_run']} folds, n_jobs {rf['n_jobs']}.",
+    ]
+    text = "\n".join(f"- {n}" for n in notes) + "\n"
+    return text, _provenance(res, ("post_motion", "cem", "har_dclstm", "har_rf"))
+
+
+def _load_range(res: dict) -> str:
+    loads = [f["load_avg_at_start"][0] for f in res["stages"].values() if "load_avg_at_start" in f]
+    return f"{min(loads):.1f}–{max(loads):.1f}"
+
+
+def run_view(res: dict) -> tuple[str, str]:
+    """The runs behind run_all.json: commands, dates, machine, software, load."""
+    runs = [{"command": res["command"], "started": res["started"]}, *res.get("updates", [])]
+    m = res["machine"]
+    versions = ", ".join(f"{k} {v}" for k, v in m["versions"].items() if v)
+    rows = [("commands", "; ".join(f"`{r['command']}` (started {r['started']})" for r in runs)),
+            ("machine", f"{m['cpu']}, {m['cpus']} CPUs ({m['threads_per_core']} thread per core, "
+                        f"{m['affinity_cores']} usable), {m['memory']} RAM"),
+            ("software", f"{m['platform']}, Python {m['python']}, {versions}"),
+            ("load average (1 min) at each stage's start", _load_range(res))]
+    lines = ["| | |", "| --- | --- |"] + [f"| {a} | {b} |" for a, b in rows]
+    return "\n".join(lines) + "\n", "`benchmarks/results/run_all.json` (its `command`, `updates` and `machine`)"
+
+
 def _met(ok: bool) -> str:
     return "met" if ok else "NOT met"
 
@@ -1061,7 +1179,94 @@ def targets_view(res: dict) -> tuple[str, str]:
     return "\n".join(lines) + "\n", _provenance(res, stages)
 
 
-VIEWS = {"per_sample": cost_view, "scaling": scaling_view, "targets": targets_view}
+# -- the scaling history: one line per run that measured a scaling stage ---------------------------
+def _git(*args: str) -> str:
+    try:
+        return subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+
+
+def code_state() -> dict:
+    """The commit the run measured, and whether tracked files differed from it."""
+    return {"commit": _git("rev-parse", "HEAD") or None,
+            "dirty": bool(_git("status", "--porcelain", "--untracked-files=no"))}
+
+
+def scaling_entry(res: dict, stages: list[str], run: dict) -> dict:
+    """The history line of one run: its command, start and code (`run`), and the figures of the
+    scaling stages it measured."""
+    executors = {}
+    for stage in stages:
+        fig = res["stages"][stage]
+        executors[stage] = {
+            "fold_runs": [{k: r[k] for k in ("workers", "wall_s", "synthesis_map_s")} for r in fig["fold_runs"]],
+            "replay": [{k: r[k] for k in ("workers", "wall_s")} for r in fig["replay"]],
+            **{k: fig[k] for k in ("replay_tasks", "alpha", "worker_niceness", "speedup_fold", "speedup_synthesis",
+                                   "speedup_synthesis_abba", "load_avg_at_start", "finished")}}
+    machine = res.get("machine", {})
+    return {**run, "machine": {"cpu": machine.get("cpu"), "cpus": machine.get("cpus")}, "executors": executors}
+
+
+def append_history(path: Path, entry: dict) -> None:
+    """Add one line to the history (the file is rewritten whole, atomically)."""
+    from vsmp_imu.io import read_text, write_text
+
+    earlier = read_text(path) if path.exists() else ""
+    write_text(path, earlier + json.dumps(entry, sort_keys=True, default=float) + "\n")
+
+
+# -- the scaling history's tables -----------------------------------------------------------------
+def _executor_label(stage: str) -> str:
+    return dict(SCALING_EXECUTORS)[stage]
+
+
+def _ratios(figs: list[dict], key: str) -> str:
+    low, high = min(f[key] for f in figs), max(f[key] for f in figs)
+    return f"{low:.2f}×" if f"{low:.2f}" == f"{high:.2f}" else f"{low:.2f}–{high:.2f}×"
+
+
+def _run_label(entry: dict) -> str:
+    code = f"`{entry['commit'][:7]}`{' + changes' if entry['dirty'] else ''}" if entry.get("commit") else \
+        "code not recorded"
+    return f"{entry['started']} ({code})"
+
+
+def scaling_runs_view(history: list[dict]) -> tuple[str, str]:
+    """Every recorded scaling run, oldest first: the ratios of each executor it measured."""
+    lines = ["| run | executor | whole fold, 1 → 2 workers | synthesis step of the fold | synthesis replay "
+             "| load average at the stage's start |", "| --- | --- | --- | ---: | --- | ---: |"]
+    for entry in history:
+        for stage, fig in ((s, entry["executors"][s]) for s, _ in SCALING_EXECUTORS if s in entry["executors"]):
+            walls = ", ".join(f"{r['wall_s']:.1f}" for r in fig["fold_runs"])
+            order = ", ".join(str(r["workers"]) for r in fig["fold_runs"])
+            lines.append(f"| {_run_label(entry)} | {_executor_label(stage)} | {fig['speedup_fold']:.2f}× ({order} "
+                         f"workers: {walls} s) | {fig['speedup_synthesis']:.2f}× | "
+                         f"{fig['speedup_synthesis_abba']:.2f}× ({fig['replay_tasks']} tasks) | "
+                         f"{fig['load_avg_at_start'][0]:.1f} |")
+    return "\n".join(lines) + "\n", _history_provenance(history)
+
+
+def scaling_spread_view(history: list[dict]) -> tuple[str, str]:
+    """Per executor, the range of each ratio over the recorded runs."""
+    lines = ["| executor | runs | whole fold | synthesis step of the fold | synthesis replay |",
+             "| --- | ---: | ---: | ---: | ---: |"]
+    for stage, label in SCALING_EXECUTORS:
+        figs = [e["executors"][stage] for e in history if stage in e["executors"]]
+        if figs:
+            lines.append(f"| {label} | {len(figs)} | {_ratios(figs, 'speedup_fold')} | "
+                         f"{_ratios(figs, 'speedup_synthesis')} | {_ratios(figs, 'speedup_synthesis_abba')} |")
+    return "\n".join(lines) + "\n", _history_provenance(history)
+
+
+def _history_provenance(history: list[dict]) -> str:
+    runs = "; ".join(f"`{e['command']}` (started {e['started']})" for e in history)
+    return (f"`benchmarks/results/scaling_history.jsonl`, {len(history)} "
+            f"{'run' if len(history) == 1 else 'runs'} of `benchmarks/run_all.py` with a scaling stage: {runs}")
+
+
+VIEWS = {"per_sample": cost_view, "scaling": scaling_view, "scaling_cpu": scaling_cpu_view, "targets": targets_view,
+         "speed": speed_view, "imu": imu_view, "notes": notes_view, "run": run_view, "scaling_runs": scaling_runs_view, "scaling_spread": scaling_spread_view}
 
 
 def print_table(rows) -> None:
@@ -1088,6 +1293,9 @@ def main() -> None:
     parser.add_argument("--update", action="store_true", help="keep the other stages of an existing JSON")
     parser.add_argument("--report", action="store_true", help="only print (and --markdown) the table of "
                         "an existing JSON")
+    parser.add_argument("--history", type=Path, default=HISTORY,
+                        help="the scaling history a run with a scaling stage adds one line to (not with --quick)")
+    parser.add_argument("--no-history", action="store_true", help="add nothing to the scaling history")
     parser.add_argument("--stage", help=argparse.SUPPRESS)
     parser.add_argument("--result-file", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -1109,12 +1317,13 @@ def main() -> None:
         return
     results = json.loads(path.read_text()) if args.update and path.exists() else {"stages": {}}
     command = " ".join([Path(sys.executable).name, "benchmarks/run_all.py"] + sys.argv[1:])
+    run = {"command": command, "started": dt.datetime.now().isoformat(timespec="seconds"), **code_state()}
     if args.update:  # the first run's command, date and load stay; this one is added
         results.setdefault("updates", []).append({"command": command, "load_avg_at_start": os.getloadavg(),
-                                                  "started": dt.datetime.now().isoformat(timespec="seconds")})
+                                                  "started": run["started"]})
     else:
         results.update({"command": command, "quick": args.quick, "load_avg_at_start": os.getloadavg(),
-                        "started": dt.datetime.now().isoformat(timespec="seconds")})
+                        "started": run["started"]})
     results["machine"] = machine()
     for name in chosen:
         print(f"[{time.strftime('%H:%M:%S')}] {name} (load average {os.getloadavg()[0]:.2f}) ...", flush=True)
@@ -1131,6 +1340,10 @@ def main() -> None:
     path.write_text(json.dumps(results, indent=2, default=float) + "\n")
     report(results, markdown_path)
     print(f"\nfigures: {path}, table: {markdown_path}")
+    scaled = [n for n in chosen if n in dict(SCALING_EXECUTORS) and "error" not in results["stages"][n]]
+    if scaled and not (args.quick or args.no_history):
+        append_history(args.history, scaling_entry(results, scaled, run))
+        print(f"scaling history: {args.history} (one line added)")
     failed = [name for name in chosen if "error" in results["stages"][name]]
     if failed:
         sys.exit(f"stage(s) failed: {', '.join(failed)}")

@@ -108,7 +108,11 @@ def test_the_committed_views_render_from_the_committed_json():
     for source, view, head in ((SOURCE, "targets", "| target | measured | status |"),
                                (SOURCE, "per_sample", "| method | s per sample here |"),
                                (SOURCE, "scaling", "| executor | whole fold, 1 → 2 workers |"),
-                               ("benchmarks/results/motion_controls.json", "controls", "| check | result |")):
+                               ("benchmarks/results/motion_controls.json", "controls", "| check | result |"),
+                               (SOURCE, "scaling_cpu", "| executor | workers | wall |"),
+                               (SOURCE, "speed", "| what | measured |"), (SOURCE, "imu", "| what | measured |"),
+                               (SOURCE, "run", "| | |"), (SOURCE, "notes", "- **Post-motion stages.**"),
+                               ("benchmarks/results/extract_clips.json", "clips", "| clip | person found |")):
         rendered = BenchTable(REPO_ROOT, "b:x", source, view).render()
         assert rendered.startswith(head) and "Records: " in rendered
 
@@ -120,3 +124,122 @@ def test_a_target_missed_in_the_stage_reads_not_met():
     figures, status = run_all._scaling_cells({**SCALING, "met": False, "met_synthesis": True})
     assert status == "whole fold NOT met, synthesis replay met"
     assert figures.startswith("whole fold **1.83×** (1, 2, 2, 1 workers: 10.0, 5.0, 7.0, 12.0 s)")
+
+
+def _extract_script():
+    from vsmp_imu.har.bench_records import _script
+
+    return _script(REPO_ROOT / "benchmarks/bench_extract.py")
+
+
+def _part(clips: list[dict]) -> dict:
+    return {"clips": clips, "command": "python benchmarks/bench_extract.py --parts clips",
+            "started": "2026-01-01T00:00:00+00:00", "wall_s": 12.0, "load_avg_at_start": [0.5, 0.4, 0.3],
+            "machine": {"cpus": 2, "mediapipe": "0.10.21"}}
+
+
+def _field(value, uncertainty, raw=None) -> dict:
+    return {"value": value, "uncertainty": uncertainty, "raw": raw or {}, "evidence": {}, "note": ""}
+
+
+def test_the_extract_view_renders_the_record_of_each_clip():
+    clip = {"clip": "walk.mp4", "label": "walking", "library_entry": None, "generic_smp": True,
+            "n_frames": 200, "fps": 10.0, "frames_with_pose": 150, "wall_s": 4.0, "window": [20, 120],
+            "clip_track": {"identity_switches": 3},
+            "track": {"quality": 0.25, "body_height_px": 110.4, "visibility": 0.871},
+            "fields": {"tempo": _field(2.0, 1.0, {"cycle_frequency_hz": 1.25, "cadence_steps_per_min": 150.0,
+                                                  "level_unclipped": 2.7, "ratio_to_reference": 1.3}),
+                       "periodicity": _field(True, 0.4), "symmetry": _field(None, 1.0),
+                       "global_displacement": _field(11.94, 0.9), "body_parts": _field(["left_foot", "head"], 1.0)}}
+    record = {"clips": _part([clip]), "frames": {**_part([]), "runs": [{"decoded": 100, "wall_s": 0.05},
+                                                                      {"decoded": 100, "wall_s": 0.1}]}}
+    table, source = _extract_script().VIEWS["clips"](record)
+    row = table.splitlines()[2]
+    assert row == ("| `walk.mp4` (label walking, not in the library) | 150 / 200 frames, 3 identity switches | "
+                   "20–119 (10.0 s) | 0.25 (body ~110 px tall, core landmarks 87 % visible, 10 fps) | generic SMP; "
+                   "periodic yes (u = 0.40); tempo 2.00 (u = 1.00; 1.25 Hz by peaks = 150 steps/min; clipped from "
+                   "2.70, 1.3× the reference); symmetry not measured; displacement 11.9 m (u = 0.90); body parts "
+                   "left foot, head (u = 1.00) |")
+    assert "MediaPipe 0.10.21, every frame: 50–50 frames/s" in source
+    assert "frame sampling 1000–2000 decoded frames/s" in source
+    assert "`python benchmarks/bench_extract.py --parts clips` (2026-01-01T00:00:00+00:00" in source
+
+
+def test_the_extract_record_of_a_real_extraction_renders():
+    """A clip record as the benchmark writes it, from the pose extractor on a rendered motion."""
+    from vsmp_imu.extract.calibrate import motion_track
+    from vsmp_imu.extract.pose import PoseExtractor
+    from vsmp_imu.motion.procedural import ProceduralBackend
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    library = ActivityLibrary.load()
+    motion = ProceduralBackend(library).generate(library.get("walking").smp, seed=0, duration_s=6.0)
+    track = motion_track(motion)
+    script = _extract_script()
+    clip = script.clip_record("walk.mp4", "walking", track, PoseExtractor(library=library).extract_track(
+        track, "walking"), 2.0)
+    clip = json.loads(json.dumps(clip))  # as read back from the committed JSON
+    table, _ = script.VIEWS["clips"]({"clips": _part([clip])})
+    row = table.splitlines()[2]
+    assert row.startswith(f"| `walk.mp4` (label walking) | {track.n_frames} / {track.n_frames} frames, "
+                          "0 identity switches | whole clip | ")
+    tempo = clip["fields"]["tempo"]
+    assert f"tempo {tempo['value']:.2f} (u = {tempo['uncertainty']:.2f}" in row
+
+
+HISTORY = "benchmarks/results/scaling_history.jsonl"
+
+
+def _scaling_fig(fold: float, replay: float) -> dict:
+    return {**SCALING, "speedup_fold": fold, "speedup_synthesis_abba": replay, "replay_tasks": 240,
+            "replay": [{"workers": w, "wall_s": 1.0, "load_avg_after": [0.1, 0.1, 0.1]} for w in (1, 2, 2, 1)],
+            "load_avg_at_start": [1.25, 1.0, 1.0], "finished": "2026-01-01T02:00:00"}
+
+
+def test_each_scaling_run_adds_one_line_and_the_views_read_the_history(tmp_path):
+    from vsmp_imu.har.bench_records import _script
+
+    run_all = _script(REPO_ROOT / "benchmarks/run_all.py")
+    root = _root(tmp_path, {})
+    path = root / HISTORY
+    for started, fold, commit in (("2026-01-01T00:00:00", 1.83, None), ("2026-01-02T00:00:00", 1.88, "abcdef123")):
+        results = {"stages": {"scaling_local": _scaling_fig(fold, 1.9), "cem": {}}, "machine": {"cpus": "2"}}
+        run = {"command": "python benchmarks/run_all.py", "started": started, "commit": commit, "dirty": True}
+        run_all.append_history(path, run_all.scaling_entry(results, ["scaling_local"], run))
+    lines = path.read_text().splitlines()
+    assert len(lines) == 2 and json.loads(lines[0])["executors"]["scaling_local"]["speedup_fold"] == 1.83
+    runs = BenchTable(root, "bench:scaling_runs", HISTORY, "scaling_runs").render()
+    assert ("| 2026-01-01T00:00:00 (code not recorded) | local pool | 1.83× (1, 2, 2, 1 workers: 10.0, 5.0, 7.0, "
+            "12.0 s) | 2.00× | 1.90× (240 tasks) | 1.2 |") in runs
+    assert "| 2026-01-02T00:00:00 (`abcdef1` + changes) | local pool | 1.88×" in runs
+    assert "`benchmarks/results/scaling_history.jsonl`, 2 runs of `benchmarks/run_all.py`" in runs
+    spread = BenchTable(root, "scale:scaling_spread", HISTORY, "scaling_spread").render()
+    assert "| local pool | 2 | 1.83–1.88× | 2.00× | 1.90× |" in spread
+    with pytest.raises(ConfigError, match="shown through a view"):
+        BenchTable(root, "b:x", HISTORY).render()
+
+
+def test_the_committed_history_starts_with_the_committed_run():
+    history = [json.loads(line) for line in (REPO_ROOT / HISTORY).read_text().splitlines()]
+    committed = json.loads((REPO_ROOT / SOURCE).read_text())["stages"]
+    for stage, fig in history[0]["executors"].items():
+        assert fig["speedup_fold"] == committed[stage]["speedup_fold"]
+        assert fig["finished"] == committed[stage]["finished"]
+    for view in ("scaling_runs", "scaling_spread"):
+        assert "Records: `benchmarks/results/scaling_history.jsonl`" in BenchTable(REPO_ROOT, "b:x", HISTORY,
+                                                                                 view).render()
+
+
+def test_the_speed_views_take_their_figures_from_the_stages():
+    stages = json.loads((REPO_ROOT / SOURCE).read_text())["stages"]
+    speed = BenchTable(REPO_ROOT, "b:x", SOURCE, "speed").render()
+    assert f"| {stages['chain']['samples_per_s']:.1f} synthetic samples/s |" in speed
+    assert f"{stages['scaling_local']['speedup_fold']:.2f}× on the local pool" in speed
+    assert f"| {stages['cost']['methods']['vsmp']['s_per_sample']:.3f} s |" in speed
+    imu = BenchTable(REPO_ROOT, "b:x", SOURCE, "imu").render()
+    assert f"({1e3 / stages['imu_simulation']['per_s_per_core']:.1f} ms per stream;" in imu
+    assert f"{stages['cem']['naive_over_vectorized']:.1f}× the vectorized one" in imu
+    notes = BenchTable(REPO_ROOT, "b:x", SOURCE, "notes").render()
+    post = stages["post_motion"]
+    assert f"= {post['per_sample_per_s_per_core']:.1f} samples/s per core" in notes
+    assert f"{post['samples']} / {post['post_motion_s'] - post['per_fold_fits_s']:.1f} s" in notes

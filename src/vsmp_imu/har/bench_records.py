@@ -6,7 +6,8 @@ root); the table is the script's own Markdown of it: for
 `benchmarks/run_all.py` (what `run_all.py --report` writes to run_all.md).
 A table with a `view` is one of the script's `VIEWS`: a function of the JSON
 giving the Markdown and a line on the measurements it shows (which stages, by
-which command, when).
+which command, when). A `.jsonl` source is a history, one JSON object per run
+(`benchmarks/results/scaling_history.jsonl`), shown through a view only.
 """
 
 from __future__ import annotations
@@ -21,7 +22,9 @@ from vsmp_imu.io import read_text
 
 # the script that writes (and renders) each benchmark JSON, relative to the repository root
 SCRIPTS = {"benchmarks/results/run_all.json": "benchmarks/run_all.py",
-           "benchmarks/results/motion_controls.json": "benchmarks/study_motion_controls.py"}
+           "benchmarks/results/motion_controls.json": "benchmarks/study_motion_controls.py",
+           "benchmarks/results/extract_clips.json": "benchmarks/bench_extract.py",
+           "benchmarks/results/scaling_history.jsonl": "benchmarks/run_all.py"}
 
 
 def _script(path: Path) -> ModuleType:
@@ -31,6 +34,17 @@ def _script(path: Path) -> ModuleType:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def _load(path: Path) -> dict | list[dict]:
+    """A benchmark JSON, or a JSON Lines history (`.jsonl`: one object per run, oldest first)."""
+    text = read_text(path)
+    try:
+        if path.suffix == ".jsonl":
+            return [json.loads(line) for line in text.splitlines() if line.strip()]
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputFileError(f"not valid JSON: {exc}", file=path) from exc
 
 
 class BenchTable:
@@ -50,13 +64,13 @@ class BenchTable:
         path = self.root / self.source
         if not path.is_file():
             raise InputFileError(f"table '{self.table_id}': the benchmark results are not committed", file=path)
-        try:
-            results = json.loads(read_text(path))
-        except json.JSONDecodeError as exc:
-            raise InputFileError(f"not valid JSON: {exc}", file=path) from exc
+        results = _load(path)
         script = _script(self.root / SCRIPTS[self.source])
         if self.view is not None:
             return self._view(script, results)
+        if isinstance(results, list):
+            raise ConfigError(f"table '{self.table_id}': a history ({self.source}) is shown through a view",
+                              field="view")
         table = script.markdown(script.table_rows(results)).rstrip("\n")
         updates = results.get("updates", [])
         later = f" and {len(updates)} later `--update` runs (listed in its `updates`)" if updates else ""
