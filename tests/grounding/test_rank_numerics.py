@@ -1,0 +1,134 @@
+"""The rank map's numerics pinned against independent computations: the kernel bandwidth from a
+hand-worked example, the smoothed quantiles against a root-found mixture of Gaussians, weighted
+quantiles and spreads against repeated samples, the tie-breaking offset, and the map as the
+composition of its two stored grids (one thread or several)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+from scipy.stats import norm
+
+from vsmp_imu.grounding.rank import (
+    GAP_WIDTHS,
+    _balance_weights,
+    _ChannelMap,
+    _kernel_smoothed,
+    _probs,
+    _quantile_grid,
+    _spread,
+    window_bandwidths,
+)
+from vsmp_imu.quantiles import sorted_quantiles
+
+
+def _windows(means_per_channel, per_window, wobble=0.3):
+    """Rows (n * per_window, C): window w of channel c sits at means[c][w] +- wobble (mean exact)."""
+    means = np.asarray(means_per_channel, dtype=float).T  # (n, C)
+    offsets = wobble * np.where(np.arange(per_window) % 2 == 0, 1.0, -1.0)  # per_window even: mean 0
+    return (means[:, None, :] + offsets[None, :, None]).reshape(-1, means.shape[1])
+
+
+def test_bandwidth_of_a_few_windows_is_silvermans_from_their_means():
+    # channel 0: means 0..4 -> sd sqrt(2), IQR 2 (2 / 1.349 > sd): scale sqrt(2)
+    # channel 1: means 0, 0, 0, 0, 10 -> IQR 0: scale sd = 4
+    # channel 2: means 0, 1, 2, 3, 40 -> sd 15.2, IQR 2: scale 2 / 1.349
+    x = _windows([[0, 1, 2, 3, 4], [0, 0, 0, 0, 10], [0, 1, 2, 3, 40]], per_window=4)
+    factor = 0.9 * 5 ** -0.2  # below GAP_WIDTHS / 5
+    expected = np.array([np.sqrt(2.0), 4.0, 2.0 / 1.349]) * factor
+    assert window_bandwidths(x, 4) == pytest.approx(expected, rel=1e-12)
+
+
+def test_bandwidth_of_many_windows_is_capped_by_their_gaps():
+    means = np.arange(200.0)
+    x = _windows([means], per_window=2)
+    scale = min(means.std(), (np.quantile(means, 0.75) - np.quantile(means, 0.25)) / 1.349)
+    assert window_bandwidths(x, 2)[0] == pytest.approx(scale * GAP_WIDTHS / 200, rel=1e-12)
+
+
+def _mixture_quantiles(points, h, probs):
+    """Quantiles of the mean of N(point, h^2), shrunk to the points' mean and variance."""
+    mean, sd = points.mean(), points.std()
+    cdf = lambda x, p: norm.cdf((x - points) / h).mean() - p  # noqa: E731
+    lo, hi = points.min() - 10 * h, points.max() + 10 * h
+    q = np.array([brentq(cdf, lo, hi, args=(p,), xtol=1e-12) for p in probs])
+    return mean + (q - mean) / np.sqrt(1 + (h / sd) ** 2)
+
+
+@pytest.mark.parametrize("h", [0.2, 1.0])
+def test_smoothed_quantiles_are_those_of_the_gaussian_mixture_with_the_variance_kept(h):
+    points = np.array([0.0, 0.1, 0.2, 3.0, 3.1, 7.0])  # three plateaus, as a few windows give
+    probs = _probs(len(points))
+    grid = np.concatenate([[points[0]], points, [points[-1]]])  # its quantile grid at probs
+    out = _kernel_smoothed(grid, probs, h)
+    step = (points[-1] - points[0] + 8 * h) / 4096  # the histogram's resolution
+    assert out[1:-1] == pytest.approx(_mixture_quantiles(points, h, probs[1:-1]), abs=3 * step)
+    # the ends: the outer smoothed levels, or the data's extremes where those lie further out
+    assert out[0] == min(out[1], grid[0]) and out[-1] == max(out[-2], grid[-1])
+
+
+def test_smoothing_keeps_the_mean_and_variance_and_leaves_degenerate_columns_alone():
+    rng = np.random.default_rng(4)
+    points = np.sort(np.concatenate([rng.normal(0, 1, 400), rng.normal(6, 0.5, 200)]))
+    probs = _probs(len(points))
+    grid = np.concatenate([[points[0] - 1], points, [points[-1] + 1]])
+    out = _kernel_smoothed(grid, probs, 0.8)[1:-1]
+    assert out.mean() == pytest.approx(points.mean(), abs=0.01)
+    assert out.std() == pytest.approx(points.std(), rel=0.01)
+    assert np.array_equal(_kernel_smoothed(grid, probs, 0.0), grid)
+    flat = np.full(5, 2.0)
+    assert np.array_equal(_kernel_smoothed(flat, _probs(3), 0.5), flat)
+
+
+def test_weighted_quantiles_and_spread_are_those_of_the_repeated_sample():
+    values = np.array([[3.0, -1.0], [1.0, 5.0], [2.0, 0.0], [7.0, 2.0]])
+    weights = np.array([1.0, 2.0, 1.0, 4.0])
+    probs, grid = _quantile_grid(values, 10, weights)
+    assert np.array_equal(probs, _probs(4))
+    for c in range(2):
+        order = np.argsort(values[:, c])
+        cum = np.cumsum(weights[order])
+        mid = (cum - weights[order] / 2) / cum[-1]  # each value's mid-rank in the weighted sample
+        span = values[:, c].max() - values[:, c].min()
+        expected = np.interp(probs, mid, values[order, c]) + np.arange(6) * span * 1e-12
+        assert grid[:, c] == pytest.approx(expected, rel=0, abs=1e-13)
+    repeated = np.repeat(values, weights.astype(int), axis=0)
+    assert _spread(values, weights) == pytest.approx(repeated.std(axis=0), rel=1e-12)
+    assert np.array_equal(_spread(values, None), values.std(axis=0))
+
+
+def test_unweighted_grid_is_hazen_quantiles_plus_a_rank_offset_that_breaks_ties():
+    values = np.array([[4.0], [1.0], [1.0], [9.0], [2.0]])
+    probs, grid = _quantile_grid(values, 4096)
+    base = sorted_quantiles(values[:, 0], probs, method="hazen")
+    assert grid[:, 0] - base == pytest.approx(np.arange(7) * 8.0 * 1e-12, rel=1e-3, abs=1e-16)
+    assert np.all(np.diff(grid[:, 0]) > 0)  # the two 1.0 levels are told apart
+
+
+def test_grid_is_capped_at_the_requested_number_of_quantiles():
+    values = np.arange(100.0)[:, None]
+    probs, grid = _quantile_grid(values, 10)
+    assert np.array_equal(probs, _probs(10)) and grid.shape == (12, 1)
+
+
+def test_balance_weights_are_the_ratio_of_real_to_synthetic_shares():
+    syn = np.array([0, 0, 0, 1, 2])  # shares 0.6, 0.2, 0.2; class 2 has no real sample
+    real = np.array([0, 1, 1, 1])  # shares 0.25, 0.75
+    w = _balance_weights(syn, real)
+    assert w == pytest.approx([0.25 / 0.6] * 3 + [0.75 / 0.2, 1.0], rel=1e-12)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_the_map_is_the_real_inverse_cdf_of_the_synthetic_cdf(threads):
+    rng = np.random.default_rng(9)
+    syn = rng.gamma(2.0, 1.0, size=(600, 3))
+    real = rng.normal(0.0, 1.0, size=(400, 3)) * [1.0, 2.0, 3.0]
+    m = _ChannelMap(syn, real, 256, threads=threads)
+    x = rng.gamma(2.0, 1.0, size=(5000, 3))  # above the threaded-rows threshold
+    out = m.apply(x)
+    for c in range(3):
+        p = np.interp(x[:, c], m.v_grid[:, c], m.v_probs)
+        assert np.array_equal(out[:, c], np.interp(p, m.r_probs, m.r_grid[:, c]))
+    assert np.array_equal(out, _ChannelMap(syn, real, 256, threads=1).apply(x))
+    assert m.apply(x[:7].reshape(7, 1, 3)).shape == (7, 1, 3)
