@@ -132,3 +132,42 @@ def test_the_map_is_the_real_inverse_cdf_of_the_synthetic_cdf(threads):
         assert np.array_equal(out[:, c], np.interp(p, m.r_probs, m.r_grid[:, c]))
     assert np.array_equal(out, _ChannelMap(syn, real, 256, threads=1).apply(x))
     assert m.apply(x[:7].reshape(7, 1, 3)).shape == (7, 1, 3)
+
+
+def test_probabilities_are_mid_ranks_between_zero_and_one():
+    assert np.array_equal(_probs(4), [0.0, 0.125, 0.375, 0.625, 0.875, 1.0])
+
+
+def test_each_end_is_the_outer_smoothed_level_or_the_grid_end_whichever_lies_further_out():
+    points = np.array([-1.0, -0.8, -0.2, 0.3, 0.5])
+    grid = np.concatenate([[-1.2], points, [0.5]])  # the low end further out than the lowest level
+    out = _kernel_smoothed(grid, _probs(5), 0.5)
+    assert out[0] == -1.2 and out[1] > -1.2
+    assert out[-1] == out[-2] > 0.5  # the top smoothed level lies beyond the data's maximum
+
+
+def test_weighted_quantiles_order_tied_values_by_position():
+    rng = np.random.default_rng(2)
+    values = rng.integers(0, 3, size=(200, 1)).astype(float)  # three levels, many ties
+    weights = rng.uniform(0.1, 5.0, size=200)
+    probs, grid = _quantile_grid(values, 4096, weights)
+    order = np.argsort(values[:, 0], kind="stable")  # ties keep their input order
+    cum = np.cumsum(weights[order])
+    expected = np.interp(probs, (cum - weights[order] / 2) / cum[-1], values[order, 0]) \
+        + np.arange(len(probs)) * 2.0 * 1e-12
+    assert grid[:, 0] == pytest.approx(expected, rel=0, abs=1e-13)
+
+
+def test_both_sides_are_smoothed_with_one_bandwidth_relative_to_their_spread():
+    rng = np.random.default_rng(6)
+    per_window = 10
+    real = rng.normal(0, 1, size=(12 * per_window, 2)) * [1.0, 4.0] + rng.normal(0, 3, size=(12, 1, 2)).repeat(
+        per_window, axis=0).reshape(-1, 2)
+    syn = rng.gamma(2.0, 1.0, size=(300, 2)) * [2.0, 0.5]
+    weights = rng.uniform(0.5, 2.0, size=300)
+    m = _ChannelMap(syn, real, 64, weights, per_window=per_window)
+    h_real = window_bandwidths(real, per_window)  # in the real data's units
+    relative = h_real / real.std(axis=0)
+    assert np.array_equal(m.r_grid, _quantile_grid(real, 64, bandwidths=relative * real.std(axis=0))[1])
+    assert np.array_equal(m.v_grid, _quantile_grid(syn, 64, weights, bandwidths=relative * _spread(syn, weights))[1])
+    assert not np.allclose(m.r_grid, _ChannelMap(syn, real, 64, weights).r_grid)  # windows matter

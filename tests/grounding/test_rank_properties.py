@@ -160,3 +160,43 @@ def test_mapping_names_a_class_with_its_own_map(rng):
     g = RankGrounder(per_class=True).fit(syn, real, ys, yr)
     assert sorted(g.per_class_) == [0]
     assert g.mapping(0) == "class" and g.mapping(1) == "pooled"
+
+
+def test_synthetic_labels_alone_ground_as_no_labels():
+    rng = np.random.default_rng(3)
+    syn, ys = _classes(rng, [-2.0, 2.0], [30, 10])
+    real, _ = _classes(rng, [-1.0, 1.0], [10, 30])
+    alone = RankGrounder().fit(syn, real, synthetic_labels=ys)
+    assert np.array_equal(alone.transform(syn), RankGrounder().fit(syn, real).transform(syn))
+
+
+@pytest.mark.parametrize("balanced", [True, False])
+def test_an_unseen_class_leaves_the_weighted_pooled_map_as_it_was(balanced):
+    rng = np.random.default_rng(5)
+    syn, ys = _classes(rng, [-2.0, 2.0, 8.0], [30, 10, 20], scale=0.5)  # unequal shares: weights matter
+    real, yr = _classes(rng, [-1.0, 1.0], [10, 30], scale=0.3)
+    seen = ys < 2
+    with_unseen = RankGrounder(class_balanced=balanced).fit(syn, real, ys, yr)
+    without = RankGrounder(class_balanced=balanced).fit(syn[seen], real, ys[seen], yr)
+    assert np.allclose(with_unseen.transform(syn), without.transform(syn), rtol=0, atol=1e-9)
+    unweighted = RankGrounder(class_balanced=False).fit(syn[seen], real, ys[seen], yr)
+    assert np.allclose(with_unseen.transform(syn), unweighted.transform(syn), rtol=0, atol=1e-9) is not balanced
+
+
+def test_a_class_map_keeps_the_window_length_for_its_bandwidth():
+    from vsmp_imu.grounding.rank import _ChannelMap
+
+    rng = np.random.default_rng(8)
+    syn, ys = _classes(rng, [-2.0, 2.0], [20, 20])
+    real, yr = _classes(rng, [-1.0, 1.0], [20, 20])
+    g = RankGrounder(per_class=True).fit(syn, real, ys, yr)
+    own = _ChannelMap(syn[ys == 0].reshape(-1, 1), real[yr == 0].reshape(-1, 1), g.n_quantiles, per_window=50)
+    assert np.array_equal(g.per_class_[0].r_grid, own.r_grid)
+
+
+def test_wrong_channels_of_windows_name_the_channel_count():
+    rng = np.random.default_rng(1)
+    g = RankGrounder().fit(rng.normal(size=(10, 5, 2)), rng.normal(size=(10, 5, 2)))
+    with pytest.raises(ValidationError) as err:
+        g.transform(np.zeros((4, 5, 3)))
+    assert err.value.message == "expected 2 channels, got 3"
