@@ -106,10 +106,11 @@ def realism_markdown(r: RealismResults) -> str:
     out += ["## Per-channel marginals (secondary)", "",
             "Two-sample Kolmogorov–Smirnov statistic between the synthetic (or held-out real) samples "
             "and the real training samples of the same class, per channel, averaged over classes "
-            "(0 = identical marginals). Rank grounding matches the pooled, class-balanced marginals of "
-            "D_rank, not each class's: what remains per class shows here. Classical augmentation "
-            "perturbs real training windows, so its marginals and centroids sit close to R by "
-            "construction.", "",
+            "(0 = identical marginals). Rank grounding maps each class with enough real windows onto "
+            "that class's own marginals (the default; a smaller class, or `--pooled-rank`, takes the "
+            "pooled, class-balanced ones), so small per-channel differences are partly by "
+            "construction, as for classical augmentation, which perturbs real training windows: "
+            "the embedding distances above also see the channels' joint and temporal structure.", "",
             markdown_table(headers, rows), "",
             "## Deviations from the paper", "",
             "- The paper reports UTD-MHAD (27 classes, HY-Motion, VLM-extracted SMPs); this run's dataset, "
