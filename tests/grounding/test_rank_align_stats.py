@@ -311,3 +311,20 @@ def test_estimate_mounting_recovers_a_hidden_rotation(rng):
     assert rms < 1.0
     ident, _ = estimate_mounting(syn[:1], real[:1])
     assert np.allclose(ident.as_quat(), Rotation.identity().as_quat())
+
+
+def test_a_class_turned_half_round_gives_a_finite_residual_of_180_degrees():
+    # one class's synthetic mean points opposite its real one: its residual angle is 180 degrees,
+    # and the dot product of the two unit vectors can round to just below -1
+    import warnings
+
+    from vsmp_imu.grounding.mounting import estimate_mounting
+
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        a, b = rng.normal(size=(2, 3))
+        a, b = 9.8 * a / np.linalg.norm(a), 9.8 * b / np.linalg.norm(b)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # the rotation is poorly defined here
+            _, rms = estimate_mounting(np.stack([b, -b]), np.stack([a, a]), weights=np.array([1.0, 1e-9]))
+        assert rms == pytest.approx(180.0 * np.sqrt(1e-9 / (1 + 1e-9)), rel=1e-6)

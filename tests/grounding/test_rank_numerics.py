@@ -161,13 +161,15 @@ def test_weighted_quantiles_order_tied_values_by_position():
 def test_both_sides_are_smoothed_with_one_bandwidth_relative_to_their_spread():
     rng = np.random.default_rng(6)
     per_window = 10
-    real = rng.normal(0, 1, size=(12 * per_window, 2)) * [1.0, 4.0] + rng.normal(0, 3, size=(12, 1, 2)).repeat(
-        per_window, axis=0).reshape(-1, 2)
-    syn = rng.gamma(2.0, 1.0, size=(300, 2)) * [2.0, 0.5]
+    real = rng.normal(0, 1, size=(12 * per_window, 3)) * [0.05, 1.0, 4.0] + rng.normal(
+        0, [0.1, 3.0, 3.0], size=(12, 1, 3)).repeat(per_window, axis=0).reshape(-1, 3)  # one spread below 1
+    syn = rng.gamma(2.0, 1.0, size=(300, 3)) * [0.1, 2.0, 0.5]
     weights = rng.uniform(0.5, 2.0, size=300)
     m = _ChannelMap(syn, real, 64, weights, per_window=per_window)
     h_real = window_bandwidths(real, per_window)  # in the real data's units
     relative = h_real / real.std(axis=0)
     assert np.array_equal(m.r_grid, _quantile_grid(real, 64, bandwidths=relative * real.std(axis=0))[1])
     assert np.array_equal(m.v_grid, _quantile_grid(syn, 64, weights, bandwidths=relative * _spread(syn, weights))[1])
-    assert not np.allclose(m.r_grid, _ChannelMap(syn, real, 64, weights).r_grid)  # windows matter
+    rows = _ChannelMap(syn, real, 64, weights)  # without a window length every row is a window
+    assert np.array_equal(rows.r_grid, _quantile_grid(real, 64, bandwidths=window_bandwidths(real, 1))[1])
+    assert not np.allclose(m.r_grid, rows.r_grid)  # windows matter
