@@ -17,8 +17,6 @@ The clips are outside the repository: ../shared/data/videos from the checkout by
 from __future__ import annotations
 
 import argparse
-import datetime as dt
-import json
 import os
 import platform
 import sys
@@ -124,19 +122,10 @@ def main() -> None:
         parser.error(f"unknown part(s) {', '.join(unknown)}; choose from {', '.join(PARTS)}")
     if not args.videos.is_dir() and any(p in NEEDS_VIDEOS for p in parts):
         parser.error(f"{args.videos} not found: the frames and clips parts need the clips (--videos DIR)")
-    from vsmp_imu.io import write_json
+    from vsmp_imu.har.bench_records import record_parts
 
-    record = json.loads(args.json.read_text()) if args.json.exists() else {}
-    command = " ".join(["python", "benchmarks/bench_extract.py", *sys.argv[1:]])
-    for part in parts:
-        started = dt.datetime.now(dt.UTC)
-        load = os.getloadavg()
-        start = time.perf_counter()
-        figures = _measure(part, args.videos)
-        record[part] = {**figures, "command": command, "started": started.isoformat(timespec="seconds"),
-                        "wall_s": time.perf_counter() - start, "load_avg_at_start": list(load),
-                        "load_avg_at_end": list(os.getloadavg()), "machine": machine()}
-        write_json(args.json, record)
+    record = record_parts(args.json, "benchmarks/bench_extract.py", sys.argv[1:], parts,
+                          lambda part: _measure(part, args.videos), machine())
     if "clips" in record:
         print(markdown(record["clips"]))
     print(f"written: {args.json}")

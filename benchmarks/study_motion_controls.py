@@ -27,8 +27,6 @@ Run: nice .venv/bin/python benchmarks/study_motion_controls.py [--parts controls
 from __future__ import annotations
 
 import argparse
-import datetime as dt
-import json
 import os
 import platform
 import sys
@@ -143,19 +141,10 @@ def main() -> None:
     parts = [p.strip() for p in args.parts.split(",") if p.strip()]
     if unknown := [p for p in parts if p not in PARTS]:
         parser.error(f"unknown part(s) {', '.join(unknown)}; choose from {', '.join(PARTS)}")
-    from vsmp_imu.io import write_json
+    from vsmp_imu.har.bench_records import record_parts
 
-    record = json.loads(args.json.read_text()) if args.json.exists() else {}
-    command = " ".join(["python", "benchmarks/study_motion_controls.py", *sys.argv[1:]])
-    for part in parts:
-        started = dt.datetime.now(dt.UTC)
-        load = os.getloadavg()
-        start = time.perf_counter()
-        figures = measure_controls() if part == "controls" else measure_speed()
-        record[part] = {**figures, "command": command, "started": started.isoformat(timespec="seconds"),
-                        "wall_s": time.perf_counter() - start, "load_avg_at_start": list(load),
-                        "load_avg_at_end": list(os.getloadavg()), "machine": machine()}
-        write_json(args.json, record)
+    record = record_parts(args.json, "benchmarks/study_motion_controls.py", sys.argv[1:], parts,
+                          lambda part: measure_controls() if part == "controls" else measure_speed(), machine())
     print(markdown(record))
     print(f"written: {args.json}")
 

@@ -243,3 +243,22 @@ def test_the_speed_views_take_their_figures_from_the_stages():
     post = stages["post_motion"]
     assert f"= {post['per_sample_per_s_per_core']:.1f} samples/s per core" in notes
     assert f"{post['samples']} / {post['post_motion_s'] - post['per_fold_fits_s']:.1f} s" in notes
+
+
+def test_record_parts_adds_each_part_with_its_run_and_keeps_the_others(tmp_path):
+    from vsmp_imu.har.bench_records import record_parts
+
+    path = tmp_path / "bench.json"
+    path.write_text(json.dumps({"old": {"x": 1}}))
+    seen = []
+
+    def measure(part):
+        seen.append(json.loads(path.read_text()).keys() - {"old"})  # earlier parts are on disk already
+        return {"value": len(part)}
+
+    record = record_parts(path, "benchmarks/b.py", ["--parts", "ab,c"], ["ab", "c"], measure, {"cpus": 2})
+    assert seen == [set(), {"ab"}]
+    assert json.loads(path.read_text()) == record
+    assert record["old"] == {"x": 1} and record["ab"]["value"] == 2 and record["c"]["value"] == 1
+    assert record["c"]["command"] == "python benchmarks/b.py --parts ab,c" and record["c"]["machine"] == {"cpus": 2}
+    assert record["c"]["wall_s"] >= 0 and len(record["c"]["load_avg_at_start"]) == 3

@@ -84,3 +84,30 @@ class BenchTable:
                               field="view", allowed=", ".join(views) or "none")
         table, provenance = views[self.view](results)
         return f"{table.rstrip()}\n\nRecords: {provenance}; rebuilt by `vsmp-imu report --write`.\n"
+
+
+def record_parts(path: Path, script: str, argv: list[str], parts: list[str], measure, machine: dict) -> dict:
+    """Measure each part (`measure(part)` -> figures) into the benchmark record at `path`.
+
+    Each part is stored with the command that ran it, its start (UTC), wall time, the load
+    average at its start and end, and `machine`; the record is written after every part, so
+    an interrupted run keeps the parts it finished. Parts measured earlier stay as they were.
+    """
+    import datetime as dt
+    import os
+    import time
+
+    from vsmp_imu.io import write_json
+
+    record = json.loads(path.read_text()) if path.exists() else {}
+    command = " ".join(["python", script, *argv])
+    for part in parts:
+        started = dt.datetime.now(dt.UTC)
+        load = os.getloadavg()
+        start = time.perf_counter()
+        figures = measure(part)
+        record[part] = {**figures, "command": command, "started": started.isoformat(timespec="seconds"),
+                        "wall_s": time.perf_counter() - start, "load_avg_at_start": list(load),
+                        "load_avg_at_end": list(os.getloadavg()), "machine": machine}
+        write_json(path, record)
+    return record
