@@ -173,3 +173,13 @@ def test_both_sides_are_smoothed_with_one_bandwidth_relative_to_their_spread():
     rows = _ChannelMap(syn, real, 64, weights)  # without a window length every row is a window
     assert np.array_equal(rows.r_grid, _quantile_grid(real, 64, bandwidths=window_bandwidths(real, 1))[1])
     assert not np.allclose(m.r_grid, rows.r_grid)  # windows matter
+
+
+def test_the_tie_offset_follows_the_weighted_grid_span_below_one():
+    values = np.array([[0.0], [0.1], [0.2], [0.4]])  # a span of 0.4, its top value lightly weighted
+    weights = np.array([1.0, 1.0, 1.0, 0.1])
+    probs, grid = _quantile_grid(values, 4096, weights)
+    cum = np.cumsum(weights)
+    plain = np.interp(probs, (cum - weights / 2) / cum[-1], values[:, 0])
+    assert plain[-2] < plain[-1] == 0.4
+    assert grid[:, 0] - plain == pytest.approx(np.arange(6) * 0.4 * 1e-12, rel=0, abs=1e-15)
