@@ -252,3 +252,25 @@ def test_a_paired_table_can_take_its_baseline_from_another_record_set():
                          RecordSet("before", "cmd b", "1234567", None, {}, LABELS, tuple(before))).render()
     assert "| 1 % | VSMP-IMU vs. VSMP-IMU of `before` | +3.50 (6/6, p = 0.031) |" in table
     assert "against `results/before/`, from `cmd b` at commit 1234567" in table
+
+
+def test_the_leave_one_class_out_table_has_a_row_per_class_left_out_and_their_mean():
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    records = []
+    for cls, f1 in (("SIT_TO_LIE", 0.4), ("WALKING", 0.1)):  # one run per class and method
+        for method, capable in (("real", False), ("vsmp", True)):
+            r = _record(method, 1, 0, None, 0.7)
+            r.update(unseen_classes=[cls], unseen_capable=capable, unseen_macro_f1=f1 if capable else 0.0,
+                     seen_macro_f1=0.8 if capable else 0.75)
+            records.append(r)
+    spec = TableSpec(id="x:each", records="x", kind="unseen_each", methods=["real", "vsmp"],
+                     metrics=[{"label": "unseen F1", "metric": "unseen"}, {"label": "seen F1", "metric": "seen"}])
+    table = TableBuilder(spec, RecordSet("x", "cmd", None, None, {}, LABELS, tuple(records))).render()
+    lines = table.splitlines()
+    assert lines[0] == ("| Class left out | Real-only: unseen F1 | Real-only: seen F1 | VSMP-IMU: unseen F1 "
+                        "| VSMP-IMU: seen F1 |")
+    assert lines[2:5] == ["| WALKING | 0.00 | 75.00 | 10.00 | 80.00 |", "| SIT_TO_LIE | 0.00 | 75.00 | 40.00 | 80.00 |",
+                          "| mean over the 2 classes | 0.00 | 75.00 | 25.00 | 80.00 |"]
+    assert "Real-only cannot make windows of a class without real windows" in table

@@ -84,7 +84,7 @@ class TableSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     id: str = Field(pattern=r"^[a-z0-9_-]+:[a-z0-9_-]+$")
     records: str
-    kind: Literal["groups", "paired", "classes", "synthetic", "shares", "study", "benchmark"]
+    kind: Literal["groups", "paired", "classes", "synthetic", "shares", "unseen_each", "study", "benchmark"]
     methods: list[str] = Field(default_factory=list)
     metrics: list[Metric] = Field(default_factory=list)
     budgets: list[float] | None = None
@@ -114,7 +114,7 @@ class TableSpec(BaseModel):
             raise ValueError(f"a {self.kind} table needs methods")
         if self.kind == "paired" and self.baseline is None:
             raise ValueError("a paired table needs a baseline method")
-        if self.kind in ("groups", "paired") and not self.metrics:
+        if self.kind in ("groups", "paired", "unseen_each") and not self.metrics:
             raise ValueError(f"a {self.kind} table needs metrics")
         return self
 
@@ -334,6 +334,25 @@ class TableBuilder:
                     cells = _bold_best(cells, means)
                 rows.append(self._lead(budget) + [metric.label] + cells)
         header = self._lead_header() + ["Class"] + [_method_name(m) for m in s.methods]
+        return _markdown(header, rows)
+
+    def _unseen_each(self) -> str:
+        """Leave-one-class-out (`--unseen each`): a row per class left out, each method's figures
+        over the runs that left it out, and a last row with their mean over the classes."""
+        s = self.spec
+        runs = {m: self.runs(m, None) for m in s.methods}
+        left_out = {tuple(r.get("unseen_classes") or ()) for rs in runs.values() for r in rs}
+        classes = [c for c in self.records.label_names if (c,) in left_out]
+        rows, means = [], []
+        for cls in classes:
+            mine = {m: [r for r in rs if tuple(r.get("unseen_classes") or ()) == (cls,)] for m, rs in runs.items()}
+            mine = self.same_runs(mine, None)
+            cells = [mean_std([metric.value(r) for r in mine[m]])[0] for m in s.methods for metric in s.metrics]
+            means.append(cells)
+            rows.append([cls] + [_pct(v, s.digits) if v is not None else "–" for v in cells])
+        overall = np.nanmean(np.array(means, dtype=float), axis=0)
+        rows.append([f"mean over the {len(classes)} classes"] + [_pct(v, s.digits) for v in overall])
+        header = ["Class left out"] + [f"{_method_name(m)}: {metric.label}" for m in s.methods for metric in s.metrics]
         return _markdown(header, rows)
 
     def _every_class(self) -> list[Metric]:
