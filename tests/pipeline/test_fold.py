@@ -156,3 +156,19 @@ def test_refill_must_not_be_negative():
 
     with pytest.raises(ConfigError, match="refill"):
         GenerationSpec(refill=-1)
+
+
+def test_gravity_norm_gives_the_grounded_windows_the_real_gravity_reading(hapt12, library, tmp_path):
+    info, windows = hapt12
+    out, train, _ = _generate(hapt12, library, GenerationSpec(**SMALL, gravity_norm=True), tmp_path)
+    plain, _, _ = _generate(hapt12, library, GenerationSpec(**SMALL), tmp_path)  # same samples (cache)
+    static = [info.label_names.index(n) for n in ("SITTING", "STANDING", "LAYING")]
+
+    def spread(w):
+        norms = np.linalg.norm(w.X[np.isin(w.y, static)][..., :3].mean(axis=1), axis=1)
+        return np.median(norms), np.quantile(norms, 0.9) - np.quantile(norms, 0.1)
+
+    real_median, real_spread = spread(train)
+    (kept_median, kept_spread), (plain_median, plain_spread) = spread(out.windows), spread(plain.windows)
+    assert abs(kept_median - real_median) < 0.05 * real_median
+    assert kept_spread < plain_spread  # the channel-wise map alone spreads the gravity reading

@@ -23,14 +23,15 @@ GENERATE_OPTIONS = {
     "source": "--source", "alpha": "--alpha", "policy": "--policy", "k": "--k", "backend": "--backend",
     "refine": "--no-refine", "uncertainty_conditioned": "--no-uncertainty", "sim_in_the_loop": "--no-sim-loop",
     "rank_grounding": "--no-rank", "per_class_rank": "--per-class-rank", "quality_filter": "--no-filter",
-    "motion_fit": "--motion-fit", "refill": "--refill", "library_dirs": "--library", "executor": "--executor", "workers": "--workers",
+    "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm", "refill": "--refill", "library_dirs": "--library",
+    "executor": "--executor", "workers": "--workers",
     "address": "--address", "cache_dir": "--cache-dir", "gpus_per_task": "--gpus-per-task",
 }
 # spec field -> option of `vsmp-imu evaluate`
 EVALUATE_OPTIONS = {
     "source": "--source", "alpha": "--alpha", "policy": "--policy", "k": "--k", "backend": "--backend",
-    "per_class_rank": "--per-class-rank", "motion_fit": "--motion-fit", "refill": "--refill",
-    "library_dirs": "--library",
+    "per_class_rank": "--per-class-rank", "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm",
+    "refill": "--refill", "library_dirs": "--library",
     "executor": "--executor", "workers": "--workers", "address": "--address",
 }
 # fields the commands leave at the paper's values (the studies and the Python API set them)

@@ -40,6 +40,8 @@ def generate_cmd(
     no_filter: bool = typer.Option(False, "--no-filter", help="Ablation: no quality filter"),
     per_class_rank: bool = typer.Option(True, "--per-class-rank/--pooled-rank",
                                         help="rank grounding per class where a class has real windows enough (--pooled-rank: one map for all, the paper's)"),
+    gravity_norm: bool = typer.Option(False, "--gravity-norm",
+                                      help="after the rank map, give each sample's accelerometer its gravity magnitude back"),
     motion_fit: bool = typer.Option(False, "--motion-fit",
                                     help="fit each class's motion parameters to D_stat before synthesis"),
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
@@ -58,7 +60,7 @@ def generate_cmd(
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, sim_in_the_loop=not no_sim_loop,
         rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
-        motion_fit=motion_fit,
+        motion_fit=motion_fit, gravity_norm=gravity_norm,
         refine=not no_refine, uncertainty_conditioned=not no_uncertainty,
         library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None,

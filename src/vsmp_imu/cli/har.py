@@ -95,6 +95,8 @@ def evaluate_cmd(
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     per_class_rank: bool = typer.Option(True, "--per-class-rank/--pooled-rank",
                                         help="rank grounding per class where a class has real windows enough (--pooled-rank: one map for all, the paper's)"),
+    gravity_norm: bool = typer.Option(False, "--gravity-norm",
+                                      help="VSMP-IMU: after the rank map, give each sample's accelerometer its gravity magnitude back"),
     motion_fit: bool = typer.Option(False, "--motion-fit",
                                     help="VSMP-IMU: fit each class's motion parameters to D_stat before synthesis"),
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
@@ -136,7 +138,7 @@ def evaluate_cmd(
         unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
-        motion_fit=motion_fit,
+        motion_fit=motion_fit, gravity_norm=gravity_norm,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)

@@ -343,7 +343,34 @@ def ground(spec: GenerationSpec, info: DatasetInfo, ok: list[SampleResult], d_ra
     if not spec.rank_grounding or not ok:
         return [dict(r.signals) for r in ok], {}
     grounders = fit_rank_grounders(info, ok, d_rank, plan, spec, threads)
-    return apply_rank_grounders(ok, grounders), rank_mappings(info, grounders, ok)
+    grounded = apply_rank_grounders(ok, grounders)
+    if spec.gravity_norm:
+        grounded = keep_gravity_norm(info, ok, grounded, d_rank, plan)
+    return grounded, rank_mappings(info, grounders, ok)
+
+
+def keep_gravity_norm(info: DatasetInfo, ok: list[SampleResult], grounded: list[dict[str, np.ndarray]],
+                      d_rank: Windows, plan) -> list[dict[str, np.ndarray]]:
+    """At each location that reads gravity, the grounded accelerometer's slow part gets back the
+    magnitude it had before the rank map, scaled to the real sensor's gravity reading
+    (`grounding.gravity`)."""
+    from vsmp_imu.grounding.gravity import gravity_scale, restore_gravity_norm, slow_part
+
+    out = [dict(g) for g in grounded]
+    for loc in info.locations:
+        users = [i for i, r in enumerate(ok) if loc.name in r.signals]
+        classes = [i for i, n in enumerate(info.label_names) if loc in plan[n]]
+        real = d_rank[np.isin(d_rank.y, classes)]
+        if not (users and loc.gravity_included and len(real)):
+            continue
+        real_means = real.X[..., channel_index(info, loc)[:3]].astype(np.float64).mean(axis=1)
+        slow = np.concatenate([np.linalg.norm(slow_part(ok[i].signals[loc.name][:, :3], info.fs_hz), axis=1)
+                               for i in users])
+        scale = gravity_scale(real_means, slow)
+        for i in users:
+            out[i][loc.name] = restore_gravity_norm(ok[i].signals[loc.name], grounded[i][loc.name],
+                                                    info.fs_hz, scale)
+    return out
 
 
 def rank_mappings(info: DatasetInfo, grounders: dict[str, RankGrounder], ok: list[SampleResult]) -> dict:

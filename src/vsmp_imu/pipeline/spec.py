@@ -51,6 +51,9 @@ class GenerationSpec:
     # one rank map per class where the class has real windows enough (RankGrounder's
     # min_class_samples), the pooled map otherwise (the paper's); measured in docs/results.md
     per_class_rank: bool = True
+    # after the rank map, give each sample's accelerometer its gravity magnitude back
+    # (grounding.gravity; measured in docs/results.md)
+    gravity_norm: bool = False
     estimate_mounting: bool = True  # nominal dataset mounting frame from D_stat class means
     # the validator judges a class only after training on at least this many of its real windows
     min_validator_windows: int = 10
