@@ -169,6 +169,6 @@ def test_gravity_norm_gives_the_grounded_windows_the_real_gravity_reading(hapt12
         return np.median(norms), np.quantile(norms, 0.9) - np.quantile(norms, 0.1)
 
     real_median, real_spread = spread(train)
-    (kept_median, kept_spread), (plain_median, plain_spread) = spread(out.windows), spread(plain.windows)
+    (kept_median, kept_spread), plain_spread = spread(out.windows), spread(plain.windows)[1]
     assert abs(kept_median - real_median) < 0.05 * real_median
     assert kept_spread < plain_spread  # the channel-wise map alone spreads the gravity reading
