@@ -257,7 +257,8 @@ class TableBuilder:
 
     def render(self) -> str:
         table = getattr(self, f"_{self.spec.kind}")()
-        source = (f"Records: `results/{self.records.name}/` ({self._n_runs()} runs), from "
+        n = self._n_runs()
+        source = (f"Records: `results/{self.records.name}/` ({n} run{'' if n == 1 else 's'}), from "
                   f"`{self.records.command}`")
         if self.records.code_commit:
             source += f" at commit {self.records.code_commit[:7]}"
