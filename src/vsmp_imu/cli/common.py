@@ -9,6 +9,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import typer
 from rich.console import Console, ConsoleOptions, RenderableType, RenderResult
 from rich.errors import MarkupError
 from rich.segment import Segment
@@ -173,3 +174,12 @@ def print_warnings(lines: list[str]) -> None:
 
     for line in lines:
         console_err.print(f"[bold yellow]warning:[/] {escape(safe_text(line))}", highlight=False, soft_wrap=True)
+
+# Grounding options shared by `generate` and `evaluate` (one definition, one help text).
+PER_CLASS_RANK = typer.Option(True, "--per-class-rank/--pooled-rank",
+                              help="rank grounding per class where a class has real windows enough "
+                                   "(--pooled-rank: one map for all, the paper's)")
+GRAVITY_NORM = typer.Option(False, "--gravity-norm",
+                            help="after the rank map, give each sample's accelerometer its gravity magnitude back")
+MOTION_FIT = typer.Option(False, "--motion-fit",
+                          help="fit each class's motion parameters to D_stat before synthesis (VSMP-IMU)")

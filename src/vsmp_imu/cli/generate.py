@@ -7,7 +7,16 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, executor_options, library_dirs, output_dir, print_warnings
+from vsmp_imu.cli.common import (
+    GRAVITY_NORM,
+    MOTION_FIT,
+    PER_CLASS_RANK,
+    console,
+    executor_options,
+    library_dirs,
+    output_dir,
+    print_warnings,
+)
 
 SOURCE_HELP = "library | smp:DIR (SMP files) | video:DIR (clips per activity folder, or a pool manifest)"
 
@@ -38,12 +47,9 @@ def generate_cmd(
     no_sim_loop: bool = typer.Option(False, "--no-sim-loop", help="Ablation: eta* = 0"),
     no_rank: bool = typer.Option(False, "--no-rank", help="Ablation: no rank grounding"),
     no_filter: bool = typer.Option(False, "--no-filter", help="Ablation: no quality filter"),
-    per_class_rank: bool = typer.Option(True, "--per-class-rank/--pooled-rank",
-                                        help="rank grounding per class where a class has real windows enough (--pooled-rank: one map for all, the paper's)"),
-    gravity_norm: bool = typer.Option(False, "--gravity-norm",
-                                      help="after the rank map, give each sample's accelerometer its gravity magnitude back"),
-    motion_fit: bool = typer.Option(False, "--motion-fit",
-                                    help="fit each class's motion parameters to D_stat before synthesis"),
+    per_class_rank: bool = PER_CLASS_RANK,
+    gravity_norm: bool = GRAVITY_NORM,
+    motion_fit: bool = MOTION_FIT,
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
     library: list[Path] = typer.Option(None, "--library", help="Extra activity-library folder (repeatable)"),

@@ -10,7 +10,16 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, executor_options, output_dir, parse_csv, print_warnings
+from vsmp_imu.cli.common import (
+    GRAVITY_NORM,
+    MOTION_FIT,
+    PER_CLASS_RANK,
+    console,
+    executor_options,
+    output_dir,
+    parse_csv,
+    print_warnings,
+)
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.progress import progress
 
@@ -93,12 +102,9 @@ def evaluate_cmd(
     ),
     k: int = typer.Option(4, "--k", max=64, help="generative methods: SMP variants per base SMP"),
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
-    per_class_rank: bool = typer.Option(True, "--per-class-rank/--pooled-rank",
-                                        help="rank grounding per class where a class has real windows enough (--pooled-rank: one map for all, the paper's)"),
-    gravity_norm: bool = typer.Option(False, "--gravity-norm",
-                                      help="VSMP-IMU: after the rank map, give each sample's accelerometer its gravity magnitude back"),
-    motion_fit: bool = typer.Option(False, "--motion-fit",
-                                    help="VSMP-IMU: fit each class's motion parameters to D_stat before synthesis"),
+    per_class_rank: bool = PER_CLASS_RANK,
+    gravity_norm: bool = GRAVITY_NORM,
+    motion_fit: bool = MOTION_FIT,
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
     address: str = typer.Option(None, "--address", help="Ray cluster address (--executor ray)"),
