@@ -116,6 +116,12 @@ def channel_index(info: DatasetInfo, loc: SensorLocation) -> np.ndarray:
     return np.array([info.channel_names.index(c) for c in loc.channels])
 
 
+def worn_windows(info: DatasetInfo, loc: SensorLocation, d_rank: Windows, plan) -> Windows:
+    """D_rank's windows of the classes whose samples are worn at `loc` (the plan's locations)."""
+    classes = [i for i, n in enumerate(info.label_names) if loc in plan[n]]
+    return d_rank[np.isin(d_rank.y, classes)]
+
+
 def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: Windows, plan,
                        spec: GenerationSpec, threads: int = 1) -> dict[str, RankGrounder]:
     """Stage 4's rank grounders, one per location: F_v from the samples' signals there, G_r from
@@ -127,8 +133,7 @@ def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: W
         users = [r for r in samples if loc.name in r.signals]
         if not users:
             continue
-        classes = [i for i, n in enumerate(info.label_names) if loc in plan[n]]
-        real = d_rank[np.isin(d_rank.y, classes)]
+        real = worn_windows(info, loc, d_rank, plan)
         if len(real) == 0:
             continue
         cols = channel_index(info, loc)
@@ -359,8 +364,7 @@ def keep_gravity_norm(info: DatasetInfo, ok: list[SampleResult], grounded: list[
     out = [dict(g) for g in grounded]
     for loc in info.locations:
         users = [i for i, r in enumerate(ok) if loc.name in r.signals]
-        classes = [i for i, n in enumerate(info.label_names) if loc in plan[n]]
-        real = d_rank[np.isin(d_rank.y, classes)]
+        real = worn_windows(info, loc, d_rank, plan)
         if not (users and loc.gravity_included and len(real)):
             continue
         real_means = real.X[..., channel_index(info, loc)[:3]].astype(np.float64).mean(axis=1)
