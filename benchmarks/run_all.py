@@ -769,15 +769,17 @@ def stage_cost(quick: bool) -> dict:
 # --------------------------------------------------------------------------------------------
 # driver
 # --------------------------------------------------------------------------------------------
-def machine() -> dict:
-    def cmd(args):
-        try:
-            return subprocess.run(args, capture_output=True, text=True, timeout=10).stdout
-        except (OSError, subprocess.SubprocessError):
-            return ""
+def _output(args: list[str]) -> str:
+    """A command's standard output, run from the repository root ("" when it cannot run)."""
+    try:
+        return subprocess.run(args, cwd=REPO, capture_output=True, text=True, timeout=10).stdout
+    except (OSError, subprocess.SubprocessError):
+        return ""
 
-    lscpu = {k.strip(): v.strip() for k, _, v in (line.partition(":") for line in cmd(["lscpu"]).splitlines())}
-    mem = cmd(["free", "-g"]).splitlines()
+
+def machine() -> dict:
+    lscpu = {k.strip(): v.strip() for k, _, v in (line.partition(":") for line in _output(["lscpu"]).splitlines())}
+    mem = _output(["free", "-g"]).splitlines()
     versions = {}
     for mod in ("numpy", "scipy", "sklearn", "torch", "ray", "pyarrow"):
         try:
@@ -1181,10 +1183,7 @@ def targets_view(res: dict) -> tuple[str, str]:
 
 # -- the scaling history: one line per run that measured a scaling stage ---------------------------
 def _git(*args: str) -> str:
-    try:
-        return subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True, timeout=10).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return ""
+    return _output(["git", *args]).strip()
 
 
 def code_state() -> dict:
