@@ -47,7 +47,18 @@ def restore_gravity_norm(before: np.ndarray, after: np.ndarray, fs_hz: float, sc
     if before.shape != after.shape or before.ndim != 2 or before.shape[1] < 3:
         raise ValidationError(f"expected two (T, 6) signals of one shape, got {before.shape} and {after.shape}",
                               field="signals")
-    target = scale * np.linalg.norm(slow_part(before[:, :3], fs_hz, window_s), axis=1)
+    return rescale_slow_part(after, scale * slow_norm(before[:, :3], fs_hz, window_s), fs_hz, window_s)
+
+
+def slow_norm(acc: np.ndarray, fs_hz: float, window_s: float = SLOW_WINDOW_S) -> np.ndarray:
+    """|slow_part(acc)| (T,), sample by sample."""
+    return np.linalg.norm(slow_part(acc, fs_hz, window_s), axis=1)
+
+
+def rescale_slow_part(after: np.ndarray, target: np.ndarray, fs_hz: float,
+                      window_s: float = SLOW_WINDOW_S) -> np.ndarray:
+    """`after` (T, 6) with its accelerometer's slow part rescaled to the norms `target` (T,)."""
+    after = np.asarray(after, dtype=np.float64)
     slow = slow_part(after[:, :3], fs_hz, window_s)
     norm = np.linalg.norm(slow, axis=1)
     gain = np.divide(target, norm, out=np.ones_like(norm), where=norm > 1e-9)

@@ -359,7 +359,7 @@ def keep_gravity_norm(info: DatasetInfo, ok: list[SampleResult], grounded: list[
     """At each location that reads gravity, the grounded accelerometer's slow part gets back the
     magnitude it had before the rank map, scaled to the real sensor's gravity reading
     (`grounding.gravity`)."""
-    from vsmp_imu.grounding.gravity import gravity_scale, restore_gravity_norm, slow_part
+    from vsmp_imu.grounding.gravity import gravity_scale, rescale_slow_part, slow_norm
 
     out = [dict(g) for g in grounded]
     for loc in info.locations:
@@ -368,12 +368,10 @@ def keep_gravity_norm(info: DatasetInfo, ok: list[SampleResult], grounded: list[
         if not (users and loc.gravity_included and len(real)):
             continue
         real_means = real.X[..., channel_index(info, loc)[:3]].astype(np.float64).mean(axis=1)
-        slow = np.concatenate([np.linalg.norm(slow_part(ok[i].signals[loc.name][:, :3], info.fs_hz), axis=1)
-                               for i in users])
-        scale = gravity_scale(real_means, slow)
-        for i in users:
-            out[i][loc.name] = restore_gravity_norm(ok[i].signals[loc.name], grounded[i][loc.name],
-                                                    info.fs_hz, scale)
+        slow = [slow_norm(ok[i].signals[loc.name][:, :3], info.fs_hz) for i in users]
+        scale = gravity_scale(real_means, np.concatenate(slow))
+        for i, norms in zip(users, slow, strict=True):
+            out[i][loc.name] = rescale_slow_part(grounded[i][loc.name], scale * norms, info.fs_hz)
     return out
 
 
