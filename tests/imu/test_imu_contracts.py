@@ -208,6 +208,7 @@ def test_recording_views_by_location_and_name():
     with pytest.raises(ValidationError) as err:
         rec.channels(["waist_acc_x", "nope", "nada"])
     assert err.value.message == "no channel(s) nope, nada" and err.value.field == "channels"
+    assert err.value.allowed == ", ".join(rec.channel_names)
 
 
 def test_recording_csv_round_trip_keeps_rate_start_and_meta(tmp_path):
@@ -280,12 +281,18 @@ def test_simulate_many_places_each_sensor_side_by_side():
     with pytest.raises(ValidationError) as err:
         ImuSimulator(50.0, smoothing_hz=-1.0).simulate_many(motion, ["waist"])
     assert err.value.field == "smoothing_hz"
+    # the settings are checked before any sensor is looked up
+    with pytest.raises(ValidationError) as err:
+        ImuSimulator(50.0, smoothing_hz=-1.0).simulate_many(motion, ["no_such_place"])
+    assert err.value.field == "smoothing_hz"
+    assert many.meta["motion"] == motion.meta == one.meta["motion"]
 
 
 @pytest.mark.parametrize(("text", "message"), [
     ("time_s,acc_x\n", "no channels or no rows"),
     ("time_s\n0\n0.02\n", "no channels or no rows"),
     ("time_s,acc_x\n0,1\n0.02,abc\n", "non-numeric values ("),
+    ("time_s,acc_x\n0,1\nlater,2\n", "non-numeric values ("),
     ("time_s,acc_x\n0,1\n0.02,nan\n0.04,inf\n", "NaN or inf values in 2 row(s), the first at data row 2"),
     ("time_s,acc_x\n0,1\nnan,2\n", "NaN or inf values in 1 row(s), the first at data row 2"),
     ("time_s,acc_x\n0,1\n0,2\n", "cannot infer fs_hz: time_s must increase (or give '# fs_hz:')"),
@@ -300,6 +307,13 @@ def test_recording_csv_content_errors(tmp_path, text, message):
     with pytest.raises(InputFileError) as err:
         ImuRecording.read_csv(path)
     assert err.value.message.startswith(message) and err.value.file == str(path)
+
+
+def test_header_lines_parse_with_or_without_a_space_after_the_hash(tmp_path):
+    path = tmp_path / "tight.csv"
+    path.write_text('#fs_hz: 20\n#meta: {"k": 2}\ntime_s,acc_x\n0,1\n0.05,2\n')
+    rec = ImuRecording.read_csv(path)
+    assert (rec.fs_hz, rec.meta) == (20.0, {"k": 2})
 
 
 def test_a_single_row_with_a_declared_rate_is_a_recording(tmp_path):

@@ -1,0 +1,104 @@
+"""What an IMU figure shows: the right samples at the right times, named and in their units."""
+
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgba
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.imu.channels import CHANNELS, prefixed
+from vsmp_imu.imu.plot import AXIS_COLORS, LINE_STYLES, imu_figure
+from vsmp_imu.imu.recording import ImuRecording
+
+FS = 25.0
+
+
+def _signal(n: int = 40, c: int = 6, offset: float = 0.0) -> np.ndarray:
+    return offset + np.arange(n * c, dtype=float).reshape(n, c) / 7.0
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
+
+
+def test_a_plain_array_is_drawn_at_its_times_with_one_line_per_channel():
+    values = _signal()
+    fig = imu_figure(values, fs_hz=FS, start_s=2.0)
+    acc, gyr = fig.axes
+    for ax, first in ((acc, 0), (gyr, 3)):
+        lines = ax.get_lines()
+        assert [ln.get_label() for ln in lines] == ["x", "y", "z"]
+        for k, ln in enumerate(lines):
+            assert np.array_equal(ln.get_xdata(), 2.0 + np.arange(40) / FS)
+            assert np.array_equal(ln.get_ydata(), values[:, first + k])
+            assert to_rgba(ln.get_color()) == to_rgba(AXIS_COLORS["xyz"[k]])
+            assert ln.get_linestyle() == LINE_STYLES[0] and ln.get_alpha() == 1.0
+    assert acc.get_title(loc="left") == "accelerometer" and acc.get_ylabel() == "acc (m/s²)"
+    assert gyr.get_title(loc="left") == "gyroscope" and gyr.get_ylabel() == "gyr (rad/s)"
+    assert gyr.get_xlabel() == "time (s)"
+    assert [t.get_text() for t in acc.get_legend().get_texts()] == ["x", "y", "z"]
+    assert fig.legends == [] and fig._suptitle is None
+
+
+def test_named_channels_of_two_locations_get_a_panel_each_in_first_seen_order():
+    names = prefixed("right_wrist") + prefixed("waist")
+    values = _signal(c=12)
+    fig = imu_figure(values, channel_names=names, fs_hz=FS, title="two sensors")
+    titles = [ax.get_title(loc="left") for ax in fig.axes]
+    assert titles == ["right wrist accelerometer", "right wrist gyroscope", "waist accelerometer",
+                      "waist gyroscope"]
+    for p, ax in enumerate(fig.axes):
+        for k, ln in enumerate(ax.get_lines()):
+            assert np.array_equal(ln.get_ydata(), values[:, 3 * p + k])
+    assert fig._suptitle.get_text() == "two sensors"
+
+
+def test_a_channel_outside_acc_and_gyr_gets_its_own_panel_named_as_it_is():
+    names = (*CHANNELS, "pressure")
+    fig = imu_figure(_signal(c=7), channel_names=names, fs_hz=FS)
+    last = fig.axes[-1]
+    assert last.get_title(loc="left") == "pressure" and last.get_ylabel() == "pressure"
+    assert np.array_equal(last.get_lines()[0].get_ydata(), _signal(c=7)[:, 6])
+
+
+def test_an_overlay_draws_each_recording_in_its_own_style_with_a_shared_legend():
+    a = ImuRecording(_signal(), CHANNELS, FS)
+    b = _signal(offset=100.0)
+    fig = imu_figure([a, b], labels=["real", "synthetic"], fs_hz=FS)
+    acc = fig.axes[0]
+    lines = acc.get_lines()
+    assert len(lines) == 6
+    assert [ln.get_linestyle() for ln in lines] == [LINE_STYLES[0]] * 3 + [LINE_STYLES[1]] * 3
+    assert [ln.get_alpha() for ln in lines] == [1.0] * 3 + [0.85] * 3
+    assert np.array_equal(lines[3].get_ydata(), b[:, 0])
+    # only the first recording names the axes; the figure legend names the recordings
+    assert [t.get_text() for t in acc.get_legend().get_texts()] == ["x", "y", "z"]
+    (legend,) = fig.legends
+    assert [t.get_text() for t in legend.get_texts()] == ["real", "synthetic"]
+    assert [h.get_linestyle() for h in legend.legend_handles] == list(LINE_STYLES[:2])
+
+
+def test_an_overlay_without_labels_numbers_its_recordings():
+    fig = imu_figure([_signal(), _signal(), _signal()], fs_hz=FS)
+    (legend,) = fig.legends
+    assert [t.get_text() for t in legend.get_texts()] == ["recording 1", "recording 2", "recording 3"]
+
+
+@pytest.mark.parametrize(("kwargs", "field", "message"), [
+    (dict(data=np.zeros(5), fs_hz=FS), "data", "expected a (T, C) array, got shape (5,)"),
+    (dict(data=np.zeros((5, 4)), fs_hz=FS), "channel_names", "a (T, 4) array needs 4 channel names"),
+    (dict(data=np.zeros((5, 2)), channel_names=("a",), fs_hz=FS), "channel_names", "needs 2 channel names"),
+    (dict(data=np.zeros((5, 6))), "fs_hz", "a plain array needs fs_hz > 0"),
+    (dict(data=np.zeros((5, 6)), fs_hz=0.0), "fs_hz", "fs_hz > 0"),
+    (dict(data=[]), "data", "nothing to plot"),
+    (dict(data=[np.zeros((5, 6))] * 2, labels=["one"], fs_hz=FS), "labels", "2 recordings but 1 labels"),
+])
+def test_bad_input_names_the_field(kwargs, field, message):
+    data = kwargs.pop("data")
+    with pytest.raises(ValidationError, match=message.replace("(", r"\(").replace(")", r"\)")) as err:
+        imu_figure(data, **kwargs)
+    assert err.value.field == field
