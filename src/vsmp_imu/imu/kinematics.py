@@ -115,6 +115,9 @@ def simulate_kinematics(
         smoothing_hz = sensor.placement.smoothing_hz
     if not motion.is_finite():
         raise ValidationError("motion has non-finite positions or rotations", field="motion")
+    if motion.n_frames < 3:  # the smoothing spline's minimum
+        raise ValidationError(f"motion has {motion.n_frames} frame(s); the simulator needs at least 3",
+                              field="motion")
     j = motion.joint_index(sensor.segment)
     attach = sensor.attachment(motion)
     rot_frames = Rotation.from_quat(motion.rotations[:, j])

@@ -57,8 +57,8 @@ def smoothing_spline(y: np.ndarray, fps: float, cutoff_hz: float | None) -> BSpl
     """Quintic smoothing spline through y (T, ...) sampled at t = k / fps (t0 = 0)."""
     y = np.asarray(y, dtype=float)
     n = y.shape[0]
-    if n < 2:
-        raise ValueError("need at least 2 samples")
+    if n < 3:  # n data rows + (m - 3) penalty rows must cover the m = n + 4 coefficients
+        raise ValueError(f"need at least 3 samples, got {n}")
     m = n + DEGREE - 1
     lam = penalty_for_cutoff(cutoff_hz, fps)
     ab = _gram_bands(_B_KERNEL, n, m, DEGREE) + lam * _gram_bands(_D3_KERNEL, m - 3, m, DEGREE)
