@@ -11,7 +11,7 @@ there whose [tool.mutmut] section mutates only the group's files and selects onl
 the group's tests, runs `mutmut run` with one worker, and writes the per-mutant
 outcome to docs/mutation/GROUP.json (the committed record). `report` turns the
 records into the markdown summary, with the mutants excluded in
-docs/mutation/excluded.json (equivalent or import-time, argued there) counted apart.
+docs/mutation/excluded.json (equivalent, import-time or layout, argued there) counted apart.
 """
 
 from __future__ import annotations
@@ -212,7 +212,7 @@ def _exclusion(name: str, rules: list[dict]) -> dict | None:
 
 
 def _counts(record: dict, rules: list[dict]) -> dict[str, int]:
-    counts = {"killed": 0, "survived": 0, "equivalent": 0, "import-time": 0, "other": 0}
+    counts = {"killed": 0, "survived": 0, "equivalent": 0, "layout": 0, "import-time": 0, "other": 0}
     for name, status in record["outcomes"].items():
         if status in ("killed", "timeout"):
             counts["killed"] += 1
@@ -231,14 +231,14 @@ def report() -> str:
     for group in GROUPS:
         path = RECORDS / f"{group.name}.json"
         if not path.exists():
-            rows.append(f"| {group.name} | not run | | | | | | |")
+            rows.append(f"| {group.name} | not run | | | | | | | |")
             continue
         record = json.loads(path.read_text())
         c = _counts(record, rules)
         scored = c["killed"] + c["survived"]
         score = f"{100 * c['killed'] / scored:.1f} %" if scored else "n/a"
         rows.append(f"| {record['group']} | {score} | {c['killed']} | {c['survived']} | {c['equivalent']} "
-                    f"| {c['import-time']} | {c['other']} | {record['tool']}, {record['date']}, "
+                    f"| {c['layout']} | {c['import-time']} | {c['other']} | {record['tool']}, {record['date']}, "
                     f"{record['minutes']} min |")
         details.append(_survivor_section(record, rules))
     head = [
@@ -247,12 +247,14 @@ def report() -> str:
         "Rebuilt by `python tools/mutation.py report` from the records in docs/mutation/",
         "(written by `make mutation`); see [testing.md](testing.md).",
         "Score = killed / (killed + survived), timeouts counted as killed. Left out of it:",
-        "mutants argued equivalent, mutants that run at import time (mutmut cannot switch them",
-        "on), and \"other\": mutants no selected test reaches or that the run did not get to",
-        "(docs/mutation/excluded.json holds the arguments).",
+        "mutants argued equivalent; layout mutants, which change only how a figure looks (font",
+        "and figure sizes, margins, legend placement) while what it shows (data, names, units,",
+        "colours, line styles) stays scored; mutants that run at import time (mutmut cannot",
+        "switch them on); and \"other\": mutants no selected test reaches or that the run did",
+        "not get to (docs/mutation/excluded.json holds the arguments).",
         "",
-        "| group | score | killed | survived | equivalent | import-time | other | run |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| group | score | killed | survived | equivalent | layout | import-time | other | run |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     return "\n".join(head + rows + [""] + details) + "\n"
 
@@ -273,7 +275,7 @@ def _survivor_section(record: dict, rules: list[dict]) -> str:
         names = by_rule.get(id(rule), [])
         if names:
             lines += [f"### {rule['kind'].capitalize()} ({len(names)}): {rule['why']}", ""]
-            lines += _diff_lines(record, names) if rule["kind"] == "equivalent" else [
+            lines += _diff_lines(record, names) if rule["kind"] in ("equivalent", "layout") else [
                 ", ".join(f"`{n.rsplit('.', 1)[-1]}`" for n in names), ""]
     return "\n".join(lines)
 
