@@ -11,6 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.imu.kinematics import (
+    check_settings,
     continuous_quaternions,
     output_times,
     reflect_ends,
@@ -52,6 +53,12 @@ def test_kinematics_check_their_settings_and_the_motion(motion):
         simulate_kinematics(make_motion(1 / 30, 30.0), "waist", 50.0, trim_s=0.0)  # two frames
     assert (err.value.message, err.value.field) == ("motion has 2 frame(s); the simulator needs at least 3",
                                                     "motion")
+
+
+def test_slow_rates_and_cutoffs_and_three_frames_are_enough():
+    check_settings(0.5, 0.5, 0.0)  # any positive rate and cutoff
+    kin = simulate_kinematics(make_motion(2 / 30, 30.0), "waist", 50.0, trim_s=0.0)  # three frames
+    assert kin.n_samples == 4 and np.isfinite(kin.gyr_seg).all()
 
 
 def test_kinematics_record_how_they_were_made(motion):
@@ -150,6 +157,7 @@ def test_the_spline_keeps_the_shape_of_its_input_and_does_not_extrapolate():
         line = smoothing_spline(3.0 * t[:3], 10.0, cutoff)
         assert line(np.array([0.05])).shape == (1,) and line(0.05) == pytest.approx(0.15)
     curve = smoothing_spline(np.sin(t), 10.0, None)
+    assert len(curve.c) == 5 + 4  # one coefficient per frame plus degree - 1, knots at the frames
     assert curve(t).shape == (5,) and np.allclose(curve(t), np.sin(t), atol=1e-6)
     assert np.isnan(curve(-0.01)) and np.isnan(curve(t[-1] + 0.01))
     for n in (1, 2):  # two samples leave the system singular (4 data and penalty rows, 6 coefficients)
