@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 
+import numpy as np
 import pytest
 import yaml
 from motion_cases import AUTHORED, CONTROLLABILITY, HAPT, MMFIT, SYMMETRY_VARIANT, UTD_MHAD_OTHERS
@@ -159,3 +160,33 @@ def test_every_library_recipe_animates_its_smp(backend, library, name):
     assert is_plausible(backend.generate(entry.smp, seed=0))
     fast = intervene(intervene(entry.smp, "tempo", "fast"), "amplitude", "large")
     assert is_plausible(backend.generate(fast, seed=1))
+
+
+def _turn_and_pitch(backend, smp, side: str) -> tuple[float, float]:
+    """Net rotation (rad) of a waist sensor's segment: about the turn's two body axes, and pitch."""
+    from vsmp_imu.imu.kinematics import simulate_kinematics
+
+    smp = smp.model_copy(deep=True)
+    smp.execution_attributes.dominant_side = side
+    net = simulate_kinematics(backend.generate(smp, seed=0), "waist", 50.0).gyr_seg.sum(axis=0) / 50.0
+    return net[1:], float(net[0])
+
+
+@pytest.mark.parametrize("name", ["sit_to_lie", "stand_to_lie", "lie_to_sit", "lie_to_stand"])
+def test_lying_transitions_turn_either_way(backend, library, name):
+    """Lying along a bed from its edge takes a quarter turn: the waist turns by more than 1 rad
+    about the body's long and front axes, the other way when the SMP's side is swapped, and the
+    trunk's pitch is the same either way (docs/motion.md, lying transitions)."""
+    smp = library.get(name).smp
+    assert "dominant_side" in smp.constraints.variant_fields
+    right, pitch_r = _turn_and_pitch(backend, smp, "right")
+    left, pitch_l = _turn_and_pitch(backend, smp, "left")
+    assert np.linalg.norm(right) > 1.0
+    np.testing.assert_allclose(left, -right, atol=1e-6)
+    assert pitch_l == pytest.approx(pitch_r, abs=1e-6) and abs(pitch_r) > 0.8
+
+
+def test_sit_stand_transitions_do_not_turn(backend, library):
+    for name in ("stand_to_sit", "sit_to_stand"):
+        turn, _ = _turn_and_pitch(backend, library.get(name).smp, "none")
+        assert np.linalg.norm(turn) < 0.1, name
