@@ -162,7 +162,7 @@ def test_every_library_recipe_animates_its_smp(backend, library, name):
     assert is_plausible(backend.generate(fast, seed=1))
 
 
-def _turn_and_pitch(backend, smp, side: str) -> tuple[float, float]:
+def _turn_and_pitch(backend, smp, side: str) -> tuple[np.ndarray, float]:
     """Net rotation (rad) of a waist sensor's segment: about the turn's two body axes, and pitch."""
     from vsmp_imu.imu.kinematics import simulate_kinematics
 
