@@ -30,7 +30,7 @@ VSMP_TARGET = "vsmp_imu.pipeline.method:VsmpMethod"
 # The baselines' chain: no refinement, no sim-in-the-loop (sensor or motion), declared mounting, rank
 # grounding, plausibility filter without the class validator, one variant per description, no refill.
 BASELINE_CHAIN: dict[str, Any] = {"k": 1, "refine": False, "sim_in_the_loop": False, "motion_fit": False,
-                                  "rank_grounding": True,
+                                  "side_evidence": False, "rank_grounding": True,
                                   "estimate_mounting": False, "quality_filter": True, "class_filter": False,
                                   "refill": 0}
 

@@ -172,3 +172,21 @@ def test_gravity_norm_gives_the_grounded_windows_the_real_gravity_reading(hapt12
     (kept_median, kept_spread), plain_spread = spread(out.windows), spread(plain.windows)[1]
     assert abs(kept_median - real_median) < 0.05 * real_median
     assert kept_spread < plain_spread  # the channel-wise map alone spreads the gravity reading
+
+
+def test_the_side_evidence_reaches_the_summary_and_every_sample_of_the_class(fold):
+    """The lying transitions' sides come from the training windows (pipeline.side): the summary
+    records each decision and every sample of the class is a variant of the decided SMP."""
+    from vsmp_imu.smp import SMP
+
+    out, _, _ = fold
+    sides = out.summary["side_evidence"]
+    assert set(sides) == {"SIT_TO_LIE", "LIE_TO_SIT", "STAND_TO_LIE", "LIE_TO_STAND"}
+    for label, (rec,) in sides.items():
+        assert rec["used"] and rec["source"] == f"library:{label.lower()}"
+        tasks = [t for t in out.tasks if t.label == label]
+        assert tasks
+        for task in tasks:
+            smp = SMP.model_validate_json(task.smp_json)
+            assert smp.uncertainty.dominant_side == pytest.approx(rec["uncertainty"])
+            assert smp.execution_attributes.dominant_side in ("left", "right")

@@ -181,5 +181,8 @@ PER_CLASS_RANK = typer.Option(True, "--per-class-rank/--pooled-rank",
                                    "(--pooled-rank: one map for all, the paper's)")
 GRAVITY_NORM = typer.Option(False, "--gravity-norm",
                             help="after the rank map, give each sample's accelerometer its gravity magnitude back")
+SIDE_EVIDENCE = typer.Option(True, "--side-evidence/--no-side-evidence",
+                             help="where the side shows in the sensor (a turn to lie down), give a class's "
+                                  "variants the side its real training windows support (--no-side-evidence: 50/50)")
 MOTION_FIT = typer.Option(False, "--motion-fit",
                           help="fit each class's motion parameters to D_stat before synthesis (VSMP-IMU)")

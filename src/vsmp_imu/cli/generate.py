@@ -11,6 +11,7 @@ from vsmp_imu.cli.common import (
     GRAVITY_NORM,
     MOTION_FIT,
     PER_CLASS_RANK,
+    SIDE_EVIDENCE,
     console,
     executor_options,
     library_dirs,
@@ -50,6 +51,7 @@ def generate_cmd(
     per_class_rank: bool = PER_CLASS_RANK,
     gravity_norm: bool = GRAVITY_NORM,
     motion_fit: bool = MOTION_FIT,
+    side_evidence: bool = SIDE_EVIDENCE,
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
     library: list[Path] = typer.Option(None, "--library", help="Extra activity-library folder (repeatable)"),
@@ -66,7 +68,7 @@ def generate_cmd(
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, sim_in_the_loop=not no_sim_loop,
         rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
-        motion_fit=motion_fit, gravity_norm=gravity_norm,
+        motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence,
         refine=not no_refine, uncertainty_conditioned=not no_uncertainty,
         library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None,
@@ -104,6 +106,17 @@ def _print_summary(summary: dict) -> None:
         else:
             text = f"SMP defaults: {fit['reason']}"
         console.print(f"motion fit {name}: {text}", highlight=False)
+    for name, records in summary.get("side_evidence", {}).items():
+        for rec in records:
+            console.print(f"side {name}: {side_text(rec)}", highlight=False)
+
+
+def side_text(rec: dict) -> str:
+    """One class's side from evidence, in words."""
+    if not rec["used"]:
+        return f"the SMP's side, variants either way ({rec['reason']})"
+    return (f"{rec['side']} (p = {rec['p_right'] if rec['side'] == 'right' else 1 - rec['p_right']:.2f}: "
+            f"{rec['votes_right']} real windows turn right, {rec['votes_left']} left, of {rec['windows']})")
 
 
 def register(app: typer.Typer) -> None:

@@ -14,6 +14,7 @@ from vsmp_imu.cli.common import (
     GRAVITY_NORM,
     MOTION_FIT,
     PER_CLASS_RANK,
+    SIDE_EVIDENCE,
     console,
     executor_options,
     output_dir,
@@ -105,6 +106,7 @@ def evaluate_cmd(
     per_class_rank: bool = PER_CLASS_RANK,
     gravity_norm: bool = GRAVITY_NORM,
     motion_fit: bool = MOTION_FIT,
+    side_evidence: bool = SIDE_EVIDENCE,
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
     address: str = typer.Option(None, "--address", help="Ray cluster address (--executor ray)"),
@@ -144,7 +146,7 @@ def evaluate_cmd(
         unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
-        motion_fit=motion_fit, gravity_norm=gravity_norm,
+        motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)

@@ -63,6 +63,14 @@ from vsmp_imu.pipeline.sample import (
     backend_for,
     cached_synthesize,
 )
+from vsmp_imu.pipeline.side import (
+    SIDES,
+    SideEvidence,
+    mean_rates,
+    probe_seed,
+    side_is_free,
+    with_side,
+)
 from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp import SMP
@@ -317,6 +325,32 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
     return tasks
 
 
+# -- stage 2a: the side from evidence (pipeline.side) -------------------------------------------------
+def side_probe_tasks(spec: GenerationSpec, info: DatasetInfo, label: str, j: int, smp: SMP, seed: int, fold: str,
+                     locations: tuple[LocationTask, ...]) -> list[SampleTask]:
+    """Base SMP j of a class, moved to the left and to the right: same seed, no noise, no calibration."""
+    probe = probe_seed(seed, fold, f"{label}/{j}")
+    return [SampleTask(key=f"{fold}/{label}/side{j}-{side}", label=label, label_index=info.label_names.index(label),
+                       source="side-probe", variant=0, **_payload(with_side(smp, side)), backend=spec.backend,
+                       seed=probe, fs_hz=info.fs_hz, locations=locations, sim_in_the_loop=False, noise=False,
+                       duration_s=spec.duration_s, library_dirs=tuple(spec.library_dirs))
+            for side in SIDES]
+
+
+def gyro_locations(label: str, plan) -> list[SensorLocation]:
+    return [loc for loc in plan[label] if loc.gyr_unit is not None and len(loc.channels) >= 6]
+
+
+def side_evidence(info: DatasetInfo, train: Windows, label: str, plan, probes: list[SampleResult]) -> SideEvidence:
+    """The two probes' mean gyroscope vectors and the class's real training windows' (pipeline.side)."""
+    locs = gyro_locations(label, plan)
+    left, right = ([r.signals[loc.name] for loc in locs] for r in probes)
+    rms = float(np.sqrt(np.mean(np.concatenate([np.asarray(s)[:, 3:6].ravel() for s in left + right]) ** 2)))
+    X = train.X[train.y == info.label_names.index(label)]
+    rates = [X[..., channel_index(info, loc)[3:6]].mean(axis=1) for loc in locs]
+    return SideEvidence(mean_rates(left), mean_rates(right), rms, np.concatenate(rates, axis=1))
+
+
 # -- stage 2b: motion-level simulation-in-the-loop ------------------------------------------------
 def motion_fit_jobs(spec: GenerationSpec, info: DatasetInfo, sources, setup: FoldSetup, budget: np.ndarray,
                     seed: int, fold: str, library=None) -> list[MotionFitJob]:
@@ -535,6 +569,7 @@ class FoldGenerator:
         self.motion_dir = motion_dir
         self.library = library
         self.motion_fits: dict[str, dict] = {}  # per class, set by `generate` (motion_fit)
+        self.sides: dict[str, list[dict]] = {}  # per class and base SMP, set by `generate` (side_evidence)
         self.class_windows_: dict[str, int] = {}  # per class, the real training windows of the fold
 
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
@@ -546,6 +581,7 @@ class FoldGenerator:
         length = train.n_timesteps
         hop = max(1, int(round(spec.hop_fraction * length)))
         setup = prepare(spec, info, train, sources, seed, threads)
+        sources, self.sides = self.sides_from_evidence(info, train, sources, setup, budget, seed, fold)
         self.motion_fits = self.fit_motions(info, sources, setup, budget, seed, fold)
         job = None
         if spec.quality_filter:
@@ -581,9 +617,48 @@ class FoldGenerator:
             summary["rank_map"] = rank_map
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
+        if self.sides:
+            summary["side_evidence"] = self.sides
         return FoldOutput(out, X, records, results, tasks, summary)
 
     # -- stages 2 + 3 on the executor --------------------------------------------------------------
+    def sides_from_evidence(self, info, train: Windows, sources, setup: FoldSetup, budget, seed: int,
+                            fold: str) -> tuple[dict, dict[str, list[dict]]]:
+        """Per class with a budget, each base SMP with a free side gets the side its real training
+        windows support (`pipeline.side`); the sources with those sides and the records."""
+        spec = self.config
+        if not spec.side_evidence:
+            return sources, {}
+        todo = []
+        for i, label in enumerate(info.label_names):
+            if budget[i] <= 0 or label not in sources or not gyro_locations(label, setup.plan):
+                continue
+            for j, (_, base) in enumerate(sources[label]):
+                smp = Refiner(self.library).refine(base).smp if isinstance(base, SMP) and spec.refine else base
+                if isinstance(smp, SMP) and side_is_free(smp):
+                    todo.append((label, j, smp))
+        if not todo:
+            return sources, {}
+        tasks = [t for label, j, smp in todo
+                 for t in side_probe_tasks(spec, info, label, j, smp, seed, fold, setup.locations[label])]
+        cache = str(self.cache_dir) if self.cache_dir else None
+        done = self.executor.map(run_item, [(t, cache) for t in tasks],
+                                 desc=f"fold {fold}: {len(tasks)} side probes")
+        out = {label: list(bases) for label, bases in sources.items()}
+        records: dict[str, list[dict]] = {}
+        for n, (label, j, smp) in enumerate(todo):
+            probes = done[2 * n: 2 * n + 2]
+            source, base = out[label][j]
+            failed = next((p.error for p in probes if p.error), None)
+            if failed:
+                record = {"used": False, "reason": f"a probe failed: {failed}"}
+            else:
+                _, record = side_evidence(info, train, label, setup.plan, probes).decide(smp)
+                if record["used"]:
+                    out[label][j] = (source, with_side(base, record["side"], record["uncertainty"]))
+            records.setdefault(label, []).append({"source": source, **record})
+        return out, records
+
     def fit_motions(self, info, sources, setup: FoldSetup, budget, seed: int, fold: str) -> dict[str, dict]:
         """Per class, the fitted motion parameters (empty without `motion_fit`)."""
         if not self.config.motion_fit:

@@ -45,6 +45,9 @@ class GenerationSpec:
     refine: bool = True
     uncertainty_conditioned: bool = True
     sim_in_the_loop: bool = True
+    # where the side shows in the sensor, the side a class's real training windows support
+    # (pipeline.side; measured in docs/results.md)
+    side_evidence: bool = True
     # motion-level simulation-in-the-loop: per class, fit the motion's free parameters to D_stat
     motion_fit: bool = False
     rank_grounding: bool = True
