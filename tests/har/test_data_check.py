@@ -82,3 +82,48 @@ def test_user_mistakes_exit_2(cli, tmp_path):
     assert code == 2 and "nowhere" in err
     code, _, err = cli("data", "check", tmp_path / "missing.yaml", "-o", tmp_path / "c")
     assert code == 2 and "missing.yaml" in err
+
+
+def test_turning_the_other_way_is_flagged_and_the_same_way_is_not(cli, tmp_path):
+    """Real windows of people lying down with a quarter turn to the left, against the library's file
+    (a turn to the right) and against the same file turned left."""
+    from vsmp_imu.pipeline.side import with_side
+
+    library = ActivityLibrary.load()
+    left = with_side(library.get("sit_to_lie").smp, "left")
+    backend = backend_for("procedural", ())
+    rows = []
+    for n, subject in enumerate(["a", "b", "c"]):
+        imu = ImuSimulator(50.0, seed=n).simulate(backend.generate(left, 40 + n), "waist").data
+        acc, gyr = imu[:, :3] @ P.T, imu[:, 3:] @ P.T
+        rows.append(pd.DataFrame({"subject": subject, "label": "sit_to_lie", "ax": acc[:, 0], "ay": acc[:, 1],
+                                  "az": acc[:, 2], "gx": gyr[:, 0], "gy": gyr[:, 1], "gz": gyr[:, 2]}))
+    path = _dataset(tmp_path / "ds", library)
+    pd.concat(rows).to_csv(path.parent / "data" / "all.csv", index=False)
+    smps = tmp_path / "smps"
+    smps.mkdir()
+    save_smp(left, smps / "sit_to_lie.json")
+    flags = {}
+    for name, extra in (("library", ()), ("left", ("--source", f"smp:{smps}"))):
+        code, _, err = cli("data", "check", path, *extra, "--samples", "2", "-o", tmp_path / name)
+        assert code == 0, err
+        (result,) = json.loads((tmp_path / name / "check.json").read_text())["classes"]
+        flags[name] = [f for f in result["flags"] if "rotation rate" in f]
+        if name == "library":
+            real, syn = np.array(result["real_mean_gyro"]), np.array(result["synthetic_mean_gyro"])
+            # the mirror image: the rates about up and backward change sign, the pitch (about left) not
+            assert np.sign(real[[0, 2]]).tolist() == (-np.sign(syn[[0, 2]])).tolist()
+            assert abs(real[1] - syn[1]) < 0.25 * abs(real[1])
+    assert len(flags["library"]) == 1
+    assert flags["left"] == []
+
+
+def test_the_turn_flag_needs_a_gap_beyond_the_floor_and_half_the_larger_turn():
+    from vsmp_imu.pipeline.check import MIN_TURN_RAD_S, turn_flag
+
+    axes = ("up", "left", "backward")
+    assert turn_flag(np.zeros(3), np.array([0.0, 0.0, 0.9 * MIN_TURN_RAD_S]), axes) is None
+    assert turn_flag(np.array([0.4, 0, 0]), np.array([0.25, 0, 0]), axes) is None  # same way, 0.15 < 0.2
+    flag = turn_flag(np.array([0.4, 0, 0]), np.array([0.15, 0, 0]), axes)
+    assert flag and "x (up): +0.40 rad/s real vs +0.15 simulated" in flag
+    assert "z (backward)" in turn_flag(np.array([0, 0, -0.3]), np.array([0, 0, 0.3]), axes)

@@ -11,12 +11,16 @@ compares them with the real windows of the class:
 - the mean acceleration vector (where gravity points, device frame) and the
   angle between the real and the simulated one;
 - the dominant frequency of the acceleration magnitude;
-- the RMS of the acceleration around its window mean (how much it moves).
+- the RMS of the acceleration around its window mean (how much it moves);
+- the mean gyroscope vector (a net turn, one way on average, e.g. the quarter
+  turn of lying down along a bed).
 
 A class is flagged when gravity points more than `MAX_GRAVITY_ANGLE_DEG`
 apart, when the dominant frequencies differ by more than a factor
-`MAX_FREQUENCY_RATIO`, or when one moves `MAX_MOTION_RATIO` times more than
-the other. Nothing here is fitted or learned: it is a look, not a grounding.
+`MAX_FREQUENCY_RATIO`, when one moves `MAX_MOTION_RATIO` times more than
+the other, or when one turns one way on average and the other does not
+(mean gyroscope vectors further apart than `MIN_TURN_RAD_S` and half the
+larger one). Nothing here is fitted or learned: it is a look, not a grounding.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ MAX_FREQUENCY_RATIO = 1.6
 MAX_MOTION_RATIO = 3.0
 STATIC_RMS_M_S2 = 0.5  # below this RMS around the mean a window set has no dominant frequency
 MIN_FREQUENCY_HZ = 0.2
+MIN_TURN_RAD_S = 0.1  # mean rotation rates closer than this never differ
 
 
 @dataclass
@@ -58,6 +63,8 @@ class ClassCheck:
     synthetic_frequency_hz: float | None = None
     real_motion_rms: float | None = None
     synthetic_motion_rms: float | None = None
+    real_mean_gyro: list[float] | None = None
+    synthetic_mean_gyro: list[float] | None = None
     l_sim: float | None = None
     flags: list[str] = field(default_factory=list)
 
@@ -84,6 +91,22 @@ def dominant_frequency(windows: np.ndarray, fs_hz: float) -> float | None:
     freqs = np.fft.rfftfreq(mag.shape[1], 1.0 / fs_hz)
     usable = freqs >= MIN_FREQUENCY_HZ
     return float(freqs[usable][np.argmax(power[usable])])
+
+
+def mean_gyro(windows: np.ndarray) -> np.ndarray:
+    """Mean gyroscope vector (3,) of windows (N, T, 6): the net turn rate, rad/s."""
+    return windows[..., 3:6].reshape(-1, 3).mean(axis=0)
+
+
+def turn_flag(real: np.ndarray, syn: np.ndarray, axes) -> str | None:
+    """What looks off when one side turns one way on average and the other does not."""
+    gap = float(np.linalg.norm(real - syn))
+    if gap <= max(MIN_TURN_RAD_S, 0.5 * max(np.linalg.norm(real), np.linalg.norm(syn))):
+        return None
+    k = int(np.argmax(np.abs(real - syn)))
+    axis = f"{'xyz'[k]} ({axes[k]})" if axes else "xyz"[k]
+    return (f"mean rotation rate about {axis}: {real[k]:+.2f} rad/s real vs {syn[k]:+.2f} simulated: check the "
+            "side, or a turn the activity file lacks")
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> float | None:
@@ -121,6 +144,11 @@ def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn:
     out.real_motion_rms, out.synthetic_motion_rms = motion_rms(real), motion_rms(syn)
     if real.shape[-1] == 6:
         out.l_sim = float(sim_loss(summarize_windows(syn, fs_hz), summarize_windows(real, fs_hz)))
+        r_gyro, s_gyro = mean_gyro(real), mean_gyro(syn)
+        out.real_mean_gyro, out.synthetic_mean_gyro = r_gyro.round(3).tolist(), s_gyro.round(3).tolist()
+        turn = turn_flag(r_gyro, s_gyro, loc.axes)
+        if turn:
+            out.flags.append(turn)
     if out.gravity_angle_deg is not None and out.gravity_angle_deg > MAX_GRAVITY_ANGLE_DEG:
         out.flags.append(f"gravity points {out.gravity_angle_deg:.0f}° apart: check the declared axes, "
                          "the side, or the posture in the activity file")
