@@ -4,7 +4,9 @@ The held-out subject's windows carry a sentinel (channel 0 = 4242 m/s^2 over
 the whole window; no real or synthetic window reads that). Every place where
 the pipeline fits something on real data is instrumented: the fold's training
 windows, the D_stat / D_rank split, TargetStatistics.fit (D_stat),
-the nominal-mounting estimate, RankGrounder.fit (D_rank),
+the nominal-mounting estimate, the windows that vote on a class's side
+(every SMP's side is made free here, so the side from evidence runs for
+every class), RankGrounder.fit (D_rank),
 MotionPlausibilityFilter.fit, HarValidator.fit, the embeddings given to
 nn_thresholds and the tau_cls selection model. A run of `evaluate` with the
 `vsmp` method under lopo, low-resource and long-tail must never show the
@@ -40,8 +42,8 @@ from vsmp_imu.smp.library import ActivityLibrary
 SENTINEL = 4242.0
 HELD = "1"
 SMALL = GenerationSpec(k=1, oversample=1.5, max_rounds=2)
-INSTRUMENTS = ("fold_train", "split_labels", "d_stat", "mounting_d_stat", "d_rank", "plausibility",
-               "validator", "nn_threshold_embeddings", "tau_model_fit", "tau_model_predict")
+INSTRUMENTS = ("fold_train", "split_labels", "d_stat", "mounting_d_stat", "side_votes", "d_rank",
+               "plausibility", "validator", "nn_threshold_embeddings", "tau_model_fit", "tau_model_predict")
 SEEN: dict[str, list[bool]] = defaultdict(list)
 
 
@@ -97,6 +99,9 @@ def instruments(monkeypatch):
         SEEN["split_labels"].append(False), split(labels, seed, *a, **k))[1])
     wrap(fold_mod, "nominal_mountings",
          lambda spec, info, plan, sources, d_stat: SEEN["mounting_d_stat"].append(has_sentinel(d_stat.X)))
+    monkeypatch.setattr(fold_mod, "side_is_free", lambda smp: True)
+    wrap(fold_mod, "side_evidence",
+         lambda info, train, label, plan, probes: SEEN["side_votes"].append(has_sentinel(train.X)))
     wrap(TargetStatistics, "fit", lambda self, windows, labels, *_: SEEN["d_stat"].append(has_sentinel(windows)))
     wrap(RankGrounder, "fit", lambda self, syn, real, *a, **k: SEEN["d_rank"].append(has_sentinel(real)))
     wrap(MotionPlausibilityFilter, "fit", lambda self, X, y: SEEN["plausibility"].append(has_sentinel(X)))

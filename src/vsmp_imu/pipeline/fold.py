@@ -337,6 +337,20 @@ def side_probe_tasks(spec: GenerationSpec, info: DatasetInfo, label: str, j: int
             for side in SIDES]
 
 
+def free_sides(spec: GenerationSpec, info: DatasetInfo, sources, plan, budget, library=None) -> list[tuple]:
+    """(class, base index, refined SMP) of each base SMP with a free side, in a class with a budget
+    and a gyroscope to read the side from."""
+    todo = []
+    for i, label in enumerate(info.label_names):
+        if budget[i] <= 0 or label not in sources or not gyro_locations(label, plan):
+            continue
+        for j, (_, base) in enumerate(sources[label]):
+            smp = Refiner(library).refine(base).smp if isinstance(base, SMP) and spec.refine else base
+            if isinstance(smp, SMP) and side_is_free(smp):
+                todo.append((label, j, smp))
+    return todo
+
+
 def gyro_locations(label: str, plan) -> list[SensorLocation]:
     return [loc for loc in plan[label] if loc.gyr_unit is not None and len(loc.channels) >= 6]
 
@@ -627,16 +641,7 @@ class FoldGenerator:
         """Per class with a budget, each base SMP with a free side gets the side its real training
         windows support (`pipeline.side`); the sources with those sides and the records."""
         spec = self.config
-        if not spec.side_evidence:
-            return sources, {}
-        todo = []
-        for i, label in enumerate(info.label_names):
-            if budget[i] <= 0 or label not in sources or not gyro_locations(label, setup.plan):
-                continue
-            for j, (_, base) in enumerate(sources[label]):
-                smp = Refiner(self.library).refine(base).smp if isinstance(base, SMP) and spec.refine else base
-                if isinstance(smp, SMP) and side_is_free(smp):
-                    todo.append((label, j, smp))
+        todo = free_sides(spec, info, sources, setup.plan, budget, self.library) if spec.side_evidence else []
         if not todo:
             return sources, {}
         tasks = [t for label, j, smp in todo
