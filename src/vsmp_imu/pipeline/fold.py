@@ -642,15 +642,20 @@ class FoldGenerator:
         windows support (`pipeline.side`); the sources with those sides and the records."""
         spec = self.config
         todo = free_sides(spec, info, sources, setup.plan, budget, self.library) if spec.side_evidence else []
+        records: dict[str, list[dict]] = {}
+        for label, j, _ in todo:  # a class without real windows keeps its side: no probe to run
+            if not np.any(train.y == info.label_names.index(label)):
+                records.setdefault(label, []).append({"source": sources[label][j][0], "used": False,
+                                                      "reason": "no real window of the class"})
+        todo = [t for t in todo if t[0] not in records]
         if not todo:
-            return sources, {}
+            return sources, records
         tasks = [t for label, j, smp in todo
                  for t in side_probe_tasks(spec, info, label, j, smp, seed, fold, setup.locations[label])]
         cache = str(self.cache_dir) if self.cache_dir else None
         done = self.executor.map(run_item, [(t, cache) for t in tasks],
                                  desc=f"fold {fold}: {len(tasks)} side probes")
         out = {label: list(bases) for label, bases in sources.items()}
-        records: dict[str, list[dict]] = {}
         for n, (label, j, smp) in enumerate(todo):
             probes = done[2 * n: 2 * n + 2]
             source, base = out[label][j]
