@@ -106,20 +106,6 @@ GROUND_SOFTNESS_M = 0.004
 # frequency (about 2 Hz); a 4 Hz low-pass removes the kinks of the stance switch.
 LOCOMOTION_ROOT_CUTOFF_HZ = 4.0
 TRAVEL_FLUCTUATION = 0.5
-# Walking stands on the lower foot (soft over STANCE_SOFTNESS_M; a rising heel hands
-# TOE_SUPPORT of the lift to the toe) and the pelvis shifts toward it: SWAY_FRACTION of
-# the stance ankle's sideways offset, below SWAY_CUTOFF_HZ (the stride frequency, about
-# 1 Hz, passes; the switch's kinks do not): about 4 cm from side to side, about what
-# the pelvis of level walking measures.
-STANCE_SOFTNESS_M = 0.04
-TOE_SUPPORT = 0.5
-MAX_SINK_M = 0.025
-# The pelvis path of a stance-to-stance switch has a kink where real gait shares the load
-# over the double support: its vertical path keeps the step frequency, not the kink's
-# harmonics (cut at 1.5 x the step frequency, at most LOCOMOTION_ROOT_CUTOFF_HZ).
-LIFT_CUTOFF_STEPS = 1.5
-SWAY_FRACTION = 0.2
-SWAY_CUTOFF_HZ = 2.0
 CONTACT_SOFTNESS_M = 0.01
 # flight (both feet off the floor, 1.70 m body): the root keeps its speed (running)
 FLIGHT_START_M, FLIGHT_RAMP_M = 0.01, 0.015
@@ -280,10 +266,6 @@ class ProceduralBackend:
         style = np.zeros(N_DOFS)
         style[ROTATION_COLUMNS] = rng_style.normal(0.0, STYLE_SD_DEG, size=len(ROTATION_COLUMNS))
         style[RIGHT_COLUMNS] = style[LEFT_COLUMNS] + rng_style.normal(0.0, STYLE_SIDE_SD_DEG, len(LEFT_COLUMNS))
-        if _walks(recipe):
-            # a walking pelvis is level on average: a constant roll would make one leg the
-            # longer one, limping at the stride frequency and dragging the other foot
-            style[DOF_INDEX["root_roll"]] = 0.0
         noise = np.zeros((n, N_DOFS))
         noise[:, ROTATION_COLUMNS] = low_frequency_noise(rng_style, t, len(ROTATION_COLUMNS), recipe.idle_deg)
         # both sides drift mostly together (a shared part plus a smaller own part)
@@ -309,25 +291,18 @@ class ProceduralBackend:
         pos, rot = fast_fk(skeleton.offsets, skeleton.parents, local, root)
         floors = _stair_floors(plan, t) if recipe.locomotion.startswith("stairs") else None
         lift = np.zeros(n)
-        stance = None
         if recipe.grounding == "lowest":
             heights = pos[..., 1] if floors is None else pos[..., 1] - floors[:, _FLOOR_SIDE]
-            if _walks(recipe):
-                lift, stance = _feet_support(heights, CLEARANCE_170 * s)
-            else:
-                lift = _ground_offset(heights, CLEARANCE_170 * s)
+            lift = _ground_offset(heights, CLEARANCE_170 * s)
         lift = lift + dofs[:, DOF_INDEX["root_dy"]] * s
         travel = np.zeros((n, 3))
-        if stance is not None:
-            travel[:, 0] = _sway(pos, stance, fps)
         if recipe.locomotion != "none" and c["displacement_m"] != 0.0:
             travel[:, 2] = _stance_travel(pos, lift, s, fps, None if floors is None else floors[:, :2])
         elif recipe.locomotion == "none" and c["drift_m"] > 0:
             travel[:, 2] = c["drift_m"] * minimum_jerk(t / max(t[-1], 1e-9))
         if recipe.locomotion != "none":
             travel[:, 2] = _even_travel(travel[:, 2], fps)
-            cutoff = _lift_cutoff(plan) if _walks(recipe) else LOCOMOTION_ROOT_CUTOFF_HZ
-            lift = lowpass(lift, fps, cutoff, order=2)
+            lift = lowpass(lift, fps, LOCOMOTION_ROOT_CUTOFF_HZ, order=2)
         travel[:, 1] = lift
         pos = pos + travel[:, None, :]
 
@@ -737,53 +712,6 @@ def _ground_offset(heights: np.ndarray, clearance: np.ndarray) -> np.ndarray:
     tau = GROUND_SOFTNESS_M
     return (top + tau * np.log(np.exp((need - top) / tau).sum(axis=1, keepdims=True)))[:, 0] - \
         tau * np.log(2.0)
-
-
-def _lift_cutoff(plan: Plan) -> float:
-    """Low-pass cutoff of a locomotion's vertical root path: LIFT_CUTOFF_STEPS x the step
-    frequency (an alternating cycle holds two steps), at most LOCOMOTION_ROOT_CUTOFF_HZ."""
-    cycle = plan.recipe.cycle
-    if cycle is None or plan.cycle_s <= 0:
-        return LOCOMOTION_ROOT_CUTOFF_HZ
-    step_hz = (2.0 if cycle.alternate else 1.0) / plan.cycle_s
-    return min(LOCOMOTION_ROOT_CUTOFF_HZ, LIFT_CUTOFF_STEPS * step_hz)
-
-
-def _walks(recipe: Recipe) -> bool:
-    """Walking-like locomotion: alternating steps with a foot always on the floor (a cycle
-    whose root_dy wave lifts the body into flight, as running does, is not)."""
-    cycle = recipe.cycle
-    return (recipe.locomotion != "none" and recipe.grounding == "lowest" and cycle is not None
-            and cycle.alternate and "root_dy" not in (cycle.wave or {}))
-
-
-def _feet_support(heights: np.ndarray, clearance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lift that stands a walking body on its lower foot, and each foot's stance weight (T, 2).
-
-    A foot rests on its ankle (the heel) and, once the heel rises, on its toe with
-    TOE_SUPPORT of the toe's rise: the pelvis is highest over the stance foot and
-    lowest when both feet are on the floor, once per step. Resting on whichever
-    joint is lowest instead let a swing toe passing close to the floor, or the
-    switch from heel to toe, lift the body, which put the waist's vertical
-    acceleration at twice the step frequency (real waists: at the step frequency).
-    """
-    ankles = [SMPL22_JOINTS.index("left_ankle"), SMPL22_JOINTS.index("right_ankle")]
-    toes = [SMPL22_JOINTS.index("left_foot"), SMPL22_JOINTS.index("right_foot")]
-    heel = clearance[None, ankles] - heights[:, ankles]
-    toe = clearance[None, toes] - heights[:, toes]
-    need = heel + TOE_SUPPORT * np.maximum(0.0, toe - heel)
-    w = np.exp((need - need.max(axis=1, keepdims=True)) / STANCE_SOFTNESS_M)
-    w /= w.sum(axis=1, keepdims=True)
-    # no joint sinks more than MAX_SINK_M into the floor (a fast, large stride's toe would)
-    floor = _ground_offset(heights, clearance) - MAX_SINK_M
-    return np.maximum((w * need).sum(axis=1), floor), w
-
-
-def _sway(pos: np.ndarray, stance: np.ndarray, fps: float) -> np.ndarray:
-    """Sideways root shift toward the stance foot (medio-lateral sway, once per stride)."""
-    idx = [SMPL22_JOINTS.index("left_ankle"), SMPL22_JOINTS.index("right_ankle")]
-    side = (stance * (pos[:, idx, 0] - pos[:, :1, 0])).sum(axis=1)
-    return lowpass(SWAY_FRACTION * side, fps, SWAY_CUTOFF_HZ, order=2)
 
 
 def _even_travel(x: np.ndarray, fps: float) -> np.ndarray:
