@@ -132,6 +132,7 @@ class EvalRequest:
     methods: tuple[str, ...] = ("real",)
     folds: tuple[str, ...] | None = None
     seeds: int = 1
+    only_seeds: tuple[int, ...] = ()  # run only these of 0..seeds-1 (one evaluation over processes)
     rho: float = 10.0
     window_s: float = 2.0
     overlap: float = 0.5
@@ -157,6 +158,7 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
     from vsmp_imu.methods import method_params, register_all
 
     register_all()
+    seeds = _seeds(request)
     max_cache_bytes()  # a malformed cap fails before any work
     if spec.cache_dir is None:
         spec = replace(spec, cache_dir=str(samples_dir()))
@@ -166,13 +168,25 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
     check_sources(spec, request.methods, ds, request.dataset)
     config = EvalConfig(
         dataset=ds.info.name, protocol=request.protocol, budgets=request.budgets, backbones=request.backbones,
-        methods=request.methods, folds=request.folds, seeds=tuple(range(request.seeds)), alpha=spec.alpha,
+        methods=request.methods, folds=request.folds, seeds=seeds, alpha=spec.alpha,
         policy=spec.policy, rho=request.rho, window_s=request.window_s, overlap=request.overlap,
         backbone_params=request.backbone_params, method_params=params, report_groups=request.report_groups,
         unseen=request.unseen,
         share_selection=request.share_selection,
     )
     return Evaluation(config, ds, request.output)
+
+
+def _seeds(request: EvalRequest) -> tuple[int, ...]:
+    """Seeds 0..N-1 of `--seeds N`, or those of them `--only-seeds` names."""
+    seeds = tuple(range(request.seeds))
+    if not request.only_seeds:
+        return seeds
+    outside = [str(s) for s in request.only_seeds if s not in seeds]
+    if outside:
+        raise ConfigError(f"seed {', '.join(outside)} is not one of --seeds {request.seeds}",
+                          field="--only-seeds", allowed=f"seeds 0..{request.seeds - 1}")
+    return request.only_seeds
 
 
 def evaluate(evaluation, progress: Callable | None = None):

@@ -171,3 +171,36 @@ def test_full_lopo_rf_regression(name, expected):
     (row,) = Evaluation(config, load_dataset(name)).run().summary
     assert row["n"] == 30
     assert row["macro_f1_mean"] == pytest.approx(expected, abs=0.01)
+
+
+def test_only_seeds_runs_part_of_an_evaluation_and_its_records_are_the_whole_ones(tmp_path):
+    """`--only-seeds 1` writes the seed-1 records of `--seeds 2`; the full run then finds them
+    (same settings digest) and computes seed 0 alone."""
+    from typer.testing import CliRunner
+
+    from vsmp_imu.cli import app
+
+    def run(*extra):
+        return CliRunner().invoke(app, ["evaluate", "--dataset", "hapt", *RF_FAST, "--methods", "real",
+                                        "--folds", "1", "--seeds", "2", *extra, "-o", str(tmp_path)])
+
+    part = run("--only-seeds", "1")
+    assert part.exit_code == 0, part.output
+    assert sorted(p.name for p in (tmp_path / "records").iterdir()) == ["lopo_full_real_rf_fold-1_seed-1.json"]
+    one = json.loads((tmp_path / "records" / "lopo_full_real_rf_fold-1_seed-1.json").read_text())
+    whole = run()
+    assert whole.exit_code == 0, whole.output
+    records = json.loads((tmp_path / "results.json").read_text())["records"]
+    assert [(r["fold"], r["seed"]) for r in records] == [("1", 0), ("1", 1)]
+    assert records[1]["confusion"] == one["confusion"] and records[1]["macro_f1"] == one["macro_f1"]
+
+
+@pytest.mark.parametrize("extra, expected", [
+    (("--only-seeds", "2"), "not one of --seeds 2"),
+    (("--only-seeds", "1,x"), "x: not a seed"),
+    (("--only-seeds", "-1"), "not a seed"),
+])
+def test_only_seeds_outside_the_seeds_is_a_config_error(cli, tmp_path, extra, expected):
+    code, _, err = cli("evaluate", "--dataset", "hapt", "--seeds", "2", *extra, "-o", tmp_path / "out")
+    assert code == 2 and expected in err and "--only-seeds" in err
+    assert not (tmp_path / "out" / "records").exists()

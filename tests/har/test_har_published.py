@@ -254,6 +254,32 @@ def test_a_paired_table_can_take_its_baseline_from_another_record_set():
     assert "against `results/before/`, from `cmd b` at commit 1234567" in table
 
 
+def test_a_per_seed_paired_table_tests_each_seed_over_its_own_folds():
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    records = _records()
+    spec = TableSpec(id="x:seeds", records="demo", kind="paired", baseline="real", per_seed=True,
+                     budgets=[1], methods=["vsmp"], metrics=[{"label": "all", "metric": "macro_f1"}])
+    table = TableBuilder(spec, RecordSet("demo", "cmd", None, None, {}, LABELS, tuple(records))).render()
+    rows = [line for line in table.splitlines() if line.startswith("| 1 %")]
+    assert [row.split(" | ")[1] for row in rows] == ["VSMP-IMU", "VSMP-IMU, seed 0", "VSMP-IMU, seed 1"]
+    for row, seed in zip(rows[1:], (0, 1), strict=True):
+        mine = [r for r in records if r["method"] == "vsmp" and r["seed"] == seed]
+        base = [r for r in records if r["method"] == "real" and r["seed"] == seed]
+        expected = paired_test(mine, base, Metric(label="all", metric="macro_f1"))
+        assert expected.n == 4 and f"({expected.won}/4, p = {format_p(expected.p)})" in row
+    assert "(8/8," in rows[0]
+
+
+def test_per_seed_belongs_to_paired_tables():
+    from vsmp_imu.har.published import TableSpec
+
+    with pytest.raises(ValueError, match="per_seed"):
+        TableSpec(id="x:g", records="demo", kind="groups", per_seed=True, methods=["vsmp"],
+                  metrics=[{"label": "all", "metric": "macro_f1"}])
+
+
 def test_the_leave_one_class_out_table_has_a_row_per_class_left_out_and_their_mean():
     from vsmp_imu.har.published import TableBuilder, TableSpec
     from vsmp_imu.har.records import RecordSet

@@ -258,7 +258,7 @@ def test_generate_options_2k(small_dataset, work, case):
 
 
 # -- evaluate ------------------------------------------------------------------------------------
-EVALUATE = ("--seeds", "--alpha", "--rho", "--window-s", "--overlap", "--max-epochs", "--patience", "--jobs",
+EVALUATE = ("--seeds", "--only-seeds", "--alpha", "--rho", "--window-s", "--overlap", "--max-epochs", "--patience", "--jobs",
             "--k", "--workers")
 EVALUATE_CHOICES = {"--protocol": ("lopo", "low-resource", "long-tail"), "--backbones": ("rf", "dclstm", "rf,dclstm"),
                     "--methods": ("real", "classical", "real,vsmp"), "--policy": ("uniform", "tail", "scarcity"),

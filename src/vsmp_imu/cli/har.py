@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,17 @@ def _parse_folds(text: str) -> tuple[str, ...] | None:
     if text.strip().lower() == "all":
         return None
     return tuple(parse_csv(text, option="--folds"))
+
+
+def _parse_seeds(text: str | None) -> tuple[int, ...]:
+    if text is None:
+        return ()
+    items = parse_csv(text, option="--only-seeds")
+    bad = [t for t in items if not re.fullmatch(r"[0-9]{1,6}", t)]
+    if bad:
+        raise ConfigError(f"{', '.join(bad)}: not a seed", field="--only-seeds",
+                          allowed="seeds 0..N-1 of --seeds N, e.g. 1,2")
+    return tuple(dict.fromkeys(int(t) for t in items))
 
 
 def _parse_groups(items: list[str] | None) -> dict[str, tuple[str, ...]]:
@@ -81,6 +93,10 @@ def evaluate_cmd(
     ),
     folds: str = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3"),
     seeds: int = typer.Option(1, "--seeds", max=1000, help="number of seeds (0..N-1)"),
+    only_seeds: str = typer.Option(
+        None, "--only-seeds",
+        help="run only these of the --seeds (e.g. 1,2), to spread one evaluation over processes; "
+             "their records are those --seeds N writes"),
     alpha: float = typer.Option(2.0, "--alpha", help="synthetic-to-real ratio, 0.1..2.0 (the paper: 0.5)"),
     policy: str = typer.Option(
         "scarcity", "--policy", help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform)"
@@ -140,7 +156,7 @@ def evaluate_cmd(
         dataset=dataset, output=output, protocol=protocol,
         budgets=parse_budgets(budgets, "low-resource") if budgets else (None,),
         backbones=chosen_backbones, methods=tuple(parse_csv(methods, option="--methods")),
-        folds=_parse_folds(folds), seeds=seeds, rho=rho, window_s=window_s, overlap=overlap,
+        folds=_parse_folds(folds), seeds=seeds, only_seeds=_parse_seeds(only_seeds), rho=rho, window_s=window_s, overlap=overlap,
         data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device),
         report_groups=_parse_groups(report_groups), share_selection=share_selection,
         unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())

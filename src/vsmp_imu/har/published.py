@@ -93,6 +93,7 @@ class TableSpec(BaseModel):
     # paired: the baseline's runs from another record set (the same method before a change)
     baseline_records: str | None = None
     bold: bool = False
+    per_seed: bool = False  # paired: a row per seed under each method's row over all seeds
     digits: int = Field(2, ge=0, le=4)
     row_header: str = "Group"
     # kind study: a table of the study's report (har.study_records.VIEWS); kind benchmark: one of
@@ -116,6 +117,8 @@ class TableSpec(BaseModel):
             raise ValueError("a paired table needs a baseline method")
         if self.kind in ("groups", "paired", "unseen_each") and not self.metrics:
             raise ValueError(f"a {self.kind} table needs metrics")
+        if self.per_seed and self.kind != "paired":
+            raise ValueError("per_seed is an option of paired tables")
         return self
 
 
@@ -315,13 +318,20 @@ class TableBuilder:
                     mine = [r for r in mine if (str(r["fold"]), r["seed"]) in both]
                     base = [r for r in base if (str(r["fold"]), r["seed"]) in both]
                 runs = self.same_runs({f"baseline {s.baseline}": base, method: mine}, budget)[method]
-                cells = [paired_test(runs, base, m).cell(s.digits) for m in s.metrics]
                 name = _method_name(method)
                 if self.baseline_records is not None:
                     name += f" vs. {_method_name(s.baseline)} of `{self.baseline_records.name}`"
-                rows.append(self._lead(budget) + [name] + cells)
+                rows.append(self._lead(budget) + [name] + self._paired_cells(runs, base))
+                seeds = sorted({r["seed"] for r in runs}) if s.per_seed else []
+                for seed in seeds:
+                    cells = self._paired_cells([r for r in runs if r["seed"] == seed],
+                                               [r for r in base if r["seed"] == seed])
+                    rows.append(self._lead(budget) + [f"{name}, seed {seed}"] + cells)
         header = self._lead_header() + ["Method"] + [m.label for m in s.metrics]
         return _markdown(header, rows)
+
+    def _paired_cells(self, runs: list[dict], base: list[dict]) -> list[str]:
+        return [paired_test(runs, base, m).cell(self.spec.digits) for m in self.spec.metrics]
 
     def _classes(self) -> str:
         s = self.spec
