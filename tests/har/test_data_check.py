@@ -49,6 +49,9 @@ def test_a_wrong_activity_file_is_flagged_and_the_right_one_is_not(cli, tmp_path
     result = {c["label"]: c for c in json.loads((tmp_path / "chk" / "check.json").read_text())["classes"]}
     assert result["walking"]["flags"] == []
     assert result["walking"]["gravity_angle_deg"] < 20
+    # the same motion on both sides: the same within-window shape; the real sitting does not move
+    assert abs(result["walking"]["real_acc_skew"] - result["walking"]["synthetic_acc_skew"]) < 0.5
+    assert result["sitting"]["real_acc_skew"] is None and result["sitting"]["synthetic_acc_skew"] is not None
     assert result["sitting"]["flags"] and "moves" in " ".join(result["sitting"]["flags"])
     assert result["sitting"]["l_sim"] > 2 * result["walking"]["l_sim"]
     assert "sitting (waist, sitting.json)" in " ".join(out.split())
@@ -127,3 +130,19 @@ def test_the_turn_flag_needs_a_gap_beyond_the_floor_and_half_the_larger_turn():
     flag = turn_flag(np.array([0.4, 0, 0]), np.array([0.15, 0, 0]), axes)
     assert flag and "x (up): +0.40 rad/s real vs +0.15 simulated" in flag
     assert "z (backward)" in turn_flag(np.array([0, 0, -0.3]), np.array([0, 0, 0.3]), axes)
+
+
+def test_acc_skew_tells_impacts_from_dips_and_ignores_still_windows():
+    from vsmp_imu.pipeline.check import acc_skew
+
+    rng = np.random.default_rng(0)
+    base = np.zeros((20, 100, 6))
+    base[..., 0] = 9.81
+    base[..., :3] += rng.normal(0.0, 0.3, (20, 100, 3))
+    spikes, dips = base.copy(), base.copy()
+    spikes[:, 40:43, 0] += 6.0  # a short impact above g, as a heel strike or a seat
+    dips[:, 40:43, 0] -= 6.0
+    assert acc_skew(spikes) > 1.0 and acc_skew(dips) < -1.0
+    still = np.zeros((5, 100, 6))
+    still[..., 0] = 9.81
+    assert acc_skew(still) is None

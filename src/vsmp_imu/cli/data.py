@@ -67,14 +67,18 @@ def check_cmd(
                                        "classes": check.to_json()})
     check.plot(output / "check.png", ds.info.fs_hz)
     table = Table(title=f"{ds.info.name}: activity files vs real windows", box=box.SIMPLE_HEAD, pad_edge=False,
-                  caption="angle: between real and simulated mean acc (gravity); Hz: dominant frequency of "
-                          "|acc|; rms: m/s² around the window mean")
-    for col in ("class", "at", "real", "L_sim", "angle", "Hz real/sim", "rms real/sim", ""):
-        table.add_column(col, overflow="fold", no_wrap=col in ("at", "real", ""), ratio=2 if col == "class" else None)
+                  caption="pairs are real/simulated; angle: between real and simulated mean acc (gravity); "
+                          "Hz: dominant frequency of "
+                          "|acc|; rms: m/s² around the window mean; skew: of |acc| within a window (impacts "
+                          "make it positive)")
+    for col in ("class", "at", "real", "L_sim", "angle", "Hz", "rms", "skew", ""):
+        table.add_column(col, overflow="fold", no_wrap=col in ("at", "real", "Hz", "rms", "skew", ""),
+                         ratio=2 if col == "class" else None)
     for r in results:
         table.add_row(r.label, r.location, str(r.n_real), _num(r.l_sim, ".2f"), _num(r.gravity_angle_deg, ".0f"),
-                      f"{_num(r.real_frequency_hz, '.2f')}/{_num(r.synthetic_frequency_hz, '.2f')}",
+                      f"{_num(r.real_frequency_hz, '.1f')}/{_num(r.synthetic_frequency_hz, '.1f')}",
                       f"{_num(r.real_motion_rms, '.1f')}/{_num(r.synthetic_motion_rms, '.1f')}",
+                      f"{_num(r.real_acc_skew, '.1f')}/{_num(r.synthetic_acc_skew, '.1f')}",
                       "[yellow]check[/]" if r.flags else "ok")
     console.print(table)
     for r in results:
