@@ -52,6 +52,9 @@ def test_a_wrong_activity_file_is_flagged_and_the_right_one_is_not(cli, tmp_path
     # the same motion on both sides: the same within-window shape; the real sitting does not move
     assert abs(result["walking"]["real_acc_skew"] - result["walking"]["synthetic_acc_skew"]) < 0.5
     assert result["sitting"]["real_acc_skew"] is None and result["sitting"]["synthetic_acc_skew"] is not None
+    # a walking waist turns far more than a sitting one; the same motion on both sides turns alike
+    assert result["walking"]["real_turn_rms"] > 3 * result["sitting"]["real_turn_rms"]
+    assert abs(result["walking"]["real_turn_rms"] / result["walking"]["synthetic_turn_rms"] - 1) < 0.3
     assert result["sitting"]["flags"] and "moves" in " ".join(result["sitting"]["flags"])
     assert result["sitting"]["l_sim"] > 2 * result["walking"]["l_sim"]
     assert "sitting (waist, sitting.json)" in " ".join(out.split())

@@ -66,20 +66,24 @@ def check_cmd(
                                        "samples": samples, "warnings": list(ds.warnings) + unlinked,
                                        "classes": check.to_json()})
     check.plot(output / "check.png", ds.info.fs_hz)
-    table = Table(title=f"{ds.info.name}: activity files vs real windows", box=box.SIMPLE_HEAD, pad_edge=False,
+    places = sorted({r.location for r in results})
+    one_place = len(places) == 1  # the location goes into the title, its column away (80 columns)
+    title = f"{ds.info.name}: activity files vs real windows" + (f" ({places[0]})" if one_place else "")
+    table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1, 0, 0),
                   caption="pairs are real/simulated; angle: between real and simulated mean acc (gravity); "
-                          "Hz: dominant frequency of "
-                          "|acc|; rms: m/s² around the window mean; skew: of |acc| within a window (impacts "
-                          "make it positive)")
-    for col in ("class", "at", "real", "L_sim", "angle", "Hz", "rms", "skew", ""):
-        table.add_column(col, overflow="fold", no_wrap=col in ("at", "real", "Hz", "rms", "skew", ""),
-                         ratio=2 if col == "class" else None)
+                          "Hz: dominant frequency of |acc|; rms: m/s² around the window mean; turn: rad/s "
+                          "around it; skew: of |acc| within a window (impacts make it positive); !: see below")
+    columns = ("class", *(() if one_place else ("at",)), "real", "L_sim", "angle", "Hz", "rms", "turn", "skew", "")
+    for col in columns:
+        table.add_column(col, overflow="fold", no_wrap=col != "class", min_width=12 if col == "class" else None)
     for r in results:
-        table.add_row(r.label, r.location, str(r.n_real), _num(r.l_sim, ".2f"), _num(r.gravity_angle_deg, ".0f"),
+        table.add_row(r.label, *(() if one_place else (r.location,)), str(r.n_real), _num(r.l_sim, ".1f"),
+                      _num(r.gravity_angle_deg, ".0f"),
                       f"{_num(r.real_frequency_hz, '.1f')}/{_num(r.synthetic_frequency_hz, '.1f')}",
                       f"{_num(r.real_motion_rms, '.1f')}/{_num(r.synthetic_motion_rms, '.1f')}",
+                      f"{_num(r.real_turn_rms, '.1f')}/{_num(r.synthetic_turn_rms, '.1f')}",
                       f"{_num(r.real_acc_skew, '.1f')}/{_num(r.synthetic_acc_skew, '.1f')}",
-                      "[yellow]check[/]" if r.flags else "ok")
+                      "[yellow]![/]" if r.flags else "ok")
     console.print(table)
     for r in results:
         for flag in r.flags:

@@ -17,7 +17,9 @@ compares them with the real windows of the class:
   does not, and the ECDF features of a HAR model see exactly these
   within-window distributions;
 - the mean gyroscope vector (a net turn, one way on average, e.g. the quarter
-  turn of lying down along a bed).
+  turn of lying down along a bed), and the RMS of the rotation rate around
+  each window's mean (how much it turns: a too rigid simulated pelvis shows
+  here).
 
 A class is flagged when gravity points more than `MAX_GRAVITY_ANGLE_DEG`
 apart, when the dominant frequencies differ by more than a factor
@@ -49,6 +51,7 @@ MAX_FREQUENCY_RATIO = 1.6
 MAX_MOTION_RATIO = 3.0
 STATIC_RMS_M_S2 = 0.5  # below this RMS around the mean a window set has no dominant frequency
 MIN_FREQUENCY_HZ = 0.2
+GYRO = slice(3, 6)
 MIN_TURN_RAD_S = 0.1  # mean rotation rates closer than this never differ
 
 
@@ -72,6 +75,8 @@ class ClassCheck:
     synthetic_acc_skew: float | None = None
     real_mean_gyro: list[float] | None = None
     synthetic_mean_gyro: list[float] | None = None
+    real_turn_rms: float | None = None
+    synthetic_turn_rms: float | None = None
     l_sim: float | None = None
     flags: list[str] = field(default_factory=list)
 
@@ -81,10 +86,10 @@ def mean_acc(windows: np.ndarray) -> np.ndarray:
     return windows[..., :3].reshape(-1, 3).mean(axis=0)
 
 
-def motion_rms(windows: np.ndarray) -> float:
-    """RMS norm of the acceleration around each window's mean (m/s²)."""
-    acc = windows[..., :3]
-    centred = acc - acc.mean(axis=1, keepdims=True)
+def motion_rms(windows: np.ndarray, channels: slice = slice(0, 3)) -> float:
+    """RMS norm of the acceleration (or of `channels`) around each window's mean (m/s², rad/s)."""
+    x = windows[..., channels]
+    centred = x - x.mean(axis=1, keepdims=True)
     return float(np.sqrt((centred**2).sum(-1).mean()))
 
 
@@ -162,6 +167,7 @@ def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn:
         out.l_sim = float(sim_loss(summarize_windows(syn, fs_hz), summarize_windows(real, fs_hz)))
         r_gyro, s_gyro = mean_gyro(real), mean_gyro(syn)
         out.real_mean_gyro, out.synthetic_mean_gyro = r_gyro.round(3).tolist(), s_gyro.round(3).tolist()
+        out.real_turn_rms, out.synthetic_turn_rms = motion_rms(real, GYRO), motion_rms(syn, GYRO)
         turn = turn_flag(r_gyro, s_gyro, loc.axes)
         if turn:
             out.flags.append(turn)
