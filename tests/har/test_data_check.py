@@ -149,3 +149,17 @@ def test_acc_skew_tells_impacts_from_dips_and_ignores_still_windows():
     still = np.zeros((5, 100, 6))
     still[..., 0] = 9.81
     assert acc_skew(still) is None
+
+
+def test_two_harmonics_of_about_equal_power_are_one_rhythm():
+    """A frequency flag needs the other side's peak to be weak here: a step-frequency peak beside a
+    twice-per-step one of the same height is the same gait, whichever wins the argmax."""
+    from vsmp_imu.pipeline.check import dominant_frequency, strong_at
+
+    t = np.arange(100) / 50.0
+    base = np.zeros((4, 100, 6))
+    both, high = base.copy(), base.copy()
+    both[..., 0] = 9.81 + 1.0 * np.sin(2 * np.pi * 2.0 * t) + 1.02 * np.sin(2 * np.pi * 4.0 * t)
+    high[..., 0] = 9.81 + 1.0 * np.sin(2 * np.pi * 4.0 * t) + 0.3 * np.sin(2 * np.pi * 2.0 * t)
+    assert dominant_frequency(both, 50.0) == 4.0 and dominant_frequency(high, 50.0) == 4.0
+    assert strong_at(both, 50.0, 2.0) and not strong_at(high, 50.0, 2.0)

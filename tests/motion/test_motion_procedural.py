@@ -271,3 +271,17 @@ def test_fast_and_large_execution_stays_plausible(backend, library, name):
 
     smp = intervene(intervene(library.get(name).smp, "tempo", "fast"), "amplitude", "large")
     assert is_plausible(backend.generate(smp, seed=3))
+
+
+@pytest.mark.parametrize("name", ["walking", "walking_upstairs", "walking_downstairs"])
+def test_a_walking_pelvis_turns_as_much_as_normative_gait(backend, library, name):
+    """Pelvic obliquity and transverse rotation of about ±5° per stride and a tilt of about ±2° per
+    step (normative gait kinematics): a waist sensor's rotation rate about each axis then has a
+    within-window spread of at least 0.2 rad/s (real HAPT waists: 0.33-0.54)."""
+    from vsmp_imu.imu import simulate_kinematics
+
+    kin = simulate_kinematics(backend.generate(library.get(name).smp, seed=0, duration_s=8.0), "waist", 50.0)
+    gyr = kin.gyr_seg[100:300]  # two 2 s windows inside the walk
+    spread = np.stack([gyr[:100].std(axis=0), gyr[100:].std(axis=0)]).mean(axis=0)
+    assert np.all(spread >= 0.2), spread
+    assert np.all(spread <= 0.6), spread
