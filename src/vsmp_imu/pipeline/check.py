@@ -24,8 +24,9 @@ compares them with the real windows of the class:
 A class is flagged when gravity points more than `MAX_GRAVITY_ANGLE_DEG`
 apart, when the dominant frequencies differ by more than a factor
 `MAX_FREQUENCY_RATIO` (unless either side's spectrum peaks nearly as high at
-the other's: one rhythm with two harmonics of about equal power), when one moves `MAX_MOTION_RATIO` times more than
-the other, or when one turns one way on average and the other does not
+the other's: one rhythm with two harmonics of about equal power), when one
+moves `MAX_MOTION_RATIO` times more than the other, or when one turns one
+way on average and the other does not
 (mean gyroscope vectors further apart than `MIN_TURN_RAD_S` and half the
 larger one). Nothing here is fitted or learned: it is a look, not a grounding.
 """
@@ -53,7 +54,7 @@ SECOND_PEAK_SHARE = 0.7  # a peak this high beside the highest also counts as do
 MAX_MOTION_RATIO = 3.0
 STATIC_RMS_M_S2 = 0.5  # below this RMS around the mean a window set has no dominant frequency
 MIN_FREQUENCY_HZ = 0.2
-GYRO = slice(3, 6)
+GYRO = slice(3, 6)  # the gyroscope's channels of a 6-channel window
 MIN_TURN_RAD_S = 0.1  # mean rotation rates closer than this never differ
 
 
