@@ -19,6 +19,10 @@ def _num(value: float | None, fmt: str) -> str:
     return "–" if value is None or (isinstance(value, float) and math.isnan(value)) else format(value, fmt)
 
 
+def _pair(real: float | None, simulated: float | None) -> str:
+    return f"{_num(real, '.1f')}/{_num(simulated, '.1f')}"
+
+
 def _sources(source: str, library, info):
     """Base SMPs per class; with the library, classes it cannot link are reported, not fatal."""
     from vsmp_imu.errors import ConfigError
@@ -79,10 +83,10 @@ def check_cmd(
     for r in results:
         table.add_row(r.label, *(() if one_place else (r.location,)), str(r.n_real), _num(r.l_sim, ".1f"),
                       _num(r.gravity_angle_deg, ".0f"),
-                      f"{_num(r.real_frequency_hz, '.1f')}/{_num(r.synthetic_frequency_hz, '.1f')}",
-                      f"{_num(r.real_motion_rms, '.1f')}/{_num(r.synthetic_motion_rms, '.1f')}",
-                      f"{_num(r.real_turn_rms, '.1f')}/{_num(r.synthetic_turn_rms, '.1f')}",
-                      f"{_num(r.real_acc_skew, '.1f')}/{_num(r.synthetic_acc_skew, '.1f')}",
+                      _pair(r.real_frequency_hz, r.synthetic_frequency_hz),
+                      _pair(r.real_motion_rms, r.synthetic_motion_rms),
+                      _pair(r.real_turn_rms, r.synthetic_turn_rms),
+                      _pair(r.real_acc_skew, r.synthetic_acc_skew),
                       "[yellow]![/]" if r.flags else "ok")
     console.print(table)
     for r in results:
