@@ -15,6 +15,7 @@ from vsmp_imu.studies.realism import (
     REFERENCE,
     SHUFFLED,
     RealismStudy,
+    class_c2st,
     class_centroid_distances,
     window_embeddings,
 )
@@ -36,6 +37,26 @@ def test_centroid_distance_by_hand():
     assert d[0]["real_spread"] == pytest.approx(1.0) and d[0]["coverage"] == pytest.approx(1.0)
     assert d[0]["relative_distance"] == pytest.approx(4.0)
     assert (d[0]["n_synthetic"], d[0]["n_real"]) == (2, 2)
+
+
+def test_the_two_sample_test_tells_a_shifted_set_and_not_an_equal_one():
+    rng = np.random.default_rng(0)
+    channels = ("acc_x", "acc_y", "gyr_x")
+    real = rng.normal(0.0, 1.0, (240, 50, 3)).astype(np.float32)
+    y_real = np.repeat([0, 1], 120)
+    same = rng.normal(0.0, 1.0, (240, 50, 3)).astype(np.float32)
+    shifted = same.copy()
+    shifted[:, :, 2] += 0.5  # gyr_x moved by half its spread
+    y_set = np.repeat([0, 1, 2], 80)  # class 2 has no real window: left out
+    equal = class_c2st(same, y_set, real, y_real, channels, n_classes=3)
+    moved = class_c2st(shifted, y_set, real, y_real, channels, n_classes=3)
+    assert set(equal) == set(moved) == {0, 1}
+    assert equal[0]["n_per_side"] == 80
+    for a in (0, 1):
+        assert 0.3 < equal[a]["auc"] < 0.7, equal[a]
+        assert moved[a]["auc"] > 0.95, moved[a]
+        assert all(f.startswith("gyr_x q") for f in moved[a]["top_features"]), moved[a]
+    assert class_c2st(same[:2], y_set[:2], real, y_real, channels, n_classes=3) == {}  # too few per side
 
 
 @pytest.fixture(scope="module")
@@ -64,6 +85,8 @@ def test_rows_references_and_settings(realism):
         assert m["mean_distance"] == pytest.approx(np.mean([v["distance"] for v in m["per_class"].values()]))
         if m["method"] not in (REFERENCE, SHUFFLED):  # the synthetic budget is capped per class
             assert all(0 < v["n_synthetic"] <= 20 for v in m["per_class"].values())
+        assert all(0.0 <= v["auc"] <= 1.0 and v["n_per_side"] >= 3 for v in m["c2st"].values())
+        assert m["c2st_mean_auc"] == pytest.approx(np.mean([v["auc"] for v in m["c2st"].values()]))
     test = _row(results, REFERENCE)["per_class"]
     shuffled = _row(results, SHUFFLED)["per_class"]
     assert sum(v["n_synthetic"] for v in test.values()) == sum(v["n_synthetic"] for v in shuffled.values())
@@ -107,7 +130,8 @@ def test_outputs_are_written(realism):
     assert all(math.isfinite(m["mean_distance"]) for m in data["methods"])
     report = paths["report"].read_text()
     for text in ("## Class-wise centroid distance", "Real, held-out, labels shuffled", "VSMP-IMU",
-                 "final convolutional layer", "## Deviations from the paper"):
+                 "final convolutional layer", "## Two-sample test on the RF's features",
+                 "## Deviations from the paper"):
         assert text in report
 
 
@@ -130,7 +154,8 @@ def test_the_study_record_rebuilds_the_distance_table(realism, tmp_path):
     _, _, paths = realism
     out = paths["report"].parent
     blocks = rebuild_study_tables(out, "vsmp-imu study realism -o out -d utd_mhad --fold 1",
-                                  {"realism:main": "realism:distances", "realism:classes": "realism:classes"},
+                                  {"realism:main": "realism:distances", "realism:classes": "realism:classes",
+                                   "realism:c2st": "realism:c2st"},
                                   tmp_path)
     assert_blocks_in_report(blocks, paths["report"].read_text())
     assert "| Real, held-out subject |" in blocks["realism:main"]

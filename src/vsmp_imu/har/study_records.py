@@ -233,6 +233,8 @@ VIEWS: dict[str, tuple[str, Callable[[dict[str, Any]], str]]] = {
     "granularity:classes": ("granularity", _granularity("class_table")),
     "realism:distances": ("realism", _realism("distance_table")),
     "realism:classes": ("realism", _realism("class_distance_table")),
+    "realism:c2st": ("realism", _realism("c2st_table")),
+    "realism:c2st_features": ("realism", _realism("c2st_features_table")),
 }
 
 

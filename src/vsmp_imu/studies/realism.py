@@ -23,6 +23,15 @@ plot.
 
 Secondary: per channel, the two-sample Kolmogorov-Smirnov statistic between
 synthetic and real training samples of a class, averaged over classes.
+
+And a classifier two-sample test (C2ST) in the RF backbone's own feature
+space: per class, a Random Forest on the windows' ECDF features learns to
+tell the set's windows from the class's real training windows (the same
+number from each side, at most C2ST_MAX_PER_SIDE, stratified 3-fold
+cross-validation); its ROC AUC is 0.5 where the sets are indistinguishable
+and 1 where every window gives itself away. The held-out subject's real
+windows go through the same test (how far a new person's windows are), and
+the features the forest leans on most say what gives a set away.
 """
 
 from __future__ import annotations
@@ -54,6 +63,10 @@ SHUFFLED = "real-test-shuffled"  # the same windows with their labels permuted
 REFERENCES = (REFERENCE, SHUFFLED)
 LAYERS = ("conv", "lstm")
 KS_MAX_VALUES = 20000  # values per side of one KS test (seeded subsample)
+C2ST_MAX_PER_SIDE = 300  # windows per side of one class's two-sample test (seeded subsample)
+C2ST_FOLDS = 3
+C2ST_TREES = 100
+C2ST_TOP = 3  # features named per class
 # Mini-batch of the encoder. The paper trains with 1024 for up to 500 epochs on a GPU; on
 # CPU with a few epochs over a few thousand windows that is a handful of gradient steps,
 # so the default is 128 (~25 steps per epoch on 3000 windows).
@@ -118,6 +131,36 @@ def channel_ks(X_syn: np.ndarray, y_syn: np.ndarray, X_real: np.ndarray, y_real:
             r = r[rng.choice(len(r), KS_MAX_VALUES, replace=False)]
         stats.append([ks_2samp(s[:, c], r[:, c]).statistic for c in range(X_syn.shape[2])])
     return np.mean(stats, axis=0) if stats else np.full(X_syn.shape[2], np.nan)
+
+
+def class_c2st(X_set: np.ndarray, y_set: np.ndarray, X_real: np.ndarray, y_real: np.ndarray,
+               channel_names, n_classes: int, seed: int = 0) -> dict[int, dict[str, Any]]:
+    """Per class with at least C2ST_FOLDS windows on both sides: the cross-validated ROC AUC of a
+    Random Forest telling the set's windows from the real ones on the ECDF features, balanced
+    sides, and the features it uses most (see module doc)."""
+    from sklearn.ensemble import RandomForestClassifier
+    from sklearn.metrics import roc_auc_score
+    from sklearn.model_selection import StratifiedKFold, cross_val_predict
+
+    from vsmp_imu.har.features import N_LEVELS, ecdf_features, ecdf_levels
+
+    names = [f"{c} q{q:.2f}" for c in channel_names for q in ecdf_levels(N_LEVELS)]
+    out = {}
+    for a in range(n_classes):
+        s, r = X_set[y_set == a], X_real[y_real == a]
+        n = min(len(s), len(r), C2ST_MAX_PER_SIDE)
+        if n < C2ST_FOLDS:
+            continue
+        rng = rng_for(seed, "c2st", a)
+        pair = np.concatenate([r[rng.choice(len(r), n, replace=False)], s[rng.choice(len(s), n, replace=False)]])
+        F, side = ecdf_features(pair), np.repeat([0, 1], n)
+        forest = RandomForestClassifier(C2ST_TREES, random_state=seed, n_jobs=1)
+        folds = StratifiedKFold(C2ST_FOLDS, shuffle=True, random_state=seed)
+        p = cross_val_predict(forest, F, side, cv=folds, method="predict_proba")[:, 1]
+        top = np.argsort(-forest.fit(F, side).feature_importances_)[:C2ST_TOP]
+        out[a] = {"auc": float(roc_auc_score(side, p)), "n_per_side": int(n),
+                  "top_features": [names[i] for i in top]}
+    return out
 
 
 @dataclass
@@ -307,6 +350,7 @@ class RealismStudy:
              real, info, shown: list[str]) -> dict[str, Any]:
         per_class = class_centroid_distances(z, y, z_real, real.y, info.n_classes)
         ks = channel_ks(X, y, real.X, real.y, self.seed) if len(X) else np.full(real.n_channels, np.nan)
+        c2st = class_c2st(X, y, real.X, real.y, info.channel_names, info.n_classes, self.seed)
 
         def mean_of(key: str) -> float | None:
             values = [v[key] for v in per_class.values() if v[key] is not None]
@@ -317,7 +361,9 @@ class RealismStudy:
                 "mean_coverage": mean_of("coverage"),
                 "per_class": {shown[a]: v for a, v in per_class.items()},
                 "ks_per_channel": dict(zip(info.channel_names, ks.tolist(), strict=True)),
-                "ks_mean": float(np.nanmean(ks)) if np.isfinite(ks).any() else None}
+                "ks_mean": float(np.nanmean(ks)) if np.isfinite(ks).any() else None,
+                "c2st": {shown[a]: v for a, v in c2st.items()},
+                "c2st_mean_auc": float(np.mean([v["auc"] for v in c2st.values()])) if c2st else None}
 
     def _plot_points(self, pca, z_real, y_real, z_test, y_test, synthetic) -> dict[str, Any]:
         """Projected points (at most `plot_per_class` per class and set, seeded) and the

@@ -16,7 +16,14 @@ from pathlib import Path
 import numpy as np
 
 from vsmp_imu.studies.methods import method_display
-from vsmp_imu.studies.realism import REFERENCE, REFERENCES, SHUFFLED, RealismResults
+from vsmp_imu.studies.realism import (
+    C2ST_FOLDS,
+    C2ST_MAX_PER_SIDE,
+    REFERENCE,
+    REFERENCES,
+    SHUFFLED,
+    RealismResults,
+)
 from vsmp_imu.studies.report import fmt_num, markdown_table, save_figure, write_report
 
 PCA_FIGURE = "realism_pca.png"
@@ -59,6 +66,42 @@ def class_distance_table(r: RealismResults) -> str:
     rows = [[lab] + [fmt_num(m["per_class"].get(lab, {}).get("distance"), 3) for m in r.methods]
             for lab in present]
     return markdown_table(headers, rows)
+
+
+def _c2st_sets(r: RealismResults) -> list[dict]:
+    return [m for m in r.methods if m.get("c2st")]  # records written before the test lack it
+
+
+def c2st_table(r: RealismResults) -> str:
+    """The two-sample test's AUC per class (rows) and set (columns), their mean last."""
+    sets = _c2st_sets(r)
+    present = [lab for lab in r.label_names if any(lab in m["c2st"] for m in sets)]
+    rows = [[lab] + [fmt_num(m["c2st"].get(lab, {}).get("auc"), 2) for m in sets] for lab in present]
+    rows.append(["mean"] + [fmt_num(m["c2st_mean_auc"], 2) for m in sets])
+    return markdown_table(["Class"] + [_name(m["method"]) for m in sets], rows)
+
+
+def c2st_features_table(r: RealismResults) -> str:
+    """Per class, the features the two-sample test's forest leans on most, per synthetic method."""
+    sets = [m for m in _c2st_sets(r) if m["method"] not in REFERENCES]
+    present = [lab for lab in r.label_names if any(lab in m["c2st"] for m in sets)]
+    rows = [[lab] + [", ".join(m["c2st"].get(lab, {}).get("top_features", [])) or "–" for m in sets]
+            for lab in present]
+    return markdown_table(["Class"] + [_name(m["method"]) for m in sets], rows)
+
+
+def _c2st_section(r: RealismResults) -> list[str]:
+    if not _c2st_sets(r):
+        return []
+    return ["## Two-sample test on the RF's features", "",
+            "Per class, a Random Forest on the ECDF features (the RF backbone's own) learns to tell the "
+            "set's windows from the class's real training windows: as many from each side (at most "
+            f"{C2ST_MAX_PER_SIDE}), stratified {C2ST_FOLDS}-fold cross-validation, ROC AUC (0.5 = "
+            "indistinguishable, 1 = every window gives itself away). The held-out subject's row is how "
+            "far a new person's real windows are; a class with fewer than "
+            f"{C2ST_FOLDS} windows on a side is left out.", "", c2st_table(r), "",
+            "What gives the windows away (the forest's most important features; `acc_x q0.25`: the "
+            "window's 25 % quantile of acc_x):", "", c2st_features_table(r), ""]
 
 
 def realism_markdown(r: RealismResults) -> str:
@@ -111,7 +154,7 @@ def realism_markdown(r: RealismResults) -> str:
             "pooled, class-balanced ones), so small per-channel differences are partly by "
             "construction, as for classical augmentation, which perturbs real training windows: "
             "the embedding distances above also see the channels' joint and temporal structure.", "",
-            markdown_table(headers, rows), "",
+            markdown_table(headers, rows), "", *_c2st_section(r),
             "## Deviations from the paper", "",
             "- The paper reports UTD-MHAD (27 classes, HY-Motion, VLM-extracted SMPs); this run's dataset, "
             "fold and generators are listed above.",
