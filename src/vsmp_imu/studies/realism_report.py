@@ -6,7 +6,8 @@ real windows) on the first two PCA axes of the real training embeddings: the
 fold's real training embeddings as faint dots, the panel's windows as
 crosses, both coloured by class, and per class a line from the real centroid
 (circle) to the panel's centroid (square). realism_distance.png: the
-per-class centroid distance d_a of every method and of the two references.
+per-class centroid distance d_a of every method and of the two references,
+and below it the per-class AUC of the two-sample test on the RF's features.
 """
 
 from __future__ import annotations
@@ -254,28 +255,46 @@ def pca_figure(r: RealismResults):
     return fig
 
 
+PALETTE = {REFERENCE: "#c05621", SHUFFLED: "#e2e8f0", "vsmp": "#2b6cb0", "imugpt": "#805ad5", "imutube": "#38a169",
+           "classical": "#718096"}
+
+
+def _class_bars(ax, r: RealismResults, labels: list[str], value) -> None:
+    """One bar per class and set: value(method row, class) (NaN: none)."""
+    width = 0.8 / max(1, len(r.methods))
+    for i, m in enumerate(r.methods):
+        ax.bar(np.arange(len(labels)) + (i - (len(r.methods) - 1) / 2) * width, [value(m, k) for k in labels],
+               width, label=_name(m["method"]), color=PALETTE.get(m["method"]), edgecolor="black", linewidth=0.3)
+    ax.set_xticks(range(len(labels)), _short(labels), rotation=35 if len(labels) <= 12 else 0, ha="right"
+                  if len(labels) <= 12 else "center", fontsize=7)
+    ax.grid(axis="y", alpha=0.3)
+
+
 def distance_figure(r: RealismResults):
+    """d_a per class and set; below it, where the records have it, the two-sample test's AUC."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     labels = [lab for lab in r.label_names if any(lab in m["per_class"] for m in r.methods)]
-    fig, ax = plt.subplots(figsize=(max(7.0, 0.16 * len(labels) * max(1, len(r.methods))) + 2.5, 4.2))
-    width = 0.8 / max(1, len(r.methods))
-    palette = {REFERENCE: "#c05621", SHUFFLED: "#e2e8f0", "vsmp": "#2b6cb0", "imugpt": "#805ad5", "imutube": "#38a169",
-               "classical": "#718096"}
-    for i, m in enumerate(r.methods):
-        values = [m["per_class"].get(k, {}).get("distance", np.nan) for k in labels]
-        ax.bar(np.arange(len(labels)) + (i - (len(r.methods) - 1) / 2) * width, values, width,
-               label=_name(m["method"]), color=palette.get(m["method"]), edgecolor="black", linewidth=0.3)
-    ax.set_xticks(range(len(labels)), _short(labels), rotation=35 if len(labels) <= 12 else 0, ha="right"
-                  if len(labels) <= 12 else "center", fontsize=7)
+    panels = 2 if _c2st_sets(r) else 1
+    fig, axes = plt.subplots(panels, 1, squeeze=False, figsize=(
+        max(7.0, 0.16 * len(labels) * max(1, len(r.methods))) + 2.5, 4.2 * panels))
+    ax = axes[0, 0]
+    _class_bars(ax, r, labels, lambda m, k: m["per_class"].get(k, {}).get("distance", np.nan))
     ax.set_ylabel("centroid distance d_a")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-    ax.grid(axis="y", alpha=0.3)
     ax.set_title(f"Class-wise distance to the real training centroid ({r.settings['dataset']}, fold "
                  f"{r.settings['fold']})", fontsize=10)
+    if panels == 2:
+        ax = axes[1, 0]
+        _class_bars(ax, r, labels, lambda m, k: (m.get("c2st") or {}).get(k, {}).get("auc", np.nan))
+        ax.axhline(0.5, color="black", linestyle="--", linewidth=0.8)
+        ax.set_ylim(0.0, 1.05)
+        ax.set_ylabel("two-sample test AUC (0.5 = indistinguishable)")
+        ax.set_title("How well an RF on the ECDF features tells each set from the real training windows",
+                     fontsize=10)
     fig.tight_layout()
     return fig
 
