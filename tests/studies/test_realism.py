@@ -159,3 +159,15 @@ def test_the_study_record_rebuilds_the_distance_table(realism, tmp_path):
                                   tmp_path)
     assert_blocks_in_report(blocks, paths["report"].read_text())
     assert "| Real, held-out subject |" in blocks["realism:main"]
+
+
+def test_the_command_prints_each_sets_distance_and_two_sample_auc(cli, tmp_path, utd_dir):
+    code, out, err = cli("study", "realism", "-o", tmp_path / "out", "-d", "utd_mhad", "--data-dir", utd_dir,
+                         "--fold", "1", "--methods", "classical", "--epochs", "1", "--filters", "8",
+                         "--hidden", "16", "--max-per-class", "10")
+    assert code == 0, err
+    lines = [line for line in out.splitlines() if "two-sample AUC" in line]
+    assert [line.split(":")[0] for line in lines] == [REFERENCE, SHUFFLED, "classical"]
+    data = json.loads((tmp_path / "out" / "results.json").read_text())
+    auc = next(m for m in data["methods"] if m["method"] == "classical")["c2st_mean_auc"]
+    assert f"two-sample AUC {auc:.2f}" in lines[-1]

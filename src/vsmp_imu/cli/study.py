@@ -326,7 +326,8 @@ def realism_cmd(
     jobs: int | None = typer.Option(None, "--jobs", help="CPU threads of the encoder"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
-    """Feature-space realism: class-wise centroid distances in DeepConvLSTM embeddings, PCA, KS."""
+    """Feature-space realism: class-wise centroid distances in DeepConvLSTM embeddings, PCA, KS,
+    and a two-sample test (RF AUC) on the ECDF features."""
     output_dir(output)
     from vsmp_imu.studies.methods import method_names
     from vsmp_imu.studies.realism import LAYERS, RealismStudy
@@ -356,9 +357,9 @@ def realism_cmd(
     for m, reason in results.skipped.items():
         console.print(f"skipped {m}: {reason}", highlight=False)
     for row in results.methods:
-        d = row["mean_distance"]
-        console.print(f"{row['method']}: mean centroid distance {'n/a' if d is None else f'{d:.3f}'}",
-                      highlight=False)
+        d, auc = row["mean_distance"], row["c2st_mean_auc"]
+        console.print(f"{row['method']}: mean centroid distance {'n/a' if d is None else f'{d:.3f}'}, "
+                      f"two-sample AUC {'n/a' if auc is None else f'{auc:.2f}'}", highlight=False)
     console.print(f"wrote {paths['report']}", highlight=False)
 
 
