@@ -128,10 +128,13 @@ def test_a_method_without_windows_stops_the_run(recording, tiny_dataset):
 def test_tstr_on_the_command_line(cli, fixtures_dir, tmp_path):
     out = tmp_path / "tstr"
     code, stdout, _ = cli("evaluate", "--dataset", fixtures_dir / "generic" / "dataset.yaml", "--protocol", "tstr",
-                          "--methods", "real,classical", "--alpha", "1", "--backbones", "rf", "--jobs", "1",
-                          "-o", out)
+                          "--methods", "real,classical", "--backbones", "rf", "--jobs", "1", "-o", out)
     assert code == 0, stdout
     results = json.loads((out / "results.json").read_text())
+    # by default as many synthetic windows per class as the real training set has (alpha 1, uniform)
+    assert (results["config"]["alpha"], results["config"]["policy"]) == (1.0, "uniform")
+    trtr = {r["fold"]: r["n_train_real"] for r in results["records"] if r["method"] == "real"}
+    assert all(r["n_synthetic_requested"] == trtr[r["fold"]] for r in results["records"] if r["method"] != "real")
     assert {(r["protocol"], r["method"]) for r in results["records"]} == {("tstr", "real"), ("tstr", "classical")}
     for r in results["records"]:
         if r["method"] == "classical":
@@ -139,6 +142,17 @@ def test_tstr_on_the_command_line(cli, fixtures_dir, tmp_path):
         else:
             assert r["n_train_real"] > 0 and r["n_synthetic"] == 0
         assert r["per_class_f1"]
+
+
+@pytest.mark.parametrize("protocol,given,expected", [
+    ("tstr", (None, None), (1.0, "uniform")),
+    ("low-resource", (None, None), (2.0, "scarcity")),
+    ("tstr", (0.5, "scarcity"), (0.5, "scarcity")),  # what is given is kept
+])
+def test_the_budget_defaults_follow_the_protocol(protocol, given, expected):
+    from vsmp_imu.cli.har import budget_defaults
+
+    assert budget_defaults(protocol, *given) == expected
 
 
 @pytest.mark.parametrize("args,option,allowed", [

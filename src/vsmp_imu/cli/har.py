@@ -69,6 +69,15 @@ def _positive(value: int | None, option: str) -> None:
         raise ConfigError(f"{value} is out of range", field=option, allowed="an integer >= 1")
 
 
+def budget_defaults(protocol: str, alpha: float | None, policy: str | None) -> tuple[float, str]:
+    """The synthetic budget's alpha and policy where not given: tstr trains on as many synthetic
+    windows per class as the real training set has (alpha 1, uniform), so that it reads against
+    TRTR; the other protocols mix by scarcity at alpha 2 (docs/results.md, "Defaults")."""
+    tstr = protocol == "tstr"
+    return (alpha if alpha is not None else 1.0 if tstr else 2.0,
+            policy if policy is not None else "uniform" if tstr else "scarcity")
+
+
 def evaluate_cmd(
     dataset: str = typer.Option(
         ...,
@@ -97,10 +106,13 @@ def evaluate_cmd(
         None, "--only-seeds",
         help="run only these of the --seeds (e.g. 1,2), to spread one evaluation over processes; "
              "their records are those --seeds N writes"),
-    alpha: float = typer.Option(2.0, "--alpha", help="synthetic-to-real ratio, 0.1..2.0 (the paper: 0.5)"),
+    alpha: float = typer.Option(
+        None, "--alpha", show_default=False,
+        help="synthetic-to-real ratio, 0.1..2.0 (the paper: 0.5) [default: 1 for tstr, else 2]"),
     policy: str = typer.Option(
-        "scarcity", "--policy", help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform)"
-    ),
+        None, "--policy", show_default=False,
+        help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform) "
+             "[default: uniform for tstr, else scarcity]"),
     rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
     window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0, help="window length in seconds"),
     overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
@@ -148,6 +160,7 @@ def evaluate_cmd(
     from vsmp_imu.pipeline.spec import GenerationSpec
 
     check_mode(share_selection)
+    alpha, policy = budget_defaults(protocol, alpha, policy)
     _positive(max_epochs, "--max-epochs")
     _positive(patience, "--patience")
     _positive(jobs, "--jobs")
