@@ -194,15 +194,18 @@ def test_evaluate_and_generate_default_to_the_settings_that_measured_a_gain():
 
     from vsmp_imu.app import EvalRequest
     from vsmp_imu.cli.generate import generate_cmd
-    from vsmp_imu.cli.har import evaluate_cmd
+    from vsmp_imu.cli.har import budget_defaults, evaluate_cmd
     from vsmp_imu.pipeline.spec import GenerationSpec
 
     spec = GenerationSpec()
     assert (spec.alpha, spec.policy) == (2.0, "scarcity")
-    for command in (evaluate_cmd, generate_cmd):
-        params = inspect.signature(command).parameters
-        assert params["alpha"].default.default == spec.alpha
-        assert params["policy"].default.default == spec.policy
+    params = inspect.signature(generate_cmd).parameters
+    assert (params["alpha"].default.default, params["policy"].default.default) == (spec.alpha, spec.policy)
+    # evaluate resolves them per protocol: tstr reads against TRTR (alpha 1, uniform), the others take these
+    params = inspect.signature(evaluate_cmd).parameters
+    assert params["alpha"].default.default is None and params["policy"].default.default is None
+    for protocol in ("lopo", "low-resource", "long-tail", "unseen"):
+        assert budget_defaults(protocol, None, None) == (spec.alpha, spec.policy)
     # the guard measured below mixing everything (docs/results.md): off unless asked for
     assert inspect.signature(evaluate_cmd).parameters["share_selection"].default.default == "off"
     assert EvalRequest(dataset="x", output=None).share_selection == "off"

@@ -72,10 +72,12 @@ def _positive(value: int | None, option: str) -> None:
 def budget_defaults(protocol: str, alpha: float | None, policy: str | None) -> tuple[float, str]:
     """The synthetic budget's alpha and policy where not given: tstr trains on as many synthetic
     windows per class as the real training set has (alpha 1, uniform), so that it reads against
-    TRTR; the other protocols mix by scarcity at alpha 2 (docs/results.md, "Defaults")."""
-    tstr = protocol == "tstr"
-    return (alpha if alpha is not None else 1.0 if tstr else 2.0,
-            policy if policy is not None else "uniform" if tstr else "scarcity")
+    TRTR; the other protocols take GenerationSpec's (alpha 2, scarcity: docs/results.md, "Defaults")."""
+    from vsmp_imu.pipeline.spec import GenerationSpec
+
+    tstr, spec = protocol == "tstr", GenerationSpec()
+    return (alpha if alpha is not None else 1.0 if tstr else spec.alpha,
+            policy if policy is not None else "uniform" if tstr else spec.policy)
 
 
 def evaluate_cmd(
