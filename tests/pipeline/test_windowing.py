@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from vsmp_imu.har.dataset import DatasetInfo, SensorLocation, imu_channel_names
+from vsmp_imu.motion.motion import Motion
 from vsmp_imu.pipeline.fold import window
 from vsmp_imu.pipeline.records import LocationProvenance, MotionSummary, Provenance
-from vsmp_imu.pipeline.sample import SampleResult
+from vsmp_imu.pipeline.sample import ACTIVE_SPEED_FRACTION, SampleResult, active_span
 
 FS, LENGTH, HOP = 50.0, 100, 50
 NAMES = imu_channel_names(None)
@@ -18,19 +19,19 @@ INFO = DatasetInfo(name="postures", fs_hz=FS, label_names=("standing", "stand_to
                    min_share={"stand_to_sit": 0.5})
 
 
-def _sample(label_index: int, duration_s: float, span_s: list[float]) -> tuple[SampleResult, dict]:
+def _sample(label_index: int, duration_s: float, span_s: list[float]) -> SampleResult:
     n = int(duration_s * FS)
     motion = MotionSummary(fps=FS, n_frames=n, duration_s=duration_s, body_height_m=1.7, active_span_s=span_s)
     where = LocationProvenance(0.0, {}, [0, 0, 0, 1], [0, 0, 0, 1], None, {})
     provenance = Provenance("test", INFO.label_names[label_index], 0, "smp", "", "procedural", 0, motion,
                             None, {"waist": where})
     signal = np.tile(np.arange(n, dtype=float)[:, None], (1, 6))  # sample index in every channel
-    return SampleResult(f"s{label_index}", label_index, {"waist": signal}, provenance), {"waist": signal}
+    return SampleResult(f"s{label_index}", label_index, {"waist": signal}, provenance)
 
 
 def _starts(label_index: int, duration_s: float, span_s: list[float]) -> list[int]:
-    result, signal = _sample(label_index, duration_s, span_s)
-    windows = window(INFO, [result], [signal], LENGTH, HOP)
+    result = _sample(label_index, duration_s, span_s)
+    windows = window(INFO, [result], [result.signals], LENGTH, HOP)
     return [int(x[0, 0]) for x in windows.X]
 
 
@@ -48,9 +49,6 @@ def test_a_transition_keeps_the_windows_its_active_span_covers_for_its_share():
 def test_the_active_span_is_where_the_body_moves_faster_than_a_share_of_its_peak():
     """A movement whose speed rises and falls as sin^2 between 1 s and 5 s: the span runs
     while the mean joint speed is above ACTIVE_SPEED_FRACTION of its peak."""
-    from vsmp_imu.motion.motion import Motion
-    from vsmp_imu.pipeline.sample import ACTIVE_SPEED_FRACTION, active_span
-
     fps = 50.0
     t = np.arange(0, 6, 1 / fps)
     speed = np.where((t > 1) & (t < 5), np.sin(np.pi * (t - 1) / 4) ** 2, 0.0)
