@@ -11,6 +11,7 @@ from sklearn.metrics import f1_score
 
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.har.backbones import BACKBONES, make_backbone
+from vsmp_imu.har.backbones.neural import validation_score
 from vsmp_imu.har.features import ecdf_features, ecdf_levels
 from vsmp_imu.har.normalize import ChannelStandardizer
 
@@ -105,6 +106,32 @@ def test_neural_early_stopping_keeps_the_best_epoch():
     best = est.history_[est.best_epoch_ - 1]["val_macro_f1"]
     assert best == max(h["val_macro_f1"] for h in est.history_)
     assert f1_score(y[100:], est.predict(X[100:]), average="macro") == pytest.approx(best)
+
+
+def test_validation_score_averages_over_the_validation_classes_only():
+    y_true = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+    y_pred = np.array([0, 0, 0, 2, 1, 1, 1, 1])  # one window of class 0 taken for class 2
+    # class 0: precision 3/3, recall 3/4 -> F1 6/7; class 1: F1 1; class 2 is not in validation
+    assert validation_score(y_true, y_pred) == pytest.approx((6 / 7 + 1) / 2)
+    # the same error as a confusion between validation classes costs about as much
+    assert validation_score(y_true, np.array([0, 0, 0, 1, 1, 1, 1, 1])) == pytest.approx(
+        (6 / 7 + 8 / 9) / 2
+    )
+    # counting the absent class as a zero (the old score) would have cut a third off
+    assert f1_score(y_true, y_pred, average="macro") == pytest.approx((6 / 7 + 1) / 3)
+
+
+def test_early_stopping_with_a_class_missing_from_validation():
+    X, y = _toy(n=150)
+    val = np.flatnonzero(np.arange(150) >= 100)
+    val = val[y[val] != 2]  # the unseen protocol: a class with training windows only
+    est = make_backbone(
+        "dclstm", **{**BACKBONES["dclstm"]._get_test_params(), "max_epochs": 4, "patience": 2}
+    )
+    est.fit(X[:100], y[:100], X[val], y[val])
+    best = est.history_[est.best_epoch_ - 1]["val_macro_f1"]
+    assert best == pytest.approx(validation_score(y[val], est.predict(X[val])))
+    assert best == max(h["val_macro_f1"] for h in est.history_)
 
 
 @pytest.mark.parametrize("name", ["dclstm", "bilstm-attn"])
