@@ -63,8 +63,8 @@ def validation_score(y_true: np.ndarray, y_pred: np.ndarray) -> float:
     A class absent from validation (the unseen protocol removes the unseen classes'
     real windows there) is left out of the average: a window predicted as that class
     already counts against its true class, and counting the class as a zero as well
-    made the score punish an epoch for every absent class it predicts, so training
-    stopped at the first epoch that predicted fewest of them.
+    made the score punish an epoch for every absent class it predicts, so early
+    stopping could keep an epoch only because it predicted fewer of them.
     """
     labels = np.unique(y_true)
     return float(f1_score(y_true, y_pred, labels=labels, average="macro", zero_division=0))
