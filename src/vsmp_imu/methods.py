@@ -27,10 +27,11 @@ OPTION_FIELDS = ("source", "k", "backend", "per_class_rank", "library_dirs", "wo
 SPEC_FIELDS = frozenset(f.name for f in fields(GenerationSpec))
 KINDS = ("real", "augmentation", "baseline", "vsmp")
 VSMP_TARGET = "vsmp_imu.pipeline.method:VsmpMethod"
-# The baselines' chain: no refinement, no sim-in-the-loop (sensor or motion), declared mounting, rank
-# grounding, plausibility filter without the class validator, one variant per description, no refill.
+# The baselines' chain: no refinement, no sim-in-the-loop (sensor or motion), declared mounting, no
+# movement texture, rank grounding, plausibility filter without the class validator, one variant per
+# description, no refill.
 BASELINE_CHAIN: dict[str, Any] = {"k": 1, "refine": False, "sim_in_the_loop": False, "motion_fit": False,
-                                  "side_evidence": False, "rank_grounding": True,
+                                  "side_evidence": False, "texture": False, "rank_grounding": True,
                                   "estimate_mounting": False, "quality_filter": True, "class_filter": False,
                                   "refill": 0}
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +48,7 @@ from vsmp_imu.grounding.mounting import estimate_mounting
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.split import stat_rank_split
 from vsmp_imu.grounding.stats import TargetStatistics
+from vsmp_imu.grounding.texture import TextureModel
 from vsmp_imu.har.dataset import DatasetInfo, SensorLocation
 from vsmp_imu.har.features import ecdf_features
 from vsmp_imu.har.synthetic import take_budget
@@ -388,7 +389,37 @@ def motion_fit_jobs(spec: GenerationSpec, info: DatasetInfo, sources, setup: Fol
     return jobs
 
 
-# -- stage 4: ground ----------------------------------------------------------------------------------
+# -- stage 4: texture and ground ----------------------------------------------------------------------
+def fit_textures(info: DatasetInfo, d_stat: Windows, plan) -> dict[str, TextureModel]:
+    """Per location, the movement-texture ratios of D_stat's windows of the classes worn there."""
+    models = {}
+    for loc in info.locations:
+        real = worn_windows(info, loc, d_stat, plan)
+        models[loc.name] = TextureModel(info.fs_hz).fit(real.X[..., channel_index(info, loc)], real.y)
+    return models
+
+
+def add_texture(ok: list[SampleResult], models: dict[str, TextureModel], seed: int,
+                fold: str) -> list[SampleResult]:
+    """Copies of the samples with the movement texture their signals lack (`grounding.texture`);
+    each sample's noise is drawn from its own key, so any subset gives the same bytes."""
+    out = []
+    for r in ok:
+        rng = rng_for(seed, fold, r.key, "texture")
+        signals = {name: models[name].apply(sig, r.label_index, rng) if name in models else sig
+                   for name, sig in sorted(r.signals.items())}
+        out.append(replace(r, signals=signals))
+    return out
+
+
+def texture_summary(info: DatasetInfo, models: dict[str, TextureModel], ok: list[SampleResult]) -> dict:
+    """Per location: the fitted ratios and, per class generated, which ratios it got."""
+    return {name: {**m.as_dict(info.label_names),
+                   "mapping": {info.label_names[i]: m.mapping(i)
+                               for i in sorted({r.label_index for r in ok if name in r.signals})}}
+            for name, m in models.items()}
+
+
 def ground(spec: GenerationSpec, info: DatasetInfo, ok: list[SampleResult], d_rank: Windows, plan,
            threads: int = 1) -> tuple[list[dict[str, np.ndarray]], dict]:
     """Rank grounding per location (F_v from all of `ok`, G_r from D_rank) and how each class was
@@ -603,9 +634,12 @@ class FoldGenerator:
                                   learned=spec.class_filter or spec.redundancy_filter)
         tasks, by_class, models = self.synthesize(info, sources, budget, seed, fold, setup.locations, length, hop,
                                                   job)
+        textures = fit_textures(info, setup.d_stat, setup.plan) if spec.texture else {}
         for attempt in range(spec.refill + 1):
             results = [r for label in info.label_names for r in by_class[label]]
             ok = [r for r in results if not r.error and r.signals]
+            if textures:
+                ok = add_texture(ok, textures, seed, fold)
             grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads)  # F_v from all so far
             windows = window(info, ok, grounded, length, hop)
             windows.records += failed_records(info, results)
@@ -629,6 +663,8 @@ class FoldGenerator:
         summary = _summary(info, results, records, budget, out, tau, len(setup.d_stat), len(setup.d_rank))
         if rank_map:  # per location and class: its own map, the pooled one, or none (no evidence)
             summary["rank_map"] = rank_map
+        if textures:  # per location: the ratios fitted on D_stat and which each class got
+            summary["texture"] = texture_summary(info, textures, ok)
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
         if self.sides:

@@ -50,6 +50,9 @@ class GenerationSpec:
     side_evidence: bool = True
     # motion-level simulation-in-the-loop: per class, fit the motion's free parameters to D_stat
     motion_fit: bool = False
+    # movement texture: the 3-12 Hz content procedural motion lacks, added in proportion to each
+    # sample's own 0.3-3 Hz motion by ratios fitted on D_stat (grounding.texture; docs/results.md)
+    texture: bool = True
     rank_grounding: bool = True
     # one rank map per class where the class has real windows enough (RankGrounder's
     # min_class_samples), the pooled map otherwise (the paper's); measured in docs/results.md

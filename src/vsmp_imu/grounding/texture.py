@@ -1,0 +1,133 @@
+"""Movement texture: the 3-12 Hz content that procedural motion lacks.
+
+Procedural motion is smooth (eased keyframes, a filtered simulator), human
+motion is not: a body sitting down shakes, a phone on a belt wobbles. Measured
+on HAPT12 (docs/results.md, "Movement texture"), the synthetic transitions
+carried 10 to 1000 times less 3-12 Hz energy than the real ones and the
+walking gyroscope 9 times less, while their 0.3-3 Hz energy was about right.
+
+The model is a ratio per channel, kappa = sqrt(sum HF^2 / sum LF^2) over real
+windows (HF: 3-12 Hz, LF: 0.3-3 Hz band-passed signals; energy-weighted, so
+windows with motion decide it, not the sensor noise of a posture). A class
+with `min_class_windows` real windows gets its own kappa, every other class
+(one without real windows: the unseen protocol) the pooled one.
+
+`apply` adds band-limited Gaussian noise where the signal's own HF falls
+short of kappa times its local LF amplitude (1 s envelopes): the texture
+follows the motion (none in a still posture), and a signal that already has
+enough (the accelerometer of a gait with heel strikes) gets nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+from scipy.signal import butter, sosfiltfilt
+
+from vsmp_imu.errors import ValidationError
+
+LF_BAND_HZ = (0.3, 3.0)
+HF_BAND_HZ = (3.0, 12.0)
+ENVELOPE_S = 1.0
+ORDER = 4
+# the HF band's top edge stays below this share of the sample rate
+NYQUIST_SHARE = 0.45
+
+
+def bands(fs_hz: float) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """The (LF, HF) bands at `fs_hz`, HF cut below the Nyquist rate; None when no HF band is left."""
+    top = min(HF_BAND_HZ[1], NYQUIST_SHARE * fs_hz)
+    if top <= HF_BAND_HZ[0] * 1.2:
+        return None
+    return LF_BAND_HZ, (HF_BAND_HZ[0], top)
+
+
+def _sos(band: tuple[float, float], fs_hz: float) -> np.ndarray:
+    return butter(ORDER, band, btype="band", fs=fs_hz, output="sos")
+
+
+def _band(x: np.ndarray, band: tuple[float, float], fs_hz: float, axis: int) -> np.ndarray:
+    return sosfiltfilt(_sos(band, fs_hz), x, axis=axis)
+
+
+def _min_length(fs_hz: float) -> int:
+    """Shortest signal the zero-phase filters take (scipy's default padding, plus one)."""
+    return 3 * (2 * len(_sos(LF_BAND_HZ, fs_hz)) + 1) + 1
+
+
+@dataclass
+class TextureModel:
+    """Per-channel HF/LF ratios from real windows, and the texture they ask for (see module doc)."""
+
+    fs_hz: float
+    min_class_windows: int = 20
+    pooled_: np.ndarray | None = None  # (C,) kappa of all windows
+    per_class_: dict[int, np.ndarray] = field(default_factory=dict)
+
+    def fit(self, windows: np.ndarray, labels: np.ndarray) -> TextureModel:
+        """kappa from real windows (N, T, C) and their labels; windows too short to filter are left out."""
+        windows = np.asarray(windows, dtype=np.float64)
+        if windows.ndim != 3:
+            raise ValidationError(f"expected windows (N, T, C), got shape {windows.shape}", field="windows")
+        edges = bands(self.fs_hz)
+        if edges is None or windows.shape[1] < _min_length(self.fs_hz) or len(windows) == 0:
+            return self
+        lf = _band(windows, edges[0], self.fs_hz, axis=1)
+        hf = _band(windows, edges[1], self.fs_hz, axis=1)
+        lf_energy, hf_energy = (lf ** 2).sum(axis=1), (hf ** 2).sum(axis=1)  # (N, C)
+        self.pooled_ = _ratio(hf_energy, lf_energy)
+        labels = np.asarray(labels)
+        for cls in np.unique(labels):
+            mask = labels == cls
+            if mask.sum() >= self.min_class_windows:
+                self.per_class_[int(cls)] = _ratio(hf_energy[mask], lf_energy[mask])
+        return self
+
+    def kappa(self, label: int) -> np.ndarray | None:
+        """The class's ratios (its own, else the pooled ones); None when the model has none."""
+        return self.per_class_.get(int(label), self.pooled_)
+
+    def mapping(self, label: int) -> str:
+        """'class' (its own kappa), 'pooled' or 'none' (nothing fitted: signals left as they are)."""
+        if self.pooled_ is None:
+            return "none"
+        return "class" if int(label) in self.per_class_ else "pooled"
+
+    def apply(self, signal: np.ndarray, label: int, rng: np.random.Generator) -> np.ndarray:
+        """`signal` (T, C) with the texture it lacks; unchanged when too short or nothing is fitted."""
+        signal = np.asarray(signal, dtype=np.float64)
+        kappa, edges = self.kappa(label), bands(self.fs_hz)
+        if kappa is None or edges is None or signal.shape[0] < _min_length(self.fs_hz):
+            return signal
+        if signal.shape[1] != len(kappa):
+            raise ValidationError(f"expected {len(kappa)} channels, got {signal.shape[1]}", field="channels")
+        amp = self.missing_amplitude(signal, kappa, edges)
+        noise = _unit_band_noise(signal.shape, edges[1], self.fs_hz, rng)
+        return signal + amp * noise
+
+    def missing_amplitude(self, signal: np.ndarray, kappa: np.ndarray, edges) -> np.ndarray:
+        """(T, C): the HF amplitude short of kappa x the local LF amplitude (0 where enough)."""
+        n = max(1, int(round(ENVELOPE_S * self.fs_hz)))
+        lf = uniform_filter1d(_band(signal, edges[0], self.fs_hz, axis=0) ** 2, n, axis=0, mode="nearest")
+        hf = uniform_filter1d(_band(signal, edges[1], self.fs_hz, axis=0) ** 2, n, axis=0, mode="nearest")
+        return np.sqrt(np.maximum(kappa ** 2 * lf - hf, 0.0))
+
+    def as_dict(self, label_names: list[str]) -> dict:
+        """The fitted ratios, for a generation summary."""
+        return {"pooled": None if self.pooled_ is None else np.round(self.pooled_, 4).tolist(),
+                "classes": {label_names[c]: np.round(k, 4).tolist() for c, k in sorted(self.per_class_.items())}}
+
+
+def _ratio(hf_energy: np.ndarray, lf_energy: np.ndarray) -> np.ndarray:
+    return np.sqrt(hf_energy.sum(axis=0) / np.maximum(lf_energy.sum(axis=0), 1e-12))
+
+
+def _unit_band_noise(shape: tuple[int, int], band: tuple[float, float], fs_hz: float,
+                     rng: np.random.Generator) -> np.ndarray:
+    """Gaussian noise band-passed to `band`, unit standard deviation per channel, shape (T, C)."""
+    pad = _min_length(fs_hz)
+    raw = rng.standard_normal((shape[0] + 2 * pad, shape[1]))
+    noise = _band(raw, band, fs_hz, axis=0)[pad:-pad]
+    return noise / np.maximum(noise.std(axis=0), 1e-12)
