@@ -89,6 +89,7 @@ VSMP_VARIANTS = (
     _vsmp("vsmp-class-rank", "VSMP-IMU, per-class rank grounding", per_class_rank=True),
     _vsmp("vsmp-pooled-rank", "VSMP-IMU, pooled rank grounding", per_class_rank=False),
     _vsmp("vsmp-motion-fit", "VSMP-IMU, motion-level sim-in-the-loop", motion_fit=True),
+    _vsmp("vsmp-no-texture", "VSMP-IMU, no movement texture", texture=False),
 )
 REGISTRY: dict[str, Method] = {m.name: m for m in (
     Method("real", "Real-only", "real"),

@@ -29,6 +29,7 @@ from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.stats import TargetStatistics
+from vsmp_imu.grounding.texture import TextureModel
 from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
 from vsmp_imu.har.synthetic import METHODS, synthetic_budget
@@ -42,7 +43,7 @@ from vsmp_imu.smp.library import ActivityLibrary
 SENTINEL = 4242.0
 HELD = "1"
 SMALL = GenerationSpec(k=1, oversample=1.5, max_rounds=2)
-INSTRUMENTS = ("fold_train", "split_labels", "d_stat", "mounting_d_stat", "side_votes", "d_rank",
+INSTRUMENTS = ("fold_train", "split_labels", "d_stat", "mounting_d_stat", "side_votes", "texture", "d_rank",
                "plausibility", "validator", "nn_threshold_embeddings", "tau_model_fit", "tau_model_predict")
 SEEN: dict[str, list[bool]] = defaultdict(list)
 
@@ -103,6 +104,7 @@ def instruments(monkeypatch):
     wrap(fold_mod, "side_evidence",
          lambda info, train, label, plan, probes: SEEN["side_votes"].append(has_sentinel(train.X)))
     wrap(TargetStatistics, "fit", lambda self, windows, labels, *_: SEEN["d_stat"].append(has_sentinel(windows)))
+    wrap(TextureModel, "fit", lambda self, windows, labels: SEEN["texture"].append(has_sentinel(windows)))
     wrap(RankGrounder, "fit", lambda self, syn, real, *a, **k: SEEN["d_rank"].append(has_sentinel(real)))
     wrap(MotionPlausibilityFilter, "fit", lambda self, X, y: SEEN["plausibility"].append(has_sentinel(X)))
     wrap(HarValidator, "fit_features", lambda self, X, y, *a, **k: SEEN["validator"].append(has_sentinel(X)))

@@ -184,5 +184,8 @@ GRAVITY_NORM = typer.Option(False, "--gravity-norm",
 SIDE_EVIDENCE = typer.Option(True, "--side-evidence/--no-side-evidence",
                              help="where the side shows in the sensor (a turn to lie down), give a class's "
                                   "variants the side its real training windows support (--no-side-evidence: 50/50)")
+TEXTURE = typer.Option(True, "--texture/--no-texture",
+                       help="add the 3-12 Hz movement texture procedural motion lacks, in proportion to each "
+                            "sample's own motion, by ratios fitted on the real training windows (VSMP-IMU)")
 MOTION_FIT = typer.Option(False, "--motion-fit",
                           help="fit each class's motion parameters to D_stat before synthesis (VSMP-IMU)")

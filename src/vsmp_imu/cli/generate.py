@@ -12,6 +12,7 @@ from vsmp_imu.cli.common import (
     MOTION_FIT,
     PER_CLASS_RANK,
     SIDE_EVIDENCE,
+    TEXTURE,
     console,
     executor_options,
     library_dirs,
@@ -51,6 +52,7 @@ def generate_cmd(
     per_class_rank: bool = PER_CLASS_RANK,
     gravity_norm: bool = GRAVITY_NORM,
     motion_fit: bool = MOTION_FIT,
+    texture: bool = TEXTURE,
     side_evidence: bool = SIDE_EVIDENCE,
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
@@ -68,7 +70,7 @@ def generate_cmd(
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, sim_in_the_loop=not no_sim_loop,
         rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
-        motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence,
+        motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         refine=not no_refine, uncertainty_conditioned=not no_uncertainty,
         library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None,
@@ -106,6 +108,11 @@ def _print_summary(summary: dict) -> None:
         else:
             text = f"SMP defaults: {fit['reason']}"
         console.print(f"motion fit {name}: {text}", highlight=False)
+    for name, tex in summary.get("texture", {}).items():
+        if tex["pooled"] is not None:
+            ratios = ", ".join(f"{k:.2f}" for k in tex["pooled"])
+            console.print(f"movement texture at {name}: 3-12 Hz / 0.3-3 Hz ratio per channel {ratios} (all "
+                          f"classes), a class's own for {len(tex['classes'])} classes", highlight=False)
     for name, records in summary.get("side_evidence", {}).items():
         for rec in records:
             console.print(f"side {name}: {side_text(rec)}", highlight=False)

@@ -16,6 +16,7 @@ from vsmp_imu.cli.common import (
     MOTION_FIT,
     PER_CLASS_RANK,
     SIDE_EVIDENCE,
+    TEXTURE,
     console,
     executor_options,
     output_dir,
@@ -136,6 +137,7 @@ def evaluate_cmd(
     per_class_rank: bool = PER_CLASS_RANK,
     gravity_norm: bool = GRAVITY_NORM,
     motion_fit: bool = MOTION_FIT,
+    texture: bool = TEXTURE,
     side_evidence: bool = SIDE_EVIDENCE,
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
@@ -177,7 +179,7 @@ def evaluate_cmd(
         unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
-        motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence,
+        motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)

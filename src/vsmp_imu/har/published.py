@@ -46,6 +46,7 @@ METHOD_NAMES = {
     "imutube": "IMUTube-style",
     "vsmp": "VSMP-IMU",
     "vsmp-motion-fit": "VSMP-IMU + motion fit",
+    "vsmp-no-texture": "VSMP-IMU, no texture",
     "vsmp+classical": "VSMP-IMU + Classical Aug",
     "vsmp-class-rank": "VSMP-IMU, per-class rank",
 }

@@ -1,7 +1,7 @@
 """Algorithm 1 for one LOPO fold: from base SMPs to the filtered synthetic set.
 
-Everything fitted here (D_stat, D_rank, plausibility thresholds, the
-validator, tau_cls, tau_nn) comes from the fold's real training windows
+Everything fitted here (D_stat, D_rank, the texture ratios, plausibility
+thresholds, the validator, tau_cls, tau_nn) comes from the fold's real training windows
 only; the held-out subject is never passed in.
 
 Stages:
@@ -12,8 +12,9 @@ Stages:
    kinematics, eta* by CEM against the class's D_stat, A_gamma; alongside,
    one executor job fits the filter's real-data models (plausibility
    thresholds, validator, tau_nn);
-4. rank grounding per location with F_v from all the fold's synthetic samples
-   and G_r from D_rank;
+4. movement texture (the 3-12 Hz content a smooth motion lacks, by ratios
+   fitted on D_stat), then rank grounding per location with F_v from all the
+   fold's synthetic samples and G_r from D_rank;
 5. windows, then the quality filter (motion plausibility, class faithfulness
    with tau_cls chosen by validation Macro-F1, redundancy);
 6. the per-class budget taken from the retained windows.

@@ -1,0 +1,93 @@
+"""Movement texture (grounding.texture): ratios from real windows, texture only where it lacks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import butter, sosfiltfilt
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.grounding.texture import HF_BAND_HZ, LF_BAND_HZ, TextureModel, bands
+
+FS = 50.0
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(0)
+
+
+def _sines(n: int, t: int, lf_amp: float, hf_amp: float, rng) -> np.ndarray:
+    """(n, t, 2) windows: a 1 Hz sine of lf_amp plus a 6 Hz sine of hf_amp, random phases."""
+    time = np.arange(t) / FS
+    phase = rng.uniform(0, 2 * np.pi, size=(n, 1, 2))
+    return (lf_amp * np.sin(2 * np.pi * 1.0 * time[None, :, None] + phase)
+            + hf_amp * np.sin(2 * np.pi * 6.0 * time[None, :, None] + 2 * phase))
+
+
+def _band_std(x: np.ndarray, band) -> np.ndarray:
+    sos = butter(4, band, btype="band", fs=FS, output="sos")
+    return sosfiltfilt(sos, x, axis=0).std(axis=0)
+
+
+def test_kappa_is_the_hf_to_lf_amplitude_ratio_per_class_and_pooled(rng):
+    a = _sines(30, 200, 1.0, 0.5, rng)  # class 0: ratio 0.5
+    b = _sines(30, 200, 2.0, 0.4, rng)  # class 1: ratio 0.2
+    c = _sines(5, 200, 1.0, 1.0, rng)  # class 2: too few windows for its own
+    model = TextureModel(FS, min_class_windows=20).fit(np.concatenate([a, b, c]), np.repeat([0, 1, 2], [30, 30, 5]))
+    assert model.kappa(0) == pytest.approx([0.5, 0.5], rel=0.05)
+    assert model.kappa(1) == pytest.approx([0.2, 0.2], rel=0.05)
+    # pooled: energy-weighted, so the class with the larger motion (b) weighs more
+    pooled = np.sqrt((30 * 0.25 + 30 * 0.16 + 5 * 1.0) / (30 * 1 + 30 * 4 + 5 * 1))
+    assert model.kappa(2) == pytest.approx([pooled, pooled], rel=0.05)
+    assert model.kappa(7) is model.pooled_  # a class never seen (the unseen protocol)
+    assert [model.mapping(i) for i in (0, 1, 2, 7)] == ["class", "class", "pooled", "pooled"]
+
+
+def test_a_smooth_motion_gets_the_hf_share_the_real_windows_have(rng):
+    model = TextureModel(FS).fit(_sines(40, 200, 1.0, 0.5, rng), np.zeros(40, int))
+    smooth = _sines(1, 1000, 1.0, 0.0, rng)[0]
+    out = model.apply(smooth, 0, np.random.default_rng(1))
+    ratio = _band_std(out, HF_BAND_HZ) / _band_std(out, LF_BAND_HZ)
+    np.testing.assert_allclose(ratio, 0.5, rtol=0.15)
+    # the motion itself is kept: what was added lies above it
+    assert (_band_std(out - smooth, (0.3, 1.5)) < 0.05 * _band_std(smooth, (0.3, 1.5))).all()
+
+
+def test_nothing_is_added_to_a_still_signal_or_to_one_with_texture_enough(rng):
+    model = TextureModel(FS).fit(_sines(40, 200, 1.0, 0.3, rng), np.zeros(40, int))
+    still = np.full((500, 2), 9.81)
+    assert np.abs(model.apply(still, 0, np.random.default_rng(0)) - still).max() < 1e-6
+    rough = _sines(1, 500, 1.0, 0.6, rng)[0]  # HF above kappa x LF everywhere
+    assert np.abs(model.apply(rough, 0, np.random.default_rng(0)) - rough).max() < 0.02
+
+
+def test_the_texture_follows_the_motion_in_time(rng):
+    """A posture, then a movement: texture only where the movement is."""
+    model = TextureModel(FS).fit(_sines(40, 200, 1.0, 0.5, rng), np.zeros(40, int))
+    signal = np.zeros((1000, 2))
+    signal[500:] = _sines(1, 500, 1.0, 0.0, rng)[0]
+    added = model.apply(signal, 0, np.random.default_rng(0)) - signal
+    assert np.abs(added[:400]).max() < 0.01 * np.abs(added[600:]).max()
+
+
+def test_same_generator_same_bytes_and_unfitted_or_unfilterable_left_alone(rng):
+    model = TextureModel(FS).fit(_sines(40, 200, 1.0, 0.5, rng), np.zeros(40, int))
+    x = _sines(1, 400, 1.0, 0.0, rng)[0]
+    one = model.apply(x, 0, np.random.default_rng(5))
+    assert one.tobytes() == model.apply(x, 0, np.random.default_rng(5)).tobytes()
+    assert one.tobytes() != model.apply(x, 0, np.random.default_rng(6)).tobytes()
+    assert np.array_equal(TextureModel(FS).apply(x, 0, rng), x)  # nothing fitted
+    assert TextureModel(FS).mapping(0) == "none"
+    assert np.array_equal(model.apply(x[:20], 0, rng), x[:20])  # too short to filter
+    slow = TextureModel(6.0).fit(_sines(40, 200, 1.0, 0.5, rng), np.zeros(40, int))  # no HF band at 6 Hz
+    assert bands(6.0) is None and slow.pooled_ is None
+    assert bands(20.0)[1][1] == pytest.approx(9.0)  # the HF band stops below the Nyquist rate
+
+
+def test_channel_and_shape_errors_name_the_field(rng):
+    model = TextureModel(FS).fit(_sines(40, 200, 1.0, 0.5, rng), np.zeros(40, int))
+    with pytest.raises(ValidationError, match="channels"):
+        model.apply(np.zeros((400, 3)), 0, rng)
+    with pytest.raises(ValidationError, match=r"\(N, T, C\)"):
+        TextureModel(FS).fit(np.zeros((40, 200)), np.zeros(40, int))
