@@ -1,10 +1,10 @@
 """Movement texture: the 3-12 Hz content that procedural motion lacks.
 
 Procedural motion is smooth (eased keyframes, a filtered simulator), human
-motion is not: a body sitting down shakes, a phone on a belt wobbles. Measured
-on HAPT12 (docs/results.md, "Movement texture"), the synthetic transitions
-carried 10 to 1000 times less 3-12 Hz energy than the real ones and the
-walking gyroscope 9 times less, while their 0.3-3 Hz energy was about right.
+motion is not: a body sitting down shakes, a phone on a belt wobbles. On
+HAPT12 the synthetic windows' 0.3-3 Hz energy is about the real one's, their
+3-12 Hz energy far below it, most of all the gyroscope's (docs/results.md,
+"Movement texture"; tests/pipeline/test_fold.py checks the gyroscope's share).
 
 The model is a ratio per channel, kappa = sqrt(sum HF^2 / sum LF^2) over real
 windows (HF: 3-12 Hz, LF: 0.3-3 Hz band-passed signals; energy-weighted, so
