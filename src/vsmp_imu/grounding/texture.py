@@ -20,6 +20,7 @@ enough (the accelerometer of a gait with heel strikes) gets nothing.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -44,7 +45,9 @@ def bands(fs_hz: float) -> tuple[tuple[float, float], tuple[float, float]] | Non
     return LF_BAND_HZ, (HF_BAND_HZ[0], top)
 
 
+@functools.lru_cache(maxsize=16)
 def _sos(band: tuple[float, float], fs_hz: float) -> np.ndarray:
+    """The band-pass filter (designed once per band and rate: every sample uses the same few)."""
     return butter(ORDER, band, btype="band", fs=fs_hz, output="sos")
 
 
