@@ -70,7 +70,8 @@ class TextureModel:
     per_class_: dict[int, np.ndarray] = field(default_factory=dict)
 
     def fit(self, windows: np.ndarray, labels: np.ndarray) -> TextureModel:
-        """kappa from real windows (N, T, C) and their labels; windows too short to filter are left out."""
+        """kappa from real windows (N, T, C) and their labels; nothing is fitted (`mapping` says
+        'none') when there are no windows, they are too short to filter, or no HF band fits the rate."""
         windows = np.asarray(windows, dtype=np.float64)
         if windows.ndim != 3:
             raise ValidationError(f"expected windows (N, T, C), got shape {windows.shape}", field="windows")
