@@ -300,3 +300,30 @@ def test_the_leave_one_class_out_table_has_a_row_per_class_left_out_and_their_me
     assert lines[2:5] == ["| WALKING | 0.00 | 75.00 | 10.00 | 80.00 |", "| SIT_TO_LIE | 0.00 | 75.00 | 40.00 | 80.00 |",
                           "| mean over the 2 classes | 0.00 | 75.00 | 25.00 | 80.00 |"]
     assert "Real-only cannot make windows of a class without real windows" in table
+
+
+def test_leave_one_class_out_runs_pair_by_the_class_left_out():
+    """Under `--unseen each` one fold and seed hold a run per class left out: a paired test
+    (within a record set or against another) pairs each with the same class's run, never another's."""
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    def runs(method: str, gains: dict[str, float]) -> list[dict]:
+        out = []
+        for fold in (1, 2, 3):
+            for cls, base in (("WALKING", 0.1), ("SIT_TO_LIE", 0.6)):
+                r = _record(method, fold, 0, None, 0.7)
+                r.update(unseen_classes=[cls], unseen_capable=True, unseen_macro_f1=base + 0.01 * fold + gains[cls])
+                out.append(r)
+        return out
+
+    before, after = runs("vsmp", {"WALKING": 0.0, "SIT_TO_LIE": 0.0}), runs("vsmp", {"WALKING": 0.2, "SIT_TO_LIE": 0.1})
+    unseen = Metric(label="unseen", metric="unseen")
+    result = paired_test(list(reversed(after)), before, unseen)
+    assert (result.n, result.won) == (6, 6) and result.mean_diff == pytest.approx(0.15)
+    spec = TableSpec(id="x:vs", records="x", kind="paired", baseline="vsmp", baseline_records="y",
+                     methods=["vsmp"], metrics=[{"label": "unseen", "metric": "unseen"}])
+    table = TableBuilder(spec, RecordSet("x", "cmd", None, None, {}, LABELS, tuple(after)),
+                         RecordSet("y", "cmd", None, None, {}, LABELS, tuple(before[:4]))).render()
+    row = table.splitlines()[2]
+    assert "+15.00" in row and "(4/4," in row  # the runs both sets hold: folds 1 and 2, both classes

@@ -192,8 +192,8 @@ class Paired:
 
 def paired_test(method: Sequence[dict], baseline: Sequence[dict], metric: Metric) -> Paired:
     """Mean paired difference, runs won and the two-sided Wilcoxon signed-rank p."""
-    base = {(str(r["fold"]), r["seed"]): metric.value(r) for r in baseline}
-    pairs = [(metric.value(r), base.get((str(r["fold"]), r["seed"]))) for r in method]
+    base = {_run_key(r): metric.value(r) for r in baseline}
+    pairs = [(metric.value(r), base.get(_run_key(r))) for r in method]
     diffs = np.array([a - b for a, b in pairs if a is not None and b is not None], dtype=float)
     if len(diffs) == 0:
         return Paired(float("nan"), 0, 0, float("nan"))
@@ -316,8 +316,8 @@ class TableBuilder:
                 mine = self.runs(method, budget)
                 if self.baseline_records is not None:  # another set: the runs both have
                     both = _run_keys(mine) & _run_keys(base)
-                    mine = [r for r in mine if (str(r["fold"]), r["seed"]) in both]
-                    base = [r for r in base if (str(r["fold"]), r["seed"]) in both]
+                    mine = [r for r in mine if _run_key(r) in both]
+                    base = [r for r in base if _run_key(r) in both]
                 runs = self.same_runs({f"baseline {s.baseline}": base, method: mine}, budget)[method]
                 name = _method_name(method)
                 if self.baseline_records is not None:
@@ -404,8 +404,13 @@ class TableBuilder:
         return _markdown(header, rows)
 
 
-def _run_keys(records: Sequence[dict]) -> set[tuple[str, int]]:
-    return {(str(r["fold"]), r["seed"]) for r in records}
+def _run_key(record: dict) -> tuple[str, int, tuple[str, ...]]:
+    """What pairs two runs: fold, seed and, under leave-one-class-out, the class left out."""
+    return str(record["fold"]), record["seed"], tuple(record.get("unseen_classes") or ())
+
+
+def _run_keys(records: Sequence[dict]) -> set[tuple[str, int, tuple[str, ...]]]:
+    return {_run_key(r) for r in records}
 
 
 def _class_counts(choices: Sequence[dict], test, n_runs: int) -> str:
