@@ -49,6 +49,7 @@ METHOD_NAMES = {
     "vsmp-no-texture": "VSMP-IMU, no texture",
     "vsmp+classical": "VSMP-IMU + Classical Aug",
     "vsmp-class-rank": "VSMP-IMU, per-class rank",
+    "vsmp-rank-only": "VSMP-IMU, no sim-in-the-loop",
 }
 
 
