@@ -244,7 +244,7 @@ class TableBuilder:
     def same_runs(self, runs: dict[str, list[dict]], budget: float | None) -> dict[str, list[dict]]:
         """`runs` per method, after checking that every method has the same (fold, seed) runs:
         a table's columns must compare the same runs."""
-        keys = {m: sorted((str(r["fold"]), r["seed"]) for r in rs) for m, rs in runs.items()}
+        keys = {m: sorted(_run_key(r) for r in rs) for m, rs in runs.items()}
         first = next(iter(keys.values()))
         uneven = [m for m, k in keys.items() if k != first]
         if uneven:
