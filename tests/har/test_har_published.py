@@ -117,14 +117,35 @@ def test_import_keeps_the_records_and_the_command(tmp_path):
     assert len(loaded.select(method="vsmp", seed=1)) == 4
 
 
-def test_import_reads_the_record_files_of_an_unfinished_run(tmp_path):
+def _unfinished_run(tmp_path: Path, labels: tuple[str, ...] | None) -> Path:
     run = tmp_path / "run"
     (run / "records").mkdir(parents=True)
     for i, record in enumerate(_records()[:3]):
+        if labels is not None:
+            record["label_names"] = list(labels)
         (run / "records" / f"r{i}.json").write_text(json.dumps(record))
-    folder = import_run(run, "partial", "cmd", tmp_path / "res")
+    return run
+
+
+def test_import_reads_the_record_files_of_an_unfinished_run(tmp_path):
+    folder = import_run(_unfinished_run(tmp_path, LABELS), "partial", "cmd", tmp_path / "res")
     assert len((folder / "records.jsonl").read_text().splitlines()) == 3
+    assert "label_names" not in json.loads((folder / "records.jsonl").read_text().splitlines()[0])
     assert load_run(tmp_path / "res", "partial").label_names == LABELS
+
+
+def test_record_files_that_do_not_say_their_class_order_need_it_given(tmp_path):
+    """The per-class F1 keys are sorted; the confusion matrix follows the dataset's order."""
+    run = _unfinished_run(tmp_path, None)
+    with pytest.raises(ConfigError, match="order of their confusion"):
+        import_run(run, "partial", "cmd", tmp_path / "res")
+    with pytest.raises(ConfigError, match="3 classes given; the records have 2"):
+        import_run(run, "partial", "cmd", tmp_path / "res", labels=("WALKING", "SIT_TO_LIE", "LAYING"))
+    with pytest.raises(ConfigError, match="--labels"):
+        import_run(run, "partial", "cmd", tmp_path / "res", labels=("WALKING", "LAYING"))
+    order = tuple(reversed(LABELS))
+    import_run(run, "partial", "cmd", tmp_path / "res", labels=order)
+    assert load_run(tmp_path / "res", "partial").label_names == order
 
 
 def test_import_refuses_a_folder_without_records(tmp_path):
@@ -327,3 +348,23 @@ def test_leave_one_class_out_runs_pair_by_the_class_left_out():
                          RecordSet("y", "cmd", None, None, {}, LABELS, tuple(before[:4]))).render()
     row = table.splitlines()[2]
     assert "+15.00" in row and "(4/4," in row  # the runs both sets hold: folds 1 and 2, both classes
+
+
+def test_every_committed_record_set_names_its_confusion_matrices_classes_in_their_order():
+    """Per committed record: the F1 of class i read off the confusion matrix (row i, column i,
+    in the set's `label_names` order) is the F1 the record gives that class by name."""
+    checked = 0
+    for folder in sorted((REPO_ROOT / "results").iterdir()):
+        if not (folder / "records.jsonl").is_file():
+            continue
+        names = load_run(REPO_ROOT / "results", folder.name).label_names
+        for record in load_run(REPO_ROOT / "results", folder.name).records:
+            if not record.get("confusion") or not record.get("per_class_f1"):
+                continue
+            c = np.asarray(record["confusion"], dtype=float)
+            f1 = 2 * np.diag(c) / np.maximum(c.sum(axis=0) + c.sum(axis=1), 1e-12)
+            given = [record["per_class_f1"].get(name) for name in names]
+            assert all(g is None or g == pytest.approx(f, abs=1e-6) for g, f in zip(given, f1, strict=True)), \
+                f"{folder.name}: label_names do not follow the confusion matrices' order"
+            checked += 1
+    assert checked > 1000

@@ -77,6 +77,8 @@ def test_resuming_with_another_cache_and_worker_count_reuses_the_records(pooled,
     assert not any("(cached)" in line for line in first) and len(first) == 2
     files = _files(out)
     results = json.loads((out / "results.json").read_text())
+    # each record file says its confusion matrix's class order (an unfinished run imports right)
+    assert all(json.loads(f)["label_names"] == results["label_names"] for f in files.values())
     again = _run(_config(RUN_B, n_jobs=2), tiny_factory(), out)
     assert all(line.endswith("(cached)") for line in again) and len(again) == 2
     assert _files(out) == files

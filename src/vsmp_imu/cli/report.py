@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, console_err
+from vsmp_imu.cli.common import console, console_err, parse_csv
 
 report_app = typer.Typer(
     help="Rebuild the measured tables of README.md and docs/ from the records in results/ "
@@ -79,14 +79,20 @@ def import_cmd(
     ),
     note: str | None = typer.Option(None, "--note", help="how the run was made, if not by the command alone"),
     root: Path = typer.Option(Path("."), "--root", help="repository root (writes root/results/NAME/)"),
+    labels: str | None = typer.Option(
+        None, "--labels", help="CLASS,CLASS,...: the confusion matrices' class order, for record files "
+                               "that do not say it (an unfinished run of an older version)"),
 ) -> None:
     """Copy a run's records into results/NAME/: records.jsonl + run.json for an evaluation,
     study.json + run.json for a study (told by the command, `vsmp-imu study NAME ...`)."""
     from vsmp_imu.har.records import import_run
     from vsmp_imu.har.study_records import import_study, study_of
 
-    load = import_study if study_of(command) else import_run
-    folder = load(run_dir, name, command, root / "results", commit or _head_commit(), note)
+    if study_of(command):
+        folder = import_study(run_dir, name, command, root / "results", commit or _head_commit(), note)
+    else:
+        folder = import_run(run_dir, name, command, root / "results", commit or _head_commit(), note,
+                            tuple(parse_csv(labels, option="--labels")) if labels else ())
     console.print(f"wrote {folder}/", highlight=False)
 
 

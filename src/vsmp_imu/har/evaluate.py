@@ -392,6 +392,8 @@ class Evaluation:
                             record["n_synthetic_requested"] = n_asked
                             record.update(self._unseen_fields(split, train, method, record))
                             record["settings_digest"] = digests[(method, backbone, unseen)]
+                            # the confusion matrix's order: an unfinished run's records say it themselves
+                            record["label_names"] = list(self.dataset.info.label_names)
                             if path is not None:
                                 write_json(path, record)
                             records.append(record)

@@ -128,7 +128,9 @@ def read_evaluation(run_dir: str | Path) -> tuple[dict[str, Any], tuple[str, ...
             "no results.json and no records/*.json: not an `vsmp-imu evaluate` output folder",
             file=run_dir,
         )
-    return {}, (), [_read_json(f) for f in files]
+    records = [_read_json(f) for f in files]
+    orders = {tuple(r.get("label_names") or ()) for r in records if isinstance(r, dict)}
+    return {}, orders.pop() if len(orders) == 1 else (), records
 
 
 def import_run(
@@ -138,15 +140,17 @@ def import_run(
     results_dir: str | Path,
     code_commit: str | None = None,
     note: str | None = None,
+    labels: tuple[str, ...] = (),
 ) -> Path:
-    """Write `results_dir/NAME/` from an `evaluate` output folder; returns the folder."""
+    """Write `results_dir/NAME/` from an `evaluate` output folder; returns the folder.
+    `labels`: the class order of the confusion matrices, for a folder that does not say it
+    (the record files of an unfinished run written before records carried it)."""
     check_name(name)
     if not command.strip():
         raise ConfigError("the command that produced the records is required", field="--command")
     config, label_names, records = read_evaluation(run_dir)
     rows = sorted((compact(r) for r in records), key=_sort_key)
-    if not label_names and rows:
-        label_names = tuple((rows[0].get("per_class_f1") or {}).keys())
+    label_names = _class_order(label_names, tuple(labels), rows)
     folder = Path(results_dir) / name
     meta = {"name": name, "command": command.strip(), "code_commit": code_commit,
             "config": config, "label_names": list(label_names), "n_records": len(rows),
@@ -155,6 +159,27 @@ def import_run(
     write_text(folder / RECORDS_FILE, lines)
     write_text(folder / RUN_FILE, dumps_json(meta))
     return folder
+
+
+def _class_order(found: tuple[str, ...], given: tuple[str, ...], rows: list[dict]) -> tuple[str, ...]:
+    """The confusion matrices' class order: the run's own, else `given` (which must name the
+    records' classes, as many as the matrices have); a ConfigError when neither says it."""
+    if found and given and found != given:
+        raise ConfigError(f"the run says its classes are {', '.join(found)}", field="--labels")
+    order = found or given
+    if not rows:
+        return order
+    if not order:
+        raise ConfigError("these record files do not say the order of their confusion matrices' classes; "
+                          "give it (the dataset's class order, as `vsmp-imu dataset info` lists it)",
+                          field="--labels")
+    for row in rows:
+        named = set(row.get("per_class_f1") or order)
+        size = len(row.get("confusion") or order)
+        if named != set(order) or size != len(order):
+            raise ConfigError(f"{len(order)} classes given; the records have {size} "
+                              f"({', '.join(sorted(named))})", field="--labels")
+    return order
 
 
 def require_files(results_dir: str | Path, name: str, files: tuple[str, ...], how: str) -> list[Path]:
