@@ -215,3 +215,26 @@ def test_movement_texture_brings_the_gyroscope_hf_share_toward_the_real_one(hapt
     real, before, after = gyro_ratio(train), gyro_ratio(plain.windows), gyro_ratio(textured.windows)
     assert before < 0.3 * real
     assert 0.6 * real < after < 1.5 * real
+
+
+@pytest.mark.parametrize("pooled", [True, False])
+def test_a_class_without_real_windows_is_calibrated_against_pooled_statistics_only_if_asked(hapt12, pooled):
+    """Sim-in-the-loop targets: each seen class its own D_stat summary; a class with no window
+    the pooled summary, or none (eta nominal) with `pooled_calibration` off."""
+    from vsmp_imu.pipeline.fold import location_plan, location_tasks, target_statistics
+
+    info, windows = hapt12
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    unseen = info.label_names.index("STANDING")
+    d_stat = train[train.y != unseen]
+    stats = target_statistics(info, d_stat)
+    mountings = {loc.name: (0.0, 0.0, 0.0, 1.0) for loc in info.locations}
+    tasks = location_tasks(GenerationSpec(pooled_calibration=pooled), info, location_plan(info), stats, mountings)
+    (waist,) = tasks["STANDING"]
+    pooled_cov = stats["waist"].for_class(None).cov.tolist()
+    assert (waist.target is not None) is pooled
+    if pooled:
+        assert waist.target["cov"] == pooled_cov
+    (sitting,) = tasks["SITTING"]
+    own = stats["waist"].for_class(info.label_names.index("SITTING")).cov.tolist()
+    assert sitting.target["cov"] == own != pooled_cov

@@ -24,7 +24,7 @@ GENERATE_OPTIONS = {
     "refine": "--no-refine", "uncertainty_conditioned": "--no-uncertainty", "sim_in_the_loop": "--no-sim-loop",
     "rank_grounding": "--no-rank", "per_class_rank": "--per-class-rank", "quality_filter": "--no-filter",
     "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm", "refill": "--refill", "library_dirs": "--library",
-    "side_evidence": "--side-evidence", "texture": "--texture",
+    "side_evidence": "--side-evidence", "texture": "--texture", "pooled_calibration": "--pooled-calibration",
     "executor": "--executor", "workers": "--workers",
     "address": "--address", "cache_dir": "--cache-dir", "gpus_per_task": "--gpus-per-task",
 }
@@ -32,7 +32,7 @@ GENERATE_OPTIONS = {
 EVALUATE_OPTIONS = {
     "source": "--source", "alpha": "--alpha", "policy": "--policy", "k": "--k", "backend": "--backend",
     "per_class_rank": "--per-class-rank", "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm",
-    "side_evidence": "--side-evidence", "texture": "--texture",
+    "side_evidence": "--side-evidence", "texture": "--texture", "pooled_calibration": "--pooled-calibration",
     "refill": "--refill", "library_dirs": "--library",
     "executor": "--executor", "workers": "--workers", "address": "--address",
 }

@@ -187,5 +187,9 @@ SIDE_EVIDENCE = typer.Option(True, "--side-evidence/--no-side-evidence",
 TEXTURE = typer.Option(True, "--texture/--no-texture",
                        help="add the 3-12 Hz movement texture procedural motion lacks, in proportion to each "
                             "sample's own motion, by ratios fitted on the real training windows (VSMP-IMU)")
+POOLED_CALIBRATION = typer.Option(
+    True, "--pooled-calibration/--no-pooled-calibration",
+    help="sim-in-the-loop for a class with no real training windows (an unseen class) against the other "
+         "classes' pooled statistics (--no-pooled-calibration: such a class keeps the nominal sensor)")
 MOTION_FIT = typer.Option(False, "--motion-fit",
                           help="fit each class's motion parameters to D_stat before synthesis (VSMP-IMU)")

@@ -15,6 +15,7 @@ from vsmp_imu.cli.common import (
     GRAVITY_NORM,
     MOTION_FIT,
     PER_CLASS_RANK,
+    POOLED_CALIBRATION,
     SIDE_EVIDENCE,
     TEXTURE,
     console,
@@ -138,6 +139,7 @@ def evaluate_cmd(
     gravity_norm: bool = GRAVITY_NORM,
     motion_fit: bool = MOTION_FIT,
     texture: bool = TEXTURE,
+    pooled_calibration: bool = POOLED_CALIBRATION,
     side_evidence: bool = SIDE_EVIDENCE,
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
@@ -180,6 +182,7 @@ def evaluate_cmd(
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
+        pooled_calibration=pooled_calibration,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)

@@ -277,10 +277,18 @@ def location_tasks(spec: GenerationSpec, info: DatasetInfo, plan, stats: dict[st
             conv, declared = _convention(loc)
             target = None
             if spec.sim_in_the_loop and loc.name in stats:
-                target = _summary_lists(stats[loc.name].for_class(info.label_names.index(label)))
+                target = _class_target(spec, stats[loc.name], info.label_names.index(label))
             tasks.append(LocationTask(loc.name, conv, declared, target, mountings[loc.name]))
         out[label] = tuple(tasks)
     return out
+
+
+def _class_target(spec: GenerationSpec, stats: TargetStatistics, label_index: int) -> dict | None:
+    """The class's D_stat summary; the pooled one for a class without its own, or None (eta
+    nominal) for such a class when the spec turns pooled calibration off."""
+    if label_index not in stats.per_class_ and not spec.pooled_calibration:
+        return None
+    return _summary_lists(stats.for_class(label_index))
 
 
 def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, seed: int,

@@ -45,6 +45,9 @@ class GenerationSpec:
     refine: bool = True
     uncertainty_conditioned: bool = True
     sim_in_the_loop: bool = True
+    # sim-in-the-loop also for a class with no D_stat statistics of its own (an unseen class),
+    # against the pooled statistics of the other classes; off: such a class keeps eta nominal
+    pooled_calibration: bool = True
     # where the side shows in the sensor, the side a class's real training windows support
     # (pipeline.side; measured in docs/results.md)
     side_evidence: bool = True
