@@ -128,7 +128,11 @@ def _unfinished_run(tmp_path: Path, labels: tuple[str, ...] | None) -> Path:
 
 
 def test_import_reads_the_record_files_of_an_unfinished_run(tmp_path):
-    folder = import_run(_unfinished_run(tmp_path, LABELS), "partial", "cmd", tmp_path / "res")
+    run = _unfinished_run(tmp_path, LABELS)
+    older = json.loads((run / "records" / "r0.json").read_text())  # written before records said the order
+    del older["label_names"]
+    (run / "records" / "r0.json").write_text(json.dumps(older))
+    folder = import_run(run, "partial", "cmd", tmp_path / "res")
     assert len((folder / "records.jsonl").read_text().splitlines()) == 3
     assert "label_names" not in json.loads((folder / "records.jsonl").read_text().splitlines()[0])
     assert load_run(tmp_path / "res", "partial").label_names == LABELS

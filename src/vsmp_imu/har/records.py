@@ -129,7 +129,8 @@ def read_evaluation(run_dir: str | Path) -> tuple[dict[str, Any], tuple[str, ...
             file=run_dir,
         )
     records = [_read_json(f) for f in files]
-    orders = {tuple(r.get("label_names") or ()) for r in records if isinstance(r, dict)}
+    # one folder is one dataset: record files written before records said their order follow it too
+    orders = {tuple(r["label_names"]) for r in records if isinstance(r, dict) and r.get("label_names")}
     return {}, orders.pop() if len(orders) == 1 else (), records
 
 
