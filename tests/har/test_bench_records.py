@@ -262,3 +262,17 @@ def test_record_parts_adds_each_part_with_its_run_and_keeps_the_others(tmp_path)
     assert record["old"] == {"x": 1} and record["ab"]["value"] == 2 and record["c"]["value"] == 1
     assert record["c"]["command"] == "python benchmarks/b.py --parts ab,c" and record["c"]["machine"] == {"cpus": 2}
     assert record["c"]["wall_s"] >= 0 and len(record["c"]["load_avg_at_start"]) == 3
+
+
+def test_the_motion_fit_targets_read_from_their_stage_beside_the_chain_without_it():
+    from vsmp_imu.har.bench_records import _script
+
+    run_all = _script(REPO_ROOT / "benchmarks/run_all.py")
+    fold = {"samples": 100, "wall_s": 4.0, "steps_s": {"motion_fit": 3.0}}
+    fit = {"on": fold, "off": {**fold, "wall_s": 2.0}, "samples_per_s": 25.0, "samples_per_s_off": 50.0,
+           "fit_s_per_class_per_core": 0.5}
+    chain, per_class = run_all._motion_fit_rows(fit)
+    assert chain[1].startswith("**25.0 samples/s** (100 samples in 4.0 s)") and "0.50× its rate" in chain[1]
+    assert chain[2] == "NOT met" and per_class[2] == "met"
+    assert run_all._motion_fit_rows({**fit, "fit_s_per_class_per_core": 3.5})[1][2] == "NOT met"
+    assert run_all._motion_fit_rows({**fit, "samples_per_s": 40.0})[0][2] == "met"
