@@ -503,20 +503,28 @@ def stage_chain(quick: bool) -> dict:
 
 
 def stage_chain_motion_fit(quick: bool) -> dict:
-    """The chain with motion-level simulation-in-the-loop, and the chain without it in the same
-    stage (side by side, same load); the fit's seconds per class on one core."""
+    """The chain with motion-level simulation-in-the-loop beside the chain without it: the fold
+    run off, on, on, off (so drift in the machine's speed falls on both alike), rates from the
+    summed walls; the fit's seconds per class on one core."""
     from vsmp_imu.executor import LocalExecutor
     from vsmp_imu.pipeline.spec import GenerationSpec
 
     alpha = 0.1 if quick else 0.5
-    off = run_fold(LocalExecutor(CORES, show_progress=False), alpha)
-    on = run_fold(LocalExecutor(CORES, show_progress=False), alpha, GenerationSpec(motion_fit=True))
+    runs = [{"motion_fit": on, **run_fold(LocalExecutor(CORES, show_progress=False), alpha,
+                                          GenerationSpec(motion_fit=on))}
+            for on in (False, True, True, False)]
     info = hapt12_fold(alpha)[0]
-    per_class = on["steps_s"]["motion_fit"] * CORES / info.n_classes  # the fits run on CORES workers
-    return {"alpha": alpha, "off": off, "on": on, "samples_per_s": on["samples_per_s"],
-            "samples_per_s_off": off["samples_per_s"], "fit_s_per_class_per_core": per_class,
-            "met": on["samples_per_s"] >= MOTION_FIT_CHAIN_TARGET and per_class <= MOTION_FIT_CLASS_TARGET_S,
-            "note": f"HAPT12 holdout {HOLDOUT}, alpha {alpha}, 2 local workers, no cache; off then on"}
+
+    def rate(on: bool) -> float:
+        chosen = [r for r in runs if r["motion_fit"] is on]
+        return sum(r["samples"] for r in chosen) / sum(r["wall_s"] for r in chosen)
+
+    fit_s = np.mean([r["steps_s"]["motion_fit"] for r in runs if r["motion_fit"]])
+    per_class = float(fit_s) * CORES / info.n_classes  # the fits run on CORES workers
+    return {"alpha": alpha, "runs": runs, "on": runs[1], "off": runs[0], "samples_per_s": rate(True),
+            "samples_per_s_off": rate(False), "fit_s_per_class_per_core": per_class,
+            "met": rate(True) >= MOTION_FIT_CHAIN_TARGET and per_class <= MOTION_FIT_CLASS_TARGET_S,
+            "note": f"HAPT12 holdout {HOLDOUT}, alpha {alpha}, 2 local workers, no cache; off, on, on, off"}
 
 
 def stage_chain_memory(quick: bool) -> dict:
@@ -1200,18 +1208,19 @@ def targets_view(res: dict) -> tuple[str, str]:
 def _motion_fit_rows(fit: dict) -> list[tuple[str, str, str]]:
     """The two targets of motion-level simulation-in-the-loop: the chain with it (beside the chain
     without it, same stage) and the fit's seconds per class on one core."""
-    on, off = fit["on"], fit["off"]
+    runs = fit.get("runs") or [{"motion_fit": False, **fit["off"]}, {"motion_fit": True, **fit["on"]}]
+    order = ", ".join("on" if r["motion_fit"] else "off" for r in runs)
+    walls = ", ".join(f"{r['wall_s']:.1f}" for r in runs)
     ratio = fit["samples_per_s"] / fit["samples_per_s_off"]
     per_class = fit["fit_s_per_class_per_core"]
     return [(f"whole embedded chain with motion-level simulation-in-the-loop ≥ {MOTION_FIT_CHAIN_TARGET:g} "
              f"synthetic samples/s on {CORES} cores",
-             f"**{fit['samples_per_s']:.1f} samples/s** ({on['samples']} samples in {on['wall_s']:.1f} s); the "
-             f"chain without it in the same stage {fit['samples_per_s_off']:.1f} ({off['samples']} in "
-             f"{off['wall_s']:.1f} s): {ratio:.2f}× its rate",
+             f"**{fit['samples_per_s']:.1f} samples/s**; the chain without it in the same stage "
+             f"{fit['samples_per_s_off']:.1f}: {ratio:.2f}× its rate (one fold {order}: {walls} s)",
              _met(fit["samples_per_s"] >= MOTION_FIT_CHAIN_TARGET)),
             (f"motion fitting ≤ {MOTION_FIT_CLASS_TARGET_S:g} s per class and fold on one core",
-             f"**{per_class:.2f} s** ({on['steps_s']['motion_fit']:.1f} s for the fold's classes on {CORES} "
-             "workers)", _met(per_class <= MOTION_FIT_CLASS_TARGET_S))]
+             f"**{per_class:.2f} s** (the fold's classes fitted on {CORES} workers)",
+             _met(per_class <= MOTION_FIT_CLASS_TARGET_S))]
 
 
 # -- the scaling history: one line per run that measured a scaling stage ---------------------------

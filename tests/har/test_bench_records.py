@@ -268,11 +268,13 @@ def test_the_motion_fit_targets_read_from_their_stage_beside_the_chain_without_i
     from vsmp_imu.har.bench_records import _script
 
     run_all = _script(REPO_ROOT / "benchmarks/run_all.py")
-    fold = {"samples": 100, "wall_s": 4.0, "steps_s": {"motion_fit": 3.0}}
-    fit = {"on": fold, "off": {**fold, "wall_s": 2.0}, "samples_per_s": 25.0, "samples_per_s_off": 50.0,
+    runs = [{"motion_fit": on, "samples": 100, "wall_s": wall} for on, wall in
+            ((False, 2.0), (True, 4.0), (True, 4.0), (False, 2.0))]
+    fit = {"runs": runs, "on": runs[1], "off": runs[0], "samples_per_s": 25.0, "samples_per_s_off": 50.0,
            "fit_s_per_class_per_core": 0.5}
     chain, per_class = run_all._motion_fit_rows(fit)
-    assert chain[1].startswith("**25.0 samples/s** (100 samples in 4.0 s)") and "0.50× its rate" in chain[1]
+    assert chain[1].startswith("**25.0 samples/s**; the chain without it in the same stage 50.0: 0.50×")
+    assert "(one fold off, on, on, off: 2.0, 4.0, 4.0, 2.0 s)" in chain[1]
     assert chain[2] == "NOT met" and per_class[2] == "met"
     assert run_all._motion_fit_rows({**fit, "fit_s_per_class_per_core": 3.5})[1][2] == "NOT met"
     assert run_all._motion_fit_rows({**fit, "samples_per_s": 40.0})[0][2] == "met"
