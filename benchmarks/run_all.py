@@ -1208,9 +1208,8 @@ def targets_view(res: dict) -> tuple[str, str]:
 def _motion_fit_rows(fit: dict) -> list[tuple[str, str, str]]:
     """The two targets of motion-level simulation-in-the-loop: the chain with it (beside the chain
     without it, same stage) and the fit's seconds per class on one core."""
-    runs = fit.get("runs") or [{"motion_fit": False, **fit["off"]}, {"motion_fit": True, **fit["on"]}]
-    order = ", ".join("on" if r["motion_fit"] else "off" for r in runs)
-    walls = ", ".join(f"{r['wall_s']:.1f}" for r in runs)
+    order = ", ".join("on" if r["motion_fit"] else "off" for r in fit["runs"])
+    walls = ", ".join(f"{r['wall_s']:.1f}" for r in fit["runs"])
     ratio = fit["samples_per_s"] / fit["samples_per_s_off"]
     per_class = fit["fit_s_per_class_per_core"]
     return [(f"whole embedded chain with motion-level simulation-in-the-loop ≥ {MOTION_FIT_CHAIN_TARGET:g} "
