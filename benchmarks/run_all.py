@@ -181,9 +181,9 @@ class TimedExecutor:
 
 
 # The fold's stages (functions of vsmp_imu.pipeline.fold) under the names the figures use.
-FOLD_STEPS = {"nominal_mountings": "nominal_mountings", "fit_textures": "texture",
-              "add_texture": "texture", "ground": "ground", "window": "window", "filter_windows": "filter",
-              "select": "select"}
+# The movement texture is fitted here and added in the sample workers (inside `synthesize`).
+FOLD_STEPS = {"nominal_mountings": "nominal_mountings", "fit_textures": "texture", "ground": "ground",
+              "window": "window", "filter_windows": "filter", "select": "select"}
 
 
 def patched_steps(wrap: Callable) -> ExitStack:

@@ -194,8 +194,8 @@ def test_the_side_evidence_reaches_the_summary_and_every_sample_of_the_class(fol
 
 def test_movement_texture_brings_the_gyroscope_hf_share_toward_the_real_one(hapt12, library, tmp_path):
     """The samples' 3-12 Hz gyroscope energy, relative to their 0.3-3 Hz energy, is far below the
-    real windows' without the texture and near it with the texture (same samples: one cache); the
-    summary records the ratios and which each class got."""
+    real windows' without the texture and near it with the texture (the same motions, from the same
+    seeds); the summary records the ratios and which each class got."""
     from vsmp_imu.grounding.texture import HF_BAND_HZ, LF_BAND_HZ, _band
 
     info, _ = hapt12
@@ -215,6 +215,31 @@ def test_movement_texture_brings_the_gyroscope_hf_share_toward_the_real_one(hapt
     real, before, after = gyro_ratio(train), gyro_ratio(plain.windows), gyro_ratio(textured.windows)
     assert before < 0.3 * real
     assert 0.6 * real < after < 1.5 * real
+
+
+def test_the_sample_worker_adds_the_texture_its_task_carries(hapt12, library, tmp_path):
+    """Each sample's texture is added in its worker from the class's ratios in the task, with noise
+    from rng_for(seed, fold, key, "texture"): the textured signal is the untextured one plus
+    `add_texture` of it, and the task's ratios are those the summary reports for the class."""
+    from vsmp_imu.grounding.texture import add_texture
+    from vsmp_imu.seeding import rng_for
+
+    plain, _, _ = _generate(hapt12, library, GenerationSpec(**SMALL, texture=False), tmp_path)
+    textured, _, _ = _generate(hapt12, library, GenerationSpec(**SMALL), tmp_path)
+    assert all(t.texture is None for t in plain.tasks)
+    summary = textured.summary["texture"]["waist"]
+    before = {r.key: r for r in plain.samples}
+    info, _ = hapt12
+    pairs = [(t, r) for t, r in zip(textured.tasks, textured.samples, strict=True) if not r.error]
+    assert len(pairs) > 20
+    for task, sample in pairs[::7]:
+        assert task.key == sample.key and task.texture["fold"] == "test" and task.texture["seed"] == 0
+        kappa = task.texture["kappa"]["waist"]
+        own = summary["classes"].get(task.label) if summary["mapping"][task.label] == "class" else summary["pooled"]
+        assert np.allclose(kappa, own, atol=1e-4)
+        rng = rng_for(0, "test", task.key, "texture")
+        expected = add_texture(before[task.key].signals["waist"], kappa, info.fs_hz, rng)
+        assert np.array_equal(sample.signals["waist"], expected)
 
 
 @pytest.mark.parametrize("pooled", [True, False])

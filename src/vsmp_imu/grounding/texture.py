@@ -101,27 +101,35 @@ class TextureModel:
 
     def apply(self, signal: np.ndarray, label: int, rng: np.random.Generator) -> np.ndarray:
         """`signal` (T, C) with the texture it lacks; unchanged when too short or nothing is fitted."""
-        signal = np.asarray(signal, dtype=np.float64)
-        kappa, edges = self.kappa(label), bands(self.fs_hz)
-        if kappa is None or edges is None or signal.shape[0] < _min_length(self.fs_hz):
-            return signal
-        if signal.shape[1] != len(kappa):
-            raise ValidationError(f"expected {len(kappa)} channels, got {signal.shape[1]}", field="channels")
-        amp = self.missing_amplitude(signal, kappa, edges)
-        noise = _unit_band_noise(signal.shape, edges[1], self.fs_hz, rng)
-        return signal + amp * noise
-
-    def missing_amplitude(self, signal: np.ndarray, kappa: np.ndarray, edges) -> np.ndarray:
-        """(T, C): the HF amplitude short of kappa x the local LF amplitude (0 where enough)."""
-        n = max(1, int(round(ENVELOPE_S * self.fs_hz)))
-        lf = uniform_filter1d(_band(signal, edges[0], self.fs_hz, axis=0) ** 2, n, axis=0, mode="nearest")
-        hf = uniform_filter1d(_band(signal, edges[1], self.fs_hz, axis=0) ** 2, n, axis=0, mode="nearest")
-        return np.sqrt(np.maximum(kappa ** 2 * lf - hf, 0.0))
+        return add_texture(signal, self.kappa(label), self.fs_hz, rng)
 
     def as_dict(self, label_names: list[str]) -> dict:
         """The fitted ratios, for a generation summary."""
         return {"pooled": None if self.pooled_ is None else np.round(self.pooled_, 4).tolist(),
                 "classes": {label_names[c]: np.round(k, 4).tolist() for c, k in sorted(self.per_class_.items())}}
+
+
+def add_texture(signal: np.ndarray, kappa, fs_hz: float, rng: np.random.Generator) -> np.ndarray:
+    """`signal` (T, C) with the texture the ratios `kappa` (C,) ask for; unchanged when `kappa` is
+    None or the signal too short to filter (what `TextureModel.apply` does with a class's kappa)."""
+    signal = np.asarray(signal, dtype=np.float64)
+    edges = bands(fs_hz)
+    if kappa is None or edges is None or signal.shape[0] < _min_length(fs_hz):
+        return signal
+    kappa = np.asarray(kappa, dtype=np.float64)
+    if signal.shape[1] != len(kappa):
+        raise ValidationError(f"expected {len(kappa)} channels, got {signal.shape[1]}", field="channels")
+    amp = missing_amplitude(signal, kappa, edges, fs_hz)
+    noise = _unit_band_noise(signal.shape, edges[1], fs_hz, rng)
+    return signal + amp * noise
+
+
+def missing_amplitude(signal: np.ndarray, kappa: np.ndarray, edges, fs_hz: float) -> np.ndarray:
+    """(T, C): the HF amplitude short of kappa x the local LF amplitude (0 where enough)."""
+    n = max(1, int(round(ENVELOPE_S * fs_hz)))
+    lf = uniform_filter1d(_band(signal, edges[0], fs_hz, axis=0) ** 2, n, axis=0, mode="nearest")
+    hf = uniform_filter1d(_band(signal, edges[1], fs_hz, axis=0) ** 2, n, axis=0, mode="nearest")
+    return np.sqrt(np.maximum(kappa ** 2 * lf - hf, 0.0))
 
 
 def _ratio(hf_energy: np.ndarray, lf_energy: np.ndarray) -> np.ndarray:

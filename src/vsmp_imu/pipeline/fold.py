@@ -25,7 +25,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -315,9 +315,10 @@ def smp_variants(spec: GenerationSpec, base: Base, seed: int, key: str, library=
 def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list[tuple[str, Base]], slots: range,
                  seed: int, fold: str, fs_hz: float, locations: tuple[LocationTask, ...], library=None,
                  motion_dir: Path | None = None, motion_fit: str = "",
-                 class_windows: int | None = None) -> list[SampleTask]:
+                 class_windows: int | None = None, texture: dict | None = None) -> list[SampleTask]:
     """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants);
-    `class_windows`: the class's real training windows in the fold, kept in the provenance."""
+    `class_windows`: the class's real training windows in the fold, kept in the provenance;
+    `texture`: what the worker needs to add the movement texture (`texture_task`)."""
     variants = [(src, k, v) for src, base in bases
                 for k, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", library)]
     tasks = []
@@ -330,7 +331,7 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
             fs_hz=fs_hz, locations=locations, sim_in_the_loop=spec.sim_in_the_loop,
             noise=spec.noise, duration_s=spec.duration_s, library_dirs=tuple(spec.library_dirs),
             motion_dir=str(motion_dir) if motion_dir else None, motion_fit=motion_fit,
-            class_windows=class_windows,
+            class_windows=class_windows, texture=texture,
         ))
     return tasks
 
@@ -408,17 +409,14 @@ def fit_textures(info: DatasetInfo, d_stat: Windows, plan) -> dict[str, TextureM
     return models
 
 
-def add_texture(ok: list[SampleResult], models: dict[str, TextureModel], seed: int,
-                fold: str) -> list[SampleResult]:
-    """Copies of the samples with the movement texture their signals lack (`grounding.texture`);
-    each sample's noise is drawn from its own key, so any subset gives the same bytes."""
-    out = []
-    for r in ok:
-        rng = rng_for(seed, fold, r.key, "texture")
-        signals = {name: models[name].apply(sig, r.label_index, rng) if name in models else sig
-                   for name, sig in sorted(r.signals.items())}
-        out.append(replace(r, signals=signals))
-    return out
+def texture_task(models: dict[str, TextureModel], label_index: int, seed: int, fold: str) -> dict | None:
+    """What a class's samples need to add their movement texture in the worker (`SampleTask.texture`):
+    the noise seed and the class's ratios per location; None without models."""
+    if not models:
+        return None
+    kappa = {name: None if (k := m.kappa(label_index)) is None else tuple(float(v) for v in k)
+             for name, m in models.items()}
+    return {"seed": int(seed), "fold": fold, "kappa": kappa}
 
 
 def texture_summary(info: DatasetInfo, models: dict[str, TextureModel], ok: list[SampleResult]) -> dict:
@@ -625,6 +623,7 @@ class FoldGenerator:
         self.motion_fits: dict[str, dict] = {}  # per class, set by `generate` (motion_fit)
         self.sides: dict[str, list[dict]] = {}  # per class and base SMP, set by `generate` (side_evidence)
         self.class_windows_: dict[str, int] = {}  # per class, the real training windows of the fold
+        self.textures: dict[str, TextureModel] = {}  # per location, set by `generate` (texture)
 
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
                  budget: np.ndarray, seed: int, fold: str) -> FoldOutput:
@@ -641,14 +640,12 @@ class FoldGenerator:
         if spec.quality_filter:
             job = make_filter_job(info, train, seed, fold, spec.val_fraction, spec.min_validator_windows,
                                   learned=spec.class_filter or spec.redundancy_filter)
+        self.textures = fit_textures(info, setup.d_stat, setup.plan) if spec.texture else {}
         tasks, by_class, models = self.synthesize(info, sources, budget, seed, fold, setup.locations, length, hop,
                                                   job)
-        textures = fit_textures(info, setup.d_stat, setup.plan) if spec.texture else {}
         for attempt in range(spec.refill + 1):
             results = [r for label in info.label_names for r in by_class[label]]
             ok = [r for r in results if not r.error and r.signals]
-            if textures:
-                ok = add_texture(ok, textures, seed, fold)
             grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads)  # F_v from all so far
             windows = window(info, ok, grounded, length, hop)
             windows.records += failed_records(info, results)
@@ -672,8 +669,8 @@ class FoldGenerator:
         summary = _summary(info, results, records, budget, out, tau, len(setup.d_stat), len(setup.d_rank))
         if rank_map:  # per location and class: its own map, the pooled one, or none (no evidence)
             summary["rank_map"] = rank_map
-        if textures:  # per location: the ratios fitted on D_stat and which each class got
-            summary["texture"] = texture_summary(info, textures, ok)
+        if self.textures:  # per location: the ratios fitted on D_stat and which each class got
+            summary["texture"] = texture_summary(info, self.textures, ok)
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
         if self.sides:
@@ -725,9 +722,10 @@ class FoldGenerator:
     def tasks(self, info: DatasetInfo, label: str, bases, slots: range, seed: int, fold: str,
               locations: tuple[LocationTask, ...]) -> list[SampleTask]:
         fit = fit_text(self.motion_fits.get(label))
-        return sample_tasks(self.config, label, info.label_names.index(label), bases, slots, seed, fold,
+        index = info.label_names.index(label)
+        return sample_tasks(self.config, label, index, bases, slots, seed, fold,
                             info.fs_hz, locations, self.library, self.motion_dir, fit,
-                            self.class_windows_.get(label))
+                            self.class_windows_.get(label), texture_task(self.textures, index, seed, fold))
 
     def synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
         """Rounds of per-sample synthesis until every class has oversample x budget raw windows.

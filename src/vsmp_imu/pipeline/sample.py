@@ -33,6 +33,7 @@ from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
 from vsmp_imu.grounding.calibrate import SimInTheLoopCalibrator
 from vsmp_imu.grounding.stats import StatSummary
+from vsmp_imu.grounding.texture import add_texture
 from vsmp_imu.imu import VirtualSensor, draw_noise, sensor_readings, simulate_kinematics
 from vsmp_imu.io import write_bytes
 from vsmp_imu.motion import Motion
@@ -98,6 +99,9 @@ class SampleTask:
     motion_dir: str | None = None  # where to save the motion (.npz), if anywhere; not hashed
     motion_fit: str = ""  # the class's fitted motion parameters (pipeline.motionfit, JSON; empty: none)
     class_windows: int | None = None  # real training windows of the class in the fold (0: no evidence)
+    # the movement texture (grounding.texture), added by the worker: {"seed", "fold"} (its noise is
+    # drawn from rng_for(seed, fold, key, "texture")) and "kappa" per location (None: none fitted)
+    texture: dict[str, Any] | None = None
 
     def content_hash(self) -> str:
         payload = asdict(self)
@@ -271,6 +275,8 @@ def synthesize(task: SampleTask, motion_path: Path | None = None) -> SampleResul
         signals, locations = {}, {}
         for loc in task.locations:
             signals[loc.name], locations[loc.name] = _location_signal(motion, task, loc)
+        if task.texture:
+            signals = _textured(signals, task)
         provenance = Provenance(task.source, task.label, task.variant, smp_id, task.prompt, task.backend,
                                 task.seed, summary, motion_verdict, locations, task.class_windows)
         return SampleResult(task.key, task.label_index, signals, provenance)
@@ -278,6 +284,14 @@ def synthesize(task: SampleTask, motion_path: Path | None = None) -> SampleResul
         return SampleResult(task.key, task.label_index, {},
                             Provenance(task.source, task.label, class_windows=task.class_windows),
                             error=f"{type(exc).__name__}: {exc}")
+
+
+def _textured(signals: dict[str, np.ndarray], task: SampleTask) -> dict[str, np.ndarray]:
+    """The signals with their movement texture, locations in name order from one noise stream."""
+    tex = task.texture
+    rng = rng_for(tex["seed"], tex["fold"], task.key, "texture")
+    return {name: add_texture(sig, tex["kappa"][name], task.fs_hz, rng) if name in tex["kappa"] else sig
+            for name, sig in sorted(signals.items())}
 
 
 def motion_file(task: SampleTask) -> Path | None:
