@@ -263,3 +263,24 @@ def test_a_class_without_real_windows_is_calibrated_against_pooled_statistics_on
     (sitting,) = tasks["SITTING"]
     own = stats["waist"].for_class(info.label_names.index("SITTING")).cov.tolist()
     assert sitting.target["cov"] == own != pooled_cov
+
+
+def test_an_unseen_posture_keeps_the_nominal_sensor_and_an_unseen_movement_is_calibrated(hapt12, library):
+    """With no real window of it, standing (a held posture in its SMP) gets no sim-in-the-loop
+    target and the generation summary says so, walking (cyclic) gets the pooled one; a seen
+    posture keeps its own, and the switch off calibrates the unseen posture as before."""
+    from vsmp_imu.pipeline.fold import prepare
+
+    info, windows = hapt12
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    sources = LibrarySmpSource(library).smps("hapt12", info.label_names)
+    gone = [info.label_names.index(n) for n in ("STANDING", "WALKING")]
+    seen = train[~np.isin(train.y, gone)]
+    setup = prepare(GenerationSpec(), info, seen, sources, seed=0)
+    targets = {label: setup.locations[label][0].target for label in ("STANDING", "WALKING", "SITTING")}
+    assert setup.nominal_sensor == ("STANDING",) and targets["STANDING"] is None
+    assert targets["WALKING"] is not None and targets["SITTING"] is not None
+    assert targets["WALKING"]["cov"] != targets["SITTING"]["cov"]
+    off = prepare(GenerationSpec(nominal_unseen_postures=False), info, seen, sources, seed=0)
+    assert off.nominal_sensor == () and off.locations["STANDING"][0].target == targets["WALKING"]
+    assert prepare(GenerationSpec(), info, train, sources, seed=0).nominal_sensor == ()

@@ -191,5 +191,9 @@ POOLED_CALIBRATION = typer.Option(
     True, "--pooled-calibration/--no-pooled-calibration",
     help="sim-in-the-loop for a class with no real training windows (an unseen class) against the other "
          "classes' pooled statistics (--no-pooled-calibration: such a class keeps the nominal sensor)")
+NOMINAL_UNSEEN_POSTURES = typer.Option(
+    True, "--nominal-unseen-postures/--calibrate-unseen-postures",
+    help="a held posture with no real training windows keeps the nominal sensor (--calibrate-unseen-postures: "
+         "sim-in-the-loop against the other classes' pooled statistics, as a moving class)")
 MOTION_FIT = typer.Option(False, "--motion-fit",
                           help="fit each class's motion parameters to D_stat before synthesis (VSMP-IMU)")

@@ -14,6 +14,7 @@ from rich.table import Table
 from vsmp_imu.cli.common import (
     GRAVITY_NORM,
     MOTION_FIT,
+    NOMINAL_UNSEEN_POSTURES,
     PER_CLASS_RANK,
     POOLED_CALIBRATION,
     SIDE_EVIDENCE,
@@ -140,6 +141,7 @@ def evaluate_cmd(
     motion_fit: bool = MOTION_FIT,
     texture: bool = TEXTURE,
     pooled_calibration: bool = POOLED_CALIBRATION,
+    nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
     side_evidence: bool = SIDE_EVIDENCE,
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
@@ -182,7 +184,7 @@ def evaluate_cmd(
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
-        pooled_calibration=pooled_calibration,
+        pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)

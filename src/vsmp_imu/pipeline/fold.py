@@ -230,6 +230,7 @@ class FoldSetup:
     d_stat: Windows
     d_rank: Windows
     locations: dict[str, tuple[LocationTask, ...]]
+    nominal_sensor: tuple[str, ...] = ()  # classes that keep the nominal sensor (`unseen_postures`)
 
 
 def target_statistics(info: DatasetInfo, d_stat: Windows, threads: int = 1) -> dict[str, TargetStatistics]:
@@ -268,15 +269,17 @@ def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_
 
 
 def location_tasks(spec: GenerationSpec, info: DatasetInfo, plan, stats: dict[str, TargetStatistics],
-                   mountings: dict[str, tuple]) -> dict[str, tuple[LocationTask, ...]]:
-    """Per class, the location tasks of its samples (the D_stat target only with sim-in-the-loop)."""
+                   mountings: dict[str, tuple], nominal: frozenset[str] = frozenset()
+                   ) -> dict[str, tuple[LocationTask, ...]]:
+    """Per class, the location tasks of its samples (the D_stat target only with sim-in-the-loop;
+    none for the classes in `nominal`, which keep the nominal sensor)."""
     out = {}
     for label, locs in plan.items():
         tasks = []
         for loc in locs:
             conv, declared = _convention(loc)
             target = None
-            if spec.sim_in_the_loop and loc.name in stats:
+            if spec.sim_in_the_loop and loc.name in stats and label not in nominal:
                 target = _class_target(spec, stats[loc.name], info.label_names.index(label))
             tasks.append(LocationTask(loc.name, conv, declared, target, mountings[loc.name]))
         out[label] = tuple(tasks)
@@ -291,6 +294,20 @@ def _class_target(spec: GenerationSpec, stats: TargetStatistics, label_index: in
     return _summary_lists(stats.for_class(label_index))
 
 
+def unseen_postures(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources) -> frozenset[str]:
+    """The classes that keep the nominal sensor: with `nominal_unseen_postures`, each class without a
+    real training window whose SMP holds a posture (temporal_structure.periodicity "none"). The
+    pooled statistics of the other classes, full of motion, would give a still posture motion's
+    sensor noise and biases, and its mounting offsets, unconstrained by a still signal, would tilt it
+    (docs/results.md, "An unseen posture keeps the nominal sensor")."""
+    if not (spec.nominal_unseen_postures and spec.sim_in_the_loop):
+        return frozenset()
+    counts = train.class_counts()
+    return frozenset(label for i, label in enumerate(info.label_names)
+                     if counts[i] == 0 and sources.get(label) and isinstance(base := sources[label][0][1], SMP)
+                     and base.temporal_structure.periodicity == "none")
+
+
 def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, seed: int,
             threads: int = 1) -> FoldSetup:
     """Stage 1: split D_stat / D_rank, fit D_stat's statistics, estimate the nominal mountings."""
@@ -299,7 +316,9 @@ def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, se
     d_stat, d_rank = train[stat_idx], train[rank_idx]
     stats = target_statistics(info, d_stat, threads)
     mountings = nominal_mountings(spec, info, plan, sources, d_stat)
-    return FoldSetup(plan, d_stat, d_rank, location_tasks(spec, info, plan, stats, mountings))
+    nominal = unseen_postures(spec, info, train, sources)
+    return FoldSetup(plan, d_stat, d_rank, location_tasks(spec, info, plan, stats, mountings, nominal),
+                     tuple(sorted(nominal)))
 
 
 # -- stage 2: the sample tasks ---------------------------------------------------------------------
@@ -671,6 +690,8 @@ class FoldGenerator:
             summary["rank_map"] = rank_map
         if self.textures:  # per location: the ratios fitted on D_stat and which each class got
             summary["texture"] = texture_summary(info, self.textures, ok)
+        if setup.nominal_sensor:  # unseen postures: no sim-in-the-loop (eta nominal)
+            summary["nominal_sensor"] = list(setup.nominal_sensor)
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
         if self.sides:

@@ -48,6 +48,9 @@ class GenerationSpec:
     # sim-in-the-loop also for a class with no D_stat statistics of its own (an unseen class),
     # against the pooled statistics of the other classes; off: such a class keeps eta nominal
     pooled_calibration: bool = True
+    # ... except a held posture (the SMP's periodicity "none") with no real window, which keeps the
+    # nominal sensor (pipeline.fold.unseen_postures; measured in docs/results.md)
+    nominal_unseen_postures: bool = True
     # where the side shows in the sensor, the side a class's real training windows support
     # (pipeline.side; measured in docs/results.md)
     side_evidence: bool = True
