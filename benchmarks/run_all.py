@@ -521,7 +521,7 @@ def stage_chain_motion_fit(quick: bool) -> dict:
 
     fit_s = np.mean([r["steps_s"]["motion_fit"] for r in runs if r["motion_fit"]])
     per_class = float(fit_s) * CORES / info.n_classes  # the fits run on CORES workers
-    return {"alpha": alpha, "runs": runs, "on": runs[1], "off": runs[0], "samples_per_s": rate(True),
+    return {"alpha": alpha, "runs": runs, "samples_per_s": rate(True),
             "samples_per_s_off": rate(False), "fit_s_per_class_per_core": per_class,
             "met": rate(True) >= MOTION_FIT_CHAIN_TARGET and per_class <= MOTION_FIT_CLASS_TARGET_S,
             "note": f"HAPT12 holdout {HOLDOUT}, alpha {alpha}, 2 local workers, no cache; off, on, on, off"}

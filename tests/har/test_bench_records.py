@@ -270,7 +270,7 @@ def test_the_motion_fit_targets_read_from_their_stage_beside_the_chain_without_i
     run_all = _script(REPO_ROOT / "benchmarks/run_all.py")
     runs = [{"motion_fit": on, "samples": 100, "wall_s": wall} for on, wall in
             ((False, 2.0), (True, 4.0), (True, 4.0), (False, 2.0))]
-    fit = {"runs": runs, "on": runs[1], "off": runs[0], "samples_per_s": 25.0, "samples_per_s_off": 50.0,
+    fit = {"runs": runs, "samples_per_s": 25.0, "samples_per_s_off": 50.0,
            "fit_s_per_class_per_core": 0.5}
     chain, per_class = run_all._motion_fit_rows(fit)
     assert chain[1].startswith("**25.0 samples/s**; the chain without it in the same stage 50.0: 0.50×")
