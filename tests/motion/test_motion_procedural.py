@@ -285,3 +285,56 @@ def test_a_walking_pelvis_turns_as_much_as_normative_gait(backend, library, name
     spread = np.stack([gyr[:100].std(axis=0), gyr[100:].std(axis=0)]).mean(axis=0)
     assert np.all(spread >= 0.2), spread
     assert np.all(spread <= 0.6), spread
+
+
+def _peak_hz(x: np.ndarray, fps: float) -> float:
+    freqs = np.fft.rfftfreq(len(x), 1.0 / fps)
+    power = np.abs(np.fft.rfft(x - x.mean())) ** 2
+    power[freqs < 0.5] = 0.0
+    return float(freqs[np.argmax(power)])
+
+
+@pytest.mark.parametrize("mode", ["recipe", "always"])
+@pytest.mark.parametrize("name", ["walking", "walking_upstairs", "walking_downstairs"])
+def test_a_walking_pelvis_rises_once_per_step_and_sways_toward_the_stance_foot(library, name, mode):
+    """Inverted-pendulum gait (recipe `pelvis`): the pelvis rises and falls once per step by about
+    the recipe's rise, its vertical acceleration peaks at the step rate (not twice it) and is skewed
+    upward (the sharp upturn at heel strike), its forward acceleration follows the step rate, and it
+    sways once per stride toward the foot on the floor; so does the motion compiled from the SMP."""
+    from scipy.stats import skew
+
+    from vsmp_imu.motion.recipe import recipe_for_entry
+
+    entry = library.get(name)
+    motion = ProceduralBackend(library, compile_mode=mode).generate(entry.smp, seed=0, duration_s=8.0)
+    assert (motion.meta.get("motion_source") == "compiled") is (mode == "always")
+    fps, pelvis = motion.fps, motion.positions[:, 0]
+    steps = [p for p in motion.meta["phases"] if p["repetition"] is not None]
+    step_hz = len(steps) / (steps[-1]["end_s"] - steps[0]["start_s"])
+    inner = slice(int(fps), -int(fps))
+    t = np.arange(len(pelvis)) / fps
+    vertical = pelvis[:, 1] - np.polyval(np.polyfit(t, pelvis[:, 1], 1), t)
+    acc = np.gradient(np.gradient(pelvis, axis=0), axis=0) * fps**2
+    assert abs(_peak_hz(acc[inner, 1], fps) - step_hz) < 0.25
+    assert abs(_peak_hz(acc[inner, 2], fps) - step_hz) < 0.25
+    assert skew(acc[inner, 1]) > 0.3
+    rise = recipe_for_entry(entry).pelvis.rise_m * motion.meta["controls"]["body_height_m"] / 1.70
+    per_step = [np.ptp(vertical[int(p["start_s"] * fps):int(p["end_s"] * fps)]) for p in steps[1:-1]]
+    assert 0.5 * rise < np.median(per_step) < 1.5 * rise
+    lateral = pelvis[:, 0] - pelvis[:, 0].mean()
+    assert abs(_peak_hz(lateral[inner], fps) - step_hz / 2) < 0.2
+    feet = motion.positions[:, [10, 11]]  # left_foot, right_foot
+    speed = np.linalg.norm(np.gradient(feet, axis=0), axis=-1)
+    stance = feet[np.arange(len(feet)), np.argmin(speed, axis=1), 0]  # the slower (planted) foot's x
+    assert np.corrcoef(lateral[inner], stance[inner] - pelvis[inner, 0])[0, 1] > 0.5
+
+
+def test_running_keeps_the_pelvis_path_its_feet_imply(library):
+    """A running pelvis is lowest at mid-stance: no walking arc, no sway (recipe and compiled)."""
+    from vsmp_imu.motion.compiler import compile_recipe
+    from vsmp_imu.motion.recipe import recipe_for_entry
+
+    entry = library.get("running")
+    assert recipe_for_entry(entry).pelvis is None and compile_recipe(entry.smp).pelvis is None
+    motion = ProceduralBackend(library, compile_mode="always").generate(entry.smp, seed=0, duration_s=6.0)
+    assert np.ptp(motion.positions[:, 0, 0]) < 0.01

@@ -66,6 +66,10 @@ PRINCIPAL_MIN_DEG = 15.0
 MAX_MEAN_DEG_S = 200.0
 _ARM_PARTS = ("upper_arm", "forearm", "hand", "shoulder")
 _LEG_PARTS = ("thigh", "lower_leg", "foot")
+# the pelvis path of a walking gait (recipe `pelvis`), as the library's walking and stairs set it;
+# running keeps the path its feet imply (its pelvis is lowest at mid-stance)
+STAIRS_PELVIS = {"rise_m": 0.07, "speed_fluctuation": 0.5}
+WALKING_PELVIS = {"walk": {}, "stairs_up": STAIRS_PELVIS, "stairs_down": STAIRS_PELVIS}
 _POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
 
 
@@ -157,6 +161,8 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
     data["locomotion"] = loco
     if loco == "stairs_up":
         data["stair_swing"] = (0.5, 0.7)
+    if gait and _gait_move(gait).name in WALKING_PELVIS:
+        data["pelvis"] = dict(WALKING_PELVIS[_gait_move(gait).name])
     joints = _principal_joints(data, base, steps)
     data["principal_joints"] = joints
     data["symmetry_joints"] = _paired(joints)
@@ -623,8 +629,12 @@ def _changes_posture(steps: list[Step]) -> bool:
     return any(m.kind == "posture" for s in steps[1:] for m in s.movements)
 
 
+def _gait_move(gait: list[Step]):
+    return next(m for s in gait for m in s.movements if m.kind == "gait")
+
+
 def _gait_waves(gait: list[Step]) -> dict[str, Any]:
-    move = next(m for s in gait for m in s.movements if m.kind == "gait")
+    move = _gait_move(gait)
     return {"wave": {k: [list(p) for p in v] for k, v in move.waves.items()}, "alternate": True}
 
 

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 from rapidfuzz import fuzz, process
+from scipy.ndimage import uniform_filter1d
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.motion.dofs import (
@@ -106,6 +107,11 @@ GROUND_SOFTNESS_M = 0.004
 # frequency (about 2 Hz); a 4 Hz low-pass removes the kinks of the stance switch.
 LOCOMOTION_ROOT_CUTOFF_HZ = 4.0
 TRAVEL_FLUCTUATION = 0.5
+# a walking pelvis (recipe `pelvis`): the arc's chord per step in leg lengths (step length /
+# leg length, about 0.8 in normal walking; half of it gives the half-chord), and the low-pass that
+# rounds the heel-strike upturn (double support lasts about 0.1 s)
+PENDULUM_CHORD = 0.4
+PELVIS_CUTOFF_HZ = 4.0
 CONTACT_SOFTNESS_M = 0.01
 # flight (both feet off the floor, 1.70 m body): the root keeps its speed (running)
 FLIGHT_START_M, FLIGHT_RAMP_M = 0.01, 0.015
@@ -301,8 +307,14 @@ class ProceduralBackend:
         elif recipe.locomotion == "none" and c["drift_m"] > 0:
             travel[:, 2] = c["drift_m"] * minimum_jerk(t / max(t[-1], 1e-9))
         if recipe.locomotion != "none":
-            travel[:, 2] = _even_travel(travel[:, 2], fps)
-            lift = lowpass(lift, fps, LOCOMOTION_ROOT_CUTOFF_HZ, order=2)
+            feet = _foot_heights(pos, lift, s, None if floors is None else floors[:, :2])
+            steps = _step_count(plan, t, feet) if recipe.pelvis is not None else None
+            if steps is None:
+                travel[:, 2] = _even_travel(travel[:, 2], fps)
+                lift = lowpass(lift, fps, LOCOMOTION_ROOT_CUTOFF_HZ, order=2)
+            else:
+                travel[:, 0], lift, travel[:, 2] = _pendulum_pelvis(
+                    recipe.pelvis, steps, _stance_side(pos, feet), lift, travel[:, 2], s, fps)
         travel[:, 1] = lift
         pos = pos + travel[:, None, :]
 
@@ -726,25 +738,78 @@ def _even_travel(x: np.ndarray, fps: float) -> np.ndarray:
     return lowpass(trend + TRAVEL_FLUCTUATION * (x - trend), fps, LOCOMOTION_ROOT_CUTOFF_HZ, order=2)
 
 
+_J = {name: i for i, name in enumerate(SMPL22_JOINTS)}
+
+
+def _foot_heights(pos: np.ndarray, lift: np.ndarray, s: float,
+                  feet_floor: np.ndarray | None = None) -> np.ndarray:
+    """(T, 2) height of the left and the right foot over the floor under it."""
+    heights = []
+    for k, side in enumerate(("left", "right")):
+        ankle, foot = pos[:, _J[f"{side}_ankle"]], pos[:, _J[f"{side}_foot"]]
+        h = np.minimum(ankle[:, 1] - _CLEARANCE_170[f"{side}_ankle"] * s,
+                       foot[:, 1] - _CLEARANCE_170[f"{side}_foot"] * s) + lift
+        heights.append(h if feet_floor is None else h - feet_floor[:, k])
+    return np.stack(heights, axis=1)
+
+
 def _stance_travel(pos: np.ndarray, lift: np.ndarray, s: float, fps: float,
                    feet_floor: np.ndarray | None = None) -> np.ndarray:
     """Forward root travel that keeps the stance foot planted (soft stance weights)."""
-    j = {name: i for i, name in enumerate(SMPL22_JOINTS)}
-    heights, fwd = [], []
-    for k, side in enumerate(("left", "right")):
-        ankle, foot = pos[:, j[f"{side}_ankle"]], pos[:, j[f"{side}_foot"]]
-        h = np.minimum(ankle[:, 1] - _CLEARANCE_170[f"{side}_ankle"] * s,
-                       foot[:, 1] - _CLEARANCE_170[f"{side}_foot"] * s) + lift
-        if feet_floor is not None:
-            h = h - feet_floor[:, k]
-        heights.append(h)
-        fwd.append(0.5 * (ankle[:, 2] + foot[:, 2]))
-    h = np.stack(heights, axis=1)
+    h = _foot_heights(pos, lift, s, feet_floor)
+    fwd = [0.5 * (pos[:, _J[f"{side}_ankle"], 2] + pos[:, _J[f"{side}_foot"], 2]) for side in ("left", "right")]
     w = np.exp(-(h - h.min(axis=1, keepdims=True)) / CONTACT_SOFTNESS_M)
     w /= w.sum(axis=1, keepdims=True)
     vel = np.gradient(np.stack(fwd, axis=1), axis=0) * fps
     root_v = _hold_in_flight(-(w * vel).sum(axis=1), h.min(axis=1) / s)
     return np.concatenate([[0.0], np.cumsum(0.5 * (root_v[1:] + root_v[:-1]))]) / fps
+
+
+def _stance_side(pos: np.ndarray, feet: np.ndarray) -> np.ndarray:
+    """Per frame, +1 or -1: the lateral side (sign of x about the pelvis) of the lower foot."""
+    lateral = np.stack([pos[:, _J[f"{side}_ankle"], 0] - pos[:, _J["pelvis"], 0] for side in ("left", "right")],
+                       axis=1)
+    side = np.sign(lateral.mean(axis=0))  # where each foot is, on average
+    return side[np.argmin(feet, axis=1)]
+
+
+def _step_count(plan: Plan, t: np.ndarray, feet: np.ndarray) -> np.ndarray | None:
+    """Steps taken by each frame, whole at each heel strike: twice the cycle phase, shifted so
+    that the frames where the lower foot changes fall on whole steps (None: fewer than two)."""
+    pts_t, pts_p = _phase_map(plan)
+    if len(pts_t) < 2:
+        return None
+    steps = 2.0 * np.interp(t, pts_t, pts_p)
+    switch = np.flatnonzero(np.diff(np.argmin(feet, axis=1))) + 1
+    if len(switch) < 2:
+        return None
+    offset = np.angle(np.exp(2j * np.pi * steps[switch]).mean()) / (2 * np.pi)
+    return steps - offset
+
+
+def _pendulum_pelvis(gait, steps: np.ndarray, stance_side: np.ndarray, lift: np.ndarray,
+                     forward: np.ndarray, s: float, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lateral, vertical, forward) root travel of a walking pelvis (recipe.PelvisGait).
+
+    The height and forward position the planted feet imply are kept only as their mean over a
+    gait cycle (a stair's rise, the walking speed); over it each step is an inverted-pendulum arc
+    (a chord of PENDULUM_CHORD leg lengths: flat at mid-stance, a sharp upturn at heel strike),
+    the speed is highest where the arc is lowest, and the pelvis sways toward the stance foot.
+    """
+    u = np.mod(steps, 1.0)
+    base = math.sqrt(1.0 - PENDULUM_CHORD**2)
+    arc = (np.sqrt(1.0 - (PENDULUM_CHORD * (2.0 * u - 1.0)) ** 2) - base) / (1.0 - base)  # 0 at heel strike, 1 mid-stance
+    mean_arc = float(np.mean((np.sqrt(1.0 - (PENDULUM_CHORD * np.linspace(-1, 1, 1001)) ** 2) - base) / (1.0 - base)))
+    rate = np.diff(steps)
+    cycle = max(3, int(round(2.0 / np.median(rate[rate > 0])))) if np.any(rate > 0) else 3  # frames
+    vertical = uniform_filter1d(lift, cycle, mode="nearest") + gait.rise_m * s * (arc - mean_arc)
+    speed = uniform_filter1d(np.gradient(forward) * fps, cycle, mode="nearest")
+    speed = speed * (1.0 + gait.speed_fluctuation * (mean_arc - arc) / max(mean_arc, 1.0 - mean_arc))
+    forward = forward[0] + np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]))]) / fps
+    sway = np.sin(np.pi * steps)
+    toward = np.sign(np.sum(sway * stance_side)) or 1.0
+    lateral = gait.sway_m * s * toward * sway
+    return tuple(lowpass(x, fps, PELVIS_CUTOFF_HZ, order=2) for x in (lateral, vertical, forward))
 
 
 def _hold_in_flight(root_v: np.ndarray, lowest_foot_m: np.ndarray) -> np.ndarray:

@@ -118,6 +118,16 @@ class Asymmetry(_Strict):
     imbalance: Annotated[float, Field(gt=0.0, le=1.0)] = 0.7
 
 
+class PelvisGait(_Strict):
+    """A walking gait's pelvis path, set instead of the one the legs imply (docs/motion.md):
+    an inverted-pendulum arc per step, highest at mid-stance; the forward speed fluctuating
+    against it, fastest at heel strike; a sway toward the stance foot. Lengths for a 1.70 m body."""
+
+    rise_m: Annotated[float, Field(ge=0.0, le=0.15)] = 0.05  # vertical excursion per step
+    sway_m: Annotated[float, Field(ge=0.0, le=0.1)] = 0.02  # lateral half-excursion per stride
+    speed_fluctuation: Annotated[float, Field(ge=0.0, le=0.5)] = 0.25  # +- fraction of the mean speed
+
+
 class Recipe(_Strict):
     """The procedural recipe of one activity."""
 
@@ -132,6 +142,8 @@ class Recipe(_Strict):
     grounding: Literal["lowest", "none"] = "lowest"
     locomotion: Literal["none", "forward", "stairs_up", "stairs_down"] = "none"
     stair_rise_m: Annotated[float, Field(gt=0.0, le=0.3)] = 0.17
+    # locomotion only: the pelvis path of a walking gait (None: the path the planted feet imply)
+    pelvis: PelvisGait | None = None
     # cycle-phase window in which the left foot moves to its next step (the right: +0.5)
     stair_swing: tuple[Annotated[float, Field(ge=0.0, lt=1.0)], Annotated[float, Field(gt=0.0, le=1.0)]] = (0.4, 0.7)
     continuous: bool = False
