@@ -107,10 +107,12 @@ GROUND_SOFTNESS_M = 0.004
 # frequency (about 2 Hz); a 4 Hz low-pass removes the kinks of the stance switch.
 LOCOMOTION_ROOT_CUTOFF_HZ = 4.0
 TRAVEL_FLUCTUATION = 0.5
-# a walking pelvis (recipe `pelvis`): the arc's chord per step in leg lengths (step length /
-# leg length, about 0.8 in normal walking; half of it gives the half-chord), and the low-pass that
-# rounds the heel-strike upturn (double support lasts about 0.1 s)
+# a walking pelvis (recipe `pelvis`): the arc's half-chord per step in leg lengths (a step is
+# about 0.8 leg lengths in normal walking), the share of the pendulum arc in the step's height curve
+# (the rest a cosine: 0.5 gives a waist's |acc| the skew of HAPT's walking, +0.5; the pure arc +1.0),
+# and the low-pass that rounds the heel-strike upturn (double support lasts about 0.1 s)
 PENDULUM_CHORD = 0.4
+PENDULUM_SHARE = 0.5
 PELVIS_CUTOFF_HZ = 4.0
 CONTACT_SOFTNESS_M = 0.01
 # flight (both feet off the floor, 1.70 m body): the root keeps its speed (running)
@@ -787,6 +789,14 @@ def _step_count(plan: Plan, t: np.ndarray, feet: np.ndarray) -> np.ndarray | Non
     return steps - offset
 
 
+def _step_arc(u: np.ndarray) -> np.ndarray:
+    """Pelvis height over one step (u = 0 at heel strike, 1 at the next): 0 at heel strike, 1 at
+    mid-stance; PENDULUM_SHARE of an inverted pendulum's arc, the rest a cosine."""
+    base = math.sqrt(1.0 - PENDULUM_CHORD**2)
+    pendulum = (np.sqrt(1.0 - (PENDULUM_CHORD * (2.0 * u - 1.0)) ** 2) - base) / (1.0 - base)
+    return PENDULUM_SHARE * pendulum + (1.0 - PENDULUM_SHARE) * 0.5 * (1.0 - np.cos(2.0 * np.pi * u))
+
+
 def _pendulum_pelvis(gait, steps: np.ndarray, stance_side: np.ndarray, lift: np.ndarray,
                      forward: np.ndarray, s: float, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(lateral, vertical, forward) root travel of a walking pelvis (recipe.PelvisGait).
@@ -796,10 +806,8 @@ def _pendulum_pelvis(gait, steps: np.ndarray, stance_side: np.ndarray, lift: np.
     (a chord of PENDULUM_CHORD leg lengths: flat at mid-stance, a sharp upturn at heel strike),
     the speed is highest where the arc is lowest, and the pelvis sways toward the stance foot.
     """
-    u = np.mod(steps, 1.0)
-    base = math.sqrt(1.0 - PENDULUM_CHORD**2)
-    arc = (np.sqrt(1.0 - (PENDULUM_CHORD * (2.0 * u - 1.0)) ** 2) - base) / (1.0 - base)  # 0 at heel strike, 1 mid-stance
-    mean_arc = float(np.mean((np.sqrt(1.0 - (PENDULUM_CHORD * np.linspace(-1, 1, 1001)) ** 2) - base) / (1.0 - base)))
+    arc = _step_arc(np.mod(steps, 1.0))
+    mean_arc = float(np.mean(_step_arc(np.linspace(0.0, 1.0, 1001))))
     rate = np.diff(steps)
     cycle = max(3, int(round(2.0 / np.median(rate[rate > 0])))) if np.any(rate > 0) else 3  # frames
     vertical = uniform_filter1d(lift, cycle, mode="nearest") + gait.rise_m * s * (arc - mean_arc)
