@@ -315,8 +315,9 @@ class ProceduralBackend:
                 travel[:, 2] = _even_travel(travel[:, 2], fps)
                 lift = lowpass(lift, fps, LOCOMOTION_ROOT_CUTOFF_HZ, order=2)
             else:
+                swing = c["amplitude_factor"] * c["stride_factor"]  # the legs' excursion factor
                 travel[:, 0], lift, travel[:, 2] = _pendulum_pelvis(
-                    recipe.pelvis, steps, _stance_side(pos, feet), lift, travel[:, 2], s, fps)
+                    recipe.pelvis, steps, _stance_side(pos, feet), lift, travel[:, 2], s, fps, swing)
         travel[:, 1] = lift
         pos = pos + travel[:, None, :]
 
@@ -798,19 +799,22 @@ def _step_arc(u: np.ndarray) -> np.ndarray:
 
 
 def _pendulum_pelvis(gait, steps: np.ndarray, stance_side: np.ndarray, lift: np.ndarray,
-                     forward: np.ndarray, s: float, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                     forward: np.ndarray, s: float, fps: float,
+                     swing: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(lateral, vertical, forward) root travel of a walking pelvis (recipe.PelvisGait).
 
     The height and forward position the planted feet imply are kept only as their mean over a
     gait cycle (a stair's rise, the walking speed); over it each step is an inverted-pendulum arc
     (a chord of PENDULUM_CHORD leg lengths: flat at mid-stance, a sharp upturn at heel strike),
     the speed is highest where the arc is lowest, and the pelvis sways toward the stance foot.
+    The rise follows the legs' excursion factor `swing` squared (a pendulum's rise grows with the
+    square of its swing angle): smaller steps bounce the pelvis less.
     """
     arc = _step_arc(np.mod(steps, 1.0))
     mean_arc = float(np.mean(_step_arc(np.linspace(0.0, 1.0, 1001))))
     rate = np.diff(steps)
     cycle = max(3, int(round(2.0 / np.median(rate[rate > 0])))) if np.any(rate > 0) else 3  # frames
-    vertical = uniform_filter1d(lift, cycle, mode="nearest") + gait.rise_m * s * (arc - mean_arc)
+    vertical = uniform_filter1d(lift, cycle, mode="nearest") + gait.rise_m * s * swing**2 * (arc - mean_arc)
     speed = uniform_filter1d(np.gradient(forward) * fps, cycle, mode="nearest")
     speed = speed * (1.0 + gait.speed_fluctuation * (mean_arc - arc) / max(mean_arc, 1.0 - mean_arc))
     forward = forward[0] + np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]))]) / fps

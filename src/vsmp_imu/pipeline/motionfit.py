@@ -165,10 +165,15 @@ def fit_class_motion(job: MotionFitJob) -> dict[str, Any]:
     floor = MIN_STD_FRACTION * (high - low)
     mean, std = nominal.copy(), np.where(high > low, INIT_STD, 0.0)
     seen, scores = [nominal[None]], [loss(nominal[None])]
+    elite, elite_loss = seen[0], scores[0]
     for _ in range(N_ITERATIONS):
         phis = cem_candidates(mean, std, low, high, N_CANDIDATES, rng)
         losses = loss(phis)
-        _, mean, std = cem_update(phis, losses, n_elite, floor)
+        # elitist: the last elites (the nominal first) compete with the new candidates, so a
+        # population that is all worse than them cannot drag the search away from them
+        pool, pool_loss = np.concatenate([elite, phis]), np.concatenate([elite_loss, losses])
+        order, mean, std = cem_update(pool, pool_loss, n_elite, floor)
+        elite, elite_loss = pool[order[:n_elite]], pool_loss[order[:n_elite]]
         seen.append(phis)
         scores.append(losses)
     phis, losses = np.concatenate(seen), np.concatenate(scores)
