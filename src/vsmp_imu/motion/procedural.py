@@ -315,7 +315,9 @@ class ProceduralBackend:
                 travel[:, 2] = _even_travel(travel[:, 2], fps)
                 lift = lowpass(lift, fps, LOCOMOTION_ROOT_CUTOFF_HZ, order=2)
             else:
-                swing = c["amplitude_factor"] * c["stride_factor"]  # the legs' excursion factor
+                # the legs' excursion factor; a longer step than the nominal keeps its rise (more
+                # would take the stance foot through the floor at heel strike)
+                swing = min(1.0, c["amplitude_factor"] * c["stride_factor"])
                 travel[:, 0], lift, travel[:, 2] = _pendulum_pelvis(
                     recipe.pelvis, steps, _stance_side(pos, feet), lift, travel[:, 2], s, fps, swing)
         travel[:, 1] = lift
@@ -808,7 +810,7 @@ def _pendulum_pelvis(gait, steps: np.ndarray, stance_side: np.ndarray, lift: np.
     (a chord of PENDULUM_CHORD leg lengths: flat at mid-stance, a sharp upturn at heel strike),
     the speed is highest where the arc is lowest, and the pelvis sways toward the stance foot.
     The rise follows the legs' excursion factor `swing` squared (a pendulum's rise grows with the
-    square of its swing angle): smaller steps bounce the pelvis less.
+    square of its swing angle, at most 1): shorter steps bounce the pelvis less.
     """
     arc = _step_arc(np.mod(steps, 1.0))
     mean_arc = float(np.mean(_step_arc(np.linspace(0.0, 1.0, 1001))))
