@@ -24,6 +24,7 @@ Conventions of this implementation (documented in docs/motion.md):
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -70,13 +71,20 @@ class PhaseDuration:
         return self.end_s - self.start_s
 
 
+@functools.lru_cache(maxsize=64)
+def _lowpass_sos(order: int, wn: float) -> np.ndarray:
+    """The Butterworth design, once per order and normalized cutoff (designing it cost about an eighth
+    of a procedural motion's synthesis)."""
+    return butter(order, wn, output="sos")  # callers only read it
+
+
 def lowpass(x: np.ndarray, fps: float, cutoff_hz: float = CUTOFF_HZ, order: int = BUTTER_ORDER) -> np.ndarray:
     """Zero-phase Butterworth low-pass along axis 0."""
     x = np.asarray(x, dtype=float)
     nyquist = fps / 2.0
     if cutoff_hz >= nyquist or x.shape[0] < 4:
         return x.copy()
-    sos = butter(order, cutoff_hz / nyquist, output="sos")
+    sos = _lowpass_sos(order, cutoff_hz / nyquist)
     padlen = min(3 * (2 * len(sos) + 1), x.shape[0] - 1)
     return sosfiltfilt(sos, x, axis=0, padlen=padlen)
 
