@@ -161,8 +161,8 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
     data["locomotion"] = loco
     if loco == "stairs_up":
         data["stair_swing"] = (0.5, 0.7)
-    if gait and _gait_move(gait).name in WALKING_PELVIS:
-        data["pelvis"] = dict(WALKING_PELVIS[_gait_move(gait).name])
+    if gait and (walk := _gait_move(gait).name) in WALKING_PELVIS:
+        data["pelvis"] = dict(WALKING_PELVIS[walk])
     joints = _principal_joints(data, base, steps)
     data["principal_joints"] = joints
     data["symmetry_joints"] = _paired(joints)

@@ -304,12 +304,13 @@ class ProceduralBackend:
             lift = _ground_offset(heights, CLEARANCE_170 * s)
         lift = lift + dofs[:, DOF_INDEX["root_dy"]] * s
         travel = np.zeros((n, 3))
+        feet = _foot_heights(pos, lift, s, None if floors is None else floors[:, :2]) \
+            if recipe.locomotion != "none" else None
         if recipe.locomotion != "none" and c["displacement_m"] != 0.0:
-            travel[:, 2] = _stance_travel(pos, lift, s, fps, None if floors is None else floors[:, :2])
+            travel[:, 2] = _stance_travel(pos, feet, s, fps)
         elif recipe.locomotion == "none" and c["drift_m"] > 0:
             travel[:, 2] = c["drift_m"] * minimum_jerk(t / max(t[-1], 1e-9))
         if recipe.locomotion != "none":
-            feet = _foot_heights(pos, lift, s, None if floors is None else floors[:, :2])
             steps = _step_count(plan, t, feet) if recipe.pelvis is not None else None
             if steps is None:
                 travel[:, 2] = _even_travel(travel[:, 2], fps)
@@ -758,10 +759,8 @@ def _foot_heights(pos: np.ndarray, lift: np.ndarray, s: float,
     return np.stack(heights, axis=1)
 
 
-def _stance_travel(pos: np.ndarray, lift: np.ndarray, s: float, fps: float,
-                   feet_floor: np.ndarray | None = None) -> np.ndarray:
-    """Forward root travel that keeps the stance foot planted (soft stance weights)."""
-    h = _foot_heights(pos, lift, s, feet_floor)
+def _stance_travel(pos: np.ndarray, h: np.ndarray, s: float, fps: float) -> np.ndarray:
+    """Forward root travel that keeps the stance foot planted (soft stance weights; h: _foot_heights)."""
     fwd = [0.5 * (pos[:, _J[f"{side}_ankle"], 2] + pos[:, _J[f"{side}_foot"], 2]) for side in ("left", "right")]
     w = np.exp(-(h - h.min(axis=1, keepdims=True)) / CONTACT_SOFTNESS_M)
     w /= w.sum(axis=1, keepdims=True)
