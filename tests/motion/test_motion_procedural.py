@@ -338,3 +338,29 @@ def test_running_keeps_the_pelvis_path_its_feet_imply(library):
     assert recipe_for_entry(entry).pelvis is None and compile_recipe(entry.smp).pelvis is None
     motion = ProceduralBackend(library, compile_mode="always").generate(entry.smp, seed=0, duration_s=6.0)
     assert np.ptp(motion.positions[:, 0, 0]) < 0.01
+
+
+def test_a_shorter_step_bounces_the_walking_pelvis_less_and_a_longer_one_no_more(library):
+    """The arc's rise follows the square of the legs' excursion, capped at the nominal: a small
+    amplitude bounces the pelvis less (the motion fit reads amplitude from a waist through it), a
+    large one keeps the nominal rise (more would take the stance foot through the floor)."""
+    from vsmp_imu.motion.selfcheck import is_plausible
+    from vsmp_imu.smp.intervene import intervene
+
+    entry = library.get("walking")
+    backend = ProceduralBackend(library)
+
+    def bounce(level: str) -> tuple[float, float]:
+        motion = backend.generate(intervene(entry.smp, "amplitude", level), seed=0, duration_s=8.0)
+        assert is_plausible(motion)
+        fps, y = motion.fps, motion.positions[:, 0, 1]
+        steps = [p for p in motion.meta["phases"] if p["repetition"] is not None][1:-1]
+        factor = motion.meta["controls"]["amplitude_factor"]
+        return float(np.median([np.ptp(y[int(p["start_s"] * fps):int(p["end_s"] * fps)]) for p in steps])), factor
+
+    small, f_small = bounce("small")
+    medium, _ = bounce("medium")
+    large, f_large = bounce("large")
+    assert f_small < 1.0 < f_large
+    assert small < 0.75 * medium
+    assert abs(large - medium) < 0.15 * medium
