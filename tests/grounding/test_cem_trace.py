@@ -71,9 +71,15 @@ def _target(kin, noise, gravity=True):
 
 @pytest.fixture
 def spy(monkeypatch):
-    """Records the eta rows, gravity flags and losses of every scoring call."""
+    """Records the eta rows, gravity flags and losses of every scoring call (the candidates'
+    channel weights; the weights of X_opt last)."""
     seen = {"eta": [], "grav": [], "loss": []}
-    weights, loss = SimInTheLoopCalibrator._weights, cal.sim_loss
+    weights, channels, loss = SimInTheLoopCalibrator._weights, cal.StreamObjective.channels, cal.sim_loss
+
+    def spy_channels(self, eta, gravity):
+        seen["eta"].append(np.array(eta))
+        seen["grav"].append(np.array(gravity))
+        return channels(self, eta, gravity)
 
     def spy_weights(base, eta, gravity, with_noise):
         seen["eta"].append(np.array(eta))
@@ -86,6 +92,7 @@ def spy(monkeypatch):
         return out
 
     monkeypatch.setattr(SimInTheLoopCalibrator, "_weights", staticmethod(spy_weights))
+    monkeypatch.setattr(cal.StreamObjective, "channels", spy_channels)
     monkeypatch.setattr(cal, "sim_loss", spy_loss)
     return seen
 

@@ -375,3 +375,44 @@ def test_channel_count_errors_say_what_they_got():
     moments = LinearMoments.of_sequence(np.zeros((200, 4)), FS)
     with pytest.raises(ValueError, match=r"^expected 6 output channels \(acc xyz, gyr xyz\), got 5$"):
         moments.summarize(np.zeros((3, 4, 5)))
+
+
+def test_channel_columns_give_the_statistics_of_the_dense_weights():
+    rng = np.random.default_rng(2)
+    features = rng.normal(size=(300, 16))
+    weights = rng.normal(size=(4, 16, 6)) * (rng.random((1, 16, 6)) < 0.4)  # a sparse support per channel
+    weights[:, :, 5] = 0.0  # a channel that reads nothing
+    moments = LinearMoments.of_sequence(features, FS)
+    cols, used = stats.channel_columns(weights)
+    for c in range(6):
+        support = np.flatnonzero(np.any(weights[:, :, c] != 0, axis=0))
+        assert set(support) <= set(used[c]) and len(set(used[c])) == len(used[c])
+        assert np.array_equal(cols[c], weights[:, used[c], c])
+    fast = moments.summarize(weights)
+    for n in range(4):
+        with np.errstate(invalid="ignore"):
+            cov, psd, norms, acf = _direct_stats(segment(features @ weights[n], int(2 * FS)), FS)
+        assert np.allclose(fast.cov[n], cov) and np.allclose(fast.norms[n], norms)
+        # the silent channel has no spectrum and no autocorrelation (0 here, 0/0 by definition)
+        assert np.allclose(fast.psd[n, :5], psd[:5]) and np.allclose(fast.acf[n, :5], acf[:5])
+        assert not fast.psd[n, 5].any() and not fast.acf[n, 5].any()
+
+
+@pytest.mark.parametrize("axes", [("forward", "left", "up"), ("down", "backward", "right")])
+def test_the_objective_scores_its_candidates_as_their_aligned_readings(kinematics, fold, axes):
+    from vsmp_imu.grounding.calibrate import ETA_HIGH, ETA_INIT_STD, ETA_LOW, StreamObjective, cem_candidates
+
+    kin, noise = kinematics
+    target = TargetStatistics(FS).fit(*fold[:2]).overall_
+    conv = Convention(axes=axes, gravity_included=True)
+    base = Rotation.from_euler("xyz", [10, -20, 30], degrees=True).as_matrix()
+    objective = StreamObjective(kin, target, conv, base, noise)
+    eta = cem_candidates(ETA_NOMINAL, ETA_INIT_STD, ETA_LOW, ETA_HIGH, 6, np.random.default_rng(0))
+    grav = np.array([True, False, True, True, False, True])
+    got = objective(eta, grav)
+    p = axes_matrix(axes)
+    for n in range(6):
+        readings = sensor_readings(kin, eta_rotation(eta[n:n + 1]) @ base, eta[n, 3:6], eta[n, 6:9], eta[n, 9],
+                                   eta[n, 10], grav[n], noise)[0]
+        aligned = np.concatenate([readings[:, :3] @ p.T, readings[:, 3:] @ p.T], axis=1)
+        assert got[n] == pytest.approx(float(sim_loss(summarize_sequence(aligned, FS), target)), rel=1e-9)

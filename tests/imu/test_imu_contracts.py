@@ -321,3 +321,21 @@ def test_a_single_row_with_a_declared_rate_is_a_recording(tmp_path):
     path.write_text("# fs_hz: 20\ntime_s,acc_x\n1.5,2\n")
     rec = ImuRecording.read_csv(path)
     assert (rec.n_samples, rec.fs_hz, rec.start_s) == (1, 20.0, 1.5) and rec.data.tolist() == [[2.0]]
+
+
+@pytest.mark.parametrize("with_noise", [True, False])
+def test_channel_weights_are_the_nonzero_part_of_the_dense_weights(with_noise):
+    from vsmp_imu.imu.readings import channel_weights, fill_weights
+
+    rng = np.random.default_rng(4)
+    n = 5
+    args = (Rotation.random(n, random_state=1).as_matrix(), rng.normal(size=(n, 3)), rng.normal(size=(n, 3)),
+            rng.uniform(0.5, 2, n), rng.uniform(0.5, 2, n), np.array([True, False, True, True, False]))
+    dense = fill_weights(*args, with_noise)
+    cols, features = channel_weights(*args, with_noise)
+    assert cols.shape == (6, n, features.shape[1])
+    rebuilt = np.zeros_like(dense)
+    for c in range(6):
+        assert len(set(features[c])) == features.shape[1]  # no feature twice: padding never overwrites
+        rebuilt[:, features[c], c] = cols[c]
+    assert np.array_equal(rebuilt, dense)  # every nonzero weight is in a channel's columns

@@ -27,7 +27,7 @@ import numpy as np
 from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding.stats import LinearMoments, StatSummary, sim_loss
 from vsmp_imu.imu import ImuNoise, SegmentKinematics, reading_features
-from vsmp_imu.imu.readings import fill_weights
+from vsmp_imu.imu.readings import channel_weights, fill_weights
 
 # Appendix table "Residual simulator parameters": search ranges.
 ETA_NAMES = (
@@ -48,16 +48,14 @@ def eta_rotation(eta: np.ndarray) -> np.ndarray:
     """Mounting-offset matrices (N, 3, 3) from eta rows (roll about z/forward, pitch x/left, yaw y/up).
 
     Extrinsic z, then x, then y: R = R_y(yaw) R_x(pitch) R_z(roll), the same as
-    scipy's `Rotation.from_euler("zxy", ..., degrees=True)`, written out because
+    scipy's `Rotation.from_euler("zxy", ..., degrees=True)`, multiplied out because
     the CEM builds 64 of them per iteration and scipy's per-call cost was a fifth of it.
     """
     a = np.deg2rad(np.atleast_2d(np.asarray(eta, dtype=float))[:, 0:3])
     (cz, cx, cy), (sz, sx, sy) = np.cos(a).T, np.sin(a).T
-    rz, rx, ry = (np.zeros((len(a), 3, 3)) for _ in range(3))
-    rz[:, 0, 0], rz[:, 0, 1], rz[:, 1, 0], rz[:, 1, 1], rz[:, 2, 2] = cz, -sz, sz, cz, 1.0
-    rx[:, 0, 0], rx[:, 1, 1], rx[:, 1, 2], rx[:, 2, 1], rx[:, 2, 2] = 1.0, cx, -sx, sx, cx
-    ry[:, 0, 0], ry[:, 0, 2], ry[:, 1, 1], ry[:, 2, 0], ry[:, 2, 2] = cy, sy, 1.0, -sy, cy
-    return ry @ rx @ rz
+    return np.stack([cy * cz + sy * sx * sz, sy * sx * cz - cy * sz, sy * cx,
+                     cx * sz, cx * cz, -sx,
+                     cy * sx * sz - sy * cz, sy * sz + cy * sx * cz, cy * cx], axis=-1).reshape(-1, 3, 3)
 
 
 @dataclass
@@ -111,13 +109,22 @@ class StreamObjective:
         self.features = reading_features(kin, noise)
         self.moments = LinearMoments.of_sequence(self.features, kin.fs_hz)
         self.to_target = np.kron(np.eye(2), axes_matrix(convention.axes)).T  # aligned = readings @ to_target
+        # a signed permutation: aligned channel c is sign[c] x readings channel source[c]
+        self.source = np.abs(self.to_target).argmax(axis=0)
+        self.sign = self.to_target[self.source, np.arange(6)]
 
     def weights(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
         """(N, F, 6) weights of the aligned readings."""
         return SimInTheLoopCalibrator._weights(self.base, eta, grav, self.with_noise) @ self.to_target
 
+    def channels(self, eta: np.ndarray, grav: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`weights` channel by channel without their zeros (`LinearMoments.summarize_channels`)."""
+        cols, features = channel_weights(eta_rotation(eta) @ self.base, eta[:, 3:6], eta[:, 6:9], eta[:, 9],
+                                         eta[:, 10], grav, self.with_noise)
+        return cols[self.source] * self.sign[:, None, None], features[self.source]
+
     def __call__(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
-        return sim_loss(self.moments.summarize(self.weights(eta, grav)), self.target)
+        return sim_loss(self.moments.summarize_channels(*self.channels(eta, grav)), self.target)
 
     def mean_acc(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
         """(N, 3) mean accelerometer reading of each candidate, in the target's axes."""

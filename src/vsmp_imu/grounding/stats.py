@@ -106,6 +106,7 @@ class LinearMoments:
             lagged.append((a + a.T) / 2)
         self.lagged = np.stack(lagged)  # (K, F, F)
         self._stack = np.concatenate([self.band, self.lagged, self.second[None], self.cov[None]])
+        self._blocks: dict[bytes, np.ndarray] = {}  # sub-blocks of the stack per support (`_quadratic_forms`)
 
     @classmethod
     def of_sequence(cls, x: np.ndarray, fs_hz: float, window_s: float = COV_WINDOW_S) -> LinearMoments:
@@ -116,17 +117,29 @@ class LinearMoments:
         """Statistics of features @ weights; weights (N, F, 6) or None for the features."""
         if weights is None:
             single = np.eye(self.cov.shape[0])[None]
-            return StatSummary(*(a[0] for a in _summary_arrays(self, single)))
-        return StatSummary(*_summary_arrays(self, np.asarray(weights, dtype=np.float64)))
+            return StatSummary(*(a[0] for a in _summary_arrays(self, *channel_columns(single))))
+        return self.summarize_channels(*channel_columns(np.asarray(weights, dtype=np.float64)))
+
+    def summarize_channels(self, cols: np.ndarray, features: np.ndarray) -> StatSummary:
+        """`summarize` of the weights given channel by channel (`channel_columns`): cols (6, N, k)
+        on features (6, k), every other weight zero."""
+        return StatSummary(*_summary_arrays(self, cols, features))
 
 
-def _summary_arrays(m: LinearMoments, wt: np.ndarray):
-    if wt.shape[-1] != 6:
-        raise ValueError(f"expected 6 output channels (acc xyz, gyr xyz), got {wt.shape[-1]}")
-    n, f, c = wt.shape
-    cols = np.ascontiguousarray(wt.transpose(0, 2, 1)).reshape(n * c, f)  # one row per (candidate, channel)
-    # diagonal of W^T M W for every moment matrix M: w_c^T M w_c, as one broadcast matmul
-    diag = np.einsum("xkf,kf->kx", cols @ m._stack, cols).reshape(n, c, -1).transpose(0, 2, 1)  # (N, X, 6)
+def channel_columns(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Weights (N, F, 6) channel by channel: (cols (6, N, k), features (6, k)), each channel's
+    features that any candidate weights first (in order), padded to one size k with features it
+    weights zero; cols[c, n, i] = weights[n, features[c, i], c]."""
+    if weights.shape[-1] != 6:
+        raise ValueError(f"expected 6 output channels (acc xyz, gyr xyz), got {weights.shape[-1]}")
+    support = np.any(weights != 0, axis=0).T  # (6, F)
+    k = max(int(support.sum(axis=1).max()), 1)
+    features = np.argsort(~support, axis=1, kind="stable")[:, :k]
+    return weights[:, features, np.arange(6)[:, None]].transpose(1, 0, 2), features
+
+
+def _summary_arrays(m: LinearMoments, cols: np.ndarray, features: np.ndarray):
+    diag = _quadratic_forms(m, cols, features)  # (N, X, 6)
     n_band, n_lag = m.band.shape[0], m.lagged.shape[0]
     energy = diag[:, :n_band].swapaxes(-1, -2)  # (N, 6, B)
     psd = energy / (energy.sum(axis=-1, keepdims=True) + _EPS)
@@ -135,17 +148,28 @@ def _summary_arrays(m: LinearMoments, wt: np.ndarray):
     acf = diag[:, n_band : n_band + n_lag].swapaxes(-1, -2) / denom
     second = diag[:, -2]
     centered_sq = var * (max(m.length - 1, 1) / m.length)
-    norms = np.stack(
-        [
-            np.sqrt(second[:, 0:3].sum(-1)),
-            np.sqrt(centered_sq[:, 0:3].sum(-1)),
-            np.sqrt(second[:, 3:6].sum(-1)),
-            np.sqrt(centered_sq[:, 3:6].sum(-1)),
-        ],
-        axis=-1,
-    )
+    # RMS |a|, RMS |a - mean a|, RMS |w|, RMS |w - mean w|
+    norms = np.sqrt(np.stack([second, centered_sq], axis=-1).reshape(-1, 2, 3, 2).sum(axis=2)).reshape(-1, 4)
+    wt = np.zeros((cols.shape[1], m.cov.shape[0], 6))
+    wt[:, features, np.arange(6)[:, None]] = cols.transpose(1, 0, 2)
     cov = wt.swapaxes(-1, -2) @ (m.cov @ wt)
     return cov, psd, norms, acf
+
+
+def _quadratic_forms(m: LinearMoments, cols: np.ndarray, features: np.ndarray) -> np.ndarray:
+    """w_c^T M w_c (N, X, 6) for every candidate's channel weights w_c and every moment matrix M
+    of `m`'s stack (X, F, F), over the features each channel reads only (`channel_columns`): the
+    sub-blocks of the stack are kept per feature set, each form is one product of the weights'
+    outer products with them."""
+    c, n, k = cols.shape
+    key = features.tobytes()
+    blocks = m._blocks.get(key)
+    if blocks is None:
+        sub = m._stack[:, features[:, :, None], features[:, None, :]]  # (X, 6, k, k)
+        blocks = np.ascontiguousarray(sub.reshape(len(sub), c, k * k).transpose(1, 2, 0))  # (6, k*k, X)
+        m._blocks[key] = blocks
+    outer = (cols[:, :, :, None] * cols[:, :, None, :]).reshape(c, n, k * k)
+    return (outer @ blocks).transpose(1, 2, 0)
 
 
 def summarize_windows(windows: np.ndarray, fs_hz: float) -> StatSummary:

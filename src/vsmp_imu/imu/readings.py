@@ -110,6 +110,34 @@ def fill_weights(mats, b_a, b_w, k_a, k_w, grav, with_noise: bool) -> np.ndarray
     return weights
 
 
+def channel_weights(mats, b_a, b_w, k_a, k_w, grav, with_noise: bool) -> tuple[np.ndarray, np.ndarray]:
+    """`fill_weights` channel by channel without its zeros: (cols (6, N, k), features (6, k)), with
+    cols[c, n, i] = fill_weights(...)[n, features[c, i], c]. An accelerometer channel reads the
+    segment acceleration, gravity, its bias and its noise; a gyroscope channel the angular rate,
+    its bias and its noise, padded to the same k with features it weights zero."""
+    n = max(len(mats), len(b_a), len(b_w), len(k_a), len(k_w), len(grav))
+    m = np.broadcast_to(mats, (n, 3, 3)).transpose(1, 0, 2)  # [j, n, :] = M_n[j, :]
+    k = 8 if with_noise else 7
+    cols = np.zeros((6, n, k))
+    cols[0:3, :, 0:3] = m
+    cols[0:3, :, 3:6] = m * np.asarray(grav, dtype=float)[None, :, None]
+    cols[0:3, :, 6] = np.broadcast_to(b_a, (n, 3)).T
+    cols[3:6, :, 0:3] = m
+    cols[3:6, :, 3] = np.broadcast_to(b_w, (n, 3)).T
+    if with_noise:
+        cols[0:3, :, 7] = k_a
+        cols[3:6, :, 4] = k_w
+    return cols, _CHANNEL_FEATURES[with_noise]
+
+
+# the features each channel reads, in `channel_weights`'s order (gyroscope rows padded with 0, 1, 2)
+_CHANNEL_FEATURES = {
+    True: np.array([[0, 1, 2, 3, 4, 5, 9, 10 + j] for j in range(3)]
+                   + [[6, 7, 8, 9, 13 + j, 0, 1, 2] for j in range(3)]),
+    False: np.array([[0, 1, 2, 3, 4, 5, 9]] * 3 + [[6, 7, 8, 9, 0, 1, 2]] * 3),
+}
+
+
 def sensor_readings(
     kin: SegmentKinematics,
     mounting=None,
