@@ -400,7 +400,13 @@ def test_channel_columns_give_the_statistics_of_the_dense_weights():
 
 @pytest.mark.parametrize("axes", [("forward", "left", "up"), ("down", "backward", "right")])
 def test_the_objective_scores_its_candidates_as_their_aligned_readings(kinematics, fold, axes):
-    from vsmp_imu.grounding.calibrate import ETA_HIGH, ETA_INIT_STD, ETA_LOW, StreamObjective, cem_candidates
+    from vsmp_imu.grounding.calibrate import (
+        ETA_HIGH,
+        ETA_INIT_STD,
+        ETA_LOW,
+        StreamObjective,
+        cem_candidates,
+    )
 
     kin, noise = kinematics
     target = TargetStatistics(FS).fit(*fold[:2]).overall_
