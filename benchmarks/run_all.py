@@ -616,7 +616,7 @@ def _scaling(make, alpha: float, replay_n: int) -> dict:
     drifting CPU speed, affects both alike; the ratio is of the summed walls); then the
     synthesis of its first `replay_n` tasks replayed the same way on workers that have run
     a few samples before (warm, as in a long run)."""
-    from vsmp_imu.pipeline.sample import cached_synthesize
+    from vsmp_imu.pipeline.fold import run_item, sample_items
 
     out, folds, batches, niceness = {}, [], [], set()
     for workers in (1, 2, 2, 1):
@@ -629,21 +629,23 @@ def _scaling(make, alpha: float, replay_n: int) -> dict:
         folds.append({"workers": workers, "wall_s": run["wall_s"], "synthesis_map_s": run["synthesis_map_s"],
                       "steps_s": run["steps_s"], "cpu_s": run["cpu_s"]})
         _close(executor)
-    tasks = [t for batch in batches for t in batch if isinstance(t, tuple)][:replay_n]  # samples, not the validator
+    # the samples of the fold's items (not the validator), re-cut into items as the fold cuts them
+    samples = [t for batch in batches for item in batch if isinstance(item, tuple) for t in item[0]][:replay_n]
+    tasks = sample_items(samples, None)
     replay = []
     for workers in (1, 2, 2, 1):
         executor = _started(make, workers)
         # each worker's first samples load what the pipeline loads lazily (a pool's forked
         # workers inherit it from the driver, Ray's fresh workers do not): outside the timing
-        executor.map(cached_synthesize, tasks[: 4 * workers])
-        wall, _ = timed(lambda e=executor: e.map(cached_synthesize, tasks))
+        executor.map(run_item, tasks[: 2 * workers])
+        wall, _ = timed(lambda e=executor: e.map(run_item, tasks))
         replay.append({"workers": workers, "wall_s": wall, "load_avg_after": os.getloadavg()})
         _close(executor)
 
     def ratio(runs: list[dict], key: str) -> float:
         return sum(r[key] for r in runs if r["workers"] == 1) / sum(r[key] for r in runs if r["workers"] == 2)
 
-    fig = {"runs": out, "fold_runs": folds, "alpha": alpha, "replay": replay, "replay_tasks": len(tasks),
+    fig = {"runs": out, "fold_runs": folds, "alpha": alpha, "replay": replay, "replay_tasks": len(samples),
            "speedup_fold": ratio(folds, "wall_s"), "speedup_synthesis": ratio(folds, "synthesis_map_s"),
            "speedup_synthesis_abba": ratio(replay, "wall_s"), "target": SCALING_TARGET,
            "worker_niceness": sorted(niceness)}

@@ -71,15 +71,16 @@ def _target(kin, noise, gravity=True):
 
 @pytest.fixture
 def spy(monkeypatch):
-    """Records the eta rows, gravity flags and losses of every scoring call (the candidates'
-    channel weights; the weights of X_opt last)."""
+    """Records the eta rows, gravity flags and losses of every scoring call (one stream: the
+    batch's only row), then the weights of X_opt."""
     seen = {"eta": [], "grav": [], "loss": []}
-    weights, channels, loss = SimInTheLoopCalibrator._weights, cal.StreamObjective.channels, cal.sim_loss
+    weights, batch, loss = SimInTheLoopCalibrator._weights, cal.BatchObjective.__call__, cal.sim_loss
 
-    def spy_channels(self, eta, gravity):
-        seen["eta"].append(np.array(eta))
-        seen["grav"].append(np.array(gravity))
-        return channels(self, eta, gravity)
+    def spy_batch(self, eta, gravity):
+        assert eta.shape[0] == 1
+        seen["eta"].append(np.array(eta[0]))
+        seen["grav"].append(np.array(gravity[0]))
+        return batch(self, eta, gravity)
 
     def spy_weights(base, eta, gravity, with_noise):
         seen["eta"].append(np.array(eta))
@@ -88,11 +89,11 @@ def spy(monkeypatch):
 
     def spy_loss(candidate, target):
         out = loss(candidate, target)
-        seen["loss"].append(np.array(out))
+        seen["loss"].append(np.array(out).reshape(-1))
         return out
 
     monkeypatch.setattr(SimInTheLoopCalibrator, "_weights", staticmethod(spy_weights))
-    monkeypatch.setattr(cal.StreamObjective, "channels", spy_channels)
+    monkeypatch.setattr(cal.BatchObjective, "__call__", spy_batch)
     monkeypatch.setattr(cal, "sim_loss", spy_loss)
     return seen
 

@@ -57,7 +57,7 @@ def test_a_programming_error_in_a_sample_fails_the_run(monkeypatch):
     def broken(motion, task, loc):
         raise TypeError("unsupported operand")
 
-    monkeypatch.setattr(sample_mod, "_location_signal", broken)
+    monkeypatch.setattr(sample_mod, "_prepare_location", broken)
     with pytest.raises(TypeError, match="unsupported operand"):
         synthesize(_task())
     with pytest.raises(TypeError, match="unsupported operand"):  # through the executor as well
@@ -75,7 +75,7 @@ from vsmp_imu.executor import LocalExecutor
 def broken(motion, task, loc):
     raise TypeError("unsupported operand")
 
-sample_mod._location_signal = broken
+sample_mod._prepare_location = broken
 tasks = [(_task(), None), (replace(_task(), key="f/WALKING/0001", seed=4), None)]
 try:
     LocalExecutor(2, show_progress=False).map(sample_mod.cached_synthesize, tasks)

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vsmp_imu.grounding.align import Convention, axes_matrix
-from vsmp_imu.grounding.stats import LinearMoments, StatSummary, sim_loss
+from vsmp_imu.grounding.stats import LinearMoments, MomentsBatch, StatSummary, sim_loss
 from vsmp_imu.imu import ImuNoise, SegmentKinematics, reading_features
 from vsmp_imu.imu.readings import channel_weights, fill_weights
 
@@ -131,6 +131,43 @@ class StreamObjective:
         return self.features.mean(axis=0) @ self.weights(eta, grav)[..., :3]
 
 
+@dataclass
+class CemProblem:
+    """One stream for `SimInTheLoopCalibrator.calibrate_many`: the arguments of `calibrate`."""
+
+    kin: SegmentKinematics
+    target: StatSummary
+    convention: Convention
+    rng: np.random.Generator
+    base_mounting: np.ndarray | None = None
+    noise: ImuNoise | None = None
+
+
+class BatchObjective:
+    """L_sim of the candidates of S streams on the same features (each a `StreamObjective`),
+    scored together: eta (S, N, 11) and gravity flags (S, N) give losses (S, N), the values
+    each stream's own objective gives."""
+
+    def __init__(self, objectives: list[StreamObjective]) -> None:
+        self.moments = MomentsBatch([o.moments for o in objectives])
+        self.base = np.stack([o.base for o in objectives])[:, None]  # (S, 1, 3, 3)
+        self.source = np.stack([o.source for o in objectives])  # (S, 6)
+        self.sign = np.stack([o.sign for o in objectives])[:, :, None, None]
+        self.with_noise = objectives[0].with_noise
+        self.target = StatSummary(*(np.stack([getattr(o.target, f) for o in objectives])[:, None]
+                                    for f in ("cov", "psd", "norms", "acf")))
+
+    def __call__(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
+        s, n = grav.shape
+        flat = eta.reshape(s * n, -1)
+        mounting = (eta_rotation(flat).reshape(s, n, 3, 3) @ self.base).reshape(s * n, 3, 3)
+        cols, features = channel_weights(mounting, flat[:, 3:6], flat[:, 6:9], flat[:, 9], flat[:, 10],
+                                         grav.reshape(-1), self.with_noise)
+        cols = cols.reshape(6, s, n, -1).transpose(1, 0, 2, 3)[np.arange(s)[:, None], self.source] * self.sign
+        summary = self.moments.summarize_channels(cols, features[self.source])
+        return np.reshape(sim_loss(summary, self.target), (s, n))
+
+
 @dataclass(eq=False, repr=False)
 class SimInTheLoopCalibrator:
     """Bounded CEM over eta for one sensor stream.
@@ -160,39 +197,70 @@ class SimInTheLoopCalibrator:
         noise: ImuNoise | None = None,
     ) -> CalibrationResult:
         """Search eta for one stream; returns eta*, X_opt and the loss trace."""
-        loss = StreamObjective(kin, target, convention, base_mounting, noise)
-        base = loss.base
-        n_elite = max(2, int(round(self.elite_fraction * self.n_candidates)))
-        mean, std = ETA_NOMINAL.copy(), ETA_INIT_STD.copy()
-        p_grav = 0.5 if self.search_gravity else float(convention.gravity_included)
-        floor = MIN_STD_FRACTION * (ETA_HIGH - ETA_LOW)
+        return self.calibrate_many([CemProblem(kin, target, convention, rng, base_mounting, noise)])[0]
 
-        nominal, nominal_grav = ETA_NOMINAL[None], np.array([convention.gravity_included])
-        loss_nominal = float(loss(nominal, nominal_grav)[0])
-        best_eta, best_grav, best_loss = nominal[0], bool(nominal_grav[0]), loss_nominal
-        history = []
-        for _ in range(self.n_iterations):
-            eta = cem_candidates(mean, std, ETA_LOW, ETA_HIGH, self.n_candidates, rng)
+    def calibrate_many(self, problems: list[CemProblem]) -> list[CalibrationResult]:
+        """`calibrate` for several streams in lockstep. Each draws from its own generator in the
+        order it would alone and gets the same result; the candidates of all of them are scored
+        together (one product per statistic, `BatchObjective`), which costs less than scoring
+        each stream's candidates apart when there are many small arrays."""
+        objectives = [StreamObjective(p.kin, p.target, p.convention, p.base_mounting, p.noise) for p in problems]
+        results: list[CalibrationResult | None] = [None] * len(problems)
+        for with_noise in (True, False):  # streams on the same features are scored together
+            idx = [i for i, o in enumerate(objectives) if o.with_noise is with_noise]
+            if idx:
+                done = self._lockstep([problems[i] for i in idx], [objectives[i] for i in idx])
+                for i, result in zip(idx, done, strict=True):
+                    results[i] = result
+        return results
+
+    def _lockstep(self, problems: list[CemProblem], objectives: list[StreamObjective]) -> list[CalibrationResult]:
+        """The bounded CEM of each stream, its iterations side by side."""
+        loss = BatchObjective(objectives)
+        s, n = len(problems), self.n_candidates
+        rows = np.arange(s)
+        n_elite = max(2, int(round(self.elite_fraction * n)))
+        floor = MIN_STD_FRACTION * (ETA_HIGH - ETA_LOW)
+        declared = np.array([p.convention.gravity_included for p in problems], dtype=bool)
+        mean, std = np.tile(ETA_NOMINAL, (s, 1)), np.tile(ETA_INIT_STD, (s, 1))
+        p_grav = np.full(s, 0.5) if self.search_gravity else declared.astype(float)
+        loss_nominal = loss(np.tile(ETA_NOMINAL, (s, 1, 1)), declared[:, None])[:, 0]
+        best_eta, best_grav, best_loss = np.tile(ETA_NOMINAL, (s, 1)), declared.copy(), loss_nominal.copy()
+        history = np.empty((s, self.n_iterations))
+        for it in range(self.n_iterations):
+            # cem_candidates of each stream, its own draws, clipped together
+            z = np.stack([p.rng.standard_normal((n, len(ETA_NOMINAL))) for p in problems])
+            eta = np.clip(mean[:, None] + std[:, None] * z, ETA_LOW, ETA_HIGH)
             if self.search_gravity:
-                grav = rng.random(self.n_candidates) < p_grav
+                grav = np.stack([p.rng.random(n) < p_grav[i] for i, p in enumerate(problems)])
             else:
-                grav = np.full(self.n_candidates, convention.gravity_included)
+                grav = np.repeat(declared[:, None], n, axis=1)
             losses = loss(eta, grav)
-            order, mean, std = cem_update(eta, losses, n_elite, floor)
+            order = np.argsort(losses, axis=1, kind="stable")
+            elite = eta[rows[:, None], order[:, :n_elite]]
+            mean, std = elite.mean(axis=1), np.maximum(elite.std(axis=1), floor)
             if self.search_gravity:
-                p_grav = float(np.clip(grav[order[:n_elite]].mean(), 0.05, 0.95))
-            if losses[order[0]] < best_loss:
-                best_eta, best_grav, best_loss = eta[order[0]], bool(grav[order[0]]), float(losses[order[0]])
-            history.append(best_loss)
-        weights = self._weights(base, best_eta[None], np.array([True]), noise is not None)[0]
-        readings = loss.features @ weights
-        gravity = kin.grav_seg @ (eta_rotation(best_eta[None])[0] @ base).T
+                p_grav = np.clip(grav[rows[:, None], order[:, :n_elite]].mean(axis=1), 0.05, 0.95)
+            top = order[:, 0]
+            better = losses[rows, top] < best_loss
+            best_eta = np.where(better[:, None], eta[rows, top], best_eta)
+            best_grav = np.where(better, grav[rows, top], best_grav)
+            best_loss = np.where(better, losses[rows, top], best_loss)
+            history[:, it] = best_loss
+        return [self._result(o, p, best_eta[i], bool(best_grav[i]), float(loss_nominal[i]), history[i].tolist(),
+                             float(best_loss[i]))
+                for i, (o, p) in enumerate(zip(objectives, problems, strict=True))]
+
+    def _result(self, objective: StreamObjective, problem: CemProblem, eta: np.ndarray, grav: bool,
+                loss_nominal: float, history: list[float], loss_final: float) -> CalibrationResult:
+        """X_opt of the best eta (gravity included, plus the sensor-frame gravity) and the trace."""
+        weights = self._weights(objective.base, eta[None], np.array([True]), objective.with_noise)[0]
         return CalibrationResult(
-            eta={name: float(v) for name, v in zip(ETA_NAMES, best_eta, strict=True)},
-            gravity_included=best_grav,
-            readings=readings,
-            gravity=gravity,
+            eta={name: float(v) for name, v in zip(ETA_NAMES, eta, strict=True)},
+            gravity_included=grav,
+            readings=objective.features @ weights,
+            gravity=problem.kin.grav_seg @ (eta_rotation(eta[None])[0] @ objective.base).T,
             loss_nominal=loss_nominal,
-            loss_final=best_loss,
+            loss_final=loss_final,
             loss_history=history,
         )

@@ -23,6 +23,7 @@ whole population follow from moments of the features computed once.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -106,12 +107,20 @@ class LinearMoments:
             lagged.append((a + a.T) / 2)
         self.lagged = np.stack(lagged)  # (K, F, F)
         self._stack = np.concatenate([self.band, self.lagged, self.second[None], self.cov[None]])
-        self._blocks: dict[bytes, np.ndarray] = {}  # sub-blocks of the stack per support (`_quadratic_forms`)
+        self._blocks: dict[bytes, np.ndarray] = {}  # sub-blocks of the stack per feature set (`blocks`)
 
     @classmethod
     def of_sequence(cls, x: np.ndarray, fs_hz: float, window_s: float = COV_WINDOW_S) -> LinearMoments:
         """Moments of a (T, F) sequence cut into 2 s windows."""
         return cls(segment(np.asarray(x, dtype=np.float64), int(round(window_s * fs_hz))), fs_hz)
+
+    def blocks(self, features: np.ndarray) -> np.ndarray:
+        """The stack's coefficients (6, k(k+1)/2, X) of the pairwise products of each channel's
+        weights on its features (6, k) (`_pair_blocks`), kept per feature set."""
+        key = features.tobytes()
+        if key not in self._blocks:
+            self._blocks[key] = _pair_blocks(self._stack, features)
+        return self._blocks[key]
 
     def summarize(self, weights: np.ndarray | None = None) -> StatSummary:
         """Statistics of features @ weights; weights (N, F, 6) or None for the features."""
@@ -124,6 +133,37 @@ class LinearMoments:
         """`summarize` of the weights given channel by channel (`channel_columns`): cols (6, N, k)
         on features (6, k), every other weight zero."""
         return StatSummary(*_summary_arrays(self, cols, features))
+
+
+class MomentsBatch:
+    """The `LinearMoments` of S streams on the same features, scored together: each statistic is
+    one product over every stream's candidates (`summarize_channels`), the same values as each
+    stream's own `summarize_channels`."""
+
+    def __init__(self, moments: list[LinearMoments]) -> None:
+        self.moments = moments
+        # each covariance as L L^T (eigen-decomposed: the constant feature makes it singular)
+        lam, vec = np.linalg.eigh(np.stack([m.cov for m in moments]))
+        self.root = vec * np.sqrt(np.clip(lam, 0.0, None))[:, None, :]  # (S, F, F)
+        self.length = np.array([m.length for m in moments])[:, None, None]  # against (S, N, 6)
+        self.n_windows = np.array([m.n_windows for m in moments])[:, None, None]
+        self.n_band = moments[0].band.shape[0]
+        self._blocks: dict[bytes, np.ndarray] = {}
+
+    def summarize_channels(self, cols: np.ndarray, features: np.ndarray) -> StatSummary:
+        """Statistics (S, N, ...) of every stream's N candidates: cols (S, 6, N, k) on features (S, 6, k)."""
+        key = features.tobytes()
+        if key not in self._blocks:
+            self._blocks[key] = np.stack([m.blocks(f) for m, f in zip(self.moments, features, strict=True)])
+        diag = _forms(cols, self._blocks[key]).transpose(0, 2, 3, 1)  # (S, N, X, 6)
+        # covariance of channels c, d: (L^T w_c) . (L^T w_d), each pair c <= d once
+        g = cols @ self.root[np.arange(len(cols))[:, None, None], features]  # (S, 6, N, F)
+        i, j = _pairs(6)
+        pairs = np.einsum("scnf,scnf->snc", g[:, i], g[:, j])
+        cov = np.empty((*pairs.shape[:2], 6, 6))
+        cov[..., i, j] = pairs
+        cov[..., j, i] = pairs
+        return StatSummary(*_statistics(diag, cov, self.n_band, self.length, self.n_windows))
 
 
 def channel_columns(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -140,36 +180,56 @@ def channel_columns(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _summary_arrays(m: LinearMoments, cols: np.ndarray, features: np.ndarray):
     diag = _quadratic_forms(m, cols, features)  # (N, X, 6)
-    n_band, n_lag = m.band.shape[0], m.lagged.shape[0]
-    energy = diag[:, :n_band].swapaxes(-1, -2)  # (N, 6, B)
-    psd = energy / (energy.sum(axis=-1, keepdims=True) + _EPS)
-    var = diag[:, -1]  # (N, 6)
-    denom = var[..., None] * max(m.length - 1, 1) * m.n_windows + _EPS
-    acf = diag[:, n_band : n_band + n_lag].swapaxes(-1, -2) / denom
-    second = diag[:, -2]
-    centered_sq = var * (max(m.length - 1, 1) / m.length)
-    # RMS |a|, RMS |a - mean a|, RMS |w|, RMS |w - mean w|
-    norms = np.sqrt(np.stack([second, centered_sq], axis=-1).reshape(-1, 2, 3, 2).sum(axis=2)).reshape(-1, 4)
     wt = np.zeros((cols.shape[1], m.cov.shape[0], 6))
     wt[:, features, np.arange(6)[:, None]] = cols.transpose(1, 0, 2)
     cov = wt.swapaxes(-1, -2) @ (m.cov @ wt)
+    return _statistics(diag, cov, m.band.shape[0], np.asarray(m.length), np.asarray(m.n_windows))
+
+
+def _statistics(diag: np.ndarray, cov: np.ndarray, n_band: int, length: np.ndarray, n_windows: np.ndarray):
+    """(cov, psd, norms, acf) from the quadratic forms `diag` (..., X, 6) of the moments stack
+    (bands, lags, second moment, covariance) and the covariances (..., 6, 6). `length` and
+    `n_windows` (window length and count) broadcast against diag's leading axes."""
+    energy = diag[..., :n_band, :].swapaxes(-1, -2)  # (..., 6, B)
+    psd = energy / (energy.sum(axis=-1, keepdims=True) + _EPS)
+    var = diag[..., -1, :]  # (..., 6)
+    steps = np.maximum(length - 1, 1)
+    acf = diag[..., n_band:-2, :].swapaxes(-1, -2) / (var * (steps * n_windows) + _EPS)[..., None]
+    second = diag[..., -2, :]
+    centered_sq = var * (steps / length)
+    # RMS |a|, RMS |a - mean a|, RMS |w|, RMS |w - mean w|
+    lead = var.shape[:-1]
+    norms = np.sqrt(np.stack([second, centered_sq], axis=-1).reshape(*lead, 2, 3, 2).sum(axis=-2)).reshape(*lead, 4)
     return cov, psd, norms, acf
 
 
 def _quadratic_forms(m: LinearMoments, cols: np.ndarray, features: np.ndarray) -> np.ndarray:
     """w_c^T M w_c (N, X, 6) for every candidate's channel weights w_c and every moment matrix M
-    of `m`'s stack (X, F, F), over the features each channel reads only (`channel_columns`): the
-    sub-blocks of the stack are kept per feature set, each form is one product of the weights'
-    outer products with them."""
-    c, n, k = cols.shape
-    key = features.tobytes()
-    blocks = m._blocks.get(key)
-    if blocks is None:
-        sub = m._stack[:, features[:, :, None], features[:, None, :]]  # (X, 6, k, k)
-        blocks = np.ascontiguousarray(sub.reshape(len(sub), c, k * k).transpose(1, 2, 0))  # (6, k*k, X)
-        m._blocks[key] = blocks
-    outer = (cols[:, :, :, None] * cols[:, :, None, :]).reshape(c, n, k * k)
-    return (outer @ blocks).transpose(1, 2, 0)
+    of `m`'s stack (X, F, F), over the features each channel reads only (`channel_columns`)."""
+    return _forms(cols, m.blocks(features)).transpose(1, 2, 0)
+
+
+def _forms(cols: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+    """(..., 6, N, X): each form as one product of the weights' pairwise products
+    w_i w_j, i <= j (..., 6, N, k(k+1)/2) with the stack's sub-blocks on those pairs
+    (..., 6, k(k+1)/2, X; `_pair_blocks`: the matrices are symmetric, so each pair off the
+    diagonal counts twice)."""
+    i, j = _pairs(cols.shape[-1])
+    return (cols[..., i] * cols[..., j]) @ blocks
+
+
+@lru_cache(maxsize=8)
+def _pairs(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j), i <= j, of a k x k matrix (row by row)."""
+    return np.triu_indices(k)
+
+
+def _pair_blocks(stack: np.ndarray, features: np.ndarray) -> np.ndarray:
+    """The symmetric matrices `stack` (X, F, F) on each channel's features (6, k), as the
+    coefficients of the pairwise products (6, k(k+1)/2, X): M_ii, and 2 M_ij for i < j."""
+    i, j = _pairs(features.shape[1])
+    sub = stack[:, features[:, i], features[:, j]]  # (X, 6, pairs)
+    return np.ascontiguousarray((sub * np.where(i == j, 1.0, 2.0)).transpose(1, 2, 0))
 
 
 def summarize_windows(windows: np.ndarray, fs_hz: float) -> StatSummary:
@@ -186,16 +246,17 @@ def summarize_sequence(x: np.ndarray, fs_hz: float, window_s: float = COV_WINDOW
 
 
 def sim_loss(candidate: StatSummary, target: StatSummary) -> np.ndarray:
-    """L_sim for every candidate (leading axes of `candidate`) against one target."""
+    """L_sim for every candidate (leading axes of `candidate`) against one target (or, with
+    leading axes of its own, a target per candidate set, broadcast against them)."""
     cov_err = np.linalg.norm(candidate.cov - target.cov, axis=(-2, -1)) / (
-        np.linalg.norm(target.cov) + _EPS
+        np.linalg.norm(target.cov, axis=(-2, -1)) + _EPS
     )
     psd_err = np.sqrt(((candidate.psd - target.psd) ** 2).sum(axis=(-2, -1)))
-    scale = np.array([target.norms[0], target.norms[0], target.norms[2], target.norms[2]]) + 1e-3
+    scale = target.norms[..., [0, 0, 2, 2]] + 1e-3
     r_cand = np.concatenate(
         [candidate.norms / scale, candidate.acf.reshape(*candidate.acf.shape[:-2], -1)], axis=-1
     )
-    r_targ = np.concatenate([target.norms / scale, target.acf.reshape(-1)])
+    r_targ = np.concatenate([target.norms / scale, target.acf.reshape(*target.acf.shape[:-2], -1)], axis=-1)
     r_err = np.sqrt(((r_cand - r_targ) ** 2).sum(axis=-1))
     return LAMBDA_COV * cov_err + LAMBDA_PSD * psd_err + LAMBDA_R * r_err
 

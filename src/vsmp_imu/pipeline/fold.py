@@ -64,6 +64,7 @@ from vsmp_imu.pipeline.sample import (
     SampleTask,
     backend_for,
     cached_synthesize,
+    cached_synthesize_many,
 )
 from vsmp_imu.pipeline.side import (
     SIDES,
@@ -212,11 +213,24 @@ def make_filter_job(info: DatasetInfo, train: Windows, seed: int, fold: str, val
     )
 
 
+# samples per executor item: their CEMs run in lockstep (`synthesize_many`), which costs less per
+# sample than one at a time; each sample's result is its own, whatever its neighbours
+SAMPLES_PER_ITEM = 16
+
+
 def run_item(item):
-    """One executor item: a (SampleTask, cache folder) pair, or the filter job."""
+    """One executor item: a (SampleTask, cache folder) pair, a (tuple of SampleTasks, cache
+    folder) pair (their results as a list), or the filter job."""
     if isinstance(item, FilterJob):
         return fit_filters(item)
+    if isinstance(item[0], tuple):
+        return cached_synthesize_many(*item)
     return cached_synthesize(item)
+
+
+def sample_items(tasks: list[SampleTask], cache: str | None) -> list[tuple[tuple[SampleTask, ...], str | None]]:
+    """The executor items of `tasks`: consecutive runs of SAMPLES_PER_ITEM."""
+    return [(tuple(tasks[i:i + SAMPLES_PER_ITEM]), cache) for i in range(0, len(tasks), SAMPLES_PER_ITEM)]
 
 
 # -- stage 1: prepare ------------------------------------------------------------------------------
@@ -789,14 +803,15 @@ class FoldGenerator:
             job: FilterJob | None = None) -> FilterModels | None:
         """Synthesize `tasks` (with the filter job first, if any) and append the results per class."""
         cache = str(self.cache_dir) if self.cache_dir else None
-        items: list = [(t, cache) for t in tasks]
+        items: list = sample_items(tasks, cache)
         if job is not None:
             items.insert(0, job)  # first: the longest item starts at once
-        done = self.executor.map(run_item, items, desc=f"fold {fold}: synthesizing {len(tasks)} samples")
+        done = self.executor.map(run_item, items, desc=f"fold {fold}: synthesizing {len(tasks)} samples "
+                                                       f"({SAMPLES_PER_ITEM} per item)")
         fitted = None
         if job is not None:
             fitted, done = done[0], done[1:]
-        for task, result in zip(tasks, done, strict=True):
+        for task, result in zip(tasks, [r for part in done for r in part], strict=True):
             results[task.label].append(result)
         return fitted
 

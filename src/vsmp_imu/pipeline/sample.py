@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 from vsmp_imu.errors import SampleError, VsmpError
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
-from vsmp_imu.grounding.calibrate import SimInTheLoopCalibrator
+from vsmp_imu.grounding.calibrate import CalibrationResult, CemProblem, SimInTheLoopCalibrator
 from vsmp_imu.grounding.stats import StatSummary
 from vsmp_imu.grounding.texture import add_texture
 from vsmp_imu.imu import VirtualSensor, draw_noise, sensor_readings, simulate_kinematics
@@ -193,8 +193,23 @@ def active_span(motion: Motion) -> list[float]:
     return [float(moving[0] / motion.fps), float(moving[-1] / motion.fps)]
 
 
-def _location_signal(motion: Motion, task: SampleTask, loc: LocationTask) -> tuple[np.ndarray, LocationProvenance]:
-    """theta ~ p(theta), kinematics once, eta* by CEM, then A_gamma."""
+@dataclass
+class _Location:
+    """One location of a sample between its kinematics and its calibrated readings."""
+
+    loc: LocationTask
+    sensor: VirtualSensor
+    perturbation: Rotation
+    base: np.ndarray
+    kin: Any  # SegmentKinematics
+    noise: Any  # ImuNoise | None
+    conv: Convention
+    theta: dict
+    problem: CemProblem | None  # the CEM to run (None: no calibration)
+
+
+def _prepare_location(motion: Motion, task: SampleTask, loc: LocationTask) -> _Location:
+    """theta ~ p(theta) and the kinematics once; the CEM against D_stat is left to run."""
     rng = rng_for(task.seed, "sensor", loc.name)
     sensor = VirtualSensor.at(loc.name)
     perturbation = sample_mounting_perturbation(loc.name, rng)
@@ -204,22 +219,23 @@ def _location_signal(motion: Motion, task: SampleTask, loc: LocationTask) -> tup
     noise = draw_noise(sensor, kin.n_samples, task.fs_hz, task.seed, loc.name) if task.noise else None
     conv = Convention(**loc.convention)
     target = loc.stat_summary()
-    theta = sensor.theta(motion, kin.attachment_m)
-    eta = None
-    if task.sim_in_the_loop and target is not None:
-        result = SimInTheLoopCalibrator(search_gravity=False).calibrate(
-            kin, target, conv, rng, base_mounting=base, noise=noise)
-        readings, gravity = result.readings, result.gravity
-        eta = result.as_dict()
+    problem = CemProblem(kin, target, conv, rng, base, noise) if task.sim_in_the_loop and target is not None else None
+    return _Location(loc, sensor, perturbation, base, kin, noise, conv, sensor.theta(motion, kin.attachment_m),
+                     problem)
+
+
+def _finish_location(state: _Location, result: CalibrationResult | None) -> tuple[np.ndarray, LocationProvenance]:
+    """The calibrated (or nominal) readings, aligned with A_gamma, and the location's record."""
+    if result is not None:
+        readings, gravity, eta = result.readings, result.gravity, result.as_dict()
     else:
-        readings = sensor_readings(kin, base, None, None, 1.0, 1.0, True, noise)[0]
-        gravity = kin.grav_seg @ base.T
+        readings = sensor_readings(state.kin, state.base, None, None, 1.0, 1.0, True, state.noise)[0]
+        gravity, eta = state.kin.grav_seg @ state.base.T, None
     record = LocationProvenance(
-        start_s=float(kin.times[0]), theta=theta,
-        mounting_perturbation_xyzw=[float(v) for v in perturbation.as_quat()],
-        nominal_mounting_xyzw=list(loc.nominal_mounting_xyzw), eta=eta, gamma=conv.as_dict())
-    aligned = ConventionAlignment(conv).transform(readings, gravity)
-    return aligned, record
+        start_s=float(state.kin.times[0]), theta=state.theta,
+        mounting_perturbation_xyzw=[float(v) for v in state.perturbation.as_quat()],
+        nominal_mounting_xyzw=list(state.loc.nominal_mounting_xyzw), eta=eta, gamma=state.conv.as_dict())
+    return ConventionAlignment(state.conv).transform(readings, gravity), record
 
 
 def _motion(task: SampleTask) -> tuple[Motion, str | None]:
@@ -263,27 +279,57 @@ def synthesize(task: SampleTask, motion_path: Path | None = None) -> SampleResul
 
     The motion is saved to `motion_path` when given.
     """
-    try:
-        motion, smp_id = _motion(task)
-        motion_verdict = MotionPlausibilityFilter().check_motion(motion)
-        summary = MotionSummary(fps=motion.fps, n_frames=motion.n_frames, duration_s=motion.duration_s,
-                                body_height_m=motion.body_height_m(), active_span_s=active_span(motion),
-                                controls=motion.meta.get("controls"))
-        if motion_path is not None:
-            motion.meta.update({"sample_key": task.key, "label": task.label})
-            motion.save(motion_path)
-        signals, locations = {}, {}
-        for loc in task.locations:
-            signals[loc.name], locations[loc.name] = _location_signal(motion, task, loc)
-        if task.texture:
-            signals = _textured(signals, task)
-        provenance = Provenance(task.source, task.label, task.variant, smp_id, task.prompt, task.backend,
-                                task.seed, summary, motion_verdict, locations, task.class_windows)
-        return SampleResult(task.key, task.label_index, signals, provenance)
-    except VsmpError as exc:  # a failed sample is recorded and filtered out
-        return SampleResult(task.key, task.label_index, {},
-                            Provenance(task.source, task.label, class_windows=task.class_windows),
-                            error=f"{type(exc).__name__}: {exc}")
+    return synthesize_many([task], [motion_path])[0]
+
+
+def synthesize_many(tasks: list[SampleTask], motion_paths: list[Path | None]) -> list[SampleResult]:
+    """`synthesize` for several samples, each with the result it gets alone: their motions and
+    kinematics one by one, then the CEMs of all their locations in lockstep
+    (`SimInTheLoopCalibrator.calibrate_many`), then each sample's signals."""
+    results: list[SampleResult | None] = [None] * len(tasks)
+    pending: dict[int, tuple] = {}
+    for i, (task, path) in enumerate(zip(tasks, motion_paths, strict=True)):
+        try:
+            pending[i] = _prepare(task, path)
+        except VsmpError as exc:  # a failed sample is recorded and filtered out
+            results[i] = _failed(task, exc)
+    states = [state for *_, locations in pending.values() for state in locations]
+    problems = [st.problem for st in states if st.problem is not None]
+    calibrated = iter(SimInTheLoopCalibrator(search_gravity=False).calibrate_many(problems) if problems else [])
+    fits = {id(st): next(calibrated) for st in states if st.problem is not None}
+    for i, (smp_id, verdict, summary, locations) in pending.items():
+        task = tasks[i]
+        try:
+            signals, records = {}, {}
+            for st in locations:
+                signals[st.loc.name], records[st.loc.name] = _finish_location(st, fits.get(id(st)))
+            if task.texture:
+                signals = _textured(signals, task)
+            provenance = Provenance(task.source, task.label, task.variant, smp_id, task.prompt, task.backend,
+                                    task.seed, summary, verdict, records, task.class_windows)
+            results[i] = SampleResult(task.key, task.label_index, signals, provenance)
+        except VsmpError as exc:
+            results[i] = _failed(task, exc)
+    return results
+
+
+def _prepare(task: SampleTask, motion_path: Path | None) -> tuple:
+    """A sample up to its CEMs: (SMP id, motion verdict, motion summary, its locations)."""
+    motion, smp_id = _motion(task)
+    motion_verdict = MotionPlausibilityFilter().check_motion(motion)
+    summary = MotionSummary(fps=motion.fps, n_frames=motion.n_frames, duration_s=motion.duration_s,
+                            body_height_m=motion.body_height_m(), active_span_s=active_span(motion),
+                            controls=motion.meta.get("controls"))
+    if motion_path is not None:
+        motion.meta.update({"sample_key": task.key, "label": task.label})
+        motion.save(motion_path)
+    return smp_id, motion_verdict, summary, [_prepare_location(motion, task, loc) for loc in task.locations]
+
+
+def _failed(task: SampleTask, exc: VsmpError) -> SampleResult:
+    return SampleResult(task.key, task.label_index, {}, Provenance(task.source, task.label,
+                                                                   class_windows=task.class_windows),
+                        error=f"{type(exc).__name__}: {exc}")
 
 
 def _textured(signals: dict[str, np.ndarray], task: SampleTask) -> dict[str, np.ndarray]:
@@ -310,23 +356,49 @@ def cached_synthesize(args: tuple[SampleTask, str | None]) -> SampleResult:
     uninterrupted one.
     """
     task, cache_dir = args
+    return cached_synthesize_many((task,), cache_dir)[0]
+
+
+def cached_synthesize_many(tasks: tuple[SampleTask, ...], cache_dir: str | None) -> list[SampleResult]:
+    """`cached_synthesize` of several tasks: the cached ones read, the others made together
+    (`synthesize_many`: the same results as one by one) and cached."""
+    results: list[SampleResult | None] = [_cached(t, cache_dir) for t in tasks]
+    todo = [i for i, r in enumerate(results) if r is None]
+    paths = [_motion_target(tasks[i], cache_dir) for i in todo]
+    for i, path, result in zip(todo, paths, synthesize_many([tasks[i] for i in todo], paths), strict=True):
+        out_motion = motion_file(tasks[i])
+        if out_motion is not None and path is not None and path != out_motion and path.exists():
+            write_bytes(out_motion, path.read_bytes())
+        if cache_dir is not None:
+            result.to_parquet(Path(cache_dir) / f"{tasks[i].content_hash()}.parquet")
+        results[i] = result
+    return results
+
+
+def _motion_target(task: SampleTask, cache_dir: str | None) -> Path | None:
+    """Where a new sample's motion is written: the cache (copied out after), or its own file."""
     out_motion = motion_file(task)
+    if cache_dir is None or out_motion is None:
+        return out_motion
+    return Path(cache_dir) / f"{task.content_hash()}.motion.npz"
+
+
+def _cached(task: SampleTask, cache_dir: str | None) -> SampleResult | None:
+    """The task's cached result (its motion copied out when the task saves motions), or None."""
     if cache_dir is None:
-        return synthesize(task, out_motion)
+        return None
     digest = task.content_hash()
     path = Path(cache_dir) / f"{digest}.parquet"
     cached_motion = Path(cache_dir) / f"{digest}.motion.npz"
-    if path.exists() and (out_motion is None or cached_motion.exists()):
-        try:
-            result = SampleResult.from_parquet(path)
-            os.utime(path)  # recently used: the cache's size cap removes the oldest entries first
-            if out_motion is not None and not out_motion.exists():
-                write_bytes(out_motion, cached_motion.read_bytes())
-            return result
-        except Exception:  # a damaged cache entry is recomputed
-            path.unlink(missing_ok=True)
-    result = synthesize(task, cached_motion if out_motion is not None else None)
-    if out_motion is not None and cached_motion.exists():
-        write_bytes(out_motion, cached_motion.read_bytes())
-    result.to_parquet(path)
-    return result
+    out_motion = motion_file(task)
+    if not path.exists() or (out_motion is not None and not cached_motion.exists()):
+        return None
+    try:
+        result = SampleResult.from_parquet(path)
+        os.utime(path)  # recently used: the cache's size cap removes the oldest entries first
+        if out_motion is not None and not out_motion.exists():
+            write_bytes(out_motion, cached_motion.read_bytes())
+        return result
+    except Exception:  # a damaged cache entry is recomputed
+        path.unlink(missing_ok=True)
+        return None
