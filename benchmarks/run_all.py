@@ -631,7 +631,7 @@ def _scaling(make, alpha: float, replay_n: int) -> dict:
         _close(executor)
     # the samples of the fold's items (not the validator), re-cut into items as the fold cuts them
     samples = [t for batch in batches for item in batch if isinstance(item, tuple) for t in item[0]][:replay_n]
-    tasks = sample_items(samples, None)
+    tasks = sample_items(samples, None, 2)
     replay = []
     for workers in (1, 2, 2, 1):
         executor = _started(make, workers)

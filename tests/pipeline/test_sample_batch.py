@@ -89,11 +89,14 @@ def test_cached_items_of_many_samples_read_and_write_the_per_sample_cache(tasks,
     assert len(list(tmp_path.glob("*.parquet"))) == len(tasks)
 
 
-def test_sample_items_cut_the_tasks_in_order(tasks):
-    many = [t for t in tasks for _ in range(7)]
-    items = sample_items(many, "c")
-    assert [t for item, _ in items for t in item] == many
-    assert all(len(item) == SAMPLES_PER_ITEM for item, _ in items[:-1]) and {c for _, c in items} == {"c"}
+@pytest.mark.parametrize("workers", [1, 2, 8])
+def test_sample_items_cut_the_tasks_in_order_and_shorter_towards_the_end(tasks, workers):
+    many = [t for t in tasks for _ in range(60)]
+    items = sample_items(many, "c", workers)
+    assert [t for item, _ in items for t in item] == many and {c for _, c in items} == {"c"}
+    sizes = [len(item) for item, _ in items]
+    assert max(sizes) <= SAMPLES_PER_ITEM and sizes == sorted(sizes, reverse=True) and sizes[-1] == 1
+    assert len(sample_items([], None)) == 0
 
 
 def _streams():

@@ -228,9 +228,17 @@ def run_item(item):
     return cached_synthesize(item)
 
 
-def sample_items(tasks: list[SampleTask], cache: str | None) -> list[tuple[tuple[SampleTask, ...], str | None]]:
-    """The executor items of `tasks`: consecutive runs of SAMPLES_PER_ITEM."""
-    return [(tuple(tasks[i:i + SAMPLES_PER_ITEM]), cache) for i in range(0, len(tasks), SAMPLES_PER_ITEM)]
+def sample_items(tasks: list[SampleTask], cache: str | None,
+                 workers: int = 1) -> list[tuple[tuple[SampleTask, ...], str | None]]:
+    """The executor items of `tasks`: consecutive runs of up to SAMPLES_PER_ITEM, shorter towards
+    the end (the remaining tasks over 4 items per worker) so the workers' last items end close
+    together. The results do not depend on the cut."""
+    out, start = [], 0
+    while start < len(tasks):
+        size = max(1, min(SAMPLES_PER_ITEM, -(-(len(tasks) - start) // (4 * max(1, workers)))))
+        out.append((tuple(tasks[start:start + size]), cache))
+        start += size
+    return out
 
 
 # -- stage 1: prepare ------------------------------------------------------------------------------
@@ -803,11 +811,11 @@ class FoldGenerator:
             job: FilterJob | None = None) -> FilterModels | None:
         """Synthesize `tasks` (with the filter job first, if any) and append the results per class."""
         cache = str(self.cache_dir) if self.cache_dir else None
-        items: list = sample_items(tasks, cache)
+        items: list = sample_items(tasks, cache, self.threads())
         if job is not None:
             items.insert(0, job)  # first: the longest item starts at once
         done = self.executor.map(run_item, items, desc=f"fold {fold}: synthesizing {len(tasks)} samples "
-                                                       f"({SAMPLES_PER_ITEM} per item)")
+                                                       f"in {len(items) - (job is not None)} batches")
         fitted = None
         if job is not None:
             fitted, done = done[0], done[1:]
