@@ -7,7 +7,8 @@ bounded cross-entropy method (30 iterations, 64 candidates, elite fraction
 0.20, initial std 5 deg / 0.25 m/s^2 / 0.02 rad/s / 0.10) minimizing L_sim
 against D_stat. The segment kinematics are simulated once; every candidate
 only re-mixes them (`vsmp_imu.imu.sensor_readings`), vectorized over the
-population.
+population, and over the streams of a batch (`calibrate_many`: their CEMs in
+lockstep, each with its own generator and its own result).
 
 The loss compares statistics in the target's axis convention (a fixed signed
 permutation; D_stat is SI in memory), because cross-channel covariance is

@@ -17,7 +17,9 @@ windows (moments summed, then normalized).
 
 All of them are quadratic forms in the signal. `LinearMoments` exploits that:
 readings of every CEM candidate are features @ weights, so the statistics of a
-whole population follow from moments of the features computed once.
+whole population follow from moments of the features computed once, each
+channel's over the few features it reads (`channel_columns`); `MomentsBatch`
+scores the populations of several streams together.
 """
 
 from __future__ import annotations
