@@ -374,9 +374,10 @@ def naive_calibrate(cal, kin, target, convention, rng, base, noise) -> dict:
 def stage_cem(quick: bool) -> dict:
     one_thread()
     from vsmp_imu.grounding.align import Convention
-    from vsmp_imu.grounding.calibrate import ETA_NAMES, SimInTheLoopCalibrator
+    from vsmp_imu.grounding.calibrate import ETA_NAMES, CemProblem, SimInTheLoopCalibrator
     from vsmp_imu.grounding.split import stat_rank_split
     from vsmp_imu.grounding.stats import TargetStatistics
+    from vsmp_imu.pipeline.fold import SAMPLES_PER_ITEM
     from vsmp_imu.seeding import rng_for
 
     info, train, library, _, _ = hapt12_fold(0.1)
@@ -400,6 +401,12 @@ def stage_cem(quick: bool) -> dict:
     repeats = 1 if quick else 3
     wall, _ = timed(lambda: [vectorized(c) for _ in range(repeats) for c in cases])
     n = repeats * len(cases)
+    # the same calibrations as the pipeline's samples make them: up to SAMPLES_PER_ITEM in lockstep
+    problems = [CemProblem(kin, target, convention, rng_for(0, "cem", i), base, noise)
+                for _ in range(repeats) for kin, noise, target, i in cases]
+    lockstep_wall, lockstep = timed(lambda: [r for k in range(0, n, SAMPLES_PER_ITEM)
+                                             for r in cal.calibrate_many(problems[k:k + SAMPLES_PER_ITEM])])
+    same = all(r.eta == vectorized(c).eta for r, c in zip(lockstep[: len(cases)], cases, strict=True))
     naive_cases = cases[: 1 if quick else 3]
     naive_wall, naive = timed(lambda: [naive_calibrate(cal, c[0], c[2], convention, rng_for(0, "cem", c[3]),
                                                        base, c[1]) for c in naive_cases])
@@ -409,6 +416,8 @@ def stage_cem(quick: bool) -> dict:
     per_vec, per_naive = wall / n, naive_wall / len(naive_cases)
     return {"unit": "calibrations", "n": n, "wall_s": wall, "per_s_per_core": n / wall,
             "vectorized_s": per_vec, "naive_loop_s": per_naive, "naive_over_vectorized": per_naive / per_vec,
+            "lockstep_s": lockstep_wall / n, "lockstep_per_s_per_core": n / lockstep_wall,
+            "lockstep_batch": SAMPLES_PER_ITEM, "lockstep_same_eta": same,
             "naive_n": len(naive_cases), "max_abs_eta_difference": eta_diff,
             "tracemalloc_peak_mb": traced_peak_mb(lambda: vectorized(cases[0])),
             "note": f"{cal.n_iterations} iterations x {cal.n_candidates} candidates, one waist stream "
@@ -858,6 +867,11 @@ def table_rows(res: dict) -> list[tuple[str, str, str, str, str]]:
     if cem and "error" not in cem:
         rows.append(("CEM naive loop / vectorized [ratio]", _fmt(cem["naive_over_vectorized"], 1), "",
                      "", f"{cem['vectorized_s'] * 1e3:.0f} ms vs {cem['naive_loop_s']:.2f} s per calibration"))
+        if "lockstep_per_s_per_core" in cem:
+            rows.append((f"CEM, {cem['lockstep_batch']} streams in lockstep [calibrations/s per core]",
+                         _fmt(cem["lockstep_per_s_per_core"], 1), "", "",
+                         f"{cem['lockstep_s'] * 1e3:.1f} ms per calibration; same eta as alone: "
+                         f"{'yes' if cem['lockstep_same_eta'] else 'NO'}"))
     post = st.get("post_motion")
     if post and "error" not in post:
         rows.append(("post-motion stages per sample, 1 core [samples/s per core]",
