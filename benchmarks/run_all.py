@@ -639,7 +639,8 @@ def _scaling(make, alpha: float, replay_n: int) -> dict:
                       "steps_s": run["steps_s"], "cpu_s": run["cpu_s"]})
         _close(executor)
     # the samples of the fold's items (not the validator), re-cut into items as the fold cuts them
-    samples = [t for batch in batches for item in batch if isinstance(item, tuple) for t in item[0]][:replay_n]
+    samples = [t for batch in batches for item in batch if isinstance(item, tuple)
+               for t in (item[0] if isinstance(item[0], tuple) else (item[0],))][:replay_n]  # side probes: one each
     tasks = sample_items(samples, None, 2)
     replay = []
     for workers in (1, 2, 2, 1):
