@@ -113,19 +113,17 @@ class StreamObjective:
         # a signed permutation: aligned channel c is sign[c] x readings channel source[c]
         self.source = np.abs(self.to_target).argmax(axis=0)
         self.sign = self.to_target[self.source, np.arange(6)]
+        self._batch: BatchObjective | None = None  # this stream alone, built when first scored
 
     def weights(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
         """(N, F, 6) weights of the aligned readings."""
         return SimInTheLoopCalibrator._weights(self.base, eta, grav, self.with_noise) @ self.to_target
 
-    def channels(self, eta: np.ndarray, grav: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """`weights` channel by channel without their zeros (`LinearMoments.summarize_channels`)."""
-        cols, features = channel_weights(eta_rotation(eta) @ self.base, eta[:, 3:6], eta[:, 6:9], eta[:, 9],
-                                         eta[:, 10], grav, self.with_noise)
-        return cols[self.source] * self.sign[:, None, None], features[self.source]
-
     def __call__(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
-        return sim_loss(self.moments.summarize_channels(*self.channels(eta, grav)), self.target)
+        """L_sim of N candidates: eta (N, 11), gravity flags (N,)."""
+        if self._batch is None:
+            self._batch = BatchObjective([self])
+        return self._batch(eta[None], np.asarray(grav)[None])[0]
 
     def mean_acc(self, eta: np.ndarray, grav: np.ndarray) -> np.ndarray:
         """(N, 3) mean accelerometer reading of each candidate, in the target's axes."""

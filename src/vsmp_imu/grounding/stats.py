@@ -129,18 +129,13 @@ class LinearMoments:
         if weights is None:
             single = np.eye(self.cov.shape[0])[None]
             return StatSummary(*(a[0] for a in _summary_arrays(self, *channel_columns(single))))
-        return self.summarize_channels(*channel_columns(np.asarray(weights, dtype=np.float64)))
-
-    def summarize_channels(self, cols: np.ndarray, features: np.ndarray) -> StatSummary:
-        """`summarize` of the weights given channel by channel (`channel_columns`): cols (6, N, k)
-        on features (6, k), every other weight zero."""
-        return StatSummary(*_summary_arrays(self, cols, features))
+        return StatSummary(*_summary_arrays(self, *channel_columns(np.asarray(weights, dtype=np.float64))))
 
 
 class MomentsBatch:
     """The `LinearMoments` of S streams on the same features, scored together: each statistic is
-    one product over every stream's candidates (`summarize_channels`), the same values as each
-    stream's own `summarize_channels`."""
+    one product over every stream's candidates (`summarize_channels`), whatever the other
+    streams of the batch (the values of a batch of one)."""
 
     def __init__(self, moments: list[LinearMoments]) -> None:
         self.moments = moments

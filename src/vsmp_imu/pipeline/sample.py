@@ -34,7 +34,14 @@ from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mou
 from vsmp_imu.grounding.calibrate import CalibrationResult, CemProblem, SimInTheLoopCalibrator
 from vsmp_imu.grounding.stats import StatSummary
 from vsmp_imu.grounding.texture import add_texture
-from vsmp_imu.imu import VirtualSensor, draw_noise, sensor_readings, simulate_kinematics
+from vsmp_imu.imu import (
+    ImuNoise,
+    SegmentKinematics,
+    VirtualSensor,
+    draw_noise,
+    sensor_readings,
+    simulate_kinematics,
+)
 from vsmp_imu.io import write_bytes
 from vsmp_imu.motion import Motion
 from vsmp_imu.pipeline.records import LocationProvenance, MotionSummary, Provenance
@@ -201,8 +208,8 @@ class _Location:
     sensor: VirtualSensor
     perturbation: Rotation
     base: np.ndarray
-    kin: Any  # SegmentKinematics
-    noise: Any  # ImuNoise | None
+    kin: SegmentKinematics
+    noise: ImuNoise | None
     conv: Convention
     theta: dict
     problem: CemProblem | None  # the CEM to run (None: no calibration)
@@ -293,16 +300,16 @@ def synthesize_many(tasks: list[SampleTask], motion_paths: list[Path | None]) ->
             pending[i] = _prepare(task, path)
         except VsmpError as exc:  # a failed sample is recorded and filtered out
             results[i] = _failed(task, exc)
-    states = [state for *_, locations in pending.values() for state in locations]
-    problems = [st.problem for st in states if st.problem is not None]
+    problems = [st.problem for *_, locations in pending.values() for st in locations if st.problem is not None]
+    # in the same order as the problems were listed
     calibrated = iter(SimInTheLoopCalibrator(search_gravity=False).calibrate_many(problems) if problems else [])
-    fits = {id(st): next(calibrated) for st in states if st.problem is not None}
     for i, (smp_id, verdict, summary, locations) in pending.items():
         task = tasks[i]
+        fits = [next(calibrated) if st.problem is not None else None for st in locations]
         try:
             signals, records = {}, {}
-            for st in locations:
-                signals[st.loc.name], records[st.loc.name] = _finish_location(st, fits.get(id(st)))
+            for st, fit in zip(locations, fits, strict=True):
+                signals[st.loc.name], records[st.loc.name] = _finish_location(st, fit)
             if task.texture:
                 signals = _textured(signals, task)
             provenance = Provenance(task.source, task.label, task.variant, smp_id, task.prompt, task.backend,
