@@ -89,10 +89,11 @@ def cem_candidates(mean: np.ndarray, std: np.ndarray, low: np.ndarray, high: np.
 
 def cem_update(candidates: np.ndarray, losses: np.ndarray, n_elite: int,
                floor: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The CEM update: (candidates by loss, stable order), the elite's mean and its std (>= floor)."""
-    order = np.argsort(losses, kind="stable")
-    elite = candidates[order[:n_elite]]
-    return order, elite.mean(0), np.maximum(elite.std(0), floor)
+    """The CEM update: (candidates by loss, stable order), the elite's mean and its std (>= floor).
+    Candidates (..., N, D) with losses (..., N): leading axes are populations updated side by side."""
+    order = np.argsort(losses, axis=-1, kind="stable")
+    elite = np.take_along_axis(candidates, order[..., :n_elite, None], axis=-2)
+    return order, elite.mean(axis=-2), np.maximum(elite.std(axis=-2), floor)
 
 
 class StreamObjective:
@@ -235,9 +236,7 @@ class SimInTheLoopCalibrator:
             else:
                 grav = np.repeat(declared[:, None], n, axis=1)
             losses = loss(eta, grav)
-            order = np.argsort(losses, axis=1, kind="stable")
-            elite = eta[rows[:, None], order[:, :n_elite]]
-            mean, std = elite.mean(axis=1), np.maximum(elite.std(axis=1), floor)
+            order, mean, std = cem_update(eta, losses, n_elite, floor)
             if self.search_gravity:
                 p_grav = np.clip(grav[rows[:, None], order[:, :n_elite]].mean(axis=1), 0.05, 0.95)
             top = order[:, 0]
