@@ -82,9 +82,13 @@ class CalibrationResult:
 
 
 def cem_candidates(mean: np.ndarray, std: np.ndarray, low: np.ndarray, high: np.ndarray, n: int,
-                   rng: np.random.Generator) -> np.ndarray:
-    """One CEM population: n draws of N(mean, std) clipped to [low, high] (N, D)."""
-    return np.clip(mean + std * rng.standard_normal((n, len(mean))), low, high)
+                   rng: np.random.Generator | list[np.random.Generator]) -> np.ndarray:
+    """One CEM population: n draws of N(mean, std) clipped to [low, high] (N, D). With a list
+    of S generators and mean, std (S, D): S populations (S, N, D), each from its own generator."""
+    d = np.shape(mean)[-1]
+    z = np.stack([r.standard_normal((n, d)) for r in rng]) if isinstance(rng, list) else \
+        rng.standard_normal((n, d))
+    return np.clip(np.expand_dims(mean, -2) + np.expand_dims(std, -2) * z, low, high)
 
 
 def cem_update(candidates: np.ndarray, losses: np.ndarray, n_elite: int,
@@ -228,9 +232,7 @@ class SimInTheLoopCalibrator:
         best_eta, best_grav, best_loss = np.tile(ETA_NOMINAL, (s, 1)), declared.copy(), loss_nominal.copy()
         history = np.empty((s, self.n_iterations))
         for it in range(self.n_iterations):
-            # cem_candidates of each stream, its own draws, clipped together
-            z = np.stack([p.rng.standard_normal((n, len(ETA_NOMINAL))) for p in problems])
-            eta = np.clip(mean[:, None] + std[:, None] * z, ETA_LOW, ETA_HIGH)
+            eta = cem_candidates(mean, std, ETA_LOW, ETA_HIGH, n, [p.rng for p in problems])
             if self.search_gravity:
                 grav = np.stack([p.rng.random(n) < p_grav[i] for i, p in enumerate(problems)])
             else:

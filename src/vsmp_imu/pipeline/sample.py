@@ -205,7 +205,6 @@ class _Location:
     """One location of a sample between its kinematics and its calibrated readings."""
 
     loc: LocationTask
-    sensor: VirtualSensor
     perturbation: Rotation
     base: np.ndarray
     kin: SegmentKinematics
@@ -227,8 +226,7 @@ def _prepare_location(motion: Motion, task: SampleTask, loc: LocationTask) -> _L
     conv = Convention(**loc.convention)
     target = loc.stat_summary()
     problem = CemProblem(kin, target, conv, rng, base, noise) if task.sim_in_the_loop and target is not None else None
-    return _Location(loc, sensor, perturbation, base, kin, noise, conv, sensor.theta(motion, kin.attachment_m),
-                     problem)
+    return _Location(loc, perturbation, base, kin, noise, conv, sensor.theta(motion, kin.attachment_m), problem)
 
 
 def _finish_location(state: _Location, result: CalibrationResult | None) -> tuple[np.ndarray, LocationProvenance]:
