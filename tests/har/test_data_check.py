@@ -17,14 +17,16 @@ from vsmp_imu.smp.library import ActivityLibrary
 P = np.array([[0, 1, 0], [1, 0, 0], [0, 0, -1]])
 
 
-def _dataset(root, library) -> object:
+def _dataset(root, library, turn=np.eye(3), labels=("walking", "sitting")) -> object:
+    """Two subjects' simulated windows in the device frame P (then turned by `turn`, a sensor
+    sitting askew on the body)."""
     backend = backend_for("procedural", ())
     rows = []
     for n, subject in enumerate(["a", "b"]):
-        for k, label in enumerate(["walking", "sitting"]):
+        for k, label in enumerate(labels):
             imu = ImuSimulator(50.0, seed=n).simulate(backend.generate(library.get(label).smp, 20 + 2 * n + k),
                                                       "waist").data
-            acc, gyr = imu[:, :3] @ P.T, imu[:, 3:] @ P.T
+            acc, gyr = imu[:, :3] @ P.T @ turn.T, imu[:, 3:] @ P.T @ turn.T
             rows.append(pd.DataFrame({"subject": subject, "label": label, "ax": acc[:, 0], "ay": acc[:, 1],
                                       "az": acc[:, 2], "gx": gyr[:, 0], "gy": gyr[:, 1], "gz": gyr[:, 2]}))
     (root / "data").mkdir(parents=True)
@@ -68,10 +70,19 @@ def test_a_wrong_activity_file_is_flagged_and_the_right_one_is_not(cli, tmp_path
 def test_wrong_axes_turn_gravity_away(cli, tmp_path):
     path = _dataset(tmp_path / "ds", ActivityLibrary.load())
     spec = yaml.safe_load(path.read_text())
-    spec["locations"][0]["axes"] = ["left", "up", "forward"]  # not the phone's axes
+    spec["locations"][0]["axes"] = ["left", "up", "forward"]  # not the phone's axes: a half turn away
     path.write_text(yaml.safe_dump(spec))
-    code, _, err = cli("data", "check", path, "--samples", "1", "-o", tmp_path / "chk")
+    code, out, err = cli("data", "check", path, "--samples", "1", "-o", tmp_path / "mounted")
     assert code == 0, err
+    written = json.loads((tmp_path / "mounted" / "check.json").read_text())
+    (mounting,) = written["mountings"]
+    # the estimated mounting takes the half turn up, and says the axes look wrong
+    assert mounting["angle_deg"] > 150 and mounting["flags"] and "check the axes" in mounting["flags"][0]
+    assert "check the axes" in " ".join(out.split())
+    assert all(c["gravity_angle_deg"] < 15 < 60 < c["declared_gravity_angle_deg"] for c in written["classes"])
+    code, _, err = cli("data", "check", path, "--samples", "1", "--no-mounting", "-o", tmp_path / "chk")
+    assert code == 0, err
+    assert json.loads((tmp_path / "chk" / "check.json").read_text())["mountings"][0]["angle_deg"] is None
     del spec["locations"][0]["axes"]
     path.write_text(yaml.safe_dump(spec))
     code, _, err = cli("data", "check", path, "--samples", "1", "-o", tmp_path / "chk_none")
@@ -80,6 +91,28 @@ def test_wrong_axes_turn_gravity_away(cli, tmp_path):
     classes = {c["label"]: c for c in json.loads((tmp_path / "chk" / "check.json").read_text())["classes"]}
     for label in ("sitting", "walking"):
         assert classes[label]["gravity_angle_deg"] > 60 and "gravity points" in classes[label]["flags"][0]
+
+
+def test_a_sensor_askew_on_the_body_is_taken_up_by_the_mounting(cli, tmp_path):
+    """A phone turned 35° about the body's long axis on the belt: the check estimates the turn,
+    compares each class after it, and flags nothing; in the declared axes alone gravity and the
+    turns of lying down differ."""
+    from scipy.spatial.transform import Rotation
+
+    turn = Rotation.from_rotvec(np.radians(35.0) * np.array([1.0, 0.0, 0.0])).as_matrix()  # device x = up
+    path = _dataset(tmp_path / "ds", ActivityLibrary.load(), turn, labels=("walking", "sitting", "sit_to_lie"))
+    code, out, err = cli("data", "check", path, "--samples", "2", "-o", tmp_path / "chk")
+    assert code == 0, err
+    written = json.loads((tmp_path / "chk" / "check.json").read_text())
+    (mounting,) = written["mountings"]
+    assert abs(mounting["angle_deg"] - 35.0) < 5 and mounting["axis"][0] > 0.97 and mounting["flags"] == []
+    assert f"sits {mounting['angle_deg']:.0f}° from its declared axes" in " ".join(out.split())
+    classes = {c["label"]: c for c in written["classes"]}
+    assert all(c["flags"] == [] for c in classes.values()), classes
+    assert classes["sit_to_lie"]["gravity_angle_deg"] < 8 < 20 < classes["sit_to_lie"]["declared_gravity_angle_deg"]
+    code, _, err = cli("data", "check", path, "--samples", "2", "--no-mounting", "-o", tmp_path / "declared")
+    declared = {c["label"]: c for c in json.loads((tmp_path / "declared" / "check.json").read_text())["classes"]}
+    assert code == 0 and any("rotation rate" in f for f in declared["sit_to_lie"]["flags"])
 
 
 def test_user_mistakes_exit_2(cli, tmp_path):
@@ -131,8 +164,11 @@ def test_the_turn_flag_needs_a_gap_beyond_the_floor_and_half_the_larger_turn():
     assert turn_flag(np.zeros(3), np.array([0.0, 0.0, 0.9 * MIN_TURN_RAD_S]), axes) is None
     assert turn_flag(np.array([0.4, 0, 0]), np.array([0.25, 0, 0]), axes) is None  # same way, 0.15 < 0.2
     flag = turn_flag(np.array([0.4, 0, 0]), np.array([0.15, 0, 0]), axes)
-    assert flag and "x (up): +0.40 rad/s real vs +0.15 simulated" in flag
-    assert "z (backward)" in turn_flag(np.array([0, 0, -0.3]), np.array([0, 0, 0.3]), axes)
+    assert flag and "x (up): +0.40 rad/s real vs +0.15 simulated" in flag and "0.4x as far" in flag
+    opposite = turn_flag(np.array([0, 0, -0.3]), np.array([0, 0, 0.3]), axes)
+    assert "z (backward)" in opposite and "check the side" in opposite
+    assert "the activity file lacks" in turn_flag(np.array([0.3, 0, 0]), np.zeros(3), axes)
+    assert "the real windows lack" in turn_flag(np.zeros(3), np.array([0, 0.3, 0]), axes)
 
 
 def test_acc_skew_tells_impacts_from_dips_and_ignores_still_windows():

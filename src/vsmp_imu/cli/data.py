@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import asdict
 from pathlib import Path
 
 import typer
@@ -49,9 +50,13 @@ def check_cmd(
     window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0, help="window length in seconds"),
     overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
     output: Path = typer.Option(..., "--output", "-o", help="folder for check.json and check.png"),
+    mounting: bool = typer.Option(True, "--mounting/--no-mounting",
+                                  help="turn the simulated windows by the sensor mounting estimated from the "
+                                       "class means, as grounding does (--no-mounting: the declared axes alone)"),
 ) -> None:
-    """Per class: the activity file simulated in the declared convention against the real windows
-    (D_stat loss, where gravity points, dominant frequency, how much it moves) and a plot."""
+    """Per class: the activity file simulated in the declared convention, turned by the estimated
+    mounting, against the real windows (D_stat loss, where gravity points, dominant frequency, how
+    much it moves) and a plot."""
     output_dir(output)
     from vsmp_imu.har.datasets import load_dataset
     from vsmp_imu.io import write_json
@@ -63,11 +68,13 @@ def check_cmd(
     print_warnings(ds.warnings)
     sources, unlinked = _sources(source, ActivityLibrary.load([Path(d) for d in dirs]), ds.info)
     print_warnings(unlinked)
-    check = DataCheck(backend=backend, samples=samples, window_s=window_s, overlap=overlap, library_dirs=dirs)
+    check = DataCheck(backend=backend, samples=samples, window_s=window_s, overlap=overlap, library_dirs=dirs,
+                      mounting=mounting)
     results = check.run(ds, sources)
     output.mkdir(parents=True, exist_ok=True)
     write_json(output / "check.json", {"dataset": ds.info.name, "source": source, "backend": backend,
                                        "samples": samples, "warnings": list(ds.warnings) + unlinked,
+                                       "mountings": [asdict(m) for m in check.mountings_],
                                        "classes": check.to_json()})
     check.plot(output / "check.png", ds.info.fs_hz)
     places = sorted({r.location for r in results})
@@ -89,6 +96,10 @@ def check_cmd(
                       _pair(r.real_acc_skew, r.synthetic_acc_skew),
                       "[yellow]![/]" if r.flags else "ok")
     console.print(table)
+    for m in check.mountings_ if mounting else ():
+        console.print(m.describe(), highlight=False)
+        for flag in m.flags:
+            console.print(f"[yellow]{m.location}[/]: {flag}", highlight=False)
     for r in results:
         for flag in r.flags:
             console.print(f"[yellow]{r.label}[/] ({r.location}, {r.source}): {flag}", highlight=False)

@@ -3,13 +3,26 @@
 Before a whole evaluation, a user wants to know which activity file (or which
 declared convention) is off. Per class and sensor location this simulates a
 few executions of the class's base SMP (the default motion, no grounding, no
-filter), puts them in the dataset's declared convention (axes, gravity) and
-compares them with the real windows of the class:
+filter), puts them in the dataset's declared convention (axes, gravity), turns
+them by the sensor's mounting and compares them with the real windows of the
+class.
+
+Declared axes say which way a device's axes point, not how it sits on the
+body (a phone turned on the belt, a watch strapped tilted). The pipeline
+estimates that nominal mounting per location from the class means before it
+grounds anything (grounding/mounting.py); the check estimates it the same way
+(the rotation that best maps every class's simulated mean acceleration onto
+its real one, weighted by the real windows) and reports it, so what is common
+to every class is told apart from what is off in one activity file. A
+mounting of more than `MAX_MOUNTING_DEG` is flagged (declared axes that are
+wrong, rather than a sensor that sits askew). `mounting=False` compares in the
+declared axes alone. Per class:
 
 - `l_sim`: the D_stat loss between the two (grounding/stats.py: window
   covariance, band energies, RMS norms and autocorrelation; 0 = identical);
 - the mean acceleration vector (where gravity points, device frame) and the
-  angle between the real and the simulated one;
+  angle between the real and the simulated one (also before the mounting:
+  `declared_gravity_angle_deg`);
 - the dominant frequency of the acceleration magnitude;
 - the RMS of the acceleration around its window mean (how much it moves);
 - the median skewness of |acc| within a window: impacts (heel strikes, a seat
@@ -25,10 +38,11 @@ A class is flagged when gravity points more than `MAX_GRAVITY_ANGLE_DEG`
 apart, when the dominant frequencies differ by more than a factor
 `MAX_FREQUENCY_RATIO` (unless either side's spectrum peaks nearly as high at
 the other's: one rhythm with two harmonics of about equal power), when one
-moves `MAX_MOTION_RATIO` times more than the other, or when one turns one
-way on average and the other does not
-(mean gyroscope vectors further apart than `MIN_TURN_RAD_S` and half the
-larger one). Nothing here is fitted or learned: it is a look, not a grounding.
+moves `MAX_MOTION_RATIO` times more than the other, or when the two turn
+differently on average (mean gyroscope vectors further apart than
+`MIN_TURN_RAD_S` and half the larger one; the flag says whether one side does
+not turn, the two turn opposite ways, or one turns further per window).
+Nothing but the mounting is fitted: it is a look, not a grounding.
 """
 
 from __future__ import annotations
@@ -56,6 +70,7 @@ STATIC_RMS_M_S2 = 0.5  # below this RMS around the mean a window set has no domi
 MIN_FREQUENCY_HZ = 0.2
 GYRO = slice(3, 6)  # the gyroscope's channels of a 6-channel window
 MIN_TURN_RAD_S = 0.1  # mean rotation rates closer than this never differ
+MAX_MOUNTING_DEG = 60.0  # a sensor turned further than this from its declared axes: check them
 
 
 @dataclass
@@ -81,7 +96,68 @@ class ClassCheck:
     real_turn_rms: float | None = None
     synthetic_turn_rms: float | None = None
     l_sim: float | None = None
+    declared_gravity_angle_deg: float | None = None  # before the mounting
     flags: list[str] = field(default_factory=list)
+
+
+@dataclass
+class MountingCheck:
+    """The mounting estimated at one location: device-frame rotation of the simulated windows."""
+
+    location: str
+    classes: int  # classes whose means it was fitted to
+    angle_deg: float | None = None  # None: not estimated (no gravity, no axes, fewer than 2 classes)
+    axis: list[float] | None = None  # device frame, unit
+    residual_deg: float | None = None  # rms angle between the turned simulated and the real class means
+    flags: list[str] = field(default_factory=list)
+
+    def rotation(self):
+        from scipy.spatial.transform import Rotation
+
+        if self.angle_deg is None:
+            return Rotation.identity()
+        return Rotation.from_rotvec(np.radians(self.angle_deg) * np.asarray(self.axis))
+
+    def describe(self) -> str:
+        if self.angle_deg is None:
+            return f"{self.location}: no mounting estimated ({self.classes} classes with gravity and axes)"
+        axis = " ".join(f"{v:+.2f}{n}" for v, n in zip(self.axis, "xyz", strict=True) if abs(v) >= 0.05)
+        return (f"{self.location}: the real sensor sits {self.angle_deg:.0f}° from its declared axes (about "
+                f"{axis}; {self.classes} class means fit within {self.residual_deg:.0f}° rms); the simulated "
+                "windows are turned by it, as grounding does")
+
+
+def estimate_location_mounting(location: str, pairs: list[tuple[np.ndarray, np.ndarray]]) -> MountingCheck:
+    """The mounting from (real, simulated) windows of each class at one location (device frame)."""
+    from vsmp_imu.grounding.mounting import estimate_mounting
+
+    pairs = [(r, s) for r, s in pairs if len(r) and len(s)]
+    out = MountingCheck(location, len(pairs))
+    if len(pairs) < 2:
+        return out
+    rot, rms = estimate_mounting(np.array([mean_acc(s) for _, s in pairs]), np.array([mean_acc(r) for r, _ in pairs]),
+                                 np.array([len(r) for r, _ in pairs], dtype=float))
+    if not np.isfinite(rms):  # too few classes carry a gravity direction
+        return out
+    vec = rot.as_rotvec()
+    angle = float(np.degrees(np.linalg.norm(vec)))
+    out.angle_deg, out.residual_deg = round(angle, 2), round(rms, 2)
+    out.axis = (vec / np.linalg.norm(vec)).round(3).tolist() if angle > 0 else [1.0, 0.0, 0.0]
+    if angle > MAX_MOUNTING_DEG:
+        out.flags.append(f"the real sensor sits {angle:.0f}° from its declared axes: check the axes (a sensor "
+                         "askew on the body sits a few tens of degrees off, wrong axes 90° or 180°)")
+    return out
+
+
+def turned(windows: np.ndarray, mounting: MountingCheck) -> np.ndarray:
+    """Windows (N, T, C) with each 3-axis group (acc, gyro) turned by the mounting."""
+    if mounting.angle_deg is None:
+        return windows
+    matrix = mounting.rotation().as_matrix()
+    out = windows.copy()
+    for start in range(0, windows.shape[-1] - 2, 3):
+        out[..., start : start + 3] = windows[..., start : start + 3] @ matrix.T
+    return out
 
 
 def mean_acc(windows: np.ndarray) -> np.ndarray:
@@ -141,8 +217,15 @@ def turn_flag(real: np.ndarray, syn: np.ndarray, axes) -> str | None:
         return None
     k = int(np.argmax(np.abs(real - syn)))
     axis = f"{'xyz'[k]} ({axes[k]})" if axes else "xyz"[k]
-    return (f"mean rotation rate about {axis}: {real[k]:+.2f} rad/s real vs {syn[k]:+.2f} simulated: check the "
-            "side, or a turn the activity file lacks")
+    r, s = real[k], syn[k]
+    if min(abs(r), abs(s)) < 0.5 * MIN_TURN_RAD_S:
+        hint = "a turn the activity file lacks" if abs(r) > abs(s) else "a turn the real windows lack"
+    elif np.sign(r) != np.sign(s):
+        hint = "check the side"
+    else:
+        hint = (f"the simulation turns {abs(s / r):.1f}x as far per window: check the tempo, or how far the "
+                "activity file turns")
+    return f"mean rotation rate about {axis}: {r:+.2f} rad/s real vs {s:+.2f} simulated: {hint}"
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> float | None:
@@ -166,8 +249,9 @@ def simulate_windows(motion: Motion, loc: SensorLocation, fs_hz: float, size: in
 
 
 def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn: np.ndarray,
-            fs_hz: float) -> ClassCheck:
-    """The statistics of one class at one location, and what looks off."""
+            fs_hz: float, declared: np.ndarray | None = None) -> ClassCheck:
+    """The statistics of one class at one location, and what looks off (`syn` turned by the
+    mounting; `declared`: the same windows before it, for the angle in the declared axes)."""
     out = ClassCheck(label, loc.name, source, len(real), len(syn))
     if len(real) == 0 or len(syn) == 0:
         out.flags.append("no real windows" if len(real) == 0 else "no simulated windows")
@@ -175,6 +259,7 @@ def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn:
     r_mean, s_mean = mean_acc(real), mean_acc(syn)
     out.real_mean_acc, out.synthetic_mean_acc = r_mean.round(3).tolist(), s_mean.round(3).tolist()
     out.gravity_angle_deg = _angle(r_mean, s_mean)
+    out.declared_gravity_angle_deg = _angle(r_mean, mean_acc(syn if declared is None else declared))
     out.real_frequency_hz = dominant_frequency(real, fs_hz)
     out.synthetic_frequency_hz = dominant_frequency(syn, fs_hz)
     out.real_motion_rms, out.synthetic_motion_rms = motion_rms(real), motion_rms(syn)
@@ -218,7 +303,9 @@ class DataCheck:
     window_s: float = 2.0
     overlap: float = 0.5
     library_dirs: tuple[str, ...] = ()
+    mounting: bool = True
     results_: list[ClassCheck] = field(default_factory=list)
+    mountings_: list[MountingCheck] = field(default_factory=list)
     windows_: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     def run(self, dataset: HarDataset, sources: dict[str, list]) -> list[ClassCheck]:
@@ -226,27 +313,43 @@ class DataCheck:
         size, step = window_geometry(info.fs_hz, self.window_s, self.overlap)
         real = dataset.windows(self.window_s, self.overlap)
         backend = backend_for(self.backend, tuple(self.library_dirs))
-        self.results_, self.windows_ = [], {}
+        declared: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
+        sources_of: dict[str, str] = {}
         for i, label in enumerate(info.label_names):
             if label not in sources:
                 continue
             source, base = sources[label][0]
+            sources_of[label] = source
             motions = [Motion.load(base) if isinstance(base, Path) else backend.generate(base, seed)
                        for seed in range(self.samples)]
             for loc in locations_of(info, label):
                 cols = [info.channel_names.index(c) for c in loc.channels]
                 r = real.X[real.y == i][..., cols].astype(np.float64)
                 s = np.concatenate([simulate_windows(m, loc, info.fs_hz, size, step) for m in motions])
-                self.windows_[(label, loc.name)] = (r, s)
-                self.results_.append(compare(label, loc, source, r, s, info.fs_hz))
+                declared[(label, loc.name)] = (r, s)
+        self.mountings_ = [self._mounting(loc, declared) for loc in info.locations
+                           if any(name == loc.name for _, name in declared)]
+        by_place = {m.location: m for m in self.mountings_}
+        self.results_, self.windows_ = [], {}
+        for (label, place), (r, s) in declared.items():
+            loc = info.location(place)
+            s_turned = turned(s, by_place[place])
+            self.windows_[(label, place)] = (r, s_turned)
+            self.results_.append(compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s))
         return self.results_
+
+    def _mounting(self, loc: SensorLocation, declared: dict) -> MountingCheck:
+        if not (self.mounting and loc.gravity_included and loc.axes):
+            return MountingCheck(loc.name, 0)
+        return estimate_location_mounting(loc.name, [pair for (_, place), pair in declared.items()
+                                                     if place == loc.name])
 
     def to_json(self) -> list[dict]:
         return [asdict(r) for r in self.results_]
 
     def plot(self, path: Path, fs_hz: float) -> Path:
         """Per class and location: mean acceleration (x, y, z) and the spectrum of |acc|, real vs
-        simulated (written atomically)."""
+        simulated (turned by the mounting; written atomically)."""
         import matplotlib
 
         matplotlib.use("Agg", force=False)
@@ -272,7 +375,10 @@ class DataCheck:
                 ax_f.set_xlim(0, min(fs_hz / 2, 8))
             if rows:
                 axes[0, 0].legend(fontsize=7)
-            fig.tight_layout()
+            turns = [f"{m.location} {m.angle_deg:.0f}°" for m in self.mountings_ if m.angle_deg is not None]
+            if turns:
+                fig.suptitle(f"simulated windows turned by the estimated mounting ({', '.join(turns)})", fontsize=9)
+            fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
             with atomic_path(path, suffix=".png") as tmp:
                 fig.savefig(tmp, format="png", dpi=90)
         finally:
