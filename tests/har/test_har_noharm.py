@@ -96,7 +96,34 @@ def test_an_unknown_mode_is_a_config_error():
     with pytest.raises(ConfigError) as err:
         EvalConfig(dataset="tiny", share_selection="some").check()
     assert err.value.field == "--share-selection"
-    assert "Allowed: off, method, class." in str(err.value)
+    assert "Allowed: off, method, class, amount." in str(err.value)
+
+
+def test_amount_keeps_all_of_helpful_windows_and_little_of_half_wrong_ones():
+    """With two real windows per class the right synthetic windows help most when all are mixed;
+    where the later half of each class's windows carry the wrong class's level, the first
+    windows alone (a smaller share) score best; with no validation window everything is kept."""
+    from vsmp_imu.har.noharm import AMOUNTS
+
+    rng = np.random.default_rng(3)
+    real = _windows([0.0, 1.0, 2.0], [0, 1, 2], 2, rng, "1")
+    val = _windows([0.0, 1.0, 2.0], [0, 1, 2], 20, rng, "2")
+    right = _windows([0.0, 1.0, 2.0], [0, 1, 2], 40, rng, "synthetic")
+    choice = ShareSelector("amount").choose(_rf_fit, real, right, val)
+    assert sorted(choice) == [0, 1, 2] and {s.share for s in choice.values()} == {1.0}
+    assert choice[0].kept == 40 and choice[0].n_val == 20 and choice[0].reason.startswith("share 1 chosen")
+    assert all(f"{a:g}: " in choice[0].reason for a in AMOUNTS)
+    # each class: 5 right windows first, then 35 of the next class's level
+    parts = [_windows([m], [c], 5, rng, "synthetic") for m, c in ((0.0, 0), (1.0, 1), (2.0, 2))]
+    parts += [_windows([m], [c], 35, rng, "synthetic") for m, c in ((1.0, 0), (2.0, 1), (0.0, 2))]
+    from vsmp_imu.har.windows import concat_windows
+
+    mixed = concat_windows(parts)
+    order = np.argsort(mixed.y, kind="stable")  # per class: the right windows first
+    choice = ShareSelector("amount").choose(_rf_fit, real, mixed[order], val)
+    assert 0 < choice[0].share <= 0.25 and len({s.share for s in choice.values()}) == 1
+    nothing = ShareSelector("amount").choose(_rf_fit, real, right, val[:0])
+    assert all(s.share == 1 and "no validation windows" in s.reason for s in nothing.values())
 
 
 def _config(**kw) -> EvalConfig:

@@ -154,7 +154,8 @@ def evaluate_cmd(
     share_selection: str = typer.Option(
         "off", "--share-selection",
         help="do no harm: drop a method's synthetic windows where they measurably lower the validation "
-             "subjects' true-class probability: method (all together) | class (per class) | off"),
+             "subjects' true-class probability: method (all together) | class (per class) | amount (the "
+             "share of them, 0 to 1, the validation subjects score best) | off"),
     output: Path = typer.Option(..., "--output", "-o", help="output folder"),
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
