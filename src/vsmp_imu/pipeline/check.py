@@ -109,14 +109,13 @@ class MountingCheck:
     angle_deg: float | None = None  # None: not estimated (no gravity, no axes, fewer than 2 classes)
     axis: list[float] | None = None  # device frame, unit
     residual_deg: float | None = None  # rms angle between the turned simulated and the real class means
+    quat_xyzw: list[float] | None = None  # the rotation itself (angle and axis are rounded for reading)
     flags: list[str] = field(default_factory=list)
 
-    def rotation(self):
+    def matrix(self) -> np.ndarray:
         from scipy.spatial.transform import Rotation
 
-        if self.angle_deg is None:
-            return Rotation.identity()
-        return Rotation.from_rotvec(np.radians(self.angle_deg) * np.asarray(self.axis))
+        return np.eye(3) if self.quat_xyzw is None else Rotation.from_quat(self.quat_xyzw).as_matrix()
 
     def describe(self) -> str:
         if self.angle_deg is None:
@@ -142,6 +141,7 @@ def estimate_location_mounting(location: str, pairs: list[tuple[np.ndarray, np.n
     vec = rot.as_rotvec()
     angle = float(np.degrees(np.linalg.norm(vec)))
     out.angle_deg, out.residual_deg = round(angle, 2), round(rms, 2)
+    out.quat_xyzw = [float(v) for v in rot.as_quat()]
     out.axis = (vec / np.linalg.norm(vec)).round(3).tolist() if angle > 0 else [1.0, 0.0, 0.0]
     if angle > MAX_MOUNTING_DEG:
         out.flags.append(f"the real sensor sits {angle:.0f}° from its declared axes: check the axes (a sensor "
@@ -151,9 +151,9 @@ def estimate_location_mounting(location: str, pairs: list[tuple[np.ndarray, np.n
 
 def turned(windows: np.ndarray, mounting: MountingCheck) -> np.ndarray:
     """Windows (N, T, C) with each 3-axis group (acc, gyro) turned by the mounting."""
-    if mounting.angle_deg is None:
+    if mounting.quat_xyzw is None:
         return windows
-    matrix = mounting.rotation().as_matrix()
+    matrix = mounting.matrix()
     out = windows.copy()
     for start in range(0, windows.shape[-1] - 2, 3):
         out[..., start : start + 3] = windows[..., start : start + 3] @ matrix.T
