@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.stats import spearmanr
 
+from vsmp_imu.errors import ConfigError
 from vsmp_imu.executor import LocalExecutor
 from vsmp_imu.grounding.split import stat_rank_split
 from vsmp_imu.har.datasets import load_dataset
@@ -284,3 +285,26 @@ def test_an_unseen_posture_keeps_the_nominal_sensor_and_an_unseen_movement_is_ca
     off = prepare(GenerationSpec(nominal_unseen_postures=False), info, seen, sources, seed=0)
     assert off.nominal_sensor == () and off.locations["STANDING"][0].target == targets["WALKING"]
     assert prepare(GenerationSpec(), info, train, sources, seed=0).nominal_sensor == ()
+
+
+def test_a_class_without_real_windows_spreads_its_samples_over_k_unseen_variants(library):
+    """Slot s uses variant s mod K: K = k for a class with real windows, k_unseen for one with none
+    (the variants a class with windows gets are the first of them); both must be >= 1."""
+    from vsmp_imu.pipeline.fold import sample_tasks
+
+    bases = [("library:walking", library.get("walking").smp)]
+    spec = GenerationSpec(k=4, k_unseen=16)
+
+    def variants(class_windows):
+        tasks = sample_tasks(spec, "WALKING", 0, bases, range(32), 0, "f1", 50.0, (), library,
+                             class_windows=class_windows)
+        return {t.variant: t.smp_json for t in tasks}
+
+    seen, unseen = variants(120), variants(0)
+    assert sorted(seen) == list(range(4)) and sorted(unseen) == list(range(16))
+    assert all(unseen[i] == seen[i] for i in range(4))
+    assert len(set(unseen.values())) == 16
+    assert spec.variants_for(None) == 4 and spec.variants_for(0) == 16
+    for bad in ({"k": 0}, {"k_unseen": 0}):
+        with pytest.raises(ConfigError):
+            GenerationSpec(**bad)

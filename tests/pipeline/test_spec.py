@@ -25,7 +25,7 @@ GENERATE_OPTIONS = {
     "rank_grounding": "--no-rank", "per_class_rank": "--per-class-rank", "quality_filter": "--no-filter",
     "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm", "refill": "--refill", "library_dirs": "--library",
     "side_evidence": "--side-evidence", "texture": "--texture", "pooled_calibration": "--pooled-calibration",
-    "nominal_unseen_postures": "--nominal-unseen-postures",
+    "nominal_unseen_postures": "--nominal-unseen-postures", "k_unseen": "--k-unseen",
     "executor": "--executor", "workers": "--workers",
     "address": "--address", "cache_dir": "--cache-dir", "gpus_per_task": "--gpus-per-task",
 }
@@ -34,7 +34,7 @@ EVALUATE_OPTIONS = {
     "source": "--source", "alpha": "--alpha", "policy": "--policy", "k": "--k", "backend": "--backend",
     "per_class_rank": "--per-class-rank", "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm",
     "side_evidence": "--side-evidence", "texture": "--texture", "pooled_calibration": "--pooled-calibration",
-    "nominal_unseen_postures": "--nominal-unseen-postures",
+    "nominal_unseen_postures": "--nominal-unseen-postures", "k_unseen": "--k-unseen",
     "refill": "--refill", "library_dirs": "--library",
     "executor": "--executor", "workers": "--workers", "address": "--address",
 }

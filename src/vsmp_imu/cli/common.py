@@ -195,5 +195,9 @@ NOMINAL_UNSEEN_POSTURES = typer.Option(
     True, "--nominal-unseen-postures/--calibrate-unseen-postures",
     help="a held posture with no real training windows keeps the nominal sensor (--calibrate-unseen-postures: "
          "sim-in-the-loop against the other classes' pooled statistics, as a moving class)")
+K_UNSEEN = typer.Option(
+    16, "--k-unseen", min=1, max=64,
+    help="SMP variants per base SMP for a class with no real training windows (an unseen class, whose "
+         "samples rest on its SMP alone; --k for the others)")
 MOTION_FIT = typer.Option(False, "--motion-fit",
                           help="fit each class's motion parameters to D_stat before synthesis (VSMP-IMU)")

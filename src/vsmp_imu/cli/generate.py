@@ -9,6 +9,7 @@ import typer
 
 from vsmp_imu.cli.common import (
     GRAVITY_NORM,
+    K_UNSEEN,
     MOTION_FIT,
     NOMINAL_UNSEEN_POSTURES,
     PER_CLASS_RANK,
@@ -31,6 +32,7 @@ def generate_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     source: str = typer.Option("library", "--source", help=SOURCE_HELP),
     k: int = typer.Option(4, "--k", min=1, max=64, help="SMP variants per base SMP"),
+    k_unseen: int = K_UNSEEN,
     backend: str = typer.Option("procedural", "--backend", help="procedural | compiled | hymotion"),
     alpha: float = typer.Option(2.0, "--alpha", help="Synthetic windows = alpha x real training windows "
                                 "(the paper: 0.5)"),
@@ -72,7 +74,7 @@ def generate_cmd(
     from vsmp_imu.pipeline.spec import GenerationSpec
 
     spec = GenerationSpec(
-        source=source, alpha=alpha, policy=policy, k=k, backend=backend, sim_in_the_loop=not no_sim_loop,
+        source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, sim_in_the_loop=not no_sim_loop,
         rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,

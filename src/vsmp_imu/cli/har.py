@@ -13,6 +13,7 @@ from rich.table import Table
 
 from vsmp_imu.cli.common import (
     GRAVITY_NORM,
+    K_UNSEEN,
     MOTION_FIT,
     NOMINAL_UNSEEN_POSTURES,
     PER_CLASS_RANK,
@@ -135,6 +136,7 @@ def evaluate_cmd(
         "library", "--source", help="generative methods: library | smp:DIR | video:DIR"
     ),
     k: int = typer.Option(4, "--k", max=64, help="generative methods: SMP variants per base SMP"),
+    k_unseen: int = K_UNSEEN,
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     per_class_rank: bool = PER_CLASS_RANK,
     gravity_norm: bool = GRAVITY_NORM,
@@ -183,7 +185,7 @@ def evaluate_cmd(
         report_groups=_parse_groups(report_groups), share_selection=share_selection,
         unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
-        source=source, alpha=alpha, policy=policy, k=k, backend=backend, per_class_rank=per_class_rank,
+        source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,

@@ -344,13 +344,15 @@ def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, se
 
 
 # -- stage 2: the sample tasks ---------------------------------------------------------------------
-def smp_variants(spec: GenerationSpec, base: Base, seed: int, key: str, library=None) -> list[tuple[int, Base]]:
-    """K constrained variants of an SMP; a prompt or a recorded motion is used as is."""
+def smp_variants(spec: GenerationSpec, base: Base, seed: int, key: str, library=None,
+                 k: int | None = None) -> list[tuple[int, Base]]:
+    """K constrained variants of an SMP (`k`, default `spec.k`); a prompt or a recorded motion is
+    used as is."""
     if not isinstance(base, SMP):
         return [(0, base)]
     smp = Refiner(library).refine(base).smp if spec.refine else base
     augmenter = SMPAugmenter(uncertainty_conditioned=spec.uncertainty_conditioned)
-    return list(enumerate(augmenter.augment(smp, spec.k, int(rng_for(seed, key).integers(2**31)))))
+    return list(enumerate(augmenter.augment(smp, k or spec.k, int(rng_for(seed, key).integers(2**31)))))
 
 
 def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list[tuple[str, Base]], slots: range,
@@ -358,16 +360,18 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
                  motion_dir: Path | None = None, motion_fit: str = "",
                  class_windows: int | None = None, texture: dict | None = None) -> list[SampleTask]:
     """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants);
-    `class_windows`: the class's real training windows in the fold, kept in the provenance;
-    `texture`: what the worker needs to add the movement texture (`texture_task`)."""
-    variants = [(src, k, v) for src, base in bases
-                for k, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", library)]
+    `class_windows`: the class's real training windows in the fold, kept in the provenance (0: the
+    class gets `spec.k_unseen` variants per base SMP); `texture`: what the worker needs to add the
+    movement texture (`texture_task`)."""
+    k = spec.variants_for(class_windows)
+    variants = [(src, i, v) for src, base in bases
+                for i, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", library, k)]
     tasks = []
     for slot in slots:
-        src, k, base = variants[slot % len(variants)]
+        src, i, base = variants[slot % len(variants)]
         tasks.append(SampleTask(
             key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
-            variant=k, **_payload(base),
+            variant=i, **_payload(base),
             backend=spec.backend, seed=int(rng_for(seed, fold, label, slot).integers(2**31)),
             fs_hz=fs_hz, locations=locations, sim_in_the_loop=spec.sim_in_the_loop,
             noise=spec.noise, duration_s=spec.duration_s, library_dirs=tuple(spec.library_dirs),
@@ -714,6 +718,9 @@ class FoldGenerator:
             summary["texture"] = texture_summary(info, self.textures, ok)
         if setup.nominal_sensor:  # unseen postures: no sim-in-the-loop (eta nominal)
             summary["nominal_sensor"] = list(setup.nominal_sensor)
+        unseen = [n for n, i in zip(info.label_names, budget, strict=True) if i > 0 and self.class_windows_[n] == 0]
+        if unseen and spec.k_unseen != spec.k:  # classes with no real window: their SMP variants per base SMP
+            summary["variants_per_smp"] = {n: spec.k_unseen for n in unseen}
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
         if self.sides:
@@ -793,7 +800,7 @@ class FoldGenerator:
                 per = _windows_per_sample(results[label], length, hop)
                 n_new = min(MAX_SLOTS_PER_CLASS_ROUND, max(1, math.ceil(missing / max(per, 0.5))))
                 if not results[label]:
-                    n_new = max(n_new, spec.k)
+                    n_new = max(n_new, spec.variants_for(self.class_windows_.get(label)))
                 start = len(results[label])
                 tasks += self.tasks(info, label, sources[label], range(start, start + n_new), seed, fold,
                                     loc_tasks[label])
