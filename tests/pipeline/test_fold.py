@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.stats import spearmanr
@@ -308,3 +310,24 @@ def test_a_class_without_real_windows_spreads_its_samples_over_k_unseen_variants
     for bad in ({"k": 0}, {"k_unseen": 0}):
         with pytest.raises(ConfigError):
             GenerationSpec(**bad)
+
+
+def test_the_summary_names_the_classes_that_got_k_unseen_variants(hapt12, library):
+    """A fold whose only budgeted class has no real window: its first round holds at least
+    k_unseen samples, one per variant, and the generation summary says how many it got."""
+    info, windows = hapt12
+    gone = info.label_names.index("STAND_TO_SIT")
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    train = train[np.flatnonzero(train.y != gone)]
+    budget = np.zeros(info.n_classes, np.int64)
+    budget[gone] = 4
+    sources = LibrarySmpSource(library).smps("hapt12", info.label_names)
+    spec = GenerationSpec(k=2, k_unseen=6, oversample=1.0, max_rounds=1, quality_filter=False)
+    out = FoldGenerator(spec, LocalExecutor(1, show_progress=False), library=library).generate(
+        info, train, sources, budget, seed=0, fold="test")
+    assert out.summary["variants_per_smp"] == {"STAND_TO_SIT": 6}
+    assert sorted({t.variant for t in out.tasks}) == list(range(6))
+    same = replace(spec, k_unseen=2)
+    assert "variants_per_smp" not in FoldGenerator(same, LocalExecutor(1, show_progress=False),
+                                                   library=library).generate(
+        info, train, sources, budget, seed=0, fold="test").summary

@@ -344,15 +344,14 @@ def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, se
 
 
 # -- stage 2: the sample tasks ---------------------------------------------------------------------
-def smp_variants(spec: GenerationSpec, base: Base, seed: int, key: str, library=None,
-                 k: int | None = None) -> list[tuple[int, Base]]:
-    """K constrained variants of an SMP (`k`, default `spec.k`); a prompt or a recorded motion is
-    used as is."""
+def smp_variants(spec: GenerationSpec, base: Base, seed: int, key: str, k: int,
+                 library=None) -> list[tuple[int, Base]]:
+    """`k` constrained variants of an SMP; a prompt or a recorded motion is used as is."""
     if not isinstance(base, SMP):
         return [(0, base)]
     smp = Refiner(library).refine(base).smp if spec.refine else base
     augmenter = SMPAugmenter(uncertainty_conditioned=spec.uncertainty_conditioned)
-    return list(enumerate(augmenter.augment(smp, k or spec.k, int(rng_for(seed, key).integers(2**31)))))
+    return list(enumerate(augmenter.augment(smp, k, int(rng_for(seed, key).integers(2**31)))))
 
 
 def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list[tuple[str, Base]], slots: range,
@@ -365,7 +364,7 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
     movement texture (`texture_task`)."""
     k = spec.variants_for(class_windows)
     variants = [(src, i, v) for src, base in bases
-                for i, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", library, k)]
+                for i, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", k, library)]
     tasks = []
     for slot in slots:
         src, i, base = variants[slot % len(variants)]
