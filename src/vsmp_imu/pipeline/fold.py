@@ -717,9 +717,10 @@ class FoldGenerator:
             summary["texture"] = texture_summary(info, self.textures, ok)
         if setup.nominal_sensor:  # unseen postures: no sim-in-the-loop (eta nominal)
             summary["nominal_sensor"] = list(setup.nominal_sensor)
-        unseen = [n for n, i in zip(info.label_names, budget, strict=True) if i > 0 and self.class_windows_[n] == 0]
-        if unseen and spec.k_unseen != spec.k:  # classes with no real window: their SMP variants per base SMP
-            summary["variants_per_smp"] = {n: spec.k_unseen for n in unseen}
+        other_k = {n: k for n, b in zip(info.label_names, budget, strict=True)
+                   if b > 0 and (k := spec.variants_for(self.class_windows_[n])) != spec.k}
+        if other_k:  # classes with no real window: their SMP variants per base SMP
+            summary["variants_per_smp"] = other_k
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
         if self.sides:
