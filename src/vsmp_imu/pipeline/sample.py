@@ -49,21 +49,27 @@ from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp import SMP
 
 PIPELINE_VERSION = "1"
-# Code whose changes invalidate cached samples (the rooms a sample passes through).
+# Code whose changes invalidate cached samples: the rooms a sample passes through, and the
+# package's top-level modules (seeding, quantiles, units, ...) that those rooms import.
 _CODE_ROOMS = ("smp", "motion", "imu", "grounding", "filtering", "pipeline")
+
+
+def source_fingerprint(root: Path) -> str:
+    """A hash of the package sources under `root` a sample depends on: every .py and .yaml
+    file of the rooms, and the .py files directly in `root`."""
+    digest = hashlib.sha256(PIPELINE_VERSION.encode())
+    files = sorted(root.glob("*.py")) + [path for room in _CODE_ROOMS for path in sorted((root / room).rglob("*"))]
+    for path in files:
+        if path.suffix in (".py", ".yaml") and path.is_file():
+            digest.update(str(path.relative_to(root)).encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
 
 
 @functools.lru_cache(maxsize=1)
 def code_fingerprint() -> str:
-    """A hash of the sources (and activity files) a sample depends on."""
-    root = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256(PIPELINE_VERSION.encode())
-    for room in _CODE_ROOMS:
-        for path in sorted((root / room).rglob("*")):
-            if path.suffix in (".py", ".yaml") and path.is_file():
-                digest.update(str(path.relative_to(root)).encode())
-                digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
+    """This installation's `source_fingerprint` (part of every sample's cache key)."""
+    return source_fingerprint(Path(__file__).resolve().parents[1])
 
 
 @dataclass(frozen=True)
