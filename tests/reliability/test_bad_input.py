@@ -138,6 +138,7 @@ def case_config_yaml_syntax(tmp_path, library, motion):
 
 @pytest.mark.parametrize("option,value,allowed", [
     ("--k", "0", "greater than or equal to 1"),
+    ("--k-unseen", "0", "greater than or equal to 1"),
     ("--alpha", "5", "0.1..2"),
     ("--alpha", "nan", "0.1..2"),
     ("--workers", "0", "greater than or equal to 1"),
@@ -146,7 +147,7 @@ def case_config_yaml_syntax(tmp_path, library, motion):
     ("--executor", "spark", "local, ray"),
 ])
 def test_generate_numbers_out_of_range(capsys, tmp_path, small_dataset, option, value, allowed):
-    args = {"--k": "4", "--alpha": "0.5", "--workers": "1", "--overlap": "0.5", "--holdout": "1",
+    args = {"--k": "4", "--k-unseen": "16", "--alpha": "0.5", "--workers": "1", "--overlap": "0.5", "--holdout": "1",
             "--executor": "local", "--source": f"smp:{small_dataset.parent / 'smps'}"}
     args[option] = value
     flat = [x for kv in args.items() for x in kv]

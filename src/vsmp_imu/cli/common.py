@@ -195,6 +195,8 @@ NOMINAL_UNSEEN_POSTURES = typer.Option(
     True, "--nominal-unseen-postures/--calibrate-unseen-postures",
     help="a held posture with no real training windows keeps the nominal sensor (--calibrate-unseen-postures: "
          "sim-in-the-loop against the other classes' pooled statistics, as a moving class)")
+K = typer.Option(4, "--k", min=1, max=64,
+                 help="SMP variants per base SMP for a class with real training windows (the paper's K)")
 K_UNSEEN = typer.Option(
     16, "--k-unseen", min=1, max=64,
     help="SMP variants per base SMP for a class with no real training windows (an unseen class, whose "

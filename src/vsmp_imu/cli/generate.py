@@ -16,6 +16,7 @@ from vsmp_imu.cli.common import (
     POOLED_CALIBRATION,
     SIDE_EVIDENCE,
     TEXTURE,
+    K,
     console,
     executor_options,
     library_dirs,
@@ -31,7 +32,7 @@ def generate_cmd(
     holdout: str = typer.Option(..., "--holdout", help="Held-out subject: none of its data is used"),
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     source: str = typer.Option("library", "--source", help=SOURCE_HELP),
-    k: int = typer.Option(4, "--k", min=1, max=64, help="SMP variants per base SMP"),
+    k: int = K,
     k_unseen: int = K_UNSEEN,
     backend: str = typer.Option("procedural", "--backend", help="procedural | compiled | hymotion"),
     alpha: float = typer.Option(2.0, "--alpha", help="Synthetic windows = alpha x real training windows "

@@ -20,6 +20,7 @@ from vsmp_imu.cli.common import (
     POOLED_CALIBRATION,
     SIDE_EVIDENCE,
     TEXTURE,
+    K,
     console,
     executor_options,
     output_dir,
@@ -135,7 +136,7 @@ def evaluate_cmd(
     source: str = typer.Option(
         "library", "--source", help="generative methods: library | smp:DIR | video:DIR"
     ),
-    k: int = typer.Option(4, "--k", max=64, help="generative methods: SMP variants per base SMP"),
+    k: int = K,
     k_unseen: int = K_UNSEEN,
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     per_class_rank: bool = PER_CLASS_RANK,
