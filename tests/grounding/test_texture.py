@@ -7,15 +7,7 @@ import pytest
 from scipy.signal import butter, sosfiltfilt
 
 from vsmp_imu.errors import ValidationError
-from vsmp_imu.grounding.texture import (
-    HF_BAND_HZ,
-    LF_BAND_HZ,
-    MAX_YAW_SHARE,
-    TextureModel,
-    add_yaw,
-    bands,
-    yaw_energy,
-)
+from vsmp_imu.grounding.texture import HF_BAND_HZ, LF_BAND_HZ, TextureModel, bands
 
 FS = 50.0
 
@@ -99,81 +91,3 @@ def test_channel_and_shape_errors_name_the_field(rng):
         model.apply(np.zeros((400, 3)), 0, rng)
     with pytest.raises(ValidationError, match=r"\(N, T, C\)"):
         TextureModel(FS).fit(np.zeros((40, 200)), np.zeros(40, int))
-
-
-# -- rotation about the vertical ------------------------------------------------------------------
-AXES = ((0, 1, 2), (3, 4, 5))
-
-
-def _turning(n: int, t: int, up: np.ndarray, pitch: float, yaw: float, rng) -> np.ndarray:
-    """(n, t, 6) windows of a sensor whose up axis is `up` (gravity read there), rotating at 1 Hz
-    with amplitude `pitch` about an axis square to `up` and `yaw` about `up`."""
-    up = up / np.linalg.norm(up)
-    side = np.cross(up, [0.0, 0.0, 1.0] if abs(up[2]) < 0.9 else [1.0, 0.0, 0.0])
-    side /= np.linalg.norm(side)
-    time = np.arange(t) / FS
-    phase = rng.uniform(0, 2 * np.pi, size=(n, 1, 1))
-    w = (pitch * np.sin(2 * np.pi * time[None, :, None] + phase) * side
-         + yaw * np.sin(2 * np.pi * 1.3 * time[None, :, None] + 2 * phase) * up)
-    acc = np.broadcast_to(9.81 * up, (n, t, 3))
-    return np.concatenate([acc, w], axis=2)
-
-
-def _share(x: np.ndarray) -> float:
-    yaw, total = yaw_energy(x[None], AXES, FS)
-    return float(np.sqrt(yaw.sum() / total.sum()))
-
-
-def test_the_yaw_share_is_the_rotation_about_the_vertical_per_class_and_pooled(rng):
-    up = np.array([1.0, 0.2, -0.1])  # a sensor mounted a little tilted
-    a = _turning(30, 200, up, 0.4, 0.3, rng)  # share 0.6
-    b = _turning(30, 200, up, 0.5, 0.0, rng)  # share 0
-    model = TextureModel(FS, axes=AXES).fit(np.concatenate([a, b]), np.repeat([0, 1], 30))
-    assert model.yaw_share(0) == pytest.approx(0.6, abs=0.03)
-    assert model.yaw_share(1) == pytest.approx(0.0, abs=0.02)
-    pooled = np.sqrt(30 * 0.09 / (30 * 0.25 + 30 * 0.25))  # energy-weighted
-    assert model.yaw_share(5) == pytest.approx(pooled, abs=0.03)
-    assert model.as_dict(["a", "b"])["yaw_share"]["classes"]["a"] == pytest.approx(0.6, abs=0.03)
-    assert TextureModel(FS).fit(a, np.zeros(30, int)).yaw_share(0) is None  # no axes: none fitted
-
-
-@pytest.mark.parametrize("up", [np.array([1.0, 0.0, 0.0]), np.array([0.1, 0.7, 0.7])])
-def test_a_rotation_in_one_plane_gets_the_share_about_the_vertical_the_real_windows_have(up, rng):
-    """Whatever axis is up (upright or lying), the added rotation is about it: the accelerometer and
-    the rotation square to the vertical stay as they were, and the share reaches rho."""
-    planar = _turning(1, 1000, up, 0.5, 0.0, rng)[0]
-    assert _share(planar) < 0.01
-    out = add_yaw(planar, AXES, 0.6, FS, np.random.default_rng(1))
-    assert _share(out) == pytest.approx(0.6, abs=0.08)
-    assert np.array_equal(out[:, :3], planar[:, :3])
-    added = out[:, 3:] - planar[:, 3:]
-    unit = up / np.linalg.norm(up)
-    assert np.abs(added - np.outer(added @ unit, unit)).max() < 1e-9
-    # below 2 Hz: what was added has little 3-12 Hz energy
-    assert _band_std(added, HF_BAND_HZ).max() < 0.1 * _band_std(added, (0.3, 2.0)).max()
-
-
-def test_nothing_is_turned_that_is_still_or_turns_enough_and_same_generator_same_bytes(rng):
-    up = np.array([1.0, 0.0, 0.0])
-    still = _turning(1, 500, up, 0.0, 0.0, rng)[0]
-    assert np.abs(add_yaw(still, AXES, 0.6, FS, rng) - still).max() < 1e-9
-    turning = _turning(1, 500, up, 0.3, 0.4, rng)[0]  # share 0.8 > 0.6
-    assert np.abs(add_yaw(turning, AXES, 0.6, FS, rng) - turning).max() < 0.02
-    planar = _turning(1, 500, up, 0.5, 0.0, rng)[0]
-    one = add_yaw(planar, AXES, 0.6, FS, np.random.default_rng(3))
-    assert one.tobytes() == add_yaw(planar, AXES, 0.6, FS, np.random.default_rng(3)).tobytes()
-    assert np.array_equal(add_yaw(planar, None, 0.6, FS, rng), planar)  # no gyroscope
-    assert np.array_equal(add_yaw(planar, AXES, None, FS, rng), planar)  # nothing fitted
-    assert np.array_equal(add_yaw(planar[:20], AXES, 0.6, FS, rng), planar[:20])  # too short
-    # a share near 1 is capped, so the noise stays bounded
-    capped = add_yaw(planar, AXES, 0.999, FS, np.random.default_rng(3))
-    assert _share(capped) == pytest.approx(MAX_YAW_SHARE, abs=0.08)
-
-
-def test_imu_axes_finds_the_columns_of_a_location():
-    from vsmp_imu.pipeline.fold import imu_axes
-
-    assert imu_axes(("acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z")) == AXES
-    assert imu_axes(("wrist_gyr_x", "wrist_gyr_y", "wrist_gyr_z", "wrist_acc_x", "wrist_acc_y",
-                     "wrist_acc_z")) == ((3, 4, 5), (0, 1, 2))
-    assert imu_axes(("acc_x", "acc_y", "acc_z")) is None

@@ -223,9 +223,8 @@ def test_movement_texture_brings_the_gyroscope_hf_share_toward_the_real_one(hapt
 def test_the_sample_worker_adds_the_texture_its_task_carries(hapt12, library, tmp_path):
     """Each sample's texture is added in its worker from the class's ratios in the task, with noise
     from rng_for(seed, fold, key, "texture"): the textured signal is the untextured one plus
-    `add_yaw` and `add_texture` of it, and the task's ratios are those the summary reports for the
-    class."""
-    from vsmp_imu.grounding.texture import add_texture, add_yaw
+    `add_texture` of it, and the task's ratios are those the summary reports for the class."""
+    from vsmp_imu.grounding.texture import add_texture
     from vsmp_imu.seeding import rng_for
 
     plain, _, _ = _generate(hapt12, library, GenerationSpec(**SMALL, texture=False), tmp_path)
@@ -241,13 +240,8 @@ def test_the_sample_worker_adds_the_texture_its_task_carries(hapt12, library, tm
         kappa = task.texture["kappa"]["waist"]
         own = summary["classes"].get(task.label) if summary["mapping"][task.label] == "class" else summary["pooled"]
         assert np.allclose(kappa, own, atol=1e-4)
-        yaw = task.texture["yaw"]["waist"]
-        shares = summary["yaw_share"]
-        own = shares["classes"].get(task.label) if summary["mapping"][task.label] == "class" else shares["pooled"]
-        assert yaw["share"] == pytest.approx(own, abs=1e-4) and yaw["axes"] == ((0, 1, 2), (3, 4, 5))
         rng = rng_for(0, "test", task.key, "texture")
-        turned = add_yaw(before[task.key].signals["waist"], yaw["axes"], yaw["share"], info.fs_hz, rng)
-        expected = add_texture(turned, kappa, info.fs_hz, rng)
+        expected = add_texture(before[task.key].signals["waist"], kappa, info.fs_hz, rng)
         assert np.array_equal(sample.signals["waist"], expected)
 
 

@@ -185,9 +185,8 @@ SIDE_EVIDENCE = typer.Option(True, "--side-evidence/--no-side-evidence",
                              help="where the side shows in the sensor (a turn to lie down), give a class's "
                                   "variants the side its real training windows support (--no-side-evidence: 50/50)")
 TEXTURE = typer.Option(True, "--texture/--no-texture",
-                       help="add the 3-12 Hz movement texture and the rotation about the vertical that procedural "
-                            "motion lacks, in proportion to each sample's own motion, by ratios fitted on the "
-                            "real training windows (VSMP-IMU)")
+                       help="add the 3-12 Hz movement texture procedural motion lacks, in proportion to each "
+                            "sample's own motion, by ratios fitted on the real training windows (VSMP-IMU)")
 POOLED_CALIBRATION = typer.Option(
     True, "--pooled-calibration/--no-pooled-calibration",
     help="sim-in-the-loop for a class with no real training windows (an unseen class) against the other "

@@ -121,10 +121,6 @@ def _print_summary(summary: dict) -> None:
             ratios = ", ".join(f"{k:.2f}" for k in tex["pooled"])
             console.print(f"movement texture at {name}: 3-12 Hz / 0.3-3 Hz ratio per channel {ratios} (all "
                           f"classes), a class's own for {len(tex['classes'])} classes", highlight=False)
-        if yaw := tex.get("yaw_share"):
-            console.print(f"rotation about the vertical at {name}: share {yaw['pooled']:.2f} of the 0.3-3 Hz "
-                          f"rotation (all classes), a class's own for {len(yaw['classes'])} classes",
-                          highlight=False)
     for name, records in summary.get("side_evidence", {}).items():
         for rec in records:
             console.print(f"side {name}: {side_text(rec)}", highlight=False)

@@ -16,18 +16,6 @@ with `min_class_windows` real windows gets its own kappa, every other class
 short of kappa times its local LF amplitude (1 s envelopes): the texture
 follows the motion (none in a still posture), and a signal that already has
 enough (the accelerometer of a gait with heel strikes) gets nothing.
-
-Rotation about the vertical. A procedural transition turns the body in one
-plane; a person sitting down also twists. On HAPT12 the real windows' share
-of their 0.3-3 Hz rotation that is about the vertical, rho =
-sqrt(sum yaw^2 / sum |w|^2) (the vertical from the 1 Hz low-passed
-accelerometer), is 0.3-0.8 in every class, the synthetic stand-to-sit's and
-sit-to-stand's 0.09 (docs/results.md, "Rotation about the vertical"). Where
-a location has three accelerometer and three gyroscope channels, `apply`
-also adds 0.3-2 Hz noise about the vertical where the signal's own share
-falls short of rho (per class, or pooled as kappa). A rotation about the
-vertical leaves the gravity reading as it is; the small lever-arm
-acceleration it would cause is left out.
 """
 
 from __future__ import annotations
@@ -43,12 +31,6 @@ from vsmp_imu.errors import ValidationError
 
 LF_BAND_HZ = (0.3, 3.0)
 HF_BAND_HZ = (3.0, 12.0)
-# the added rotation about the vertical: below 2 Hz, as the real transitions' (docs/results.md)
-YAW_BAND_HZ = (0.3, 2.0)
-# the vertical: the accelerometer low-passed below this
-VERTICAL_CUTOFF_HZ = 1.0
-# a share this close to 1 would ask for unbounded noise
-MAX_YAW_SHARE = 0.9
 ENVELOPE_S = 1.0
 ORDER = 4
 # the HF band's top edge stays below this share of the sample rate
@@ -84,13 +66,8 @@ class TextureModel:
 
     fs_hz: float
     min_class_windows: int = 20
-    # (accelerometer, gyroscope) columns, three each: the rotation about the vertical is fitted and
-    # added only with both
-    axes: tuple[tuple[int, int, int], tuple[int, int, int]] | None = None
     pooled_: np.ndarray | None = None  # (C,) kappa of all windows
     per_class_: dict[int, np.ndarray] = field(default_factory=dict)
-    yaw_pooled_: float | None = None  # rho of all windows
-    yaw_per_class_: dict[int, float] = field(default_factory=dict)
 
     def fit(self, windows: np.ndarray, labels: np.ndarray) -> TextureModel:
         """kappa from real windows (N, T, C) and their labels; nothing is fitted (`mapping` says
@@ -106,14 +83,10 @@ class TextureModel:
         lf_energy, hf_energy = (lf ** 2).sum(axis=1), (hf ** 2).sum(axis=1)  # (N, C)
         self.pooled_ = _ratio(hf_energy, lf_energy)
         labels = np.asarray(labels)
-        classes = [c for c in np.unique(labels) if (labels == c).sum() >= self.min_class_windows]
-        for cls in classes:
+        for cls in np.unique(labels):
             mask = labels == cls
-            self.per_class_[int(cls)] = _ratio(hf_energy[mask], lf_energy[mask])
-        if self.axes is not None:
-            yaw, total = yaw_energy(windows, self.axes, self.fs_hz, axis=1)  # (N,)
-            self.yaw_pooled_ = _share(yaw, total)
-            self.yaw_per_class_ = {int(c): _share(yaw[labels == c], total[labels == c]) for c in classes}
+            if mask.sum() >= self.min_class_windows:
+                self.per_class_[int(cls)] = _ratio(hf_energy[mask], lf_energy[mask])
         return self
 
     def kappa(self, label: int) -> np.ndarray | None:
@@ -126,24 +99,14 @@ class TextureModel:
             return "none"
         return "class" if int(label) in self.per_class_ else "pooled"
 
-    def yaw_share(self, label: int) -> float | None:
-        """The class's rho (its own, else the pooled one); None without axes or a fit."""
-        return self.yaw_per_class_.get(int(label), self.yaw_pooled_)
-
     def apply(self, signal: np.ndarray, label: int, rng: np.random.Generator) -> np.ndarray:
-        """`signal` (T, C) with the rotation about the vertical and the texture it lacks; unchanged
-        when too short or nothing is fitted."""
-        signal = add_yaw(signal, self.axes, self.yaw_share(label), self.fs_hz, rng)
+        """`signal` (T, C) with the texture it lacks; unchanged when too short or nothing is fitted."""
         return add_texture(signal, self.kappa(label), self.fs_hz, rng)
 
     def as_dict(self, label_names: list[str]) -> dict:
         """The fitted ratios, for a generation summary."""
-        out = {"pooled": None if self.pooled_ is None else np.round(self.pooled_, 4).tolist(),
-               "classes": {label_names[c]: np.round(k, 4).tolist() for c, k in sorted(self.per_class_.items())}}
-        if self.yaw_pooled_ is not None:
-            out["yaw_share"] = {"pooled": round(self.yaw_pooled_, 4),
-                                "classes": {label_names[c]: round(v, 4) for c, v in sorted(self.yaw_per_class_.items())}}
-        return out
+        return {"pooled": None if self.pooled_ is None else np.round(self.pooled_, 4).tolist(),
+                "classes": {label_names[c]: np.round(k, 4).tolist() for c, k in sorted(self.per_class_.items())}}
 
 
 def add_texture(signal: np.ndarray, kappa, fs_hz: float, rng: np.random.Generator) -> np.ndarray:
@@ -167,49 +130,6 @@ def missing_amplitude(signal: np.ndarray, kappa: np.ndarray, edges, fs_hz: float
     lf = uniform_filter1d(_band(signal, edges[0], fs_hz, axis=0) ** 2, n, axis=0, mode="nearest")
     hf = uniform_filter1d(_band(signal, edges[1], fs_hz, axis=0) ** 2, n, axis=0, mode="nearest")
     return np.sqrt(np.maximum(kappa ** 2 * lf - hf, 0.0))
-
-
-def add_yaw(signal: np.ndarray, axes, rho: float | None, fs_hz: float, rng: np.random.Generator) -> np.ndarray:
-    """`signal` (T, C) with 0.3-2 Hz rotation about its vertical added to its gyroscope where the
-    rotation's share about the vertical falls short of `rho` (1 s envelopes); unchanged without axes
-    or `rho`, or when too short to filter."""
-    signal = np.asarray(signal, dtype=np.float64)
-    if axes is None or rho is None or signal.shape[0] < _min_length(fs_hz):
-        return signal
-    rho = min(float(rho), MAX_YAW_SHARE)
-    n = max(1, int(round(ENVELOPE_S * fs_hz)))
-    up, w = _vertical(signal[:, list(axes[0])], fs_hz, axis=0), _band(signal[:, list(axes[1])], LF_BAND_HZ, fs_hz, axis=0)
-    yaw2 = uniform_filter1d(np.sum(w * up, axis=-1) ** 2, n, mode="nearest")
-    total2 = uniform_filter1d(np.sum(w * w, axis=-1), n, mode="nearest")
-    # (yaw2 + a^2) / (total2 + a^2) = rho^2
-    amp = np.sqrt(np.maximum(rho ** 2 * total2 - yaw2, 0.0) / (1.0 - rho ** 2))
-    noise = _unit_band_noise((signal.shape[0], 1), YAW_BAND_HZ, fs_hz, rng)[:, 0]
-    out = signal.copy()
-    out[:, list(axes[1])] += (amp * noise)[:, None] * up
-    return out
-
-
-def yaw_energy(windows: np.ndarray, axes, fs_hz: float, axis: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """Per window (N, T, C): the 0.3-3 Hz rotation's energy about the vertical and in all, (N,) each."""
-    up = _vertical(windows[..., list(axes[0])], fs_hz, axis)
-    w = _band(windows[..., list(axes[1])], LF_BAND_HZ, fs_hz, axis)
-    return (np.sum(w * up, axis=-1) ** 2).sum(axis=1), np.sum(w * w, axis=-1).sum(axis=1)
-
-
-def _vertical(acc: np.ndarray, fs_hz: float, axis: int) -> np.ndarray:
-    """Unit vectors along the low-passed accelerometer (the sensor's up axis, whatever its sign)."""
-    sos = _lowpass_sos(VERTICAL_CUTOFF_HZ, fs_hz)
-    g = sosfiltfilt(sos, acc, axis=axis)
-    return g / np.maximum(np.linalg.norm(g, axis=-1, keepdims=True), 1e-9)
-
-
-@functools.lru_cache(maxsize=16)
-def _lowpass_sos(cutoff_hz: float, fs_hz: float) -> np.ndarray:
-    return butter(2, cutoff_hz, fs=fs_hz, output="sos")
-
-
-def _share(yaw: np.ndarray, total: np.ndarray) -> float:
-    return float(np.sqrt(yaw.sum() / max(total.sum(), 1e-12)))
 
 
 def _ratio(hf_energy: np.ndarray, lf_energy: np.ndarray) -> np.ndarray:

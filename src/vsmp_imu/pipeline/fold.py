@@ -55,7 +55,6 @@ from vsmp_imu.har.features import ecdf_features
 from vsmp_imu.har.synthetic import take_budget
 from vsmp_imu.har.windows import Windows
 from vsmp_imu.imu import simulate_kinematics
-from vsmp_imu.imu.channels import ACC_CHANNELS, GYR_CHANNELS, split_channel
 from vsmp_imu.motion import Motion
 from vsmp_imu.pipeline.motionfit import MotionFitJob, fit_class_motion, fit_text
 from vsmp_imu.pipeline.records import Provenance, WindowRecord
@@ -450,18 +449,8 @@ def fit_textures(info: DatasetInfo, d_stat: Windows, plan) -> dict[str, TextureM
     models = {}
     for loc in info.locations:
         real = worn_windows(info, loc, d_stat, plan)
-        model = TextureModel(info.fs_hz, axes=imu_axes(loc.channels))
-        models[loc.name] = model.fit(real.X[..., channel_index(info, loc)], real.y)
+        models[loc.name] = TextureModel(info.fs_hz).fit(real.X[..., channel_index(info, loc)], real.y)
     return models
-
-
-def imu_axes(channels: tuple[str, ...]) -> tuple[tuple[int, int, int], tuple[int, int, int]] | None:
-    """The (accelerometer, gyroscope) x, y, z columns among a location's channels; None without all six."""
-    names = [split_channel(c)[1] for c in channels]
-    if not all(c in names for c in ACC_CHANNELS + GYR_CHANNELS):
-        return None
-    acc, gyr = (tuple(names.index(c) for c in group) for group in (ACC_CHANNELS, GYR_CHANNELS))
-    return acc, gyr
 
 
 def texture_task(models: dict[str, TextureModel], label_index: int, seed: int, fold: str) -> dict | None:
@@ -471,9 +460,7 @@ def texture_task(models: dict[str, TextureModel], label_index: int, seed: int, f
         return None
     kappa = {name: None if (k := m.kappa(label_index)) is None else tuple(float(v) for v in k)
              for name, m in models.items()}
-    yaw = {name: {"share": m.yaw_share(label_index), "axes": m.axes} for name, m in models.items()
-           if m.yaw_share(label_index) is not None}
-    return {"seed": int(seed), "fold": fold, "kappa": kappa, "yaw": yaw}
+    return {"seed": int(seed), "fold": fold, "kappa": kappa}
 
 
 def texture_summary(info: DatasetInfo, models: dict[str, TextureModel], ok: list[SampleResult]) -> dict:

@@ -33,7 +33,7 @@ from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
 from vsmp_imu.grounding.calibrate import CalibrationResult, CemProblem, SimInTheLoopCalibrator
 from vsmp_imu.grounding.stats import StatSummary
-from vsmp_imu.grounding.texture import add_texture, add_yaw
+from vsmp_imu.grounding.texture import add_texture
 from vsmp_imu.imu import (
     ImuNoise,
     SegmentKinematics,
@@ -347,12 +347,8 @@ def _textured(signals: dict[str, np.ndarray], task: SampleTask) -> dict[str, np.
     """The signals with their movement texture, locations in name order from one noise stream."""
     tex = task.texture
     rng = rng_for(tex["seed"], tex["fold"], task.key, "texture")
-    out = {}
-    for name, sig in sorted(signals.items()):
-        if yaw := tex.get("yaw", {}).get(name):
-            sig = add_yaw(sig, yaw["axes"], yaw["share"], task.fs_hz, rng)
-        out[name] = add_texture(sig, tex["kappa"][name], task.fs_hz, rng) if name in tex["kappa"] else sig
-    return out
+    return {name: add_texture(sig, tex["kappa"][name], task.fs_hz, rng) if name in tex["kappa"] else sig
+            for name, sig in sorted(signals.items())}
 
 
 def motion_file(task: SampleTask) -> Path | None:
