@@ -145,7 +145,6 @@ class CemProblem:
     rng: np.random.Generator
     base_mounting: np.ndarray | None = None
     noise: ImuNoise | None = None
-    fixed_mounting: bool = False  # search the biases and noise scales only (roll, pitch, yaw at 0)
 
 
 class BatchObjective:
@@ -228,15 +227,12 @@ class SimInTheLoopCalibrator:
         floor = MIN_STD_FRACTION * (ETA_HIGH - ETA_LOW)
         declared = np.array([p.convention.gravity_included for p in problems], dtype=bool)
         mean, std = np.tile(ETA_NOMINAL, (s, 1)), np.tile(ETA_INIT_STD, (s, 1))
-        low, high = np.tile(ETA_LOW, (s, 1, 1)), np.tile(ETA_HIGH, (s, 1, 1))
-        fixed = np.array([p.fixed_mounting for p in problems], dtype=bool)
-        low[fixed, :, :3] = high[fixed, :, :3] = 0.0
         p_grav = np.full(s, 0.5) if self.search_gravity else declared.astype(float)
         loss_nominal = loss(np.tile(ETA_NOMINAL, (s, 1, 1)), declared[:, None])[:, 0]
         best_eta, best_grav, best_loss = np.tile(ETA_NOMINAL, (s, 1)), declared.copy(), loss_nominal.copy()
         history = np.empty((s, self.n_iterations))
         for it in range(self.n_iterations):
-            eta = cem_candidates(mean, std, low, high, n, [p.rng for p in problems])
+            eta = cem_candidates(mean, std, ETA_LOW, ETA_HIGH, n, [p.rng for p in problems])
             if self.search_gravity:
                 grav = np.stack([p.rng.random(n) < p_grav[i] for i, p in enumerate(problems)])
             else:

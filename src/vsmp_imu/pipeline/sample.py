@@ -81,9 +81,6 @@ class LocationTask:
     axes_declared: bool
     target: dict[str, list] | None  # StatSummary arrays as lists (None: no calibration)
     nominal_mounting_xyzw: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
-    # the CEM keeps the mounting (roll, pitch, yaw of eta at 0): a class without real windows,
-    # calibrated against the other classes' pooled statistics (GenerationSpec.unseen_fixed_mounting)
-    fixed_mounting: bool = False
 
     def stat_summary(self) -> StatSummary | None:
         if self.target is None:
@@ -234,8 +231,7 @@ def _prepare_location(motion: Motion, task: SampleTask, loc: LocationTask) -> _L
     noise = draw_noise(sensor, kin.n_samples, task.fs_hz, task.seed, loc.name) if task.noise else None
     conv = Convention(**loc.convention)
     target = loc.stat_summary()
-    problem = CemProblem(kin, target, conv, rng, base, noise, loc.fixed_mounting) \
-        if task.sim_in_the_loop and target is not None else None
+    problem = CemProblem(kin, target, conv, rng, base, noise) if task.sim_in_the_loop and target is not None else None
     return _Location(loc, perturbation, base, kin, noise, conv, sensor.theta(motion, kin.attachment_m), problem)
 
 
