@@ -30,7 +30,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 from sklearn.ensemble import RandomForestClassifier
 from threadpoolctl import threadpool_limits
 
@@ -45,8 +44,7 @@ from vsmp_imu.filtering.faithfulness import (
 )
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
-from vsmp_imu.grounding.align import Convention, ConventionAlignment, axes_matrix
-from vsmp_imu.grounding.anchors import PostureAnchor, fit_anchor
+from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding.mounting import estimate_mounting
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.split import stat_rank_split
@@ -56,7 +54,7 @@ from vsmp_imu.har.dataset import DatasetInfo, SensorLocation
 from vsmp_imu.har.features import ecdf_features
 from vsmp_imu.har.synthetic import take_budget
 from vsmp_imu.har.windows import Windows
-from vsmp_imu.imu import VirtualSensor, sensor_readings, simulate_kinematics
+from vsmp_imu.imu import simulate_kinematics
 from vsmp_imu.motion import Motion
 from vsmp_imu.pipeline.motionfit import MotionFitJob, fit_class_motion, fit_text
 from vsmp_imu.pipeline.records import Provenance, WindowRecord
@@ -255,8 +253,6 @@ class FoldSetup:
     d_rank: Windows
     locations: dict[str, tuple[LocationTask, ...]]
     nominal_sensor: tuple[str, ...] = ()  # classes that keep the nominal sensor (`unseen_postures`)
-    # per location, the seen postures' anchors lent to the classes without real windows
-    anchors: dict[str, tuple[PostureAnchor, ...]] = field(default_factory=dict)
 
 
 def target_statistics(info: DatasetInfo, d_stat: Windows, threads: int = 1) -> dict[str, TargetStatistics]:
@@ -264,14 +260,6 @@ def target_statistics(info: DatasetInfo, d_stat: Windows, threads: int = 1) -> d
     return {loc.name: TargetStatistics(info.fs_hz).fit(d_stat.X[..., channel_index(info, loc)].astype(np.float64),
                                                        d_stat.y, threads)
             for loc in info.locations}
-
-
-def _default_kinematics(spec: GenerationSpec, label: str, sources, loc: SensorLocation, fs_hz: float):
-    """The kinematics of one default execution of the class's first base at `loc`."""
-    base = sources[label][0][1]
-    motion = Motion.load(base) if isinstance(base, Path) else \
-        backend_for(spec.backend, tuple(spec.library_dirs)).generate(base, 0)
-    return simulate_kinematics(motion, loc.name, fs_hz)
 
 
 def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_stat: Windows) -> dict[str, tuple]:
@@ -289,7 +277,10 @@ def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_
             mask = d_stat.y == i
             if label not in sources or loc not in plan[label] or not mask.any():
                 continue
-            kin = _default_kinematics(spec, label, sources, loc, info.fs_hz)
+            base = sources[label][0][1]
+            motion = Motion.load(base) if isinstance(base, Path) else \
+                backend_for(spec.backend, tuple(spec.library_dirs)).generate(base, 0)
+            kin = simulate_kinematics(motion, loc.name, info.fs_hz)
             syn.append(kin.specific_force_seg().mean(axis=0))
             real.append(to_segment @ d_stat.X[mask][..., cols[:3]].reshape(-1, 3).mean(axis=0))
             weights.append(mask.sum())
@@ -299,46 +290,11 @@ def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_
     return out
 
 
-def _is_posture(base) -> bool:
-    return isinstance(base, SMP) and base.temporal_structure.periodicity == "none"
-
-
-def fit_posture_anchors(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_stat: Windows,
-                        mountings: dict[str, tuple]) -> dict[str, tuple[PostureAnchor, ...]]:
-    """Per location, the anchors of the held postures with real windows (`grounding.anchors`):
-    each one's default execution through the nominal mounting and A_gamma, against its real mean."""
-    out: dict[str, tuple[PostureAnchor, ...]] = {}
-    for loc in info.locations:
-        if not (spec.posture_anchors and loc.gravity_included and loc.axes):
-            continue
-        cols = channel_index(info, loc)
-        base = Rotation.from_quat(mountings[loc.name]).as_matrix() @ VirtualSensor.at(loc.name).mounting_matrix()
-        align = ConventionAlignment(Convention(**_convention(loc)[0]))
-        anchors = []
-        for i, label in enumerate(info.label_names):
-            mask = d_stat.y == i
-            if label not in sources or loc not in plan[label] or not mask.any() \
-                    or not _is_posture(sources[label][0][1]):
-                continue
-            kin = _default_kinematics(spec, label, sources, loc, info.fs_hz)
-            readings = sensor_readings(kin, base)[0]
-            synthetic = align.transform(readings, kin.grav_seg @ base.T)[:, :3].mean(axis=0)
-            fitted = fit_anchor(label, synthetic, d_stat.X[mask][..., cols[:3]].reshape(-1, 3).mean(axis=0))
-            if fitted is not None:
-                anchors.append(fitted)
-        if anchors:
-            out[loc.name] = tuple(anchors)
-    return out
-
-
 def location_tasks(spec: GenerationSpec, info: DatasetInfo, plan, stats: dict[str, TargetStatistics],
-                   mountings: dict[str, tuple], nominal: frozenset[str] = frozenset(),
-                   anchors: dict[str, tuple[PostureAnchor, ...]] | None = None,
-                   unseen: frozenset[str] = frozenset()) -> dict[str, tuple[LocationTask, ...]]:
+                   mountings: dict[str, tuple], nominal: frozenset[str] = frozenset()
+                   ) -> dict[str, tuple[LocationTask, ...]]:
     """Per class, the location tasks of its samples (the D_stat target only with sim-in-the-loop;
-    none for the classes in `nominal`, which keep the nominal sensor; the posture anchors for the
-    `unseen` classes, those without real windows, that are not in `nominal`)."""
-    anchors = anchors or {}
+    none for the classes in `nominal`, which keep the nominal sensor)."""
     out = {}
     for label, locs in plan.items():
         tasks = []
@@ -347,9 +303,7 @@ def location_tasks(spec: GenerationSpec, info: DatasetInfo, plan, stats: dict[st
             target = None
             if spec.sim_in_the_loop and loc.name in stats and label not in nominal:
                 target = _class_target(spec, stats[loc.name], info.label_names.index(label))
-            lent = anchors.get(loc.name, ()) if label in unseen and label not in nominal else ()
-            tasks.append(LocationTask(loc.name, conv, declared, target, mountings[loc.name],
-                                      tuple(a.as_dict() for a in lent)))
+            tasks.append(LocationTask(loc.name, conv, declared, target, mountings[loc.name]))
         out[label] = tuple(tasks)
     return out
 
@@ -385,12 +339,8 @@ def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, se
     stats = target_statistics(info, d_stat, threads)
     mountings = nominal_mountings(spec, info, plan, sources, d_stat)
     nominal = unseen_postures(spec, info, train, sources)
-    counts = train.class_counts()
-    unseen = frozenset(n for i, n in enumerate(info.label_names) if counts[i] == 0)
-    anchors = fit_posture_anchors(spec, info, plan, sources, d_stat, mountings) if unseen - nominal else {}
-    return FoldSetup(plan, d_stat, d_rank,
-                     location_tasks(spec, info, plan, stats, mountings, nominal, anchors, unseen),
-                     tuple(sorted(nominal)), anchors)
+    return FoldSetup(plan, d_stat, d_rank, location_tasks(spec, info, plan, stats, mountings, nominal),
+                     tuple(sorted(nominal)))
 
 
 # -- stage 2: the sample tasks ---------------------------------------------------------------------
@@ -767,11 +717,6 @@ class FoldGenerator:
             summary["texture"] = texture_summary(info, self.textures, ok)
         if setup.nominal_sensor:  # unseen postures: no sim-in-the-loop (eta nominal)
             summary["nominal_sensor"] = list(setup.nominal_sensor)
-        lent = sorted({t.label for t in tasks for loc in t.locations if loc.anchors})
-        if lent:  # the seen postures' residual tilts, and the classes without windows they were lent to
-            summary["posture_anchors"] = {"lent_to": lent, "anchors": {
-                loc: [{**a.as_dict(), "angle_deg": round(a.angle_deg, 2)} for a in found]
-                for loc, found in setup.anchors.items()}}
         other_k = {n: k for n, b in zip(info.label_names, budget, strict=True)
                    if b > 0 and (k := spec.variants_for(self.class_windows_[n])) != spec.k}
         if other_k:  # classes with no real window: their SMP variants per base SMP

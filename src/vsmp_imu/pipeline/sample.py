@@ -31,7 +31,6 @@ from scipy.spatial.transform import Rotation
 from vsmp_imu.errors import SampleError, VsmpError
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
-from vsmp_imu.grounding.anchors import PostureAnchor, anchor
 from vsmp_imu.grounding.calibrate import CalibrationResult, CemProblem, SimInTheLoopCalibrator
 from vsmp_imu.grounding.stats import StatSummary
 from vsmp_imu.grounding.texture import add_texture
@@ -82,9 +81,6 @@ class LocationTask:
     axes_declared: bool
     target: dict[str, list] | None  # StatSummary arrays as lists (None: no calibration)
     nominal_mounting_xyzw: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
-    # seen postures' residual tilts lent to a class without real windows (grounding.anchors;
-    # PostureAnchor.as_dict() each; empty: none)
-    anchors: tuple[dict[str, Any], ...] = ()
 
     def stat_summary(self) -> StatSummary | None:
         if self.target is None:
@@ -250,12 +246,7 @@ def _finish_location(state: _Location, result: CalibrationResult | None) -> tupl
         start_s=float(state.kin.times[0]), theta=state.theta,
         mounting_perturbation_xyzw=[float(v) for v in state.perturbation.as_quat()],
         nominal_mounting_xyzw=list(state.loc.nominal_mounting_xyzw), eta=eta, gamma=state.conv.as_dict())
-    aligned = ConventionAlignment(state.conv).transform(readings, gravity)
-    if state.loc.anchors:
-        fs_hz = 1.0 / float(np.median(np.diff(state.kin.times)))
-        aligned = anchor(aligned, [PostureAnchor(a["label"], tuple(a["direction"]), tuple(a["rotvec"]))
-                                   for a in state.loc.anchors], fs_hz)
-    return aligned, record
+    return ConventionAlignment(state.conv).transform(readings, gravity), record
 
 
 def _motion(task: SampleTask) -> tuple[Motion, str | None]:

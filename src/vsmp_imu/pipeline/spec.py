@@ -54,9 +54,6 @@ class GenerationSpec:
     # ... except a held posture (the SMP's periodicity "none") with no real window, which keeps the
     # nominal sensor (pipeline.fold.unseen_postures; measured in docs/results.md)
     nominal_unseen_postures: bool = True
-    # a class with no real window gets, at each instant, the residual tilt of the seen held postures
-    # its gravity direction is closest to (grounding.anchors; measured in docs/results.md)
-    posture_anchors: bool = True
     # where the side shows in the sensor, the side a class's real training windows support
     # (pipeline.side; measured in docs/results.md)
     side_evidence: bool = True
