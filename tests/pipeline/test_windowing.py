@@ -46,12 +46,6 @@ def test_a_transition_keeps_the_windows_its_active_span_covers_for_its_share():
     assert _starts(1, 5.0, [3.2, 3.9]) == []  # a span shorter than half a window labels none
 
 
-def test_a_short_transition_also_gets_the_window_that_ends_with_it():
-    # 2.9 s: the hop grid stops at 0; the spread starts reach the last window (45) too
-    assert _starts(1, 2.9, [0.2, 2.8]) == [0, 45]
-    assert _starts(0, 2.9, [0.0, 2.9]) == [0]  # a whole-window class keeps the hop grid
-
-
 def test_the_active_span_is_where_the_body_moves_faster_than_a_share_of_its_peak():
     """A movement whose speed rises and falls as sin^2 between 1 s and 5 s: the span runs
     while the mean joint speed is above ACTIVE_SPEED_FRACTION of its peak."""

@@ -545,8 +545,7 @@ def window(info: DatasetInfo, ok: list[SampleResult], grounded: list[dict[str, n
            hop: int) -> WindowSet:
     """Windows of every sample; a class whose real windows need only a share of the
     window (transitions) keeps the synthetic windows whose share inside the motion's
-    active span reaches it, like the dataset's own labelling rule, from starts spread
-    over the whole sample (`_spread`)."""
+    active span reaches it, like the dataset's own labelling rule."""
     shares = info.share_vector()
     xs, ys, records = [], [], []
     for r, sig in zip(ok, grounded, strict=True):
@@ -555,10 +554,9 @@ def window(info: DatasetInfo, ok: list[SampleResult], grounded: list[dict[str, n
         for loc in info.locations:
             if loc.name in sig:
                 full[:, channel_index(info, loc)] = sig[loc.name][:n]
+        starts = _starts(n, length, hop)
         if shares[r.label_index] < 1.0:
-            starts = _covering(_spread(n, length, hop), length, info.fs_hz, r.provenance, shares[r.label_index])
-        else:
-            starts = _starts(n, length, hop)
+            starts = _covering(starts, length, info.fs_hz, r.provenance, shares[r.label_index])
         for w, start in enumerate(starts):
             xs.append(full[start:start + length])
             ys.append(r.label_index)
@@ -875,17 +873,6 @@ def _payload(base: Base) -> dict[str, Any]:
 
 def _starts(n: int, length: int, hop: int) -> range:
     return range(0, n - length + 1, hop) if n >= length else range(0)
-
-
-def _spread(n: int, length: int, hop: int) -> list[int]:
-    """Window starts from the first to the last possible one, no further apart than `hop`: a
-    sample a little longer than a window (a 3 s stand-to-sit, 2 s windows) gives one that ends
-    in its last posture too, as the dataset's windows around a transition do, not only the
-    window at its start."""
-    if n < length:
-        return []
-    k = math.ceil((n - length) / hop) + 1
-    return sorted({int(round(v)) for v in np.linspace(0, n - length, k)})
 
 
 def _covering(starts, length: int, fs_hz: float, provenance: Provenance, share: float) -> list[int]:
