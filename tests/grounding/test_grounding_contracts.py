@@ -217,9 +217,3 @@ def test_convention_errors_name_the_field_and_the_allowed_values():
     with pytest.raises(ValidationError) as err:
         axes_matrix(("left", "right", "up"))
     assert err.value.field == "axes" and "name the same body direction twice" in err.value.message
-
-
-def test_a_scaled_mounting_perturbation_scales_the_same_draws():
-    base = sample_mounting_perturbation("waist", np.random.default_rng(7)).as_euler("zxy", degrees=True)
-    wide = sample_mounting_perturbation("waist", np.random.default_rng(7), 1.6).as_euler("zxy", degrees=True)
-    assert np.allclose(wide, 1.6 * base)

@@ -40,8 +40,7 @@ EVALUATE_OPTIONS = {
 }
 # fields the commands leave at the paper's values (the studies and the Python API set them)
 NOT_OPTIONS = {"clips", "estimate_mounting", "min_validator_windows", "class_filter", "redundancy_filter",
-               "noise", "oversample", "max_rounds", "hop_fraction", "val_fraction", "duration_s",
-               "unseen_mounting_spread"}
+               "noise", "oversample", "max_rounds", "hop_fraction", "val_fraction", "duration_s"}
 
 
 def _options(command: str) -> set[str]:

@@ -130,15 +130,14 @@ def is_wrist(location: str) -> bool:
     return "wrist" in location or "hand" in location or "watch" in location
 
 
-def sample_mounting_perturbation(location: str, rng: np.random.Generator, scale: float = 1.0) -> Rotation:
-    """R_target perturbation from p(gamma): uniform roll/pitch/yaw within the prior's bounds
-    (times `scale`).
+def sample_mounting_perturbation(location: str, rng: np.random.Generator) -> Rotation:
+    """R_target perturbation from p(gamma): uniform roll/pitch/yaw within the prior's bounds.
 
     Sensor frame at rest is (left, up, forward): roll is about forward (z),
     pitch about left (x), yaw about up (y).
     """
     bounds = WRIST_PERTURBATION_DEG if is_wrist(location) else OTHER_PERTURBATION_DEG
-    roll, pitch, yaw = (scale * rng.uniform(-b, b) for b in bounds)
+    roll, pitch, yaw = (rng.uniform(-b, b) for b in bounds)
     return Rotation.from_euler("zxy", [roll, pitch, yaw], degrees=True)
 
 

@@ -291,12 +291,10 @@ def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_
 
 
 def location_tasks(spec: GenerationSpec, info: DatasetInfo, plan, stats: dict[str, TargetStatistics],
-                   mountings: dict[str, tuple], nominal: frozenset[str] = frozenset(),
-                   unseen: frozenset[str] = frozenset()) -> dict[str, tuple[LocationTask, ...]]:
+                   mountings: dict[str, tuple], nominal: frozenset[str] = frozenset()
+                   ) -> dict[str, tuple[LocationTask, ...]]:
     """Per class, the location tasks of its samples (the D_stat target only with sim-in-the-loop;
-    none for the classes in `nominal`, which keep the nominal sensor; the prior mounting
-    perturbation widened by `unseen_mounting_spread` for the other `unseen` ones, without real
-    windows)."""
+    none for the classes in `nominal`, which keep the nominal sensor)."""
     out = {}
     for label, locs in plan.items():
         tasks = []
@@ -305,8 +303,7 @@ def location_tasks(spec: GenerationSpec, info: DatasetInfo, plan, stats: dict[st
             target = None
             if spec.sim_in_the_loop and loc.name in stats and label not in nominal:
                 target = _class_target(spec, stats[loc.name], info.label_names.index(label))
-            scale = spec.unseen_mounting_spread if label in unseen and label not in nominal else 1.0
-            tasks.append(LocationTask(loc.name, conv, declared, target, mountings[loc.name], scale))
+            tasks.append(LocationTask(loc.name, conv, declared, target, mountings[loc.name]))
         out[label] = tuple(tasks)
     return out
 
@@ -342,8 +339,7 @@ def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, se
     stats = target_statistics(info, d_stat, threads)
     mountings = nominal_mountings(spec, info, plan, sources, d_stat)
     nominal = unseen_postures(spec, info, train, sources)
-    unseen = frozenset(label for label, n in zip(info.label_names, train.class_counts(), strict=True) if n == 0)
-    return FoldSetup(plan, d_stat, d_rank, location_tasks(spec, info, plan, stats, mountings, nominal, unseen),
+    return FoldSetup(plan, d_stat, d_rank, location_tasks(spec, info, plan, stats, mountings, nominal),
                      tuple(sorted(nominal)))
 
 

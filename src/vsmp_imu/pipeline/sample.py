@@ -81,9 +81,6 @@ class LocationTask:
     axes_declared: bool
     target: dict[str, list] | None  # StatSummary arrays as lists (None: no calibration)
     nominal_mounting_xyzw: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
-    # the prior mounting perturbation's bounds times this (GenerationSpec.unseen_mounting_spread
-    # for a class without real windows)
-    perturbation_scale: float = 1.0
 
     def stat_summary(self) -> StatSummary | None:
         if self.target is None:
@@ -227,7 +224,7 @@ def _prepare_location(motion: Motion, task: SampleTask, loc: LocationTask) -> _L
     """theta ~ p(theta) and the kinematics once; the CEM against D_stat is left to run."""
     rng = rng_for(task.seed, "sensor", loc.name)
     sensor = VirtualSensor.at(loc.name)
-    perturbation = sample_mounting_perturbation(loc.name, rng, loc.perturbation_scale)
+    perturbation = sample_mounting_perturbation(loc.name, rng)
     nominal = Rotation.from_quat(loc.nominal_mounting_xyzw)
     base = perturbation.as_matrix() @ nominal.as_matrix() @ sensor.mounting_matrix()
     kin = simulate_kinematics(motion, sensor, task.fs_hz)

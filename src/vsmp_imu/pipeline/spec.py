@@ -51,9 +51,6 @@ class GenerationSpec:
     # sim-in-the-loop also for a class with no D_stat statistics of its own (an unseen class),
     # against the pooled statistics of the other classes; off: such a class keeps eta nominal
     pooled_calibration: bool = True
-    # ... with the prior mounting perturbation p(gamma) widened by this factor there (measured in
-    # docs/results.md)
-    unseen_mounting_spread: float = 1.6
     # ... except a held posture (the SMP's periodicity "none") with no real window, which keeps the
     # nominal sensor (pipeline.fold.unseen_postures; measured in docs/results.md)
     nominal_unseen_postures: bool = True
