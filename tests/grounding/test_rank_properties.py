@@ -135,6 +135,20 @@ def test_a_class_without_real_windows_does_not_shape_the_pooled_map(rng, per_cla
     assert np.allclose(unseen, without.transform(syn[~seen]), rtol=0, atol=1e-9)
 
 
+@pytest.mark.parametrize("per_class", [False, True])
+def test_a_class_named_unseen_keeps_its_values_and_the_seen_classes_map_as_before(rng, per_class):
+    syn, ys = _classes(rng, [-2.0, 2.0, 8.0], [20, 20, 20], scale=0.5)
+    real, yr = _classes(rng, [-1.0, 1.0], [20, 20], scale=0.3)
+    lent = RankGrounder(per_class=per_class).fit(syn, real, ys, yr)
+    kept = RankGrounder(per_class=per_class).fit(syn, real, ys, yr, unseen=[2, 5])
+    assert kept.unmapped_ == frozenset({2}) and kept.mapping(2) == "none"
+    assert np.array_equal(kept.transform(syn[ys == 2], ys[ys == 2]), syn[ys == 2])
+    seen = ys < 2
+    assert np.array_equal(kept.transform(syn[seen], ys[seen]), lent.transform(syn[seen], ys[seen]))
+    # a class with real samples is mapped even when a caller names it
+    assert RankGrounder(per_class=per_class).fit(syn, real, ys, yr, unseen=[1]).mapping(1) == lent.mapping(1)
+
+
 def test_a_pool_of_unseen_classes_only_is_left_as_it_is(rng):
     syn, ys = _classes(rng, [5.0, 9.0], [10, 10])
     real, yr = _classes(rng, [-1.0, 1.0], [10, 10])

@@ -331,3 +331,30 @@ def test_the_summary_names_the_classes_that_got_k_unseen_variants(hapt12, librar
     assert "variants_per_smp" not in FoldGenerator(same, LocalExecutor(1, show_progress=False),
                                                    library=library).generate(
         info, train, sources, budget, seed=0, fold="test").summary
+
+
+def test_a_class_without_real_windows_keeps_its_values_when_seen_classes_are_generated_too(hapt12, library):
+    """The seen classes' rank map is not lent to a class with no real training window: its
+    windows are the same whether or not a seen class is generated beside it, and the summary
+    says it was left unmapped (docs/results.md, "The seen classes' map is not lent to an
+    unseen class")."""
+    info, windows = hapt12
+    gone, seen = info.label_names.index("STAND_TO_SIT"), info.label_names.index("SITTING")
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    train = train[np.flatnonzero(train.y != gone)]
+    sources = LibrarySmpSource(library).smps("hapt12", info.label_names)
+    spec = GenerationSpec(k=2, k_unseen=2, oversample=1.0, max_rounds=1, quality_filter=False)
+
+    def unseen_windows(budgeted):
+        budget = np.zeros(info.n_classes, np.int64)
+        budget[budgeted] = 3
+        out = FoldGenerator(spec, LocalExecutor(1, show_progress=False), library=library).generate(
+            info, train, sources, budget, seed=0, fold="test")
+        labels = np.array([r.label for r in out.records[:len(out.generated)]])
+        return out.generated[labels == "STAND_TO_SIT"], out.summary["rank_map"]["waist"]
+
+    alone, alone_map = unseen_windows([gone])
+    beside, beside_map = unseen_windows([gone, seen])
+    assert alone_map == {"STAND_TO_SIT": "none"}
+    assert beside_map == {"SITTING": "class", "STAND_TO_SIT": "none"}
+    assert len(alone) > 0 and np.array_equal(alone, beside)

@@ -13,6 +13,7 @@ its own pair of distributions.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -158,10 +159,13 @@ class RankGrounder:
     class's values. `per_class=True` fits one map per class instead (a class with fewer than
     `min_class_samples` samples on either side keeps the pooled map).
 
-    Classes with no real sample (an unseen class) never shape F_v: the pooled map is fitted on
-    the synthetic classes the real data has and carries over to them. When the synthetic pool
-    holds no such class, nothing says how its values become real ones, and `transform` with
-    labels leaves them as they are (`unmapped_`); without labels it applies the pooled map.
+    Classes with no real sample never shape F_v: the pooled map is fitted on the synthetic
+    classes the real data has and carries over to them. Two cases leave a class as it is
+    (`unmapped_`, for `transform` with labels; without labels it applies the pooled map): the
+    synthetic pool holds no class with real samples (nothing says how its values become real
+    ones), or the caller names it in `unseen`, a class with no real window anywhere (the
+    seen classes' map would give it their marginals: docs/results.md, "The seen classes' map
+    is not lent to an unseen class").
     `threads` > 1 fits and maps the channels side by side (same result).
     """
 
@@ -177,6 +181,7 @@ class RankGrounder:
         real: np.ndarray,
         synthetic_labels: np.ndarray | None = None,
         real_labels: np.ndarray | None = None,
+        unseen: Iterable[int] = (),
     ) -> RankGrounder:
         syn = _as_samples(synthetic, "synthetic")
         rea = _as_samples(real, "real")
@@ -192,6 +197,9 @@ class RankGrounder:
         rea_lab = _sample_labels(real, real_labels) if labelled else None
         per_window = _samples_per_window(real)
         self.overall_ = self._pooled_map(syn, rea, syn_lab, rea_lab, per_window)
+        if labelled:
+            unseen = {int(c) for c in unseen} - {int(c) for c in np.unique(rea_lab)}
+            self.unmapped_ = self.unmapped_ | (unseen & {int(c) for c in np.unique(syn_lab)})
         self.per_class_: dict[int, _ChannelMap] = {}
         if self.per_class:
             for cls in np.intersect1d(np.unique(syn_lab), np.unique(rea_lab)):
@@ -236,7 +244,8 @@ class RankGrounder:
 
     def mapping(self, label: int) -> str:
         """How `transform` maps class `label` given its labels: 'class' (its own map), 'pooled' or
-        'none' (no class of the synthetic pool had real windows: values left as they are)."""
+        'none' (left as it is: no class of the synthetic pool had real windows, or the class was
+        named `unseen`)."""
         if label in self.unmapped_:
             return "none"
         return "class" if label in self.per_class_ else "pooled"

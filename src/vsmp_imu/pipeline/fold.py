@@ -134,11 +134,12 @@ def worn_windows(info: DatasetInfo, loc: SensorLocation, d_rank: Windows, plan) 
 
 
 def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: Windows, plan,
-                       spec: GenerationSpec, threads: int = 1) -> dict[str, RankGrounder]:
+                       spec: GenerationSpec, threads: int = 1,
+                       unseen: frozenset[int] = frozenset()) -> dict[str, RankGrounder]:
     """Stage 4's rank grounders, one per location: F_v from the samples' signals there, G_r from
     D_rank's windows of the classes worn there (pooled or per class as `spec` says). Locations no
-    sample uses, or without any real window, get none. `threads` fit the channels side by side
-    (same result)."""
+    sample uses, or without any real window, get none. `unseen`: the classes with no real training
+    window, left as they are. `threads` fit the channels side by side (same result)."""
     grounders = {}
     for loc in info.locations:
         users = [r for r in samples if loc.name in r.signals]
@@ -151,7 +152,7 @@ def fit_rank_grounders(info: DatasetInfo, samples: list[SampleResult], d_rank: W
         syn = np.concatenate([r.signals[loc.name] for r in users])
         labels = np.concatenate([np.full(len(r.signals[loc.name]), r.label_index) for r in users])
         grounders[loc.name] = RankGrounder(per_class=spec.per_class_rank, threads=threads).fit(
-            syn, real.X[..., cols].astype(np.float64), labels, real.y)
+            syn, real.X[..., cols].astype(np.float64), labels, real.y, unseen=unseen)
     return grounders
 
 
@@ -472,12 +473,13 @@ def texture_summary(info: DatasetInfo, models: dict[str, TextureModel], ok: list
 
 
 def ground(spec: GenerationSpec, info: DatasetInfo, ok: list[SampleResult], d_rank: Windows, plan,
-           threads: int = 1) -> tuple[list[dict[str, np.ndarray]], dict]:
+           threads: int = 1, unseen: frozenset[int] = frozenset()) -> tuple[list[dict[str, np.ndarray]], dict]:
     """Rank grounding per location (F_v from all of `ok`, G_r from D_rank) and how each class was
-    mapped there (`rank_mappings`); the signals as they are, and no mappings, without it."""
+    mapped there (`rank_mappings`); the signals as they are, and no mappings, without it. The
+    `unseen` classes (no real training window) keep their values."""
     if not spec.rank_grounding or not ok:
         return [dict(r.signals) for r in ok], {}
-    grounders = fit_rank_grounders(info, ok, d_rank, plan, spec, threads)
+    grounders = fit_rank_grounders(info, ok, d_rank, plan, spec, threads, unseen)
     grounded = apply_rank_grounders(ok, grounders)
     if spec.gravity_norm:
         grounded = keep_gravity_norm(info, ok, grounded, d_rank, plan)
@@ -690,7 +692,8 @@ class FoldGenerator:
         for attempt in range(spec.refill + 1):
             results = [r for label in info.label_names for r in by_class[label]]
             ok = [r for r in results if not r.error and r.signals]
-            grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads)  # F_v from all so far
+            grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads,  # F_v from all so far
+                                        frozenset(np.flatnonzero(train.class_counts() == 0).tolist()))
             windows = window(info, ok, grounded, length, hop)
             windows.records += failed_records(info, results)
             keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads)
