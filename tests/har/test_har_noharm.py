@@ -228,11 +228,13 @@ def test_evaluate_and_generate_default_to_the_settings_that_measured_a_gain():
     assert (spec.alpha, spec.policy) == (2.0, "scarcity")
     params = inspect.signature(generate_cmd).parameters
     assert (params["alpha"].default.default, params["policy"].default.default) == (spec.alpha, spec.policy)
-    # evaluate resolves them per protocol: tstr reads against TRTR (alpha 1, uniform), the others take these
+    # evaluate resolves them per protocol: tstr reads against TRTR (alpha 1, uniform), unseen
+    # budgets the unseen classes only (tail), the others take these
     params = inspect.signature(evaluate_cmd).parameters
     assert params["alpha"].default.default is None and params["policy"].default.default is None
-    for protocol in ("lopo", "low-resource", "long-tail", "unseen"):
+    for protocol in ("lopo", "low-resource", "long-tail"):
         assert budget_defaults(protocol, None, None) == (spec.alpha, spec.policy)
+    assert budget_defaults("unseen", None, None) == (spec.alpha, "tail")
     # the guard measured below mixing everything (docs/results.md): off unless asked for
     assert inspect.signature(evaluate_cmd).parameters["share_selection"].default.default == "off"
     assert EvalRequest(dataset="x", output=None).share_selection == "off"

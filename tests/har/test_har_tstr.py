@@ -147,6 +147,8 @@ def test_tstr_on_the_command_line(cli, fixtures_dir, tmp_path):
 @pytest.mark.parametrize("protocol,given,expected", [
     ("tstr", (None, None), (1.0, "uniform")),
     ("low-resource", (None, None), (2.0, "scarcity")),
+    ("unseen", (None, None), (2.0, "tail")),  # synthetic windows for the unseen classes only
+    ("unseen", (None, "scarcity"), (2.0, "scarcity")),
     ("tstr", (0.5, "scarcity"), (0.5, "scarcity")),  # what is given is kept
 ])
 def test_the_budget_defaults_follow_the_protocol(protocol, given, expected):

@@ -77,12 +77,15 @@ def _positive(value: int | None, option: str) -> None:
 def budget_defaults(protocol: str, alpha: float | None, policy: str | None) -> tuple[float, str]:
     """The synthetic budget's alpha and policy where not given: tstr trains on as many synthetic
     windows per class as the real training set has (alpha 1, uniform), so that it reads against
-    TRTR; the other protocols take GenerationSpec's (alpha 2, scarcity: docs/results.md, "Defaults")."""
+    TRTR; unseen gives synthetic windows to the unseen classes only (tail: seen-class synthetic
+    windows cost the unseen ones, docs/results.md, "The seen classes' map is not lent to an unseen
+    class"); the other protocols take GenerationSpec's (alpha 2, scarcity: "Defaults")."""
     from vsmp_imu.pipeline.spec import GenerationSpec
 
     tstr, spec = protocol == "tstr", GenerationSpec()
+    default_policy = {"tstr": "uniform", "unseen": "tail"}.get(protocol, spec.policy)
     return (alpha if alpha is not None else 1.0 if tstr else spec.alpha,
-            policy if policy is not None else "uniform" if tstr else spec.policy)
+            policy if policy is not None else default_policy)
 
 
 def evaluate_cmd(
@@ -119,7 +122,7 @@ def evaluate_cmd(
     policy: str = typer.Option(
         None, "--policy", show_default=False,
         help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform) "
-             "[default: uniform for tstr, else scarcity]"),
+             "[default: uniform for tstr, tail for unseen, else scarcity]"),
     rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
     window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0, help="window length in seconds"),
     overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
