@@ -689,11 +689,11 @@ class FoldGenerator:
         self.textures = fit_textures(info, setup.d_stat, setup.plan) if spec.texture else {}
         tasks, by_class, models = self.synthesize(info, sources, budget, seed, fold, setup.locations, length, hop,
                                                   job)
+        unseen = frozenset(np.flatnonzero(train.class_counts() == 0).tolist())  # not rank-mapped
         for attempt in range(spec.refill + 1):
             results = [r for label in info.label_names for r in by_class[label]]
             ok = [r for r in results if not r.error and r.signals]
-            grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads,  # F_v from all so far
-                                        frozenset(np.flatnonzero(train.class_counts() == 0).tolist()))
+            grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads, unseen)  # F_v: all so far
             windows = window(info, ok, grounded, length, hop)
             windows.records += failed_records(info, results)
             keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads)
