@@ -197,9 +197,10 @@ class RankGrounder:
         rea_lab = _sample_labels(real, real_labels) if labelled else None
         per_window = _samples_per_window(real)
         self.overall_ = self._pooled_map(syn, rea, syn_lab, rea_lab, per_window)
-        if labelled:
-            unseen = {int(c) for c in unseen} - {int(c) for c in np.unique(rea_lab)}
-            self.unmapped_ = self.unmapped_ | (unseen & {int(c) for c in np.unique(syn_lab)})
+        unseen = {int(c) for c in unseen}
+        if labelled and unseen:  # no sort of the per-sample labels when no class is named
+            unseen = (unseen & set(np.unique(syn_lab).tolist())) - set(np.unique(rea_lab).tolist())
+            self.unmapped_ = self.unmapped_ | unseen
         self.per_class_: dict[int, _ChannelMap] = {}
         if self.per_class:
             for cls in np.intersect1d(np.unique(syn_lab), np.unique(rea_lab)):
