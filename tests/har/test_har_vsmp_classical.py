@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -107,3 +109,20 @@ def test_evaluate_runs_it(fake_vsmp, tiny_dataset):
                         method_params={"vsmp+classical": REGISTRY["vsmp+classical"].params(GenerationSpec())})
     records = {r["method"]: r for r in Evaluation(config, tiny_dataset).run().records}
     assert records["vsmp+classical"]["n_synthetic"] == records["vsmp+classical"]["n_synthetic_requested"] > 0
+
+
+def test_a_class_without_real_windows_is_made_from_vsmp_windows_only(fake_vsmp, tiny_dataset):
+    """Under the unseen protocol a class has no real training window: its copies all start from
+    VSMP-IMU windows of that class, never from another class's real windows."""
+    names = tiny_dataset.info.label_names
+    context = _context(tiny_dataset, {names[3]: 12, names[0]: 4})
+    context = dataclasses.replace(context, train=context.train[context.train.y != 3])
+    assert context.train.class_counts()[3] == 0
+    out = VsmpClassicalMethod().generate(context)
+    unseen = out.y == 3
+    assert int(unseen.sum()) == 12
+    assert set(out.meta["origin"][unseen].tolist()) == {"vsmp"}
+    assert (np.linalg.norm(out.X[unseen][:, :, 3:6], axis=2).mean(axis=1) > FAKE_LEVEL / 2).all()
+    copies = unseen & (out.meta["part"] == "classical")
+    assert int(copies.sum()) == 12 - FakeVsmp.per_class
+    assert all(s.startswith("sample-") for s in out.meta["origin_sample"][copies])
