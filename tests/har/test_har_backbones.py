@@ -9,10 +9,10 @@ import pytest
 from sklearn.base import clone
 from sklearn.metrics import f1_score
 
-from vsmp_imu.errors import ConfigError
+from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.backbones import BACKBONES, make_backbone
 from vsmp_imu.har.backbones.neural import validation_score
-from vsmp_imu.har.features import ecdf_features, ecdf_levels
+from vsmp_imu.har.features import ecdf_features, ecdf_levels, segment_means
 from vsmp_imu.har.normalize import ChannelStandardizer
 
 
@@ -74,7 +74,7 @@ def test_classes_missing_from_training(name):
 
 
 def test_make_backbone_registry():
-    assert set(BACKBONES) == {"rf", "dclstm", "dclstm-attn", "bilstm-attn"}
+    assert set(BACKBONES) == {"rf", "rf-seg", "dclstm", "dclstm-attn", "bilstm-attn"}
     assert make_backbone("dclstm", max_epochs=3).max_epochs == 3
     with pytest.raises(ConfigError, match="takes no parameter.*n_jobs") as err:
         make_backbone("dclstm", max_epochs=3, n_jobs=4)  # n_jobs is not one of its params
@@ -161,6 +161,33 @@ def test_ecdf_features_are_window_quantiles():
     assert feats.shape == (1, 30)
     assert np.allclose(feats[0, :15], 100 * levels)  # channel-major, channel 0 first
     assert np.allclose(feats[0, 15:], -100 * levels[::-1])
+
+
+def test_segment_means_follow_the_window_in_order():
+    X = np.stack([np.arange(100, dtype=np.float32)[:, None] * [1, -1]])  # one rising, one falling channel
+    means = segment_means(X, 4)
+    assert means.shape == (1, 8)  # segment-major: (segment 0: ch 0, ch 1), (segment 1: ...), ...
+    assert np.allclose(means[0, ::2], [12, 37, 62, 87]) and np.allclose(means[0, 1::2], [-12, -37, -62, -87])
+    assert np.allclose(segment_means(X, 1), X.mean(axis=1))
+    for bad in (0, 101):
+        with pytest.raises(ValidationError, match="segments"):
+            segment_means(X, bad)
+
+
+def test_segment_forest_tells_a_window_from_its_time_reversal():
+    """The paper's ECDF forest cannot: a window and its reversal have the same quantiles."""
+    rng = np.random.default_rng(0)
+    ramp = np.linspace(-1, 1, 50, dtype=np.float32)
+    X = np.stack([ramp * (1 if i % 2 else -1) for i in range(200)])[:, :, None]
+    X = X + rng.normal(0, 0.05, X.shape).astype(np.float32)
+    y = np.arange(200) % 2  # class 1 rises, class 0 falls
+    scores = {}
+    for name in ("rf", "rf-seg"):
+        est = make_backbone(name, n_estimators=30, n_jobs=1).fit(X[:100], y[:100])
+        scores[name] = f1_score(y[100:], est.predict(X[100:]), average="macro")
+    assert scores["rf-seg"] > 0.95 and scores["rf"] < 0.75
+    assert make_backbone("rf-seg").embed(X[:3]).shape == (3, 15 + 8)
+    assert make_backbone("rf").embed(X[:3]).shape == (3, 15)
 
 
 def test_standardizer_uses_fit_statistics_only():

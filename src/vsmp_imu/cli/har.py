@@ -33,6 +33,7 @@ from vsmp_imu.progress import progress
 dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_is_help=True)
 
 NEURAL = ("dclstm", "dclstm-attn", "bilstm-attn")
+FORESTS = ("rf", "rf-seg")
 
 
 def _parse_folds(text: str) -> tuple[str, ...] | None:
@@ -106,7 +107,7 @@ def evaluate_cmd(
     budgets: str = typer.Option(
         None, "--budgets", help="label budgets in percent for low-resource (default 1,5,10,25,50)"
     ),
-    backbones: str = typer.Option("rf", "--backbones", help="rf,dclstm,dclstm-attn,bilstm-attn"),
+    backbones: str = typer.Option("rf", "--backbones", help="rf,rf-seg,dclstm,dclstm-attn,bilstm-attn"),
     methods: str = typer.Option(
         "real", "--methods", help="real,classical (and registered sources)"
     ),
@@ -207,7 +208,7 @@ def evaluate_cmd(
 
 def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: int | None,
                      jobs: int | None, device: str) -> dict[str, dict[str, Any]]:
-    """Per backbone: the neural options given, and the RF's threads."""
+    """Per backbone: the neural options given, and the forests' threads."""
     neural_params = {
         k: v
         for k, v in (("max_epochs", max_epochs), ("patience", patience), ("n_threads", jobs))
@@ -220,8 +221,8 @@ def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: 
         if device != "cpu":
             neural_params["device"] = device
     params = {b: dict(neural_params) for b in chosen if b in NEURAL and neural_params}
-    if jobs is not None and "rf" in chosen:
-        params["rf"] = {"n_jobs": jobs}
+    if jobs is not None:
+        params.update({b: {"n_jobs": jobs} for b in chosen if b in FORESTS})
     return params
 
 

@@ -18,7 +18,7 @@ LIBRARY_OPTION = typer.Option(None, "--library", help="Extra activity-library fo
 DATASET_HELP = "hapt, hapt12 (ship offline), utd_mhad, pamap2, mmfit, mmact, had-aw (--data-dir) or a .yaml"
 DATASET_OPTION = typer.Option("hapt12", "--dataset", "-d", help=DATASET_HELP)
 DATA_DIR_OPTION = typer.Option(None, "--data-dir", help="Folder of a downloaded dataset")
-BACKBONE_OPTION = typer.Option("rf", "--backbone", help="rf | dclstm | dclstm-attn | bilstm-attn")
+BACKBONE_OPTION = typer.Option("rf", "--backbone", help="rf | rf-seg | dclstm | dclstm-attn | bilstm-attn")
 BACKEND_OPTION = typer.Option("procedural", "--backend", help="Motion backend: procedural | compiled | hymotion")
 WORKERS_OPTION = typer.Option(1, "--workers", max=256, help="Generation workers")
 MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", max=100000, help="Neural backbones: epoch limit")
@@ -159,12 +159,13 @@ def _positive(value: int | None, option: str) -> None:
 
 
 def _backbone(name: str, max_epochs: int | None, patience: int | None, jobs: int | None) -> dict:
+    from vsmp_imu.cli.har import FORESTS
     from vsmp_imu.har.backbones import BACKBONES
 
     parse_csv(name, tuple(BACKBONES), "--backbone")
     for value, option in ((max_epochs, "--max-epochs"), (patience, "--patience"), (jobs, "--jobs")):
         _positive(value, option)
-    if name == "rf":
+    if name in FORESTS:
         return {"n_jobs": jobs} if jobs else {}
     return {k: v for k, v in (("max_epochs", max_epochs), ("patience", patience), ("n_threads", jobs))
             if v is not None}

@@ -31,3 +31,25 @@ def ecdf_features(X: np.ndarray, n_levels: int = N_LEVELS) -> np.ndarray:
         raise ValidationError(f"windows must be (N, T, C), got shape {X.shape}", field="X")
     q = sorted_quantiles(X, ecdf_levels(n_levels), axis=1)  # (K, N, C), as np.quantile
     return np.ascontiguousarray(q.transpose(1, 2, 0).reshape(len(X), -1), dtype=np.float32)
+
+
+def segment_means(X: np.ndarray, n_segments: int) -> np.ndarray:
+    """`(N, T, C)` windows -> `(N, C * n_segments)`: each channel's mean over
+    `n_segments` equal, consecutive parts of the window (segment-major).
+
+    ECDF features do not see the order of a window's values, so a transition
+    and its time reversal look alike to them; the segment means keep the
+    window's slow course (for the accelerometer, where gravity points from
+    the window's start to its end).
+    """
+    X = np.asarray(X, dtype=np.float32)
+    if X.ndim != 3:
+        raise ValidationError(f"windows must be (N, T, C), got shape {X.shape}", field="X")
+    if not 1 <= n_segments <= X.shape[1]:
+        raise ValidationError(
+            f"need 1..{X.shape[1]} segments for windows of {X.shape[1]} samples, got {n_segments}",
+            field="n_segments",
+        )
+    edges = np.linspace(0, X.shape[1], n_segments + 1).round().astype(int)
+    parts = [X[:, a:b].mean(axis=1) for a, b in zip(edges[:-1], edges[1:])]
+    return np.ascontiguousarray(np.concatenate(parts, axis=1), dtype=np.float32)

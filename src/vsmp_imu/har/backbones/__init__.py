@@ -12,16 +12,17 @@ from vsmp_imu.har.backbones.neural import (
     DeepConvLSTMAttention,
     TorchClassifier,
 )
-from vsmp_imu.har.backbones.rf import RandomForestECDF
+from vsmp_imu.har.backbones.rf import RandomForestECDF, RandomForestSegments
 
 BACKBONES: dict[str, type] = {
     "rf": RandomForestECDF,
+    "rf-seg": RandomForestSegments,
     "dclstm": DeepConvLSTM,
     "dclstm-attn": DeepConvLSTMAttention,
     "bilstm-attn": BiLSTMAttention,
 }
 # Display names used in result tables (the paper's abbreviations).
-DISPLAY_NAMES = {"rf": "RF", "dclstm": "DCLSTM", "dclstm-attn": "DCLSTMA", "bilstm-attn": "BLSTMA"}
+DISPLAY_NAMES = {"rf": "RF", "rf-seg": "RF-SEG", "dclstm": "DCLSTM", "dclstm-attn": "DCLSTMA", "bilstm-attn": "BLSTMA"}
 # Backbone parameters that change how fast a model trains, not what it learns.
 RUN_PARAMS = ("n_jobs", "n_threads", "verbose")
 
@@ -59,6 +60,7 @@ __all__ = [
     "DeepConvLSTM",
     "DeepConvLSTMAttention",
     "RandomForestECDF",
+    "RandomForestSegments",
     "TorchClassifier",
     "make_backbone",
     "register_backbone",

