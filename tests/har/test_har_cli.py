@@ -177,3 +177,11 @@ def test_refill_reaches_the_vsmp_method_only_when_asked(cli, fixtures_dir, tmp_p
     assert [p.get("refill") for p in seen] == [2, None]
     code, _, err = cli(*args, "--refill", "9")
     assert code == 2 and "--refill" in err
+
+
+def test_jobs_reach_every_forest_and_the_networks_threads():
+    from vsmp_imu.cli.har import _backbone_params
+
+    params = _backbone_params(("rf", "rf-seg", "dclstm"), max_epochs=None, patience=None, jobs=3, device="cpu")
+    assert params == {"rf": {"n_jobs": 3}, "rf-seg": {"n_jobs": 3}, "dclstm": {"n_threads": 3}}
+    assert _backbone_params(("rf-seg",), None, None, None, "cpu") == {}
