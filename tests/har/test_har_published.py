@@ -279,6 +279,22 @@ def test_a_paired_table_can_take_its_baseline_from_another_record_set():
     assert "against `results/before/`, from `cmd b` at commit 1234567" in table
 
 
+def test_a_paired_table_can_take_its_baseline_from_another_backbone():
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    forest = [_record("vsmp", fold, 0, 1.0, 0.5) for fold in range(1, 7)]
+    segments = [{**r, "backbone": "rf-seg", "macro_f1": r["macro_f1"] + 0.01 * int(r["fold"])} for r in forest]
+    spec = TableSpec(id="x:seg", records="both", kind="paired", baseline="vsmp", backbone="rf-seg",
+                     baseline_backbone="rf", budgets=[1], methods=["vsmp"],
+                     metrics=[{"label": "all", "metric": "macro_f1"}])
+    table = TableBuilder(spec, RecordSet("both", "cmd", None, None, {}, LABELS, tuple(forest + segments))).render()
+    assert "| 1 % | VSMP-IMU with `rf-seg` vs. VSMP-IMU with `rf` | +3.50 (6/6, p = 0.031) |" in table
+    with pytest.raises(ValueError, match="baseline_backbone"):
+        TableSpec(id="x:bad", records="both", kind="paired", baseline="vsmp", baseline_backbone="rf",
+                  methods=["vsmp"], metrics=[{"label": "all", "metric": "macro_f1"}])
+
+
 def test_a_per_seed_paired_table_tests_each_seed_over_its_own_folds():
     from vsmp_imu.har.published import TableBuilder, TableSpec
     from vsmp_imu.har.records import RecordSet

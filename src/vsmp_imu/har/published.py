@@ -94,6 +94,8 @@ class TableSpec(BaseModel):
     baseline: str | None = None
     # paired: the baseline's runs from another record set (the same method before a change)
     baseline_records: str | None = None
+    # paired: the baseline's runs on another backbone (the same windows, another model)
+    baseline_backbone: str | None = None
     bold: bool = False
     per_seed: bool = False  # paired: a row per seed under each method's row over all seeds
     digits: int = Field(2, ge=0, le=4)
@@ -121,6 +123,8 @@ class TableSpec(BaseModel):
             raise ValueError(f"a {self.kind} table needs metrics")
         if self.per_seed and self.kind != "paired":
             raise ValueError("per_seed is an option of paired tables")
+        if self.baseline_backbone is not None and (self.kind != "paired" or self.backbone is None):
+            raise ValueError("baseline_backbone is an option of paired tables that name their backbone")
         return self
 
 
@@ -224,12 +228,13 @@ class TableBuilder:
         self.records = records
         self.baseline_records = baseline_records
 
-    def runs(self, method: str, budget: float | None, records: RecordSet | None = None) -> list[dict]:
+    def runs(self, method: str, budget: float | None, records: RecordSet | None = None,
+             backbone: str | None = None) -> list[dict]:
         where = {"method": method}
         if budget is not None:
             where["budget"] = budget
-        if self.spec.backbone is not None:
-            where["backbone"] = self.spec.backbone
+        if backbone or self.spec.backbone:
+            where["backbone"] = backbone or self.spec.backbone
         records = records or self.records
         found = records.select(**where)
         if not found:
@@ -312,7 +317,7 @@ class TableBuilder:
         s = self.spec
         rows = []
         for budget in self.budgets():
-            base = self.runs(s.baseline, budget, self.baseline_records)
+            base = self.runs(s.baseline, budget, self.baseline_records, s.baseline_backbone)
             for method in s.methods:
                 mine = self.runs(method, budget)
                 if self.baseline_records is not None:  # another set: the runs both have
@@ -320,9 +325,7 @@ class TableBuilder:
                     mine = [r for r in mine if _run_key(r) in both]
                     base = [r for r in base if _run_key(r) in both]
                 runs = self.same_runs({f"baseline {s.baseline}": base, method: mine}, budget)[method]
-                name = _method_name(method)
-                if self.baseline_records is not None:
-                    name += f" vs. {_method_name(s.baseline)} of `{self.baseline_records.name}`"
+                name = self._paired_name(method)
                 rows.append(self._lead(budget) + [name] + self._paired_cells(runs, base))
                 seeds = sorted({r["seed"] for r in runs}) if s.per_seed else []
                 for seed in seeds:
@@ -331,6 +334,16 @@ class TableBuilder:
                     rows.append(self._lead(budget) + [f"{name}, seed {seed}"] + cells)
         header = self._lead_header() + ["Method"] + [m.label for m in s.metrics]
         return _markdown(header, rows)
+
+    def _paired_name(self, method: str) -> str:
+        s = self.spec
+        if s.baseline_backbone is not None:
+            return (f"{_method_name(method)} with `{s.backbone}` vs. {_method_name(s.baseline)} with "
+                    f"`{s.baseline_backbone}`"
+                    + (f" of `{self.baseline_records.name}`" if self.baseline_records is not None else ""))
+        if self.baseline_records is not None:
+            return f"{_method_name(method)} vs. {_method_name(s.baseline)} of `{self.baseline_records.name}`"
+        return _method_name(method)
 
     def _paired_cells(self, runs: list[dict], base: list[dict]) -> list[str]:
         return [paired_test(runs, base, m).cell(self.spec.digits) for m in self.spec.metrics]
