@@ -51,5 +51,5 @@ def segment_means(X: np.ndarray, n_segments: int) -> np.ndarray:
             field="n_segments",
         )
     edges = np.linspace(0, X.shape[1], n_segments + 1).round().astype(int)
-    parts = [X[:, a:b].mean(axis=1) for a, b in zip(edges[:-1], edges[1:])]
+    parts = [X[:, a:b].mean(axis=1) for a, b in zip(edges[:-1], edges[1:], strict=True)]
     return np.ascontiguousarray(np.concatenate(parts, axis=1), dtype=np.float32)
