@@ -43,7 +43,7 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
         (("--folds", "1,99"), "--folds", "subjects 1, 2, 3"),
         (("--seeds", "0"), "--seeds", ">= 1"),
         (("--protocol", "kfold"), "--protocol", "lopo, low-resource, long-tail"),
-        (("--backbones", "rf,svm"), "--backbones", "rf, dclstm, dclstm-attn, bilstm-attn"),
+        (("--backbones", "rf,svm"), "--backbones", "rf, rf-seg, dclstm, dclstm-attn, bilstm-attn"),
         (("--methods", "real,magic"), "--methods", "real, classical"),
         (("--overlap", "1.5"), "overlap", "0 <= overlap < 1"),
         (("--max-epochs", "0"), "--max-epochs", ">= 1"),
