@@ -23,12 +23,18 @@ def ecdf_levels(n_levels: int = N_LEVELS) -> np.ndarray:
     return np.arange(1, n_levels + 1) / (n_levels + 1)
 
 
-def ecdf_features(X: np.ndarray, n_levels: int = N_LEVELS) -> np.ndarray:
-    """`(N, T, C)` windows -> `(N, C * K)` features: per channel, the window's empirical
-    quantiles at the K levels, channels concatenated (channel-major)."""
+def _windows(X: np.ndarray) -> np.ndarray:
+    """`X` as float32 `(N, T, C)` windows, or a ValidationError naming its shape."""
     X = np.asarray(X, dtype=np.float32)
     if X.ndim != 3:
         raise ValidationError(f"windows must be (N, T, C), got shape {X.shape}", field="X")
+    return X
+
+
+def ecdf_features(X: np.ndarray, n_levels: int = N_LEVELS) -> np.ndarray:
+    """`(N, T, C)` windows -> `(N, C * K)` features: per channel, the window's empirical
+    quantiles at the K levels, channels concatenated (channel-major)."""
+    X = _windows(X)
     q = sorted_quantiles(X, ecdf_levels(n_levels), axis=1)  # (K, N, C), as np.quantile
     return np.ascontiguousarray(q.transpose(1, 2, 0).reshape(len(X), -1), dtype=np.float32)
 
@@ -42,9 +48,7 @@ def segment_means(X: np.ndarray, n_segments: int) -> np.ndarray:
     window's slow course (for the accelerometer, where gravity points from
     the window's start to its end).
     """
-    X = np.asarray(X, dtype=np.float32)
-    if X.ndim != 3:
-        raise ValidationError(f"windows must be (N, T, C), got shape {X.shape}", field="X")
+    X = _windows(X)
     if not 1 <= n_segments <= X.shape[1]:
         raise ValidationError(
             f"need 1..{X.shape[1]} segments for windows of {X.shape[1]} samples, got {n_segments}",

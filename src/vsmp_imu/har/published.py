@@ -233,8 +233,9 @@ class TableBuilder:
         where = {"method": method}
         if budget is not None:
             where["budget"] = budget
-        if backbone or self.spec.backbone:
-            where["backbone"] = backbone or self.spec.backbone
+        backbone = backbone or self.spec.backbone
+        if backbone is not None:
+            where["backbone"] = backbone
         records = records or self.records
         found = records.select(**where)
         if not found:
