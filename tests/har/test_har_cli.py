@@ -185,3 +185,22 @@ def test_jobs_reach_every_forest_and_the_networks_threads():
     params = _backbone_params(("rf", "rf-seg", "dclstm"), max_epochs=None, patience=None, jobs=3, device="cpu")
     assert params == {"rf": {"n_jobs": 3}, "rf-seg": {"n_jobs": 3}, "dclstm": {"n_threads": 3}}
     assert _backbone_params(("rf-seg",), None, None, None, "cpu") == {}
+
+
+def test_a_registered_backbone_gets_the_options_its_parameters_name():
+    from dataclasses import dataclass
+
+    from vsmp_imu.cli.har import _backbone_params
+    from vsmp_imu.har.backbones import BACKBONES, DISPLAY_NAMES, RandomForestECDF, register_backbone
+
+    @dataclass(eq=False, repr=False)
+    class WideForest(RandomForestECDF):
+        n_estimators: int = 300
+
+    register_backbone("rf-wide", WideForest)
+    try:
+        params = _backbone_params(("rf-wide", "rf"), max_epochs=5, patience=None, jobs=2, device="cpu")
+    finally:
+        BACKBONES.pop("rf-wide")
+        DISPLAY_NAMES.pop("rf-wide")
+    assert params == {"rf-wide": {"n_jobs": 2}, "rf": {"n_jobs": 2}}  # a forest takes no epochs

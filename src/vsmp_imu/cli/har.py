@@ -32,9 +32,6 @@ from vsmp_imu.progress import progress
 
 dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_is_help=True)
 
-NEURAL = ("dclstm", "dclstm-attn", "bilstm-attn")
-FORESTS = ("rf", "rf-seg")
-
 
 def _parse_folds(text: str) -> tuple[str, ...] | None:
     if text.strip().lower() == "all":
@@ -171,6 +168,7 @@ def evaluate_cmd(
     output_dir(cache_dir, "--cache-dir")
     executor_options(executor, address)
     from vsmp_imu.app import EvalRequest, evaluate, evaluation
+    from vsmp_imu.har.backbones import BACKBONES
     from vsmp_imu.har.noharm import check_mode
     from vsmp_imu.har.protocols import parse_budgets
     from vsmp_imu.pipeline.spec import GenerationSpec
@@ -180,7 +178,7 @@ def evaluate_cmd(
     _positive(max_epochs, "--max-epochs")
     _positive(patience, "--patience")
     _positive(jobs, "--jobs")
-    chosen_backbones = tuple(parse_csv(backbones, option="--backbones"))
+    chosen_backbones = tuple(parse_csv(backbones, tuple(BACKBONES), "--backbones"))
     request = EvalRequest(
         dataset=dataset, output=output, protocol=protocol,
         budgets=parse_budgets(budgets, "low-resource") if budgets else (None,),
@@ -208,22 +206,16 @@ def evaluate_cmd(
 
 def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: int | None,
                      jobs: int | None, device: str) -> dict[str, dict[str, Any]]:
-    """Per backbone: the neural options given, and the forests' threads."""
-    neural_params = {
-        k: v
-        for k, v in (("max_epochs", max_epochs), ("patience", patience), ("n_threads", jobs))
-        if v is not None
-    }
-    if any(b in NEURAL for b in chosen):
+    """Per backbone: the options given that it takes (`option_params`)."""
+    from vsmp_imu.har.backbones import make_backbone, option_params
+
+    if any("device" in make_backbone(b).get_params() for b in chosen):
         from vsmp_imu.har.backbones.neural import resolve_device
 
         resolve_device(device)  # an unknown or absent device fails before any data is loaded
-        if device != "cpu":
-            neural_params["device"] = device
-    params = {b: dict(neural_params) for b in chosen if b in NEURAL and neural_params}
-    if jobs is not None:
-        params.update({b: {"n_jobs": jobs} for b in chosen if b in FORESTS})
-    return params
+    params = {b: option_params(b, jobs=jobs, max_epochs=max_epochs, patience=patience,
+                               device=None if device == "cpu" else device) for b in chosen}
+    return {b: p for b, p in params.items() if p}
 
 
 def _pct(mean: float | None, std: float | None) -> str:

@@ -159,16 +159,12 @@ def _positive(value: int | None, option: str) -> None:
 
 
 def _backbone(name: str, max_epochs: int | None, patience: int | None, jobs: int | None) -> dict:
-    from vsmp_imu.cli.har import FORESTS
-    from vsmp_imu.har.backbones import BACKBONES
+    from vsmp_imu.har.backbones import BACKBONES, option_params
 
     parse_csv(name, tuple(BACKBONES), "--backbone")
     for value, option in ((max_epochs, "--max-epochs"), (patience, "--patience"), (jobs, "--jobs")):
         _positive(value, option)
-    if name in FORESTS:
-        return {"n_jobs": jobs} if jobs else {}
-    return {k: v for k, v in (("max_epochs", max_epochs), ("patience", patience), ("n_threads", jobs))
-            if v is not None}
+    return option_params(name, jobs=jobs, max_epochs=max_epochs, patience=patience)
 
 
 def _generation(source: str, k: int, backend: str, workers: int, library: list[Path] | None,

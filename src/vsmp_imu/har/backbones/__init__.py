@@ -52,6 +52,18 @@ def make_backbone(name: str, **params: Any):
     return cls(**params)
 
 
+def option_params(name: str, *, jobs: int | None = None, max_epochs: int | None = None,
+                  patience: int | None = None, device: str | None = None) -> dict[str, Any]:
+    """The command-line options that reach backbone `name`, read from its own parameters:
+    `--jobs` is a forest's `n_jobs` and a network's `n_threads`; `--max-epochs`,
+    `--patience` and `--device` reach the backbones that take them. An option not given
+    (None) is left to the backbone's default."""
+    accepted = make_backbone(name).get_params()
+    given = {"n_jobs": jobs, "n_threads": jobs, "max_epochs": max_epochs, "patience": patience,
+             "device": device}
+    return {k: v for k, v in given.items() if v is not None and k in accepted}
+
+
 __all__ = [
     "BACKBONES",
     "DISPLAY_NAMES",
@@ -63,5 +75,6 @@ __all__ = [
     "RandomForestSegments",
     "TorchClassifier",
     "make_backbone",
+    "option_params",
     "register_backbone",
 ]
