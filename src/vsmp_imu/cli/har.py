@@ -131,6 +131,10 @@ def evaluate_cmd(
     ),
     jobs: int = typer.Option(None, "--jobs", max=256, help="CPU threads for RF and PyTorch"),
     device: str = typer.Option("cpu", "--device", help="neural backbones: cpu | cuda | cuda:N | mps | auto"),
+    class_weight: str = typer.Option(
+        "none", "--class-weight",
+        help="forests: none (the paper) | balanced (each class weighted by the inverse of its "
+             "training windows, so a class with few windows counts as much as the others)"),
     report_groups: list[str] = typer.Option(
         None, "--report-groups", help="NAME=CLASS,CLASS;... classes reported together"
     ),
@@ -184,7 +188,8 @@ def evaluate_cmd(
         budgets=parse_budgets(budgets, "low-resource") if budgets else (None,),
         backbones=chosen_backbones, methods=tuple(parse_csv(methods, option="--methods")),
         folds=_parse_folds(folds), seeds=seeds, only_seeds=_parse_seeds(only_seeds), rho=rho, window_s=window_s, overlap=overlap,
-        data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device),
+        data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device,
+                                                             class_weight),
         report_groups=_parse_groups(report_groups), share_selection=share_selection,
         unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
@@ -204,17 +209,29 @@ def evaluate_cmd(
     )
 
 
+CLASS_WEIGHTS = ("none", "balanced")
+
+
 def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: int | None,
-                     jobs: int | None, device: str) -> dict[str, dict[str, Any]]:
-    """Per backbone: the options given that it takes (`option_params`)."""
+                     jobs: int | None, device: str, class_weight: str = "none") -> dict[str, dict[str, Any]]:
+    """Per backbone: the options given that it takes (`option_params`). A class weight that a
+    chosen backbone cannot take is refused, so every backbone of a run is weighted alike."""
     from vsmp_imu.har.backbones import make_backbone, option_params
 
-    if any("device" in make_backbone(b).get_params() for b in chosen):
+    accepted = {b: make_backbone(b).get_params() for b in chosen}
+    if any("device" in a for a in accepted.values()):
         from vsmp_imu.har.backbones.neural import resolve_device
 
         resolve_device(device)  # an unknown or absent device fails before any data is loaded
+    parse_csv(class_weight, CLASS_WEIGHTS, "--class-weight")
+    weighted = class_weight != "none"
+    unweighted = [b for b, a in accepted.items() if "class_weight" not in a]
+    if weighted and unweighted:
+        raise ConfigError(f"backbone(s) {', '.join(unweighted)} take no class weights", field="--class-weight",
+                          allowed="none, or only backbones with class weights (the forests)")
     params = {b: option_params(b, jobs=jobs, max_epochs=max_epochs, patience=patience,
-                               device=None if device == "cpu" else device) for b in chosen}
+                               device=None if device == "cpu" else device,
+                               class_weight=class_weight if weighted else None) for b in chosen}
     return {b: p for b, p in params.items() if p}
 
 

@@ -53,14 +53,15 @@ def make_backbone(name: str, **params: Any):
 
 
 def option_params(name: str, *, jobs: int | None = None, max_epochs: int | None = None,
-                  patience: int | None = None, device: str | None = None) -> dict[str, Any]:
+                  patience: int | None = None, device: str | None = None,
+                  class_weight: str | None = None) -> dict[str, Any]:
     """The command-line options that reach backbone `name`, read from its own parameters:
     `--jobs` is a forest's `n_jobs` and a network's `n_threads`; `--max-epochs`,
-    `--patience` and `--device` reach the backbones that take them. An option not given
-    (None) is left to the backbone's default."""
+    `--patience`, `--device` and `--class-weight` reach the backbones that take them. An
+    option not given (None) is left to the backbone's default."""
     accepted = make_backbone(name).get_params()
     given = {"n_jobs": jobs, "n_threads": jobs, "max_epochs": max_epochs, "patience": patience,
-             "device": device}
+             "device": device, "class_weight": class_weight}
     return {k: v for k, v in given.items() if v is not None and k in accepted}
 
 
