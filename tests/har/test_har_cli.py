@@ -50,6 +50,8 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
         (("--policy", "greedy"), "--policy", "uniform, tail, scarcity"),
         (("--protocol", "long-tail", "--rho", "1"), "--rho", "rho > 1"),
         (("--backbones", "dclstm", "--device", "tpu9"), "--device", "cpu, cuda, cuda:N, mps, auto"),
+        (("--class-weight", "equal"), "--class-weight", "none, balanced"),
+        (("--backbones", "rf,dclstm", "--class-weight", "balanced"), "--class-weight", "the forests"),
     ],
 )
 def test_out_of_range_options_exit_2(cli, tmp_path, args, option, allowed):
@@ -204,3 +206,24 @@ def test_a_registered_backbone_gets_the_options_its_parameters_name():
         BACKBONES.pop("rf-wide")
         DISPLAY_NAMES.pop("rf-wide")
     assert params == {"rf-wide": {"n_jobs": 2}, "rf": {"n_jobs": 2}}  # a forest takes no epochs
+
+
+def test_class_weight_reaches_the_forests_and_their_records(cli, fixtures_dir, tmp_path):
+    from vsmp_imu.cli.har import _backbone_params
+
+    assert _backbone_params(("rf", "rf-seg"), None, None, None, "cpu", "balanced") == {
+        "rf": {"class_weight": "balanced"}, "rf-seg": {"class_weight": "balanced"}}
+    assert _backbone_params(("rf", "dclstm"), None, None, None, "cpu", "none") == {}
+
+    def digest(weight: str) -> str:
+        out = tmp_path / weight
+        args = ("evaluate", "--dataset", fixtures_dir / "generic" / "dataset.yaml", "--protocol", "long-tail",
+                "--rho", "2", "--methods", "real", "--backbones", "rf", "--jobs", "1", "-o", out)
+        code, stdout, _ = cli(*args, *(("--class-weight", weight) if weight != "default" else ()))
+        assert code == 0, stdout
+        digests = {json.loads(f.read_text())["settings_digest"] for f in out.rglob("records/**/*.json")}
+        assert len(digests) == 1
+        return digests.pop()
+
+    # `none` is the paper's forest: its records are those written without the option
+    assert digest("none") == digest("default") != digest("balanced")
