@@ -51,6 +51,7 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
         (("--protocol", "long-tail", "--rho", "1"), "--rho", "rho > 1"),
         (("--backbones", "dclstm", "--device", "tpu9"), "--device", "cpu, cuda, cuda:N, mps, auto"),
         (("--class-weight", "equal"), "--class-weight", "none, balanced"),
+        (("--class-weight", "none,balanced"), "--class-weight", "none, balanced"),
         (("--backbones", "rf,dclstm", "--class-weight", "balanced"), "--class-weight", "the forests"),
     ],
 )

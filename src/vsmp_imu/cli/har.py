@@ -223,7 +223,9 @@ def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: 
         from vsmp_imu.har.backbones.neural import resolve_device
 
         resolve_device(device)  # an unknown or absent device fails before any data is loaded
-    parse_csv(class_weight, CLASS_WEIGHTS, "--class-weight")
+    if class_weight not in CLASS_WEIGHTS:  # one value: a list would reach the forest unparsed
+        raise ConfigError(f"unknown class weight '{class_weight}'", field="--class-weight",
+                          allowed=", ".join(CLASS_WEIGHTS))
     weighted = class_weight != "none"
     unweighted = [b for b, a in accepted.items() if "class_weight" not in a]
     if weighted and unweighted:
