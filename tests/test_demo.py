@@ -10,8 +10,8 @@ from vsmp_imu.demo import DemoConfig, run_demo
 def test_demo_writes_its_report_and_figures(tmp_path):
     out = tmp_path / "demo"
     result = run_demo(out, DemoConfig(folds=("2",), workers=1))
-    methods = [r["method"] for r in result["rows"]]
-    assert methods == ["real", "classical", "vsmp"]
+    pairs = [(r["backbone"], r["method"]) for r in result["rows"]]
+    assert pairs == [(b, m) for b in ("rf", "rf-seg") for m in ("real", "classical", "vsmp")]
     for r in result["rows"]:
         assert 0.2 < r["macro_f1"] / 100 < 1.0
         assert {"activities", "transitions"} <= set(r)
@@ -19,6 +19,8 @@ def test_demo_writes_its_report_and_figures(tmp_path):
                  "synthetic/synthetic.parquet", "synthetic/summary.json", "evaluation/results.json"):
         assert (out / name).stat().st_size > 0, name
     report = (out / "report.md").read_text()
-    assert "| VSMP-IMU |" in report and "Quality filter" in report
+    assert "| RF-SEG (balanced) | VSMP-IMU |" in report and "Quality filter" in report
+    forests = json.loads((out / "evaluation" / "results.json").read_text())["config"]["backbone_params"]
+    assert forests == {"rf": {"class_weight": "balanced"}, "rf-seg": {"class_weight": "balanced"}}
     summary = json.loads((out / "synthetic" / "summary.json").read_text())
     assert summary["per_class"]["STAND_TO_SIT"]["budget"] > 0

@@ -388,3 +388,21 @@ def test_every_committed_record_set_names_its_confusion_matrices_classes_in_thei
                 f"{folder.name}: label_names do not follow the confusion matrices' order"
             checked += 1
     assert checked > 1000
+
+
+def test_a_table_can_show_a_subset_of_the_runs_and_says_which():
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    records = _records()
+    spec = TableSpec(id="x:sub", records="demo", kind="groups", budgets=[1], methods=["real", "vsmp"],
+                     folds=["1", "2"], seeds=[0], metrics=[{"label": "all", "metric": "macro_f1"}])
+    table = TableBuilder(spec, RecordSet("demo", "cmd", None, None, {}, LABELS, tuple(records))).render()
+    kept = [r for r in records if r["method"] == "vsmp" and r["fold"] in ("1", "2") and r["seed"] == 0]
+    mean = 100 * np.mean([r["macro_f1"] for r in kept])
+    row = next(line for line in table.splitlines() if line.startswith("| 1 % | all"))
+    assert row.split(" | ")[3].startswith(f"{mean:.2f} ±")
+    assert "(2 runs: held-out subjects 1, 2 and seed 0 of its runs)" in table
+    with pytest.raises(ConfigError, match="no run of the folds and seeds"):
+        TableBuilder(spec.model_copy(update={"seeds": [7]}),
+                     RecordSet("demo", "cmd", None, None, {}, LABELS, tuple(records))).render()

@@ -17,7 +17,7 @@ from __future__ import annotations
 import difflib
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
@@ -104,6 +104,9 @@ class TableSpec(BaseModel):
     # the benchmark script's VIEWS (none: the script's own table)
     view: str | None = None
     source: str | None = None  # kind benchmark: the committed benchmark JSON (har.bench_records)
+    # a subset of the record set's runs (e.g. the three held-out subjects and the seed of `make demo`)
+    folds: list[str] | None = None
+    seeds: list[int] | None = None
 
     @model_validator(mode="after")
     def _consistent(self) -> TableSpec:
@@ -225,8 +228,31 @@ class TableBuilder:
 
     def __init__(self, spec: TableSpec, records: RecordSet, baseline_records: RecordSet | None = None) -> None:
         self.spec = spec
-        self.records = records
-        self.baseline_records = baseline_records
+        self.records = self._subset(records)
+        self.baseline_records = None if baseline_records is None else self._subset(baseline_records)
+
+    def _subset(self, records: RecordSet) -> RecordSet:
+        """The runs of the spec's folds and seeds (all runs where it names none)."""
+        folds, seeds = self.spec.folds, self.spec.seeds
+        if folds is None and seeds is None:
+            return records
+        kept = tuple(r for r in records.records
+                     if (folds is None or str(r["fold"]) in folds) and (seeds is None or r["seed"] in seeds))
+        if not kept:
+            raise ConfigError(
+                f"table '{self.spec.id}': record set '{records.name}' has no run of the folds and seeds it names",
+                field="folds/seeds",
+                allowed="the folds and seeds the records hold",
+            )
+        return replace(records, records=kept)
+
+    def _subset_note(self) -> str:
+        parts = []
+        if self.spec.folds is not None:
+            parts.append(f"held-out subject{'s' if len(self.spec.folds) > 1 else ''} {', '.join(self.spec.folds)}")
+        if self.spec.seeds is not None:
+            parts.append(f"seed{'s' if len(self.spec.seeds) > 1 else ''} {', '.join(map(str, self.spec.seeds))}")
+        return f": {' and '.join(parts)} of its runs" if parts else ""
 
     def runs(self, method: str, budget: float | None, records: RecordSet | None = None,
              backbone: str | None = None) -> list[dict]:
@@ -269,7 +295,7 @@ class TableBuilder:
     def render(self) -> str:
         table = getattr(self, f"_{self.spec.kind}")()
         n = self._n_runs()
-        source = (f"Records: `results/{self.records.name}/` ({n} run{'' if n == 1 else 's'}), from "
+        source = (f"Records: `results/{self.records.name}/` ({n} run{'' if n == 1 else 's'}{self._subset_note()}), from "
                   f"`{self.records.command}`")
         if self.records.code_commit:
             source += f" at commit {self.records.code_commit[:7]}"
