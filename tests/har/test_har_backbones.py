@@ -108,6 +108,26 @@ def test_neural_early_stopping_keeps_the_best_epoch():
     assert f1_score(y[100:], est.predict(X[100:]), average="macro") == pytest.approx(best)
 
 
+def test_balanced_class_weights_weigh_the_networks_loss_by_inverse_class_counts():
+    from sklearn.utils.class_weight import compute_class_weight
+
+    rng = np.random.default_rng(0)
+    y = np.r_[np.zeros(110, int), np.ones(110, int), np.full(20, 2)]  # class 2 is rare
+    X = rng.normal(0, 1, (len(y), 40, 6)).astype(np.float32)
+    X[:, :, 0] += 0.8 * y[:, None]
+    plain = _make("dclstm", max_epochs=5).fit(X, y)
+    balanced = _make("dclstm", max_epochs=5, class_weight="balanced").fit(X, y)
+    weights = balanced._loss_weights(np.searchsorted(balanced.classes_, y)).cpu().numpy()
+    assert weights == pytest.approx(compute_class_weight("balanced", classes=np.arange(3), y=y))
+    assert plain._loss_weights(y) is None
+    # on windows of the three classes alike, the rare class is predicted where it was not
+    X_test = rng.normal(0, 1, (300, 40, 6)).astype(np.float32)
+    X_test[:, :, 0] += 0.8 * (np.arange(300) % 3)[:, None]
+    assert (balanced.predict(X_test) == 2).sum() > (plain.predict(X_test) == 2).sum() + 50
+    with pytest.raises(ValidationError, match="class_weight"):
+        _make("dclstm", max_epochs=1, class_weight="equal").fit(X, y)
+
+
 def test_validation_score_averages_over_the_validation_classes_only():
     y_true = np.array([0, 0, 0, 0, 1, 1, 1, 1])
     y_pred = np.array([0, 0, 0, 2, 1, 1, 1, 1])  # one window of class 0 taken for class 2

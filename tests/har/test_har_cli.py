@@ -7,6 +7,8 @@ import re
 
 import pytest
 
+from vsmp_imu.errors import ConfigError
+
 
 def test_dataset_list(cli):
     code, out, _ = cli("dataset", "list")
@@ -52,7 +54,6 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
         (("--backbones", "dclstm", "--device", "tpu9"), "--device", "cpu, cuda, cuda:N, mps, auto"),
         (("--class-weight", "equal"), "--class-weight", "none, balanced"),
         (("--class-weight", "none,balanced"), "--class-weight", "none, balanced"),
-        (("--backbones", "rf,dclstm", "--class-weight", "balanced"), "--class-weight", "the forests"),
     ],
 )
 def test_out_of_range_options_exit_2(cli, tmp_path, args, option, allowed):
@@ -215,6 +216,8 @@ def test_class_weight_reaches_the_forests_and_their_records(cli, fixtures_dir, t
     assert _backbone_params(("rf", "rf-seg"), None, None, None, "cpu", "balanced") == {
         "rf": {"class_weight": "balanced"}, "rf-seg": {"class_weight": "balanced"}}
     assert _backbone_params(("rf", "dclstm"), None, None, None, "cpu", "none") == {}
+    assert _backbone_params(("dclstm", "bilstm-attn"), None, None, None, "cpu", "balanced") == {
+        "dclstm": {"class_weight": "balanced"}, "bilstm-attn": {"class_weight": "balanced"}}
 
     def digest(weight: str) -> str:
         out = tmp_path / weight
@@ -228,3 +231,26 @@ def test_class_weight_reaches_the_forests_and_their_records(cli, fixtures_dir, t
 
     # `none` is the paper's forest: its records are those written without the option
     assert digest("none") == digest("default") != digest("balanced")
+
+
+def test_class_weight_is_refused_when_a_chosen_backbone_takes_none():
+    from dataclasses import dataclass
+
+    from sklearn.base import BaseEstimator
+
+    from vsmp_imu.cli.har import _backbone_params
+    from vsmp_imu.har.backbones import BACKBONES, DISPLAY_NAMES, register_backbone
+
+    @dataclass(eq=False, repr=False)
+    class Plain(BaseEstimator):
+        depth: int = 2
+
+    register_backbone("plain", Plain)
+    try:
+        with pytest.raises(ConfigError, match="take no class weights") as caught:
+            _backbone_params(("rf", "plain"), None, None, None, "cpu", "balanced")
+        assert caught.value.field == "--class-weight" and "class_weight parameter" in caught.value.allowed
+        assert _backbone_params(("rf", "plain"), None, None, None, "cpu", "none") == {}
+    finally:
+        BACKBONES.pop("plain")
+        DISPLAY_NAMES.pop("plain")

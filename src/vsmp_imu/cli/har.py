@@ -133,8 +133,9 @@ def evaluate_cmd(
     device: str = typer.Option("cpu", "--device", help="neural backbones: cpu | cuda | cuda:N | mps | auto"),
     class_weight: str = typer.Option(
         "none", "--class-weight",
-        help="forests: none (the paper) | balanced (each class weighted by the inverse of its "
-             "training windows, so a class with few windows counts as much as the others)"),
+        help="none (the paper) | balanced (each class weighted by the inverse of its training "
+             "windows, in a forest's splits and a network's loss, so a class with few windows "
+             "counts as much as the others)"),
     report_groups: list[str] = typer.Option(
         None, "--report-groups", help="NAME=CLASS,CLASS;... classes reported together"
     ),
@@ -230,7 +231,7 @@ def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: 
     unweighted = [b for b, a in accepted.items() if "class_weight" not in a]
     if weighted and unweighted:
         raise ConfigError(f"backbone(s) {', '.join(unweighted)} take no class weights", field="--class-weight",
-                          allowed="none, or only backbones with class weights (the forests)")
+                          allowed="none, or only backbones that take a class_weight parameter")
     params = {b: option_params(b, jobs=jobs, max_epochs=max_epochs, patience=patience,
                                device=None if device == "cpu" else device,
                                class_weight=class_weight if weighted else None) for b in chosen}

@@ -6,6 +6,8 @@ Training follows the paper's implementation details: AdamW, learning rate
 the validation windows hold), up to N epochs
 (the paper uses 500; the CPU default here is 60 with patience 10). Inputs are
 z-scored per channel with statistics of the training windows given to `fit`.
+`class_weight="balanced"` weighs each window's loss by the inverse of its
+class's count (not in the paper; `evaluate --class-weight`).
 
 One deviation for small training sets: a batch holds at most 1/`min_steps`
 of the windows (default 8 steps per epoch). With the paper's 1024-window
@@ -94,6 +96,9 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
     verbose: bool = False
     min_steps: int = 8
     device: str = "cpu"
+    # None: every window counts alike; "balanced": each class's windows weigh the inverse of
+    # its count in the loss (scikit-learn's `class_weight="balanced"`, as the forests take it)
+    class_weight: str | None = None
 
     @classmethod
     def _get_test_params(cls) -> dict[str, Any]:
@@ -179,7 +184,7 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
         optimizer = torch.optim.AdamW(
             self.model_.parameters(), lr=self.lr, weight_decay=self.weight_decay
         )
-        loss_fn = torch.nn.CrossEntropyLoss()
+        loss_fn = torch.nn.CrossEntropyLoss(weight=self._loss_weights(y_idx))
         generator = torch.Generator().manual_seed(int(self.random_state))
         best_f1, best_state, stale = -1.0, None, 0
         self.history_: list[dict[str, float]] = []
@@ -220,6 +225,19 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
                 break
         if best_state is not None:
             self.model_.load_state_dict(best_state)
+
+    def _loss_weights(self, y_idx: np.ndarray):
+        """Per-class weights of the cross-entropy: None (all 1) or balanced, n / (k * count)."""
+        import torch
+
+        if self.class_weight is None:
+            return None
+        if self.class_weight != "balanced":
+            raise ValidationError(f"unknown class_weight {self.class_weight!r}", field="class_weight",
+                                  allowed="None or 'balanced'")
+        counts = np.bincount(y_idx, minlength=len(self.classes_))
+        weights = len(y_idx) / (len(self.classes_) * counts)
+        return torch.as_tensor(weights, dtype=torch.float32, device=self.device_)
 
     def predict_proba(self, X: np.ndarray) -> np.ndarray:
         import torch
