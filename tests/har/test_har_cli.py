@@ -191,22 +191,18 @@ def test_jobs_reach_every_forest_and_the_networks_threads():
     assert _backbone_params(("rf-seg",), None, None, None, "cpu") == {}
 
 
-def test_a_registered_backbone_gets_the_options_its_parameters_name():
+def test_a_registered_backbone_gets_the_options_its_parameters_name(monkeypatch):
     from dataclasses import dataclass
 
     from vsmp_imu.cli.har import _backbone_params
-    from vsmp_imu.har.backbones import BACKBONES, DISPLAY_NAMES, RandomForestECDF, register_backbone
+    from vsmp_imu.har.backbones import BACKBONES, RandomForestECDF
 
     @dataclass(eq=False, repr=False)
     class WideForest(RandomForestECDF):
         n_estimators: int = 300
 
-    register_backbone("rf-wide", WideForest)
-    try:
-        params = _backbone_params(("rf-wide", "rf"), max_epochs=5, patience=None, jobs=2, device="cpu")
-    finally:
-        BACKBONES.pop("rf-wide")
-        DISPLAY_NAMES.pop("rf-wide")
+    monkeypatch.setitem(BACKBONES, "rf-wide", WideForest)
+    params = _backbone_params(("rf-wide", "rf"), max_epochs=5, patience=None, jobs=2, device="cpu")
     assert params == {"rf-wide": {"n_jobs": 2}, "rf": {"n_jobs": 2}}  # a forest takes no epochs
 
 
@@ -233,24 +229,20 @@ def test_class_weight_reaches_the_forests_and_their_records(cli, fixtures_dir, t
     assert digest("none") == digest("default") != digest("balanced")
 
 
-def test_class_weight_is_refused_when_a_chosen_backbone_takes_none():
+def test_class_weight_is_refused_when_a_chosen_backbone_takes_none(monkeypatch):
     from dataclasses import dataclass
 
     from sklearn.base import BaseEstimator
 
     from vsmp_imu.cli.har import _backbone_params
-    from vsmp_imu.har.backbones import BACKBONES, DISPLAY_NAMES, register_backbone
+    from vsmp_imu.har.backbones import BACKBONES
 
     @dataclass(eq=False, repr=False)
     class Plain(BaseEstimator):
         depth: int = 2
 
-    register_backbone("plain", Plain)
-    try:
-        with pytest.raises(ConfigError, match="take no class weights") as caught:
-            _backbone_params(("rf", "plain"), None, None, None, "cpu", "balanced")
-        assert caught.value.field == "--class-weight" and "class_weight parameter" in caught.value.allowed
-        assert _backbone_params(("rf", "plain"), None, None, None, "cpu", "none") == {}
-    finally:
-        BACKBONES.pop("plain")
-        DISPLAY_NAMES.pop("plain")
+    monkeypatch.setitem(BACKBONES, "plain", Plain)
+    with pytest.raises(ConfigError, match="take no class weights") as caught:
+        _backbone_params(("rf", "plain"), None, None, None, "cpu", "balanced")
+    assert caught.value.field == "--class-weight" and "class_weight parameter" in caught.value.allowed
+    assert _backbone_params(("rf", "plain"), None, None, None, "cpu", "none") == {}
