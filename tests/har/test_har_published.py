@@ -277,6 +277,17 @@ def test_a_paired_table_can_take_its_baseline_from_another_record_set():
                          RecordSet("before", "cmd b", "1234567", None, {}, LABELS, tuple(before))).render()
     assert "| 1 % | VSMP-IMU vs. VSMP-IMU of `before` | +3.50 (6/6, p = 0.031) |" in table
     assert "against `results/before/`, from `cmd b` at commit 1234567" in table
+    # `same`: each method against itself in the other set
+    before += [{**r, "method": "real", "macro_f1": 0.4} for r in before]
+    after += [{**r, "method": "real", "macro_f1": 0.4 + 0.02 * int(r["fold"])} for r in after]
+    spec = spec.model_copy(update={"baseline": "same", "methods": ["real", "vsmp"]})
+    table = TableBuilder(spec, RecordSet("after", "cmd a", None, None, {}, LABELS, tuple(after)),
+                         RecordSet("before", "cmd b", None, None, {}, LABELS, tuple(before))).render()
+    assert "| 1 % | Real-only vs. Real-only of `before` | +7.00 (6/6, p = 0.031) |" in table
+    assert "| 1 % | VSMP-IMU vs. VSMP-IMU of `before` | +3.50 (6/6, p = 0.031) |" in table
+    with pytest.raises(ValueError, match="same"):
+        TableSpec(id="x:bad", records="after", kind="paired", baseline="same", methods=["vsmp"],
+                  metrics=[{"label": "all", "metric": "macro_f1"}])
 
 
 def test_a_paired_table_can_take_its_baseline_from_another_backbone():

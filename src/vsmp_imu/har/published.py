@@ -55,6 +55,8 @@ METHOD_NAMES = {
 
 # The unseen protocol's figures: Macro-F1 over the unseen / seen classes and the share of
 # seen-class test windows predicted as an unseen class (and the reverse).
+# a paired table's baseline that pairs each method with itself (in baseline_records or on baseline_backbone)
+SAME = "same"
 UNSEEN_METRICS = {"unseen": "unseen_macro_f1", "seen": "seen_macro_f1",
                   "seen_as_unseen": "seen_as_unseen", "unseen_as_seen": "unseen_as_seen"}
 
@@ -91,7 +93,7 @@ class TableSpec(BaseModel):
     metrics: list[Metric] = Field(default_factory=list)
     budgets: list[float] | None = None
     backbone: str | None = None
-    baseline: str | None = None
+    baseline: str | None = None  # a method, or `same` (each method against itself in the other runs)
     # paired: the baseline's runs from another record set (the same method before a change)
     baseline_records: str | None = None
     # paired: the baseline's runs on another backbone (the same windows, another model)
@@ -122,6 +124,9 @@ class TableSpec(BaseModel):
             raise ValueError(f"a {self.kind} table needs methods")
         if self.kind == "paired" and self.baseline is None:
             raise ValueError("a paired table needs a baseline method")
+        if self.baseline == SAME and self.baseline_records is None and self.baseline_backbone is None:
+            raise ValueError("baseline 'same' pairs each method with itself in baseline_records or on "
+                             "baseline_backbone; it needs one of them")
         if self.kind in ("groups", "paired", "unseen_each") and not self.metrics:
             raise ValueError(f"a {self.kind} table needs metrics")
         if self.per_seed and self.kind != "paired":
@@ -344,8 +349,8 @@ class TableBuilder:
         s = self.spec
         rows = []
         for budget in self.budgets():
-            base = self.runs(s.baseline, budget, self.baseline_records, s.baseline_backbone)
             for method in s.methods:
+                base = self.runs(self._baseline(method), budget, self.baseline_records, s.baseline_backbone)
                 mine = self.runs(method, budget)
                 if self.baseline_records is not None:  # another set: the runs both have
                     both = _run_keys(mine) & _run_keys(base)
@@ -362,14 +367,18 @@ class TableBuilder:
         header = self._lead_header() + ["Method"] + [m.label for m in s.metrics]
         return _markdown(header, rows)
 
+    def _baseline(self, method: str) -> str:
+        """The method `method` is paired with: the spec's baseline, or with `same` itself."""
+        return method if self.spec.baseline == SAME else self.spec.baseline
+
     def _paired_name(self, method: str) -> str:
         s = self.spec
+        baseline = _method_name(self._baseline(method))
         if s.baseline_backbone is not None:
-            return (f"{_method_name(method)} with `{s.backbone}` vs. {_method_name(s.baseline)} with "
-                    f"`{s.baseline_backbone}`"
+            return (f"{_method_name(method)} with `{s.backbone}` vs. {baseline} with `{s.baseline_backbone}`"
                     + (f" of `{self.baseline_records.name}`" if self.baseline_records is not None else ""))
         if self.baseline_records is not None:
-            return f"{_method_name(method)} vs. {_method_name(s.baseline)} of `{self.baseline_records.name}`"
+            return f"{_method_name(method)} vs. {baseline} of `{self.baseline_records.name}`"
         return _method_name(method)
 
     def _paired_cells(self, runs: list[dict], base: list[dict]) -> list[str]:
