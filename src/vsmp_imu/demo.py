@@ -207,9 +207,9 @@ def report_markdown(cfg: DemoConfig, rows, fold_out: FoldOutput, elapsed_s: floa
         "",
         f"HAPT12 (waist phone, 6 activities + 6 postural transitions), leave-one-subject-out over held-out "
         f"subjects {', '.join(cfg.folds)}, low-resource {cfg.budget_percent:g} % of the labelled training "
-        f"windows, seed {cfg.seed}. Forests: `rf` (the paper's RF on ECDF features) and `rf-seg` (the same "
-        f"features and each channel's means over 8 parts of the window), class weights `{cfg.class_weight}`, "
-        f"alike for every method. Synthetic budget: alpha = {cfg.alpha:g} x the real training windows, "
+        f"windows, seed {cfg.seed}. Backbones {', '.join(f'`{b}`' for b in cfg.backbones)} (`rf`: the paper's "
+        f"RF on ECDF features; `rf-seg`: the same features and each channel's means over 8 parts of the "
+        f"window), class weights `{cfg.class_weight}`, alike for every method. Synthetic budget: alpha = {cfg.alpha:g} x the real training windows, "
         f"distributed by the `{cfg.policy}` policy. Activity-library SMPs, procedural motion backend. "
         f"Run time {elapsed_s / 60:.1f} min.",
         "",

@@ -55,10 +55,10 @@ METHOD_NAMES = {
 
 # The unseen protocol's figures: Macro-F1 over the unseen / seen classes and the share of
 # seen-class test windows predicted as an unseen class (and the reverse).
-# a paired table's baseline that pairs each method with itself (in baseline_records or on baseline_backbone)
-SAME = "same"
 UNSEEN_METRICS = {"unseen": "unseen_macro_f1", "seen": "seen_macro_f1",
                   "seen_as_unseen": "seen_as_unseen", "unseen_as_seen": "unseen_as_seen"}
+# a paired table's baseline that pairs each method with itself (in baseline_records or on baseline_backbone)
+SAME = "same"
 
 
 class Metric(BaseModel):
