@@ -143,6 +143,9 @@ class EvalRequest:
     # do no harm (`vsmp_imu.har.noharm`): off | method | class; off by default because the guard
     # measured below mixing every synthetic window on HAPT12 (docs/results.md)
     share_selection: str = "off"
+    # None: windows weigh as their backbone's class weight says; S: a class's synthetic windows
+    # together S times its real ones (`vsmp_imu.har.weights`; needs --class-weight balanced)
+    synthetic_weight: float | None = None
 
 
 def evaluation(spec: GenerationSpec, request: EvalRequest):
@@ -172,7 +175,7 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
         policy=spec.policy, rho=request.rho, window_s=request.window_s, overlap=request.overlap,
         backbone_params=request.backbone_params, method_params=params, report_groups=request.report_groups,
         unseen=request.unseen,
-        share_selection=request.share_selection,
+        share_selection=request.share_selection, synthetic_weight=request.synthetic_weight,
     )
     return Evaluation(config, ds, request.output)
 

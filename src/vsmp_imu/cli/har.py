@@ -136,6 +136,12 @@ def evaluate_cmd(
         help="none (the paper) | balanced (each class weighted by the inverse of its training "
              "windows, in a forest's splits and a network's loss, so a class with few windows "
              "counts as much as the others)"),
+    synthetic_weight: float = typer.Option(
+        None, "--synthetic-weight",
+        help="with --class-weight balanced: the classes weigh alike per source, and a class's "
+             "synthetic windows together weigh this share of its real ones, however many there "
+             "are (0.5 is the measured best; a class without real windows keeps a full class's "
+             "weight) [default: off, every window of a class weighs alike]"),
     report_groups: list[str] = typer.Option(
         None, "--report-groups", help="NAME=CLASS,CLASS;... classes reported together"
     ),
@@ -192,6 +198,7 @@ def evaluate_cmd(
         data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device,
                                                              class_weight),
         report_groups=_parse_groups(report_groups), share_selection=share_selection,
+        synthetic_weight=synthetic_weight,
         unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, per_class_rank=per_class_rank,

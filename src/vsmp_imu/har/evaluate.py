@@ -10,6 +10,7 @@ subject reaches training, normalisation, validation or a synthetic source:
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import math
 import re
@@ -55,12 +56,14 @@ from vsmp_imu.har.synthetic import (
     UNSEEN_CAPABLE,
     FoldContext,
     check_synthetic,
+    is_synthetic,
     make_method,
     mix,
     synthetic_budget,
     take_budget,
     unseen_budget,
 )
+from vsmp_imu.har.weights import check_synthetic_weight, source_weights
 from vsmp_imu.har.windows import Windows, concat_windows, natural_key
 from vsmp_imu.io import dumps_json, remove_stale_temps, write_json
 from vsmp_imu.seeding import child_seed, rng_for
@@ -114,6 +117,9 @@ class EvalConfig:
     unseen: tuple[str, ...] = ()
     # do no harm (`noharm`): off | method | class
     share_selection: str = "off"
+    # None: a window's weight is its backbone's class weight; S: the classes weigh alike and a
+    # class's synthetic windows together S times its real ones (`weights`, needs balanced backbones)
+    synthetic_weight: float | None = None
 
     def __post_init__(self) -> None:
         """Normalise the budgets: (None,) outside low-resource, the default budgets when none are
@@ -160,7 +166,24 @@ class EvalConfig:
         if not self.rho > 1 or not math.isfinite(self.rho):  # NaN fails both
             raise ConfigError(f"rho {self.rho:g} out of range", field="--rho", allowed="a finite rho > 1")
         check_mode(self.share_selection)
+        self._check_synthetic_weight()
         return self
+
+    def _check_synthetic_weight(self) -> None:
+        """A synthetic weight balances the classes itself: every backbone must be balanced
+        (so Real-only is the same model) and take per-window weights."""
+        check_synthetic_weight(self.synthetic_weight)
+        if self.synthetic_weight is None:
+            return
+        unbalanced = [b for b in self.backbones if self.backbone_params.get(b, {}).get("class_weight") != "balanced"]
+        if unbalanced:
+            raise ConfigError(f"a synthetic weight needs balanced classes; {', '.join(unbalanced)} not balanced",
+                              field="--synthetic-weight", allowed="with --class-weight balanced")
+        unweighable = [b for b in self.backbones
+                       if "sample_weight" not in inspect.signature(BACKBONES[b].fit).parameters]
+        if unweighable:
+            raise ConfigError(f"backbone(s) {', '.join(unweighable)} take no per-window weights",
+                              field="--synthetic-weight", allowed="backbones whose fit takes sample_weight")
 
 
 @dataclass
@@ -291,6 +314,8 @@ class Evaluation:
             payload["unseen"] = list(unseen)
         if c.share_selection != "off" and method != "real":  # absent when off: older records stay valid
             payload["share_selection"] = [c.share_selection, HARM_P]
+        if c.synthetic_weight is not None and method != "real":  # Real-only has no synthetic window to weigh
+            payload["synthetic_weight"] = c.synthetic_weight
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -457,7 +482,7 @@ class Evaluation:
         them, how many synthetic windows of them it mixed in, and `unseen_metrics`."""
         if split.unseen is None:
             return {}
-        synthetic = np.char.startswith(train.subjects.astype(str), "synthetic:")
+        synthetic = is_synthetic(train)
         return {
             "unseen_classes": [split.test.label_names[i] for i in split.unseen],
             "unseen_capable": method in UNSEEN_CAPABLE,
@@ -481,14 +506,26 @@ class Evaluation:
         val = split.val
 
         def fit(windows: Windows):
-            model = make_backbone(backbone, **params)
-            return model.fit(windows.X, windows.y, val.X if len(val) else None, val.y if len(val) else None)
+            model_params, weights = self._weighting(params, windows)
+            model = make_backbone(backbone, **model_params)
+            return model.fit(windows.X, windows.y, val.X if len(val) else None, val.y if len(val) else None,
+                             **({} if weights is None else {"sample_weight": weights}))
 
         selector = ShareSelector(c.share_selection)
         choice = selector.choose(fit, real, synthetic, val)
         kept = take_shares(synthetic, shares_vector(choice, len(train.label_names)))
         mixed = concat_windows([real, kept]) if len(kept) else real
         return mixed, len(kept), choice_record(choice, train.label_names)
+
+    def _weighting(self, params: dict[str, Any], train: Windows) -> tuple[dict[str, Any], np.ndarray | None]:
+        """The backbone's parameters and the training windows' weights. With a synthetic weight
+        and synthetic windows among them, per-source balanced weights (`source_weights`) take
+        the place of the backbone's class weights; otherwise no per-window weights."""
+        share = self.config.synthetic_weight
+        is_real = ~is_synthetic(train)
+        if share is None or is_real.all():
+            return params, None  # Real-only: the balanced backbone itself, record for record
+        return {**params, "class_weight": None}, source_weights(train.y, is_real, len(train.label_names), share)
 
     def _fit_one(
         self,
@@ -508,19 +545,20 @@ class Evaluation:
                 seed, "backbone", backbone, method, fold, _budget_slug(budget)
             ).generate_state(1)[0]
         )
-        model = make_backbone(
-            backbone, **{**c.backbone_params.get(backbone, {}), "random_state": state}
-        )
+        params = {**c.backbone_params.get(backbone, {}), "random_state": state}
         val = split.val
         n_real = len(train) - n_syn  # tstr: none
-        if not getattr(model, "uses_validation", True) and len(val):
+        if not getattr(BACKBONES[backbone], "uses_validation", True) and len(val):
             # a backbone without early stopping trains on the validation subjects too
             train = concat_windows([train, val.with_meta(source=np.full(len(val), "real"))])
             n_real += len(val)
             val = val[:0]
+        params, weights = self._weighting(params, train)
+        model = make_backbone(backbone, **params)
         start = time.perf_counter()
         has_val = len(val) > 0
-        model.fit(train.X, train.y, val.X if has_val else None, val.y if has_val else None)
+        model.fit(train.X, train.y, val.X if has_val else None, val.y if has_val else None,
+                  **({} if weights is None else {"sample_weight": weights}))
         fit_s = time.perf_counter() - start
         y_pred = model.predict(split.test.X)
         metrics = evaluate_predictions(

@@ -196,6 +196,11 @@ def check_synthetic(real: Windows, synthetic: Windows, method: str) -> None:
         )
 
 
+def is_synthetic(windows: Windows) -> np.ndarray:
+    """Per window: whether `mix` tagged it synthetic (its subject is `synthetic:<method>`)."""
+    return np.char.startswith(windows.subjects.astype(str), "synthetic:")
+
+
 def mix(real: Windows, synthetic: Windows, method: str) -> Windows:
     """Real training windows followed by synthetic ones (subjects tagged `synthetic:<method>`)."""
     tagged = Windows(

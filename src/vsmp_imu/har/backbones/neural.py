@@ -147,6 +147,7 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
         y: np.ndarray,
         X_val: np.ndarray | None = None,
         y_val: np.ndarray | None = None,
+        sample_weight: np.ndarray | None = None,
     ) -> TorchClassifier:
         import torch
 
@@ -156,6 +157,9 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
             raise ValidationError(
                 f"need (N, T, C) windows and N labels, got {X.shape}, {y.shape}", field="X"
             )
+        if sample_weight is not None and np.shape(sample_weight) != (len(y),):
+            raise ValidationError(f"need N = {len(y)} sample weights, got shape {np.shape(sample_weight)}",
+                                  field="sample_weight")
         self.classes_ = np.unique(y)
         y_idx = np.searchsorted(self.classes_, y)
         use_val = X_val is not None and y_val is not None and len(X_val) > 0
@@ -170,13 +174,13 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
                 torch.manual_seed(int(self.random_state))
                 self.standardizer_ = ChannelStandardizer().fit(X)
                 self.model_ = self._build(X.shape[2], len(self.classes_)).to(self.device_)
-                self._train(X, y_idx, X_val if use_val else None, y_val if use_val else None)
+                self._train(X, y_idx, X_val if use_val else None, y_val if use_val else None, sample_weight)
         finally:
             torch.use_deterministic_algorithms(deterministic)
             torch.set_num_threads(threads)
         return self
 
-    def _train(self, X, y_idx, X_val, y_val) -> None:
+    def _train(self, X, y_idx, X_val, y_val, sample_weight=None) -> None:
         import torch
 
         xt = self._tensor(X)
@@ -184,7 +188,7 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
         optimizer = torch.optim.AdamW(
             self.model_.parameters(), lr=self.lr, weight_decay=self.weight_decay
         )
-        loss_fn = torch.nn.CrossEntropyLoss(weight=self._loss_weights(y_idx))
+        loss_fn = self._loss_fn(y_idx, sample_weight)
         generator = torch.Generator().manual_seed(int(self.random_state))
         best_f1, best_state, stale = -1.0, None, 0
         self.history_: list[dict[str, float]] = []
@@ -194,7 +198,7 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
             total, count = 0.0, 0
             for idx in self._batches(len(xt), generator, self._batch_size(len(xt))):
                 optimizer.zero_grad()
-                loss = loss_fn(self.model_(xt[idx]), yt[idx])
+                loss = loss_fn(self.model_(xt[idx]), yt[idx], idx)
                 loss.backward()
                 optimizer.step()
                 total += float(loss.detach()) * len(idx)
@@ -225,6 +229,27 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
                 break
         if best_state is not None:
             self.model_.load_state_dict(best_state)
+
+    def _loss_fn(self, y_idx: np.ndarray, sample_weight: np.ndarray | None):
+        """loss(logits, targets, batch indices): the cross-entropy with the class weights, and
+        with per-window weights where given (the batch's weighted mean, as the class-weighted
+        cross-entropy takes it)."""
+        import torch
+
+        class_weights = self._loss_weights(y_idx)
+        if sample_weight is None:
+            plain = torch.nn.CrossEntropyLoss(weight=class_weights)
+            return lambda logits, targets, idx: plain(logits, targets)
+        weights = torch.as_tensor(np.asarray(sample_weight, np.float64), dtype=torch.float32, device=self.device_)
+        if class_weights is not None:
+            weights = weights * class_weights[torch.as_tensor(y_idx, device=self.device_)]
+        per_window = torch.nn.CrossEntropyLoss(reduction="none")
+
+        def loss(logits, targets, idx):
+            w = weights[idx]
+            return (per_window(logits, targets) * w).sum() / w.sum().clamp_min(1e-12)
+
+        return loss
 
     def _loss_weights(self, y_idx: np.ndarray):
         """Per-class weights of the cross-entropy: None (all 1) or balanced, n / (k * count)."""

@@ -16,8 +16,9 @@ from vsmp_imu.har.features import N_LEVELS, ecdf_features, segment_means
 class RandomForestECDF(ClassifierMixin, BaseEstimator):
     """scikit-learn Random Forest on K ECDF levels per channel.
 
-    `fit(X, y, X_val=None, y_val=None)`: the validation windows are not needed
-    by a forest and are ignored. `embed(X)` returns the ECDF features, the
+    `fit(X, y, X_val=None, y_val=None, sample_weight=None)`: the validation windows
+    are not needed by a forest and are ignored; `sample_weight` weighs each window
+    in the splits, on top of `class_weight`. `embed(X)` returns the ECDF features, the
     representation the forest sees. `uses_validation = False`: the harness
     gives a forest the validation subjects' windows as training data.
     """
@@ -42,6 +43,7 @@ class RandomForestECDF(ClassifierMixin, BaseEstimator):
         y: np.ndarray,
         X_val: np.ndarray | None = None,
         y_val: np.ndarray | None = None,
+        sample_weight: np.ndarray | None = None,
     ) -> RandomForestECDF:
         self.forest_ = RandomForestClassifier(
             n_estimators=self.n_estimators,
@@ -51,7 +53,7 @@ class RandomForestECDF(ClassifierMixin, BaseEstimator):
             n_jobs=self.n_jobs,
             random_state=self.random_state,
         )
-        self.forest_.fit(self.embed(X), np.asarray(y))
+        self.forest_.fit(self.embed(X), np.asarray(y), sample_weight=sample_weight)
         self.classes_ = self.forest_.classes_
         return self
 
