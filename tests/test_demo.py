@@ -19,8 +19,9 @@ def test_demo_writes_its_report_and_figures(tmp_path):
                  "synthetic/synthetic.parquet", "synthetic/summary.json", "evaluation/results.json"):
         assert (out / name).stat().st_size > 0, name
     report = (out / "report.md").read_text()
-    assert "| RF-SEG (balanced) | VSMP-IMU |" in report and "Quality filter" in report
-    forests = json.loads((out / "evaluation" / "results.json").read_text())["config"]["backbone_params"]
-    assert forests == {"rf": {"class_weight": "balanced"}, "rf-seg": {"class_weight": "balanced"}}
+    assert "| RF-SEG (balanced, synthetic 0.5) | VSMP-IMU |" in report and "Quality filter" in report
+    config = json.loads((out / "evaluation" / "results.json").read_text())["config"]
+    assert config["backbone_params"] == {"rf": {"class_weight": "balanced"}, "rf-seg": {"class_weight": "balanced"}}
+    assert config["synthetic_weight"] == 0.5
     summary = json.loads((out / "synthetic" / "summary.json").read_text())
     assert summary["per_class"]["STAND_TO_SIT"]["budget"] > 0

@@ -27,6 +27,7 @@ from vsmp_imu.har.evaluate import EvalConfig, Evaluation
 from vsmp_imu.har.protocols import split_fold
 from vsmp_imu.har.report import write_report
 from vsmp_imu.har.synthetic import synthetic_budget
+from vsmp_imu.har.weights import DEFAULT_SYNTHETIC_WEIGHT
 from vsmp_imu.io import write_text
 from vsmp_imu.methods import register_all
 from vsmp_imu.pipeline.fold import FoldGenerator, FoldOutput
@@ -50,10 +51,12 @@ class DemoConfig:
     policy: str = "scarcity"
     seed: int = 0
     workers: int = 2
-    # the forests and class weights that the 1 % runs over 10 held-out subjects x 3 seeds
-    # support (docs/results.md, "Balanced class weights"): every method is weighted alike
+    # the forests and weights that the 1 % runs over 10 held-out subjects x 3 seeds support
+    # (docs/results.md, "Synthetic windows that never outweigh the real ones"): classes balanced,
+    # a class's synthetic windows together half its real ones; every method weighted alike
     backbones: tuple[str, ...] = ("rf", "rf-seg")
     class_weight: str = "balanced"
+    synthetic_weight: float | None = DEFAULT_SYNTHETIC_WEIGHT
 
 
 def run_evaluation(cfg: DemoConfig, out: Path, progress=None) -> dict[str, Any]:
@@ -66,6 +69,7 @@ def run_evaluation(cfg: DemoConfig, out: Path, progress=None) -> dict[str, Any]:
         dataset=ds.info.name, protocol="low-resource", budgets=(cfg.budget_percent,), backbones=cfg.backbones,
         methods=("real", "classical", "vsmp"), folds=cfg.folds, seeds=(cfg.seed,), alpha=cfg.alpha,
         policy=cfg.policy, method_params={"vsmp": vsmp}, backbone_params=forests,
+        synthetic_weight=cfg.synthetic_weight,
     )
     results = Evaluation(config, ds, out / "evaluation").run(progress).to_json()
     write_report(results, out / "evaluation")
@@ -194,10 +198,20 @@ def summary_rows(results: dict[str, Any]) -> list[dict[str, Any]]:
     return sorted(rows, key=lambda r: (backbones.index(r["backbone"]), order.get(r["method"], 9)))
 
 
-def backbone_title(name: str, class_weight: str) -> str:
-    """'RF (balanced)' for a table heading: the forest and its class weights."""
-    weights = " (balanced)" if class_weight == "balanced" else ""
-    return f"{DISPLAY_NAMES.get(name, name)}{weights}"
+def backbone_title(name: str, class_weight: str, synthetic_weight: float | None = None) -> str:
+    """'RF (balanced)' for a table heading: the forest and its weights ('balanced, synthetic
+    0.5' where a class's synthetic windows weigh half its real ones)."""
+    weights = [class_weight] if class_weight != "none" else []
+    if synthetic_weight is not None:
+        weights.append(f"synthetic {synthetic_weight:g}")
+    return f"{DISPLAY_NAMES.get(name, name)}" + (f" ({', '.join(weights)})" if weights else "")
+
+
+def weighed_text(synthetic_weight: float | None) -> str:
+    """The report's words for the synthetic weight."""
+    if synthetic_weight is None:
+        return ""
+    return f" per source (a class's synthetic windows together weigh {synthetic_weight:g} times its real ones)"
 
 
 def report_markdown(cfg: DemoConfig, rows, fold_out: FoldOutput, elapsed_s: float) -> str:
@@ -209,7 +223,8 @@ def report_markdown(cfg: DemoConfig, rows, fold_out: FoldOutput, elapsed_s: floa
         f"subjects {', '.join(cfg.folds)}, low-resource {cfg.budget_percent:g} % of the labelled training "
         f"windows, seed {cfg.seed}. Backbones {', '.join(f'`{b}`' for b in cfg.backbones)} (`rf`: the paper's "
         f"RF on ECDF features; `rf-seg`: the same features and each channel's means over 8 parts of the "
-        f"window), class weights `{cfg.class_weight}`, alike for every method. Synthetic budget: alpha = {cfg.alpha:g} x the real training windows, "
+        f"window), class weights `{cfg.class_weight}`"
+        f"{weighed_text(cfg.synthetic_weight)}, alike for every method. Synthetic budget: alpha = {cfg.alpha:g} x the real training windows, "
         f"distributed by the `{cfg.policy}` policy. Activity-library SMPs, procedural motion backend. "
         f"Run time {elapsed_s / 60:.1f} min.",
         "",
@@ -217,7 +232,7 @@ def report_markdown(cfg: DemoConfig, rows, fold_out: FoldOutput, elapsed_s: floa
         "|---|---|---|---|---|---|",
     ]
     for r in rows:
-        lines.append(f"| {backbone_title(r['backbone'], cfg.class_weight)} | {names.get(r['method'], r['method'])} | "
+        lines.append(f"| {backbone_title(r['backbone'], cfg.class_weight, cfg.synthetic_weight)} | {names.get(r['method'], r['method'])} | "
                      f"{r['macro_f1']:.2f} ± {r['macro_f1_std']:.2f} | {r.get('activities', float('nan')):.2f} | "
                      f"{r.get('transitions', float('nan')):.2f} | {r['n']} |")
     s = fold_out.summary

@@ -18,7 +18,7 @@ def demo_cmd(
     workers: int = typer.Option(2, "--workers", min=1, max=64, help="Generation workers"),
 ) -> None:
     """HAPT12, library SMPs, procedural backend, low-resource LOPO, two forests with balanced class
-    weights: Real-only vs Classical Aug vs VSMP-IMU; writes the report, traces, filter statistics
+    weights, a class's synthetic windows weighing half its real ones: Real-only vs Classical Aug vs VSMP-IMU; writes the report, traces, filter statistics
     and a skeleton animation."""
     output_dir(output)
     from vsmp_imu.app import run_demo
@@ -31,7 +31,7 @@ def demo_cmd(
         result = run_demo(output, cfg, lambda stage, done, total: update(done, total, stage))
     names = {"real": "Real-only", "classical": "Classical Aug.", "vsmp": "VSMP-IMU"}
     for backbone in cfg.backbones:
-        title = backbone_title(backbone, cfg.class_weight)
+        title = backbone_title(backbone, cfg.class_weight, cfg.synthetic_weight)
         table = Table(title=f"Macro-F1 (%), {len(cfg.folds)} folds, {cfg.budget_percent:g} % labels, {title}")
         for col in ("method", "all 12 classes", "activities", "transitions"):
             table.add_column(col, justify="left" if col == "method" else "right")
