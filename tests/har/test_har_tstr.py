@@ -7,6 +7,8 @@ import json
 
 import numpy as np
 import pytest
+from har_spies import MARK
+from har_spies import MarkedSource as SharedMarkedSource
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.har.backbones import BACKBONES, RandomForestECDF
@@ -15,7 +17,6 @@ from vsmp_imu.har.protocols import split_fold
 from vsmp_imu.har.synthetic import METHODS, FoldContext
 from vsmp_imu.har.windows import Windows
 
-MARK = -7.0  # channel 0 of every marked synthetic window (no subject fingerprint)
 FITS: list[dict] = []
 CONTEXTS: list[FoldContext] = []
 
@@ -39,19 +40,12 @@ class RecordingRF(RandomForestECDF):
         return super().predict(X)
 
 
-class MarkedSource:
-    """Copies of the context's training windows with channel 0 overwritten by MARK."""
-
-    name = "marked"
+class MarkedSource(SharedMarkedSource):
+    """The shared marked source, recording each context it is given."""
 
     def generate(self, context: FoldContext) -> Windows:
         CONTEXTS.append(context)
-        picks = np.concatenate([np.flatnonzero(context.train.y == c)[:n]
-                                for c, n in enumerate(context.budget_vector())])
-        out = context.train[picks]
-        X = out.X.copy()
-        X[:, :, 0] = MARK
-        return Windows(X, out.y, np.full(len(out), "synthetic"), out.label_names, out.channel_names, out.fs_hz)
+        return super().generate(context)
 
 
 class EmptySource(MarkedSource):

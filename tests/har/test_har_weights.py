@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from har_spies import MARK, MarkedSource
 
 from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.backbones import BACKBONES, RandomForestECDF, make_backbone
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
-from vsmp_imu.har.synthetic import METHODS, FoldContext
+from vsmp_imu.har.synthetic import METHODS
 from vsmp_imu.har.weights import source_weights
-from vsmp_imu.har.windows import Windows
 from vsmp_imu.methods import register_all
 
 
@@ -81,7 +81,6 @@ def test_a_network_refuses_weights_of_the_wrong_length():
 
 
 SEEN: list[dict] = []
-MARK = -7.0  # channel 0 of every synthetic window of the `marked` method
 
 
 class WeightRecordingRF(RandomForestECDF):
@@ -94,20 +93,6 @@ class WeightRecordingRF(RandomForestECDF):
 class NoWeightsRF(RandomForestECDF):
     def fit(self, X, y, X_val=None, y_val=None):
         return super().fit(X, y, X_val, y_val)
-
-
-class MarkedSource:
-    """Copies of the context's training windows, channel 0 set to MARK."""
-
-    name = "marked"
-
-    def generate(self, context: FoldContext) -> Windows:
-        picks = np.concatenate([np.flatnonzero(context.train.y == c)[:n]
-                                for c, n in enumerate(context.budget_vector())])
-        out = context.train[picks]
-        X = out.X.copy()
-        X[:, :, 0] = MARK
-        return Windows(X, out.y, np.full(len(out), "synthetic"), out.label_names, out.channel_names, out.fs_hz)
 
 
 @pytest.fixture
