@@ -495,7 +495,7 @@ class Evaluation:
         """Do no harm: the training windows with each class's chosen share of synthetic windows
         (`noharm`), their synthetic count and the choice per class (None when not chosen)."""
         c = self.config
-        is_real = train.meta["source"] == "real" if "source" in train.meta else np.ones(len(train), bool)
+        is_real = ~is_synthetic(train)
         if c.share_selection == "off" or is_real.all():
             return train, int((~is_real).sum()), None
         real, synthetic = train[np.flatnonzero(is_real)], train[np.flatnonzero(~is_real)]
@@ -522,8 +522,10 @@ class Evaluation:
         and synthetic windows among them, per-source balanced weights (`source_weights`) take
         the place of the backbone's class weights; otherwise no per-window weights."""
         share = self.config.synthetic_weight
+        if share is None:
+            return params, None
         is_real = ~is_synthetic(train)
-        if share is None or is_real.all():
+        if is_real.all():
             return params, None  # Real-only: the balanced backbone itself, record for record
         return {**params, "class_weight": None}, source_weights(train.y, is_real, len(train.label_names), share)
 
