@@ -196,9 +196,13 @@ def check_synthetic(real: Windows, synthetic: Windows, method: str) -> None:
         )
 
 
+# `mix` gives every synthetic window the subject `synthetic:<method>`
+SYNTHETIC_TAG = "synthetic:"
+
+
 def is_synthetic(windows: Windows) -> np.ndarray:
     """Per window: whether `mix` tagged it synthetic (its subject is `synthetic:<method>`)."""
-    return np.char.startswith(windows.subjects.astype(str), "synthetic:")
+    return np.char.startswith(windows.subjects.astype(str), SYNTHETIC_TAG)
 
 
 def mix(real: Windows, synthetic: Windows, method: str) -> Windows:
@@ -206,7 +210,7 @@ def mix(real: Windows, synthetic: Windows, method: str) -> Windows:
     tagged = Windows(
         synthetic.X,
         synthetic.y,
-        np.full(len(synthetic), f"synthetic:{method}"),
+        np.full(len(synthetic), f"{SYNTHETIC_TAG}{method}"),
         synthetic.label_names,
         synthetic.channel_names,
         synthetic.fs_hz,
