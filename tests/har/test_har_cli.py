@@ -225,8 +225,8 @@ def test_class_weight_reaches_the_forests_and_their_records(cli, fixtures_dir, t
         assert len(digests) == 1
         return digests.pop()
 
-    # `none` is the paper's forest: its records are those written without the option
-    assert digest("none") == digest("default") != digest("balanced")
+    # balanced is the default: Real-only's records are those written with it; `none` is the paper's forest
+    assert digest("balanced") == digest("default") != digest("none")
 
 
 def test_class_weight_is_refused_when_a_chosen_backbone_takes_none(monkeypatch):
@@ -246,3 +246,29 @@ def test_class_weight_is_refused_when_a_chosen_backbone_takes_none(monkeypatch):
         _backbone_params(("rf", "plain"), None, None, None, "cpu", "balanced")
     assert caught.value.field == "--class-weight" and "class_weight parameter" in caught.value.allowed
     assert _backbone_params(("rf", "plain"), None, None, None, "cpu", "none") == {}
+
+
+def test_the_weights_default_to_balanced_classes_and_half_weight_synthetic_windows(monkeypatch, capsys):
+    from dataclasses import dataclass
+
+    from vsmp_imu.cli.har import weighting
+    from vsmp_imu.har.backbones import BACKBONES, RandomForestECDF
+
+    assert weighting(("rf", "dclstm"), None, None) == ("balanced", 0.5)
+    assert weighting(("rf",), "none", None) == ("none", None)
+    assert weighting(("rf",), None, "off") == ("balanced", None)  # balanced alone
+    assert weighting(("rf",), "balanced", "0.25") == ("balanced", 0.25)
+    for bad in ("half", "0", "nan", "-1"):
+        with pytest.raises(ConfigError) as caught:
+            weighting(("rf",), None, bad)
+        assert caught.value.field == "--synthetic-weight"
+
+    @dataclass(eq=False, repr=False)
+    class Unweighable(RandomForestECDF):  # takes class weights, but its fit no window weights
+        def fit(self, X, y, X_val=None, y_val=None):
+            return super().fit(X, y, X_val, y_val)
+
+    monkeypatch.setitem(BACKBONES, "rf-unweighable", Unweighable)
+    assert weighting(("rf", "rf-unweighable"), None, None) == ("none", None)
+    assert "rf-unweighable" in capsys.readouterr().out  # the fallback is said, not silent
+    assert weighting(("rf", "rf-unweighable"), "balanced", None) == ("balanced", 0.5)  # refused by the check

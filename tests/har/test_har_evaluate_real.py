@@ -10,6 +10,7 @@ import pytest
 
 from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
+from vsmp_imu.har.weights import DEFAULT_CLASS_WEIGHT, DEFAULT_SYNTHETIC_WEIGHT
 from vsmp_imu.pipeline.spec import GenerationSpec
 
 RF_FAST = ("--backbones", "rf", "--jobs", "2")
@@ -96,8 +97,9 @@ def test_resume_after_interruption_gives_the_same_results(hapt_run, tmp_path):
         backbones=("rf",),
         methods=("real",),
         folds=("1", "2"),
-        backbone_params={"rf": {"n_jobs": 2}},
         # the command line's defaults (hapt_run is a command-line run)
+        backbone_params={"rf": {"n_jobs": 2, "class_weight": DEFAULT_CLASS_WEIGHT}},
+        synthetic_weight=DEFAULT_SYNTHETIC_WEIGHT,
         alpha=GenerationSpec().alpha,
         policy=GenerationSpec().policy,
     )

@@ -150,9 +150,9 @@ def test_the_command_line_refuses_a_synthetic_weight_without_balanced_classes(cl
     args = ("evaluate", "--dataset", fixtures_dir / "generic" / "dataset.yaml", "--protocol", "long-tail",
             "--rho", "2", "--methods", "real,classical", "--backbones", "rf", "--jobs", "1",
             "--synthetic-weight", "0.5", "-o", tmp_path / "out")
-    code, stdout, stderr = cli(*args)
+    code, stdout, stderr = cli(*args[:-2], "--class-weight", "none", "-o", tmp_path / "none")
     assert code == 2 and "needs balanced classes" in stdout + stderr
-    code, stdout, _ = cli(*args[:-2], "--class-weight", "balanced", "-o", tmp_path / "ok")
+    code, stdout, _ = cli(*args)  # balanced classes are the default
     assert code == 0, stdout
 
 
@@ -162,3 +162,15 @@ def test_the_do_no_harm_fits_are_weighted_alike(tiny_dataset, recording):
     for fit in SEEN:
         assert (fit["w"] is None) == (not fit["synthetic"].any())
         assert (fit["class_weight"] is None) == fit["synthetic"].any()
+
+
+def test_the_report_says_how_the_windows_were_weighed(tiny_dataset):
+    from vsmp_imu.har.report import results_markdown, weights_text
+
+    assert weights_text({"backbones": ["rf"], "backbone_params": {}}) == "class weights none"
+    weighed = {"backbones": ["rf", "rf-seg"], "synthetic_weight": 0.5,
+               "backbone_params": {"rf": {"class_weight": "balanced"}, "rf-seg": {"class_weight": "balanced"}}}
+    assert weights_text(weighed) == ("class weights balanced (per source: a class's synthetic windows "
+                                     "together 0.5 times its real ones)")
+    results = Evaluation(_config("rf", methods=("real",)), tiny_dataset).run()
+    assert "class weights balanced (per source" in results_markdown(results.to_json())

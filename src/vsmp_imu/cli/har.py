@@ -132,16 +132,17 @@ def evaluate_cmd(
     jobs: int = typer.Option(None, "--jobs", max=256, help="CPU threads for RF and PyTorch"),
     device: str = typer.Option("cpu", "--device", help="neural backbones: cpu | cuda | cuda:N | mps | auto"),
     class_weight: str = typer.Option(
-        "none", "--class-weight",
-        help="none (the paper) | balanced (each class weighted by the inverse of its training "
-             "windows, in a forest's splits and a network's loss, so a class with few windows "
-             "counts as much as the others)"),
-    synthetic_weight: float = typer.Option(
-        None, "--synthetic-weight",
-        help="with --class-weight balanced: the classes weigh alike per source, and a class's "
-             "synthetic windows together weigh this share of its real ones, however many there "
-             "are (0.5 is the measured best; a class without real windows keeps a full class's "
-             "weight) [default: off, every window of a class weighs alike]"),
+        None, "--class-weight", show_default=False,
+        help="balanced (each class weighted by the inverse of its training windows, in a forest's "
+             "splits and a network's loss, so a class with few windows counts as much as the "
+             "others) | none (the paper's unweighted training) [default: balanced where every "
+             "chosen backbone takes class and window weights, else none]"),
+    synthetic_weight: str = typer.Option(
+        None, "--synthetic-weight", show_default=False,
+        help="with balanced classes: the classes weigh alike per source, and a class's synthetic "
+             "windows together weigh this share of its real ones, however many there are (a "
+             "class without real windows keeps a full class's weight); off: every window of a "
+             "class weighs alike [default: 0.5 with balanced classes, else off]"),
     report_groups: list[str] = typer.Option(
         None, "--report-groups", help="NAME=CLASS,CLASS;... classes reported together"
     ),
@@ -190,6 +191,7 @@ def evaluate_cmd(
     _positive(patience, "--patience")
     _positive(jobs, "--jobs")
     chosen_backbones = tuple(parse_csv(backbones, tuple(BACKBONES), "--backbones"))
+    class_weight, share = weighting(chosen_backbones, class_weight, synthetic_weight)
     request = EvalRequest(
         dataset=dataset, output=output, protocol=protocol,
         budgets=parse_budgets(budgets, "low-resource") if budgets else (None,),
@@ -198,7 +200,7 @@ def evaluate_cmd(
         data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device,
                                                              class_weight),
         report_groups=_parse_groups(report_groups), share_selection=share_selection,
-        synthetic_weight=synthetic_weight,
+        synthetic_weight=share,
         unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, per_class_rank=per_class_rank,
@@ -218,6 +220,33 @@ def evaluate_cmd(
 
 
 CLASS_WEIGHTS = ("none", "balanced")
+
+
+def weighting(chosen: tuple[str, ...], class_weight: str | None,
+              synthetic_weight: str | None) -> tuple[str, float | None]:
+    """`--class-weight` and `--synthetic-weight` as given, or their defaults: balanced classes
+    with a class's synthetic windows at half its real ones (`DEFAULT_SYNTHETIC_WEIGHT`), where
+    every chosen backbone takes class weights and per-window weights; else the paper's
+    unweighted training, said on the console. A share given with `none` is refused later
+    (`EvalConfig.check`)."""
+    from vsmp_imu.har.backbones import BACKBONES, make_backbone
+    from vsmp_imu.har.weights import (
+        DEFAULT_CLASS_WEIGHT,
+        DEFAULT_SYNTHETIC_WEIGHT,
+        parse_synthetic_weight,
+        takes_sample_weight,
+    )
+
+    if class_weight is None:
+        unable = [b for b in chosen if "class_weight" not in make_backbone(b).get_params()
+                  or not takes_sample_weight(BACKBONES[b])]
+        class_weight = "none" if unable else DEFAULT_CLASS_WEIGHT
+        if unable:
+            console.print(f"[yellow]note:[/] {', '.join(unable)} take(s) no class or window weights: "
+                          "every backbone trains unweighted (--class-weight none)")
+    if synthetic_weight is not None:
+        return class_weight, parse_synthetic_weight(synthetic_weight)
+    return class_weight, DEFAULT_SYNTHETIC_WEIGHT if class_weight == "balanced" else None
 
 
 def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: int | None,

@@ -10,7 +10,6 @@ subject reaches training, normalisation, validation or a synthetic source:
 from __future__ import annotations
 
 import hashlib
-import inspect
 import json
 import math
 import re
@@ -63,7 +62,7 @@ from vsmp_imu.har.synthetic import (
     take_budget,
     unseen_budget,
 )
-from vsmp_imu.har.weights import check_synthetic_weight, source_weights
+from vsmp_imu.har.weights import check_synthetic_weight, source_weights, takes_sample_weight
 from vsmp_imu.har.windows import Windows, concat_windows, natural_key
 from vsmp_imu.io import dumps_json, remove_stale_temps, write_json
 from vsmp_imu.seeding import child_seed, rng_for
@@ -179,8 +178,7 @@ class EvalConfig:
         if unbalanced:
             raise ConfigError(f"a synthetic weight needs balanced classes; {', '.join(unbalanced)} not balanced",
                               field="--synthetic-weight", allowed="with --class-weight balanced")
-        unweighable = [b for b in self.backbones
-                       if "sample_weight" not in inspect.signature(BACKBONES[b].fit).parameters]
+        unweighable = [b for b in self.backbones if not takes_sample_weight(BACKBONES[b])]
         if unweighable:
             raise ConfigError(f"backbone(s) {', '.join(unweighable)} take no per-window weights",
                               field="--synthetic-weight", allowed="backbones whose fit takes sample_weight")

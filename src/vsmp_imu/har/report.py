@@ -52,6 +52,17 @@ def _ordered(values: Sequence[Any], order: Sequence[Any] | None) -> list[Any]:
     return [v for v in order if v in seen] + [v for v in seen if v not in order]
 
 
+def weights_text(config: dict[str, Any]) -> str:
+    """How the training windows were weighted (`--class-weight`, `--synthetic-weight`)."""
+    params = config.get("backbone_params") or {}
+    weights = {(params.get(b) or {}).get("class_weight") or "none" for b in config.get("backbones") or ()}
+    text = f"class weights {' / '.join(sorted(weights)) or 'none'}"
+    share = config.get("synthetic_weight")
+    if share is not None:
+        text += f" (per source: a class's synthetic windows together {share:g} times its real ones)"
+    return text
+
+
 def results_markdown(results: dict[str, Any]) -> str:
     """The Markdown report of a `results.json` object: one section per dataset/protocol."""
     summary = results["summary"]
@@ -61,7 +72,7 @@ def results_markdown(results: dict[str, Any]) -> str:
         parts.append(
             f"Window {config.get('window_s')} s, overlap {config.get('overlap')}, "
             f"alpha {config.get('alpha')} ({config.get('policy')} budget), "
-            f"seeds {config.get('seeds')}, folds {config.get('folds')}. "
+            f"seeds {config.get('seeds')}, folds {config.get('folds')}, {weights_text(config)}. "
             "Values: Macro-F1 (%) mean ± std over folds and seeds; best per block in bold."
         )
         parts.append("")

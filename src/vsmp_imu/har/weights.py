@@ -12,15 +12,38 @@ synthetic windows, at a full class's weight. Measured on HAPT12 in docs/results.
 
 from __future__ import annotations
 
+import inspect
 import math
 
 import numpy as np
 
 from vsmp_imu.errors import ConfigError
 
+# `evaluate`'s default: the classes balanced, each class's synthetic windows together half its
+# real ones: the setting that measured best (docs/results.md, "Synthetic windows that never
+# outweigh the real ones"); `--class-weight none` is the paper's unweighted training
+DEFAULT_CLASS_WEIGHT = "balanced"
 # each class's synthetic windows weigh half its real windows: the best of 1, 0.5 and 0.25 in an
 # offline probe on HAPT12 at 1 % and 5 % (docs/results.md)
 DEFAULT_SYNTHETIC_WEIGHT = 0.5
+
+
+def takes_sample_weight(backbone: type) -> bool:
+    """Whether a backbone class's `fit` takes per-window weights."""
+    return "sample_weight" in inspect.signature(backbone.fit).parameters
+
+
+def parse_synthetic_weight(text: str) -> float | None:
+    """`--synthetic-weight` as typed: 'off' (None) or a finite share > 0."""
+    if text.strip().lower() == "off":
+        return None
+    try:
+        share = float(text)
+    except ValueError:
+        raise ConfigError(f"synthetic weight '{text}' is not a number", field="--synthetic-weight",
+                          allowed="a finite share > 0, or off") from None
+    check_synthetic_weight(share)
+    return share
 
 
 def check_synthetic_weight(share: float | None) -> None:
