@@ -229,7 +229,7 @@ def weighting(chosen: tuple[str, ...], class_weight: str | None,
     every chosen backbone takes class weights and per-window weights; else the paper's
     unweighted training, said on the console. A share given with `none` is refused later
     (`EvalConfig.check`)."""
-    from vsmp_imu.har.backbones import BACKBONES, make_backbone
+    from vsmp_imu.har.backbones import BACKBONES
     from vsmp_imu.har.weights import (
         DEFAULT_CLASS_WEIGHT,
         DEFAULT_SYNTHETIC_WEIGHT,
@@ -238,8 +238,8 @@ def weighting(chosen: tuple[str, ...], class_weight: str | None,
     )
 
     if class_weight is None:
-        unable = [b for b in chosen if "class_weight" not in make_backbone(b).get_params()
-                  or not takes_sample_weight(BACKBONES[b])]
+        no_class_weight = _without_class_weight(chosen)
+        unable = [b for b in chosen if b in no_class_weight or not takes_sample_weight(BACKBONES[b])]
         class_weight = "none" if unable else DEFAULT_CLASS_WEIGHT
         if unable:
             console.print(f"[yellow]note:[/] {', '.join(unable)} take(s) no class or window weights: "
@@ -247,6 +247,13 @@ def weighting(chosen: tuple[str, ...], class_weight: str | None,
     if synthetic_weight is not None:
         return class_weight, parse_synthetic_weight(synthetic_weight)
     return class_weight, DEFAULT_SYNTHETIC_WEIGHT if class_weight == "balanced" else None
+
+
+def _without_class_weight(chosen: tuple[str, ...]) -> list[str]:
+    """The chosen backbones that have no `class_weight` parameter."""
+    from vsmp_imu.har.backbones import make_backbone
+
+    return [b for b in chosen if "class_weight" not in make_backbone(b).get_params()]
 
 
 def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: int | None,
@@ -264,7 +271,7 @@ def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: 
         raise ConfigError(f"unknown class weight '{class_weight}'", field="--class-weight",
                           allowed=", ".join(CLASS_WEIGHTS))
     weighted = class_weight != "none"
-    unweighted = [b for b, a in accepted.items() if "class_weight" not in a]
+    unweighted = _without_class_weight(chosen)
     if weighted and unweighted:
         raise ConfigError(f"backbone(s) {', '.join(unweighted)} take no class weights", field="--class-weight",
                           allowed="none, or only backbones that take a class_weight parameter")
