@@ -54,6 +54,8 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
         (("--backbones", "dclstm", "--device", "tpu9"), "--device", "cpu, cuda, cuda:N, mps, auto"),
         (("--class-weight", "equal"), "--class-weight", "none, balanced"),
         (("--class-weight", "none,balanced"), "--class-weight", "none, balanced"),
+        (("--unseen-intensity", "2,1"), "--unseen-intensity", "0 < LO <= HI"),
+        (("--unseen-intensity", "on"), "--unseen-intensity", "0 < LO <= HI"),
     ],
 )
 def test_out_of_range_options_exit_2(cli, tmp_path, args, option, allowed):

@@ -358,3 +358,47 @@ def test_a_class_without_real_windows_keeps_its_values_when_seen_classes_are_gen
     assert alone_map == {"STAND_TO_SIT": "none"}
     assert beside_map == {"SITTING": "class", "STAND_TO_SIT": "none"}
     assert len(alone) > 0 and np.array_equal(alone, beside)
+
+
+def test_only_the_selected_windows_of_a_class_without_real_windows_get_an_intensity_factor(hapt12, library,
+                                                                                           tmp_path):
+    """With `unseen_intensity`, each selected window of the unseen class has its gyroscope's
+    deviations from its mean scaled by its recorded factor; a seen class, the accelerometer and
+    the unselected windows are the same bytes as without; the summary and the Parquet output
+    carry the factors."""
+    import pyarrow.parquet as pq
+
+    from vsmp_imu.pipeline.output import write_output
+
+    info, windows = hapt12
+    gone, seen = info.label_names.index("STAND_TO_SIT"), info.label_names.index("SITTING")
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    train = train[np.flatnonzero(train.y != gone)]
+    sources = LibrarySmpSource(library).smps("hapt12", info.label_names)
+    budget = np.zeros(info.n_classes, np.int64)
+    budget[[gone, seen]] = 3
+    spec = GenerationSpec(k=2, k_unseen=2, oversample=2.0, max_rounds=1, quality_filter=False)
+
+    def run(s):
+        return FoldGenerator(s, LocalExecutor(1, show_progress=False), tmp_path / "cache", library=library).generate(
+            info, train, sources, budget, seed=0, fold="test")
+
+    plain, spread = run(spec), run(replace(spec, unseen_intensity=(0.7, 2.0)))
+    n = len(plain.generated)
+    labels = np.array([r.label for r in spread.records[:n]])
+    selected = np.array([r.selected for r in spread.records[:n]])
+    factors = np.array([np.nan if r.intensity is None else r.intensity for r in spread.records[:n]])
+    target = selected & (labels == "STAND_TO_SIT")
+    assert target.sum() == 3 and np.isfinite(factors[target]).all() and np.isnan(factors[~target]).all()
+    gyro = [i for i, c in enumerate(info.channel_names) if "gyr" in c]
+    rest = [i for i in range(len(info.channel_names)) if i not in gyro]
+    np.testing.assert_array_equal(spread.generated[~target], plain.generated[~target])
+    np.testing.assert_array_equal(spread.generated[target][:, :, rest], plain.generated[target][:, :, rest])
+    before, after = plain.generated[target][:, :, gyro], spread.generated[target][:, :, gyro]
+    np.testing.assert_allclose(after.std(axis=1) / before.std(axis=1),
+                               np.repeat(factors[target][:, None], len(gyro), axis=1), rtol=1e-3)
+    assert spread.summary["intensity_spread"]["STAND_TO_SIT"]["windows"] == 3
+    assert "SITTING" not in spread.summary["intensity_spread"] and "intensity_spread" not in plain.summary
+    write_output(tmp_path / "out", spread, {})
+    column = pq.read_table(tmp_path / "out" / "synthetic.parquet").column("intensity").to_pylist()
+    assert [c for c in column if c is not None] == factors[target].tolist()

@@ -16,6 +16,7 @@ from vsmp_imu.cli.common import (
     POOLED_CALIBRATION,
     SIDE_EVIDENCE,
     TEXTURE,
+    UNSEEN_INTENSITY,
     K,
     console,
     executor_options,
@@ -60,6 +61,7 @@ def generate_cmd(
     texture: bool = TEXTURE,
     pooled_calibration: bool = POOLED_CALIBRATION,
     nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
+    unseen_intensity: str = UNSEEN_INTENSITY,
     side_evidence: bool = SIDE_EVIDENCE,
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
@@ -72,13 +74,14 @@ def generate_cmd(
     executor_options(executor, address)
     output_dir(cache_dir, "--cache-dir")
     from vsmp_imu.app import FoldRequest, generate_fold, plan_fold
-    from vsmp_imu.pipeline.spec import GenerationSpec
+    from vsmp_imu.pipeline.spec import GenerationSpec, intensity_bounds
 
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, sim_in_the_loop=not no_sim_loop,
         rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
+        unseen_intensity=intensity_bounds(unseen_intensity),
         refine=not no_refine, uncertainty_conditioned=not no_uncertainty,
         library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None,

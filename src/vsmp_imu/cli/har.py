@@ -20,6 +20,7 @@ from vsmp_imu.cli.common import (
     POOLED_CALIBRATION,
     SIDE_EVIDENCE,
     TEXTURE,
+    UNSEEN_INTENSITY,
     K,
     console,
     executor_options,
@@ -158,6 +159,7 @@ def evaluate_cmd(
     texture: bool = TEXTURE,
     pooled_calibration: bool = POOLED_CALIBRATION,
     nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
+    unseen_intensity: str = UNSEEN_INTENSITY,
     side_evidence: bool = SIDE_EVIDENCE,
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
@@ -183,7 +185,7 @@ def evaluate_cmd(
     from vsmp_imu.har.backbones import BACKBONES
     from vsmp_imu.har.noharm import check_mode
     from vsmp_imu.har.protocols import parse_budgets
-    from vsmp_imu.pipeline.spec import GenerationSpec
+    from vsmp_imu.pipeline.spec import GenerationSpec, intensity_bounds
 
     check_mode(share_selection)
     alpha, policy = budget_defaults(protocol, alpha, policy)
@@ -206,6 +208,7 @@ def evaluate_cmd(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
+        unseen_intensity=intensity_bounds(unseen_intensity),
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)

@@ -17,7 +17,9 @@ Stages:
    fold's synthetic samples and G_r from D_rank;
 5. windows, then the quality filter (motion plausibility, class faithfulness
    with tau_cls chosen by validation Macro-F1, redundancy);
-6. the per-class budget taken from the retained windows.
+6. the per-class budget taken from the retained windows;
+7. with `unseen_intensity`, an intensity factor for each selected window of a
+   class without real training windows (grounding.intensity).
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from vsmp_imu.filtering.faithfulness import (
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
 from vsmp_imu.grounding.align import Convention, axes_matrix
+from vsmp_imu.grounding.intensity import spread_channels, spread_intensity
 from vsmp_imu.grounding.mounting import estimate_mounting
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.split import stat_rank_split
@@ -649,6 +652,29 @@ def select(info: DatasetInfo, X: np.ndarray, y: np.ndarray, keep: np.ndarray, bu
     return selected
 
 
+# -- stage 7: intensity spread of the classes without real windows ------------------------------------
+def spread_unseen(spec: GenerationSpec, info: DatasetInfo, X: np.ndarray, y: np.ndarray, selected: np.ndarray,
+                  records: list[WindowRecord], unseen: frozenset[int], seed: int,
+                  fold: str) -> tuple[np.ndarray, dict[str, dict]]:
+    """With `spec.unseen_intensity`, the selected windows of the `unseen` classes get an intensity
+    factor each (grounding.intensity); the windows, and per such class its factors' summary."""
+    if spec.unseen_intensity is None or not unseen or len(X) == 0:
+        return X, {}
+    mask = selected & np.isin(y, sorted(unseen))
+    channels = spread_channels(info.channel_names)
+    X, factors = spread_intensity(X, mask, spec.unseen_intensity, channels, rng_for(seed, fold, "intensity"))
+    for i in np.flatnonzero(mask):
+        records[i].intensity = float(factors[i])
+    summary = {}
+    for c in sorted(unseen):
+        f = factors[mask & (y == c)]
+        if len(f):
+            summary[info.label_names[c]] = {"bounds": list(spec.unseen_intensity), "windows": len(f),
+                                            "channels": [info.channel_names[j] for j in channels],
+                                            "median": round(float(np.median(f)), 4)}
+    return X, summary
+
+
 # -- the fold ----------------------------------------------------------------------------------------
 class FoldGenerator:
     """Generate the synthetic set of one fold (see module doc): the stages above, with the
@@ -709,6 +735,7 @@ class FoldGenerator:
         selected = select(info, X, y, keep, budget, seed, fold)
         for i, rec in enumerate(records[: len(X)]):
             rec.selected = bool(selected[i])
+        X, spread = spread_unseen(spec, info, X, y, selected, records, unseen, seed, fold)
         out = Windows(X[selected], y[selected], np.full(int(selected.sum()), "synthetic"),
                       info.label_names, info.channel_names, info.fs_hz,
                       meta={"sample": np.array([records[i].sample for i in np.flatnonzero(selected)],
@@ -724,6 +751,8 @@ class FoldGenerator:
                    if b > 0 and (k := spec.variants_for(self.class_windows_[n])) != spec.k}
         if other_k:  # classes with no real window: their SMP variants per base SMP
             summary["variants_per_smp"] = other_k
+        if spread:  # classes without real windows: their windows' intensity factors
+            summary["intensity_spread"] = spread
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
         if self.sides:

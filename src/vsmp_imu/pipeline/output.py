@@ -3,6 +3,7 @@
 Layout of an output folder:
   synthetic.parquet   one row per generated window (rejected ones too), with
                       label, sample key, window index, kept/selected flags, the
+                      intensity factor (a class without real windows), the
                       window as a flat float32 list (+ its shape) and JSON
                       provenance (source, SMP variant, prompt, backend, seed,
                       theta, eta*, gamma) and filter verdicts with reasons
@@ -38,7 +39,7 @@ def parquet_table(out: FoldOutput, all_windows: np.ndarray, channel_names: tuple
                   fs_hz: float) -> pa.Table:
     """One row per record; windowed records carry their data."""
     rows: dict[str, list] = {k: [] for k in ("sample", "label", "window", "start_s", "kept", "selected",
-                                             "error", "data", "provenance", "verdicts")}
+                                             "intensity", "error", "data", "provenance", "verdicts")}
     for i, rec in enumerate(out.records):
         has_data = rec.windowed and i < len(all_windows)
         rows["sample"].append(rec.sample)
@@ -47,13 +48,15 @@ def parquet_table(out: FoldOutput, all_windows: np.ndarray, channel_names: tuple
         rows["start_s"].append(rec.start_s)
         rows["kept"].append(bool(rec.kept))
         rows["selected"].append(bool(rec.selected))
+        rows["intensity"].append(rec.intensity)
         rows["error"].append(rec.error)
         rows["data"].append(all_windows[i].astype(np.float32).ravel().tolist() if has_data else None)
         rows["provenance"].append(_dumps(rec.provenance.as_dict()))
         rows["verdicts"].append(_dumps([v.as_dict() for v in rec.verdicts]))
     schema = pa.schema([
         ("sample", pa.string()), ("label", pa.string()), ("window", pa.int32()), ("start_s", pa.float64()),
-        ("kept", pa.bool_()), ("selected", pa.bool_()), ("error", pa.string()),
+        ("kept", pa.bool_()), ("selected", pa.bool_()),
+        ("intensity", pa.float64()), ("error", pa.string()),
         ("data", pa.list_(pa.float32())), ("provenance", pa.string()), ("verdicts", pa.string()),
     ], metadata={
         "channel_names": json.dumps(list(channel_names)),

@@ -126,6 +126,7 @@ class WindowRecord:
     kept: bool = True
     selected: bool = False
     verdicts: list[FilterVerdict] = field(default_factory=list)
+    intensity: float | None = None  # the intensity spread's factor (grounding.intensity; None: not spread)
 
     @property
     def windowed(self) -> bool:

@@ -18,6 +18,7 @@ Light module: no heavy imports, so the command line can build a spec cheaply.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
@@ -26,6 +27,21 @@ from vsmp_imu.errors import ConfigError
 BUDGET_FIELDS = ("source", "alpha", "policy", "clips")
 RUN_FIELDS = ("executor", "workers", "address", "cache_dir", "gpus_per_task")
 EXECUTORS = ("local", "ray")
+INTENSITY = (0.7, 2.0)  # the measured intensity spread of a class without real windows
+
+
+def intensity_bounds(text: str | None, field: str = "--unseen-intensity") -> tuple[float, float] | None:
+    """`--unseen-intensity`: "off" (None) or "LO,HI" with 0 < LO <= HI."""
+    if text is None or text.strip().lower() == "off":
+        return None
+    try:
+        lo, hi = (float(p) for p in text.split(","))
+    except ValueError:
+        lo = hi = math.nan
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+        raise ConfigError(f"'{text}' is not an intensity range", field=field,
+                          allowed="off, or LO,HI with 0 < LO <= HI (e.g. 0.7,2.0)")
+    return lo, hi
 
 
 @dataclass(frozen=True)
@@ -54,6 +70,10 @@ class GenerationSpec:
     # ... except a held posture (the SMP's periodicity "none") with no real window, which keeps the
     # nominal sensor (pipeline.fold.unseen_postures; measured in docs/results.md)
     nominal_unseen_postures: bool = True
+    # each selected window of a class with no real training window gets its gyroscope's deviations
+    # from the window mean scaled by a factor ~ U(lo, hi): the intensity spread its SMP alone
+    # lacks (grounding.intensity; measured in docs/results.md); None: off
+    unseen_intensity: tuple[float, float] | None = None
     # where the side shows in the sensor, the side a class's real training windows support
     # (pipeline.side; measured in docs/results.md)
     side_evidence: bool = True
@@ -94,6 +114,9 @@ class GenerationSpec:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "library_dirs", tuple(str(d) for d in self.library_dirs))
+        if self.unseen_intensity is not None:
+            object.__setattr__(self, "unseen_intensity", intensity_bounds(",".join(map(str, self.unseen_intensity)),
+                                                                        "unseen_intensity"))
         for name in ("k", "k_unseen"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}", field=name)
