@@ -343,7 +343,9 @@ def test_a_class_without_real_windows_keeps_its_values_when_seen_classes_are_gen
     train = windows.where_subjects(TRAIN_SUBJECTS)
     train = train[np.flatnonzero(train.y != gone)]
     sources = LibrarySmpSource(library).smps("hapt12", info.label_names)
-    spec = GenerationSpec(k=2, k_unseen=2, oversample=1.0, max_rounds=1, quality_filter=False)
+    # the grounded values, before the intensity spread (whose factors follow the windows' order)
+    spec = GenerationSpec(k=2, k_unseen=2, oversample=1.0, max_rounds=1, quality_filter=False,
+                          unseen_intensity=None)
 
     def unseen_windows(budgeted):
         budget = np.zeros(info.n_classes, np.int64)
@@ -362,7 +364,7 @@ def test_a_class_without_real_windows_keeps_its_values_when_seen_classes_are_gen
 
 def test_only_the_selected_windows_of_a_class_without_real_windows_get_an_intensity_factor(hapt12, library,
                                                                                            tmp_path):
-    """With `unseen_intensity`, each selected window of the unseen class has its gyroscope's
+    """With `unseen_intensity` (the default), each selected window of the unseen class has its gyroscope's
     deviations from its mean scaled by its recorded factor; a seen class, the accelerometer and
     the unselected windows are the same bytes as without; the summary and the Parquet output
     carry the factors."""
@@ -383,7 +385,8 @@ def test_only_the_selected_windows_of_a_class_without_real_windows_get_an_intens
         return FoldGenerator(s, LocalExecutor(1, show_progress=False), tmp_path / "cache", library=library).generate(
             info, train, sources, budget, seed=0, fold="test")
 
-    plain, spread = run(spec), run(replace(spec, unseen_intensity=(0.7, 2.0)))
+    assert spec.unseen_intensity == (0.7, 2.0)  # the default
+    plain, spread = run(replace(spec, unseen_intensity=None)), run(spec)
     n = len(plain.generated)
     labels = np.array([r.label for r in spread.records[:n]])
     selected = np.array([r.selected for r in spread.records[:n]])

@@ -15,6 +15,7 @@ from rich.errors import MarkupError
 from rich.segment import Segment
 
 from vsmp_imu.errors import ConfigError, VsmpError
+from vsmp_imu.pipeline.spec import INTENSITY
 
 
 def parse_csv(value: str, allowed: tuple[str, ...] | None = None, option: str = "") -> list[str]:
@@ -196,10 +197,10 @@ NOMINAL_UNSEEN_POSTURES = typer.Option(
     help="a held posture with no real training windows keeps the nominal sensor (--calibrate-unseen-postures: "
          "sim-in-the-loop against the other classes' pooled statistics, as a moving class)")
 UNSEEN_INTENSITY = typer.Option(
-    "off", "--unseen-intensity",
+    ",".join(map(str, INTENSITY)), "--unseen-intensity",
     help="LO,HI: each synthetic window of a class with no real training windows gets its gyroscope's "
          "deviations from the window mean scaled by a factor drawn from [LO, HI] (the intensity spread "
-         "its SMP alone lacks; e.g. 0.7,2.0) | off")
+         "its SMP alone lacks) | off")
 K = typer.Option(4, "--k", min=1, max=64,
                  help="SMP variants per base SMP for a class with real training windows (the paper's K)")
 K_UNSEEN = typer.Option(

@@ -3,13 +3,14 @@
 A class with real training windows takes its spread of intensity from them
 (per-class rank grounding, D_stat). A class with none (the unseen protocol)
 rests on its SMP alone, and the procedural motion executes each variant at
-close to one intensity: a real stand-to-sit rotates the wrist four times as
-much within a window as a synthetic one (docs/results.md, "Intensity spread
-for unseen classes"). So each selected window of such a class has its
-deviations from its own mean scaled by a factor drawn uniformly from
-`bounds`, on the chosen channels. The mean (for the accelerometer: gravity's
-direction, the posture) is kept. The factor of every window goes into its
-record (`WindowRecord.intensity`) and the generation summary.
+close to one intensity: a real stand-to-sit turns the sensor several times
+as much within a window as a synthetic one. So each selected window of such
+a class has its deviations from its own mean scaled by a factor drawn
+uniformly from `bounds`, on the chosen channels (docs/results.md, "Intensity
+spread for unseen classes"). The mean (the turn rate) is kept, and the
+accelerometer, and with it the posture, is untouched. The factor of every
+window goes into its record (`WindowRecord.intensity`) and the generation
+summary.
 """
 
 from __future__ import annotations

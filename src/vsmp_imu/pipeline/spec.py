@@ -73,7 +73,7 @@ class GenerationSpec:
     # each selected window of a class with no real training window gets its gyroscope's deviations
     # from the window mean scaled by a factor ~ U(lo, hi): the intensity spread its SMP alone
     # lacks (grounding.intensity; measured in docs/results.md); None: off
-    unseen_intensity: tuple[float, float] | None = None
+    unseen_intensity: tuple[float, float] | None = INTENSITY
     # where the side shows in the sensor, the side a class's real training windows support
     # (pipeline.side; measured in docs/results.md)
     side_evidence: bool = True
