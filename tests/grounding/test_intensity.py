@@ -58,3 +58,16 @@ def test_a_windows_factor_does_not_depend_on_which_others_are_spread():
     _, fa = spread_intensity(X, a, (0.7, 2.0), np.array([3, 4, 5]), np.random.default_rng(5))
     _, fb = spread_intensity(X, b, (0.7, 2.0), np.array([3, 4, 5]), np.random.default_rng(5))
     np.testing.assert_array_equal(fa[:10], fb[:10])
+
+
+def test_generate_prints_the_spread_of_each_class_without_real_windows():
+    from vsmp_imu.cli.common import console
+    from vsmp_imu.cli.generate import _print_summary
+
+    summary = {"tau_cls": 0.5, "per_class": {}, "intensity_spread": {
+        "STAND_TO_SIT": {"bounds": [0.7, 2.0], "windows": 12, "channels": ["gyr_x", "gyr_y", "gyr_z"],
+                         "median": 1.31}}}
+    with console.capture() as captured:
+        _print_summary(summary)
+    assert ("intensity spread STAND_TO_SIT (no real windows): 12 windows x U(0.7, 2) on gyr_x, gyr_y, gyr_z, "
+            "median 1.31") in " ".join(captured.get().split())

@@ -127,6 +127,10 @@ def _print_summary(summary: dict) -> None:
     for name, records in summary.get("side_evidence", {}).items():
         for rec in records:
             console.print(f"side {name}: {side_text(rec)}", highlight=False)
+    for name, spread in summary.get("intensity_spread", {}).items():
+        lo, hi = spread["bounds"]
+        console.print(f"intensity spread {name} (no real windows): {spread['windows']} windows x U({lo:g}, {hi:g}) "
+                      f"on {', '.join(spread['channels'])}, median {spread['median']:.2f}", highlight=False)
 
 
 def side_text(rec: dict) -> str:
