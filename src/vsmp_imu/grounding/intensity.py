@@ -6,7 +6,7 @@ rests on its SMP alone, and the procedural motion executes each variant at
 close to one intensity: a real stand-to-sit turns the sensor several times
 as much within a window as a synthetic one. So each selected window of such
 a class has its deviations from its own mean scaled by a factor drawn
-uniformly from `bounds`, on the chosen channels (docs/results.md, "Intensity
+uniformly from `bounds`, on its gyroscopes (docs/results.md, "Intensity
 spread for unseen classes"). The mean (the turn rate) is kept, and the
 accelerometer, and with it the posture, is untouched. The factor of every
 window goes into its record (`WindowRecord.intensity`) and the generation
@@ -17,19 +17,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from vsmp_imu.errors import ConfigError
 
-CHANNELS = ("gyr", "all")  # which channels a factor scales: gyroscopes (accelerometers without) | all
-
-
-def spread_channels(channel_names: tuple[str, ...], which: str = "gyr") -> np.ndarray:
-    """Indices of the channels a factor scales: the gyroscopes (`gyr`; all channels where
-    there is none) or every channel (`all`)."""
-    if which not in CHANNELS:
-        raise ConfigError(f"unknown intensity channels '{which}'", field="intensity_channels",
-                          allowed=", ".join(CHANNELS))
+def spread_channels(channel_names: tuple[str, ...]) -> np.ndarray:
+    """Indices of the channels a factor scales: the gyroscopes, or every channel where there is none."""
     gyro = [i for i, name in enumerate(channel_names) if "gyr" in name.lower()]
-    return np.array(gyro if which == "gyr" and gyro else range(len(channel_names)), dtype=np.int64)
+    return np.array(gyro or range(len(channel_names)), dtype=np.int64)
 
 
 def spread_intensity(X: np.ndarray, mask: np.ndarray, bounds: tuple[float, float], channels: np.ndarray,
