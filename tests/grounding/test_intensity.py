@@ -1,10 +1,19 @@
-"""The intensity spread of classes without real windows (grounding.intensity)."""
+"""The intensity spread of classes without real windows, and the spread matched to the real
+windows of classes with them (grounding.intensity)."""
 
 import numpy as np
 import pytest
 
 from vsmp_imu.errors import ConfigError
-from vsmp_imu.grounding.intensity import spread_channels, spread_intensity
+from vsmp_imu.grounding.intensity import (
+    MATCH_MIN_WINDOWS,
+    log_intensity,
+    match_factors,
+    missing_spread,
+    scale_deviations,
+    spread_channels,
+    spread_intensity,
+)
 from vsmp_imu.pipeline.spec import GenerationSpec, intensity_bounds
 
 CHANNELS = ("acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z")
@@ -68,3 +77,48 @@ def test_generate_prints_the_spread_of_each_class_without_real_windows():
         _print_summary(summary)
     assert ("intensity spread STAND_TO_SIT (no real windows): 12 windows x U(0.7, 2) on gyr_x, gyr_y, gyr_z, "
             "median 1.31") in " ".join(captured.get().split())
+
+
+def with_intensities(log_sd, n=400, seed=0):
+    """Windows whose gyroscope's RMS deviation has a log standard deviation of `log_sd` (log-normal)."""
+    X = windows(n, seed=seed)
+    rng = np.random.default_rng(seed + 100)
+    gains = np.exp(log_sd * rng.standard_normal(n))
+    return scale_deviations(X, gains, np.array([3, 4, 5]))
+
+
+def test_the_missing_spread_is_what_the_real_windows_have_beyond_the_synthetic_ones():
+    gyro = np.array([3, 4, 5])
+    real, narrow = with_intensities(0.5, seed=1), with_intensities(0.2, seed=2)
+    spread = missing_spread(real, narrow, gyro)
+    expected = np.sqrt(log_intensity(real, gyro).var() - log_intensity(narrow, gyro).var())
+    assert spread == pytest.approx(expected) and 0.35 < spread < 0.55
+    assert missing_spread(narrow, real, gyro) == 0.0  # synthetic already wider: nothing added
+    assert missing_spread(real[: MATCH_MIN_WINDOWS - 1], narrow, gyro) == 0.0  # too few real windows
+    assert missing_spread(real, narrow[: MATCH_MIN_WINDOWS - 1], gyro) == 0.0
+
+
+def test_matched_windows_take_the_real_spread_and_keep_their_median():
+    gyro = np.array([3, 4, 5])
+    real, synthetic = with_intensities(0.5, seed=3), with_intensities(0.2, seed=4)
+    spread = missing_spread(real, synthetic, gyro)
+    mask = np.ones(len(synthetic), bool)
+    mask[:50] = False
+    z = np.random.default_rng(7).standard_normal(len(synthetic))
+    factors = match_factors(mask, spread, z)
+    assert np.isnan(factors[:50]).all()
+    out = scale_deviations(synthetic, factors, gyro)
+    np.testing.assert_array_equal(out[:50], synthetic[:50])  # unmasked windows untouched
+    np.testing.assert_array_equal(out[:, :, :3], synthetic[:, :, :3])  # accelerometer untouched
+    before, after = log_intensity(synthetic[mask], gyro), log_intensity(out[mask], gyro)
+    assert abs(after.std() - log_intensity(real, gyro).std()) < 0.05  # as wide as the real windows
+    assert before.std() < 0.25
+    assert abs(np.median(after) - np.median(before)) < 0.06  # centred where it was
+    np.testing.assert_allclose(after - before, np.log(factors[mask]), atol=1e-4)
+
+
+def test_match_factors_are_clipped_and_one_where_nothing_is_missing():
+    mask = np.ones(3, bool)
+    z = np.array([-10.0, 0.0, 10.0])
+    np.testing.assert_allclose(match_factors(mask, 0.4, z), np.exp(0.4 * np.array([-2.5, 0.0, 2.5])))
+    np.testing.assert_array_equal(match_factors(mask, 0.0, z), np.ones(3))

@@ -405,3 +405,49 @@ def test_only_the_selected_windows_of_a_class_without_real_windows_get_an_intens
     write_output(tmp_path / "out", spread, {})
     column = pq.read_table(tmp_path / "out" / "synthetic.parquet").column("intensity").to_pylist()
     assert [c for c in column if c is not None] == factors[target].tolist()
+
+
+def test_with_seen_intensity_a_class_with_real_windows_gets_the_spread_its_real_windows_show(hapt12, library,
+                                                                                             tmp_path, monkeypatch):
+    """With `seen_intensity`, each selected window of a class with real windows has its gyroscope's
+    deviations from its mean scaled by its recorded factor, exp(s z) with s the log-intensity spread
+    the class's windows lack against its real ones; the rest is the same bytes as without."""
+    import vsmp_imu.grounding.intensity as intensity
+
+    monkeypatch.setattr(intensity, "MATCH_MIN_WINDOWS", 3)  # a small test budget
+    info, windows = hapt12
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    names = ("SIT_TO_STAND", "LIE_TO_STAND")
+    sources = LibrarySmpSource(library).smps("hapt12", info.label_names)
+    budget = np.zeros(info.n_classes, np.int64)
+    budget[[info.label_names.index(n) for n in names]] = 6
+    spec = GenerationSpec(k=2, oversample=2.0, max_rounds=1, quality_filter=False)
+    assert spec.seen_intensity is False  # off by default
+
+    def run(s):
+        return FoldGenerator(s, LocalExecutor(1, show_progress=False), tmp_path / "cache", library=library).generate(
+            info, train, sources, budget, seed=0, fold="test")
+
+    plain, matched = run(spec), run(replace(spec, seen_intensity=True))
+    n = len(plain.generated)
+    labels = np.array([r.label for r in matched.records[:n]])
+    selected = np.array([r.selected for r in matched.records[:n]])
+    factors = np.array([np.nan if r.intensity is None else r.intensity for r in matched.records[:n]])
+    gyro = [i for i, c in enumerate(info.channel_names) if "gyr" in c]
+    rest = [i for i in range(len(info.channel_names)) if i not in gyro]
+    spreads = {name: matched.summary["intensity_match"][name]["spread"] for name in names}
+    assert any(s > 0 for s in spreads.values()) and "intensity_match" not in plain.summary
+    for name in names:
+        c = info.label_names.index(name)
+        mine = selected & (labels == name)
+        real = train.X[train.y == c]
+        assert spreads[name] == pytest.approx(intensity.missing_spread(real, plain.generated[mine], np.array(gyro)),
+                                              abs=1e-4)
+        assert np.isfinite(factors[mine]).all() == (spreads[name] > 0)
+    target = np.isfinite(factors)
+    assert target.sum() > 0 and not (target & ~selected).any()
+    np.testing.assert_array_equal(matched.generated[~target], plain.generated[~target])
+    np.testing.assert_array_equal(matched.generated[:, :, rest], plain.generated[:, :, rest])
+    before, after = plain.generated[target][:, :, gyro], matched.generated[target][:, :, gyro]
+    np.testing.assert_allclose(after.std(axis=1) / before.std(axis=1),
+                               np.repeat(factors[target][:, None], len(gyro), axis=1), rtol=1e-3)

@@ -26,7 +26,8 @@ GENERATE_OPTIONS = {
     "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm", "refill": "--refill", "library_dirs": "--library",
     "side_evidence": "--side-evidence", "texture": "--texture", "pooled_calibration": "--pooled-calibration",
     "nominal_unseen_postures": "--nominal-unseen-postures", "k_unseen": "--k-unseen",
-    "unseen_intensity": "--unseen-intensity", "executor": "--executor", "workers": "--workers",
+    "unseen_intensity": "--unseen-intensity", "seen_intensity": "--seen-intensity", "executor": "--executor",
+    "workers": "--workers",
     "address": "--address", "cache_dir": "--cache-dir", "gpus_per_task": "--gpus-per-task",
 }
 # spec field -> option of `vsmp-imu evaluate`
@@ -35,7 +36,8 @@ EVALUATE_OPTIONS = {
     "per_class_rank": "--per-class-rank", "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm",
     "side_evidence": "--side-evidence", "texture": "--texture", "pooled_calibration": "--pooled-calibration",
     "nominal_unseen_postures": "--nominal-unseen-postures", "k_unseen": "--k-unseen",
-    "unseen_intensity": "--unseen-intensity", "refill": "--refill", "library_dirs": "--library",
+    "unseen_intensity": "--unseen-intensity", "seen_intensity": "--seen-intensity", "refill": "--refill",
+    "library_dirs": "--library",
     "executor": "--executor", "workers": "--workers", "address": "--address",
 }
 # fields the commands leave at the paper's values (the studies and the Python API set them)

@@ -201,6 +201,11 @@ UNSEEN_INTENSITY = typer.Option(
     help="LO,HI: each synthetic window of a class with no real training windows gets its gyroscope's "
          "deviations from the window mean scaled by a factor drawn from [LO, HI] (the intensity spread "
          "its SMP alone lacks) | off")
+SEEN_INTENSITY = typer.Option(
+    False, "--seen-intensity/--no-seen-intensity",
+    help="each synthetic window of a class with real training windows gets its gyroscope's deviations from "
+         "the window mean scaled by a random factor, so the windows' spread of intensity is as wide as the "
+         "class's real windows'")
 K = typer.Option(4, "--k", min=1, max=64,
                  help="SMP variants per base SMP for a class with real training windows (the paper's K)")
 K_UNSEEN = typer.Option(

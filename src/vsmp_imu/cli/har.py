@@ -20,6 +20,7 @@ from vsmp_imu.cli.common import (
     POOLED_CALIBRATION,
     SIDE_EVIDENCE,
     TEXTURE,
+    SEEN_INTENSITY,
     UNSEEN_INTENSITY,
     K,
     console,
@@ -160,6 +161,7 @@ def evaluate_cmd(
     pooled_calibration: bool = POOLED_CALIBRATION,
     nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
     unseen_intensity: str = UNSEEN_INTENSITY,
+    seen_intensity: bool = SEEN_INTENSITY,
     side_evidence: bool = SIDE_EVIDENCE,
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
@@ -208,7 +210,7 @@ def evaluate_cmd(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
-        unseen_intensity=intensity_bounds(unseen_intensity),
+        unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)

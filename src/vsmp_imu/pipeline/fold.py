@@ -19,7 +19,10 @@ Stages:
    with tau_cls chosen by validation Macro-F1, redundancy);
 6. the per-class budget taken from the retained windows;
 7. with `unseen_intensity`, an intensity factor for each selected window of a
-   class without real training windows (grounding.intensity).
+   class without real training windows (grounding.intensity);
+8. with `seen_intensity`, an intensity factor for each selected window of a
+   class with real training windows, so that the windows' spread of intensity
+   is as wide as the real windows' (grounding.intensity).
 """
 
 from __future__ import annotations
@@ -47,7 +50,13 @@ from vsmp_imu.filtering.faithfulness import (
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
 from vsmp_imu.grounding.align import Convention, axes_matrix
-from vsmp_imu.grounding.intensity import spread_channels, spread_intensity
+from vsmp_imu.grounding.intensity import (
+    match_factors,
+    missing_spread,
+    scale_deviations,
+    spread_channels,
+    spread_intensity,
+)
 from vsmp_imu.grounding.mounting import estimate_mounting
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.split import stat_rank_split
@@ -675,6 +684,34 @@ def spread_unseen(spec: GenerationSpec, info: DatasetInfo, X: np.ndarray, y: np.
     return X, summary
 
 
+# -- stage 8: the intensity spread of the classes with real windows -------------------------------------
+def match_seen(spec: GenerationSpec, info: DatasetInfo, train: Windows, X: np.ndarray, y: np.ndarray,
+               selected: np.ndarray, records: list[WindowRecord], unseen: frozenset[int], seed: int,
+               fold: str) -> tuple[np.ndarray, dict[str, dict]]:
+    """With `spec.seen_intensity`, the selected windows of each class with real windows get a factor
+    each that widens their log-intensity spread to the real windows' (grounding.intensity); the
+    windows, and per class its spread's summary."""
+    if not spec.seen_intensity or len(X) == 0:
+        return X, {}
+    channels = spread_channels(info.channel_names)
+    z = rng_for(seed, fold, "seen-intensity").standard_normal(len(X))  # one draw per window
+    factors = np.full(len(X), np.nan)
+    summary = {}
+    for c in range(len(info.label_names)):
+        mask = selected & (y == c)
+        if c in unseen or not mask.any():
+            continue
+        real = train.X[train.y == c]
+        spread = missing_spread(real, X[mask], channels)
+        summary[info.label_names[c]] = {"spread": round(spread, 4), "real_windows": len(real),
+                                        "windows": int(mask.sum())}
+        if spread > 0:
+            factors = np.where(mask, match_factors(mask, spread, z), factors)
+    for i in np.flatnonzero(~np.isnan(factors)):
+        records[i].intensity = float(factors[i])
+    return scale_deviations(X, factors, channels), summary
+
+
 # -- the fold ----------------------------------------------------------------------------------------
 class FoldGenerator:
     """Generate the synthetic set of one fold (see module doc): the stages above, with the
@@ -736,6 +773,7 @@ class FoldGenerator:
         for i, rec in enumerate(records[: len(X)]):
             rec.selected = bool(selected[i])
         X, spread = spread_unseen(spec, info, X, y, selected, records, unseen, seed, fold)
+        X, matched = match_seen(spec, info, train, X, y, selected, records, unseen, seed, fold)
         out = Windows(X[selected], y[selected], np.full(int(selected.sum()), "synthetic"),
                       info.label_names, info.channel_names, info.fs_hz,
                       meta={"sample": np.array([records[i].sample for i in np.flatnonzero(selected)],
@@ -753,6 +791,8 @@ class FoldGenerator:
             summary["variants_per_smp"] = other_k
         if spread:  # classes without real windows: their windows' intensity factors
             summary["intensity_spread"] = spread
+        if matched:  # classes with real windows: the log-intensity spread their windows got
+            summary["intensity_match"] = matched
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
         if self.sides:

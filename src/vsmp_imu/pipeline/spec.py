@@ -74,6 +74,10 @@ class GenerationSpec:
     # from the window mean scaled by a factor ~ U(lo, hi): the intensity spread its SMP alone
     # lacks (grounding.intensity; measured in docs/results.md); None: off
     unseen_intensity: tuple[float, float] | None = INTENSITY
+    # each selected window of a class with real training windows gets its gyroscope's deviations
+    # from the window mean scaled by exp(s z), z ~ N(0, 1), where s is the log-intensity spread the
+    # class's synthetic windows lack against its real ones (grounding.intensity)
+    seen_intensity: bool = False
     # where the side shows in the sensor, the side a class's real training windows support
     # (pipeline.side; measured in docs/results.md)
     side_evidence: bool = True
