@@ -122,3 +122,16 @@ def test_match_factors_are_clipped_and_one_where_nothing_is_missing():
     z = np.array([-10.0, 0.0, 10.0])
     np.testing.assert_allclose(match_factors(mask, 0.4, z), np.exp(0.4 * np.array([-2.5, 0.0, 2.5])))
     np.testing.assert_array_equal(match_factors(mask, 0.0, z), np.ones(3))
+
+
+def test_generate_prints_the_spread_matched_to_each_classes_real_windows():
+    from vsmp_imu.cli.common import console
+    from vsmp_imu.cli.generate import _print_summary
+
+    summary = {"tau_cls": 0.5, "per_class": {}, "intensity_match": {
+        "SIT_TO_STAND": {"spread": 0.37, "real_windows": 157, "windows": 47},
+        "SITTING": {"spread": 0.0, "real_windows": 2232, "windows": 669}}}
+    with console.capture() as captured:
+        _print_summary(summary)
+    assert ("intensity matched to the real windows: log spread added SIT_TO_STAND 0.37; none for 1 (as wide "
+            "already, or too few windows)") in " ".join(captured.get().split())

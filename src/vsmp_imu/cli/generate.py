@@ -133,6 +133,11 @@ def _print_summary(summary: dict) -> None:
         lo, hi = spread["bounds"]
         console.print(f"intensity spread {name} (no real windows): {spread['windows']} windows x U({lo:g}, {hi:g}) "
                       f"on {', '.join(spread['channels'])}, median {spread['median']:.2f}", highlight=False)
+    matched = summary.get("intensity_match", {})
+    if matched:
+        widened = [f"{name} {m['spread']:.2f}" for name, m in matched.items() if m["spread"] > 0]
+        console.print(f"intensity matched to the real windows: log spread added {', '.join(widened) or 'none'}; "
+                      f"none for {len(matched) - len(widened)} (as wide already, or too few windows)", highlight=False)
 
 
 def side_text(rec: dict) -> str:
