@@ -417,3 +417,21 @@ def test_a_table_can_show_a_subset_of_the_runs_and_says_which():
     with pytest.raises(ConfigError, match="no run of the folds and seeds"):
         TableBuilder(spec.model_copy(update={"seeds": [7]}),
                      RecordSet("demo", "cmd", None, None, {}, LABELS, tuple(records))).render()
+
+
+def test_a_table_over_records_of_several_budgets_must_name_them():
+    """Records of two budgets, a table naming none: each (fold, seed) has two records, which a
+    paired test would pair across budgets; the table is refused, naming the budgets."""
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    records = [_record(m, fold, 0, budget, 0.5 + budget / 100 + (0.01 * fold if m == "vsmp" else 0.0))
+               for m in ("real", "vsmp") for fold in range(1, 7) for budget in (1.0, 5.0)]
+    spec = TableSpec(id="x:mixed", records="x", kind="paired", baseline="real", methods=["vsmp"],
+                     metrics=[{"label": "all", "metric": "macro_f1"}])
+    with pytest.raises(ConfigError, match=r"several records per fold and seed in record set 'x' \(budgets 1.0, 5.0\)"):
+        TableBuilder(spec, RecordSet("x", "cmd", None, None, {}, LABELS, tuple(records))).render()
+    table = TableBuilder(spec.model_copy(update={"budgets": [1, 5]}),
+                         RecordSet("x", "cmd", None, None, {}, LABELS, tuple(records))).render()
+    assert "| 1 % | VSMP-IMU | +3.50 (6/6, p = 0.031) |" in table  # each budget paired with itself
+    assert "| 5 % | VSMP-IMU | +3.50 (6/6, p = 0.031) |" in table

@@ -276,7 +276,23 @@ class TableBuilder:
                 field="methods/budgets",
                 allowed="the methods, budgets and backbone the records hold",
             )
-        return found
+        return self._one_per_run(found, method)
+
+    def _one_per_run(self, found: list[dict], method: str) -> list[dict]:
+        """`found`, after checking that it holds one record per run (fold, seed): records of
+        several budgets or backbones would otherwise be paired and averaged as if one."""
+        keys = [_run_key(r) for r in found]
+        if len(set(keys)) == len(keys):
+            return found
+        mixed = [f"{field}s {', '.join(sorted({str(r[field]) for r in found}))}" for field in ("budget", "backbone")
+                 if len({str(r[field]) for r in found}) > 1]
+        raise ConfigError(
+            f"table '{self.spec.id}': method '{method}' has several records per fold and seed in record set "
+            f"'{(self.records if found[0] in self.records.records else self.baseline_records).name}'"
+            + (f" ({'; '.join(mixed)})" if mixed else ""),
+            field="budgets/backbone",
+            allowed="name the budgets (`budgets`) and the backbone (`backbone`) the table shows",
+        )
 
     def same_runs(self, runs: dict[str, list[dict]], budget: float | None) -> dict[str, list[dict]]:
         """`runs` per method, after checking that every method has the same (fold, seed) runs:
