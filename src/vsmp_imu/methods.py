@@ -33,8 +33,7 @@ VSMP_TARGET = "vsmp_imu.pipeline.method:VsmpMethod"
 BASELINE_CHAIN: dict[str, Any] = {"k": 1, "refine": False, "sim_in_the_loop": False, "motion_fit": False,
                                   "side_evidence": False, "texture": False, "rank_grounding": True,
                                   "estimate_mounting": False, "quality_filter": True, "class_filter": False,
-                                  "refill": 0, "unseen_intensity": None,
-                                  "seen_intensity": False}
+                                  "refill": 0, "unseen_intensity": None, "seen_intensity": False}
 
 
 @dataclass(frozen=True)

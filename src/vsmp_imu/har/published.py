@@ -276,9 +276,9 @@ class TableBuilder:
                 field="methods/budgets",
                 allowed="the methods, budgets and backbone the records hold",
             )
-        return self._one_per_run(found, method)
+        return self._one_per_run(found, method, records.name)
 
-    def _one_per_run(self, found: list[dict], method: str) -> list[dict]:
+    def _one_per_run(self, found: list[dict], method: str, set_name: str) -> list[dict]:
         """`found`, after checking that it holds one record per run (fold, seed): records of
         several budgets or backbones would otherwise be paired and averaged as if one."""
         keys = [_run_key(r) for r in found]
@@ -288,7 +288,7 @@ class TableBuilder:
                  if len({str(r[field]) for r in found}) > 1]
         raise ConfigError(
             f"table '{self.spec.id}': method '{method}' has several records per fold and seed in record set "
-            f"'{(self.records if found[0] in self.records.records else self.baseline_records).name}'"
+            f"'{set_name}'"
             + (f" ({'; '.join(mixed)})" if mixed else ""),
             field="budgets/backbone",
             allowed="name the budgets (`budgets`) and the backbone (`backbone`) the table shows",
