@@ -206,6 +206,10 @@ SEEN_INTENSITY = typer.Option(
     help="each synthetic window of a class with real training windows gets its gyroscope's deviations from "
          "the window mean scaled by a random factor, so the windows' spread of intensity is as wide as the "
          "class's real windows'")
+EVENT_DURATIONS = typer.Option(
+    False, "--event-durations/--no-event-durations",
+    help="time each synthetic sample of a discrete event (a transition, one gesture) to the duration of one "
+         "of its class's real events, read from consecutive real training windows")
 K = typer.Option(4, "--k", min=1, max=64,
                  help="SMP variants per base SMP for a class with real training windows (the paper's K)")
 K_UNSEEN = typer.Option(

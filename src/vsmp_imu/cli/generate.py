@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from vsmp_imu.cli.common import (
+    EVENT_DURATIONS,
     GRAVITY_NORM,
     K_UNSEEN,
     MOTION_FIT,
@@ -64,6 +65,7 @@ def generate_cmd(
     nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
     unseen_intensity: str = UNSEEN_INTENSITY,
     seen_intensity: bool = SEEN_INTENSITY,
+    event_durations: bool = EVENT_DURATIONS,
     side_evidence: bool = SIDE_EVIDENCE,
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
@@ -84,6 +86,7 @@ def generate_cmd(
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
         unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
+        event_durations=event_durations,
         refine=not no_refine, uncertainty_conditioned=not no_uncertainty,
         library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None,
@@ -138,6 +141,16 @@ def _print_summary(summary: dict) -> None:
         widened = [f"{name} {m['spread']:.2f}" for name, m in matched.items() if m["spread"] > 0]
         console.print(f"intensity matched to the real windows: log spread added {', '.join(widened) or 'none'}; "
                       f"none for {len(matched) - len(widened)} (as wide already, or too few windows)", highlight=False)
+    for name, found in summary.get("event_durations", {}).items():
+        console.print(f"event durations {name}: {durations_text(found)}", highlight=False)
+
+
+def durations_text(found: dict) -> str:
+    """One class's real event durations, in words."""
+    if not found["used"]:
+        return f"the SMP's timing ({found['reason']})"
+    return (f"each sample timed to one of {found['events']} real events (median {found['median_s']:.2f} s, "
+            f"10-90 % {found['q10_s']:.2f}-{found['q90_s']:.2f} s)")
 
 
 def side_text(rec: dict) -> str:

@@ -176,11 +176,12 @@ class ProceduralBackend:
 
     # -- public verb ------------------------------------------------------------
     def generate(self, smp_or_prompt: SMP | str, seed: int, duration_s: float | None = None,
-                 offsets_deg: dict[str, float] | None = None) -> Motion:
+                 offsets_deg: dict[str, float] | None = None, duration_scale: float = 1.0) -> Motion:
         """One motion for an SMP (or a prompt) and a seed; `offsets_deg` adds constant angles to
-        DOFs (posture, e.g. {"root_pitch": 5.0}), as fitted by motion-level simulation-in-the-loop."""
+        DOFs (posture, e.g. {"root_pitch": 5.0}), as fitted by motion-level simulation-in-the-loop;
+        `duration_scale` multiplies every primitive's duration (an event timed to real ones)."""
         smp, entry, prompt = self.resolve(smp_or_prompt)
-        plan = self.plan(smp, seed, duration_s, entry=entry)
+        plan = self.plan(smp, seed, duration_s, entry=entry, duration_scale=duration_scale)
         if offsets_deg:
             unknown = sorted(set(offsets_deg) - set(ROTATION_DOF_NAMES))
             if unknown:
@@ -208,15 +209,19 @@ class ProceduralBackend:
             entry = None  # an activity the library does not know: compiled from its own SMP
         return smp_or_prompt, entry, _verbalize(smp_or_prompt)
 
-    def plan(self, smp: SMP, seed: int, duration_s: float | None = None, entry: Any = None) -> Plan:
+    def plan(self, smp: SMP, seed: int, duration_s: float | None = None, entry: Any = None,
+             duration_scale: float = 1.0) -> Plan:
         """The timeline and realized controls of `smp` (no curves yet)."""
         if entry is None:
             entry = self.resolve(smp)[1]
         if duration_s is not None and not (duration_s > 0 and math.isfinite(duration_s)):
             raise ValidationError(f"duration_s must be a positive number of seconds, got {duration_s}",
                                   field="duration_s")
+        if not (duration_scale > 0 and math.isfinite(duration_scale)):
+            raise ValidationError(f"duration_scale must be a positive number, got {duration_scale}",
+                                  field="duration_scale")
         entry, recipe = self._recipe(smp, entry)
-        return _plan(entry, recipe, smp, seed, duration_s)
+        return _plan(entry, recipe, smp, seed, duration_s, duration_scale)
 
     def _recipe(self, smp: SMP, entry: Any) -> tuple[Any, Recipe]:
         """The library recipe, or one compiled from the SMP (`compile_mode`, docs/motion.md)."""
@@ -525,7 +530,8 @@ def _split(matched: list[tuple[int, str, str]], cycle: list[str]) -> tuple[list[
     return list(range(first)), list(range(first, last + 1)), list(range(last + 1, len(matched)))
 
 
-def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | None) -> Plan:
+def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | None,
+          duration_scale: float = 1.0) -> Plan:
     rng = rng_for(seed, BACKEND_NAME, entry.name, "timing")
     controls = _controls(entry, recipe, smp, rng)
     # an error here is about the SMP's own fields: the caller names the SMP's file
@@ -534,7 +540,9 @@ def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | N
     jitter = {p: 1.0 + rng.uniform(-DURATION_JITTER, DURATION_JITTER) for p in recipe.primitives}
     absolute = smp.primitive_durations.type == "absolute"
     raw = raw_durations(smp)
-    tf = controls["tempo_factor"]
+    tf = controls["tempo_factor"] * duration_scale
+    if duration_scale != 1.0:
+        controls["duration_scale"] = round(float(duration_scale), 6)
     base = []
     for i, (pos, _, prim) in enumerate(matched):
         seconds = raw[pos] if absolute and raw[pos] else recipe.primitives[prim].duration_s * scales[i]

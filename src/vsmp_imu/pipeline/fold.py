@@ -50,6 +50,8 @@ from vsmp_imu.filtering.faithfulness import (
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
 from vsmp_imu.grounding.align import Convention, axes_matrix
+from vsmp_imu.grounding.durations import draw_duration, event_durations, window_hop
+from vsmp_imu.grounding.durations import summary as duration_summary
 from vsmp_imu.grounding.intensity import (
     match_factors,
     missing_spread,
@@ -370,17 +372,22 @@ def smp_variants(spec: GenerationSpec, base: Base, seed: int, key: str, k: int,
 def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list[tuple[str, Base]], slots: range,
                  seed: int, fold: str, fs_hz: float, locations: tuple[LocationTask, ...], library=None,
                  motion_dir: Path | None = None, motion_fit: str = "",
-                 class_windows: int | None = None, texture: dict | None = None) -> list[SampleTask]:
+                 class_windows: int | None = None, texture: dict | None = None,
+                 events: tuple[np.ndarray, float] | None = None) -> list[SampleTask]:
     """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants);
     `class_windows`: the class's real training windows in the fold, kept in the provenance (0: the
     class gets `spec.k_unseen` variants per base SMP); `texture`: what the worker needs to add the
-    movement texture (`texture_task`)."""
+    movement texture (`texture_task`); `events`: the class's real event durations and the hop in
+    seconds (`class_events`), one drawn per sample of a discrete SMP."""
     k = spec.variants_for(class_windows)
     variants = [(src, i, v) for src, base in bases
                 for i, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", k, library)]
     tasks = []
     for slot in slots:
         src, i, base = variants[slot % len(variants)]
+        event = None
+        if events is not None and isinstance(base, SMP) and is_discrete(base):
+            event = draw_duration(events[0], events[1], rng_for(seed, fold, label, slot, "event-duration"))
         tasks.append(SampleTask(
             key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
             variant=i, **_payload(base),
@@ -388,9 +395,37 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
             fs_hz=fs_hz, locations=locations, sim_in_the_loop=spec.sim_in_the_loop,
             noise=spec.noise, duration_s=spec.duration_s, library_dirs=tuple(spec.library_dirs),
             motion_dir=str(motion_dir) if motion_dir else None, motion_fit=motion_fit,
-            class_windows=class_windows, texture=texture,
+            class_windows=class_windows, texture=texture, event_duration_s=event,
         ))
     return tasks
+
+
+def is_discrete(smp: SMP) -> bool:
+    """A single event (a transition, one gesture), not a held posture or a repeated cycle."""
+    ts = smp.temporal_structure
+    return ts.periodicity == "single" and not ts.is_repetitive
+
+
+def class_events(spec: GenerationSpec, info: DatasetInfo, train: Windows,
+                 budget: np.ndarray) -> tuple[dict[str, tuple[np.ndarray, float]], dict[str, dict]]:
+    """With `spec.event_durations` and the procedural backend, per class with a budget its real event
+    durations (grounding.durations) and the real windows' hop in seconds; and per class what was found."""
+    if not spec.event_durations or spec.backend != "procedural":
+        return {}, {}
+    hop, length = window_hop(train), train.n_timesteps
+    if hop is None:
+        return {}, {label: duration_summary(np.zeros(0), "the real windows carry no recording and start")
+                    for c, label in enumerate(info.label_names) if budget[c] > 0}
+    shares = info.share_vector()
+    events, found = {}, {}
+    for c, label in enumerate(info.label_names):
+        if budget[c] <= 0:
+            continue
+        seconds, reason = event_durations(train, c, hop, length, float(shares[c]), info.fs_hz)
+        found[label] = duration_summary(seconds, reason)
+        if len(seconds):
+            events[label] = (seconds, hop / info.fs_hz)
+    return events, found
 
 
 # -- stage 2a: the side from evidence (pipeline.side) -------------------------------------------------
@@ -733,6 +768,7 @@ class FoldGenerator:
         self.sides: dict[str, list[dict]] = {}  # per class and base SMP, set by `generate` (side_evidence)
         self.class_windows_: dict[str, int] = {}  # per class, the real training windows of the fold
         self.textures: dict[str, TextureModel] = {}  # per location, set by `generate` (texture)
+        self.events: dict[str, tuple] = {}  # per class, real event durations (event_durations)
 
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
                  budget: np.ndarray, seed: int, fold: str) -> FoldOutput:
@@ -745,6 +781,7 @@ class FoldGenerator:
         setup = prepare(spec, info, train, sources, seed, threads)
         sources, self.sides = self.sides_from_evidence(info, train, sources, setup, budget, seed, fold)
         self.motion_fits = self.fit_motions(info, sources, setup, budget, seed, fold)
+        self.events, events_found = class_events(spec, info, train, budget)
         job = None
         if spec.quality_filter:
             job = make_filter_job(info, train, seed, fold, spec.val_fraction, spec.min_validator_windows,
@@ -795,6 +832,8 @@ class FoldGenerator:
             summary["intensity_match"] = matched
         if spec.motion_fit:
             summary["motion_fit"] = self.motion_fits
+        if events_found:  # per class: the real event durations its samples were timed to, or why not
+            summary["event_durations"] = events_found
         if self.sides:
             summary["side_evidence"] = self.sides
         return FoldOutput(out, X, records, results, tasks, summary)
@@ -847,7 +886,8 @@ class FoldGenerator:
         index = info.label_names.index(label)
         return sample_tasks(self.config, label, index, bases, slots, seed, fold,
                             info.fs_hz, locations, self.library, self.motion_dir, fit,
-                            self.class_windows_.get(label), texture_task(self.textures, index, seed, fold))
+                            self.class_windows_.get(label), texture_task(self.textures, index, seed, fold),
+                            self.events.get(label))
 
     def synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
         """Rounds of per-sample synthesis until every class has oversample x budget raw windows.

@@ -32,6 +32,7 @@ from vsmp_imu.errors import SampleError, VsmpError
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
 from vsmp_imu.grounding.calibrate import CalibrationResult, CemProblem, SimInTheLoopCalibrator
+from vsmp_imu.grounding.durations import scale_for
 from vsmp_imu.grounding.stats import StatSummary
 from vsmp_imu.grounding.texture import add_texture
 from vsmp_imu.imu import (
@@ -115,6 +116,9 @@ class SampleTask:
     # the movement texture (grounding.texture), added by the worker: {"seed", "fold"} (its noise is
     # drawn from rng_for(seed, fold, key, "texture")) and "kappa" per location (None: none fitted)
     texture: dict[str, Any] | None = None
+    # a real event's duration (grounding.durations): the motion is timed so that its active span
+    # lasts this long; None: the SMP's own timing
+    event_duration_s: float | None = None
 
     def content_hash(self) -> str:
         payload = asdict(self)
@@ -272,13 +276,29 @@ def _smp_motion(task: SampleTask, smp: SMP) -> Motion:
     """The SMP variant's motion; with a class motion fit, with this sample's draw of its parameters."""
     backend = backend_for(task.backend, task.library_dirs)
     if not task.motion_fit:
-        return backend.generate(smp, task.seed, task.duration_s)
+        return _timed(backend, smp, task, {})
     from vsmp_imu.pipeline.motionfit import draw, realize
 
     phi = draw(json.loads(task.motion_fit), task.seed)
     fitted, offsets = realize(smp, phi)
-    motion = backend.generate(fitted, task.seed, task.duration_s, offsets_deg=offsets)
+    motion = _timed(backend, fitted, task, offsets)
     motion.meta.setdefault("controls", {})["motion_fit"] = phi
+    return motion
+
+
+def _timed(backend, smp: SMP, task: SampleTask, offsets: dict[str, float]) -> Motion:
+    """The motion; with `task.event_duration_s`, generated again with its primitives' durations
+    scaled so that its active span lasts that long (grounding.durations)."""
+    extra = {"offsets_deg": offsets} if offsets else {}
+    motion = backend.generate(smp, task.seed, task.duration_s, **extra)
+    if task.event_duration_s is None:
+        return motion
+    start, end = active_span(motion)
+    scale = scale_for(task.event_duration_s, end - start)
+    motion = backend.generate(smp, task.seed, task.duration_s, duration_scale=scale, **extra)
+    motion.meta.setdefault("controls", {})["event_duration"] = {
+        "target_s": round(float(task.event_duration_s), 4), "nominal_active_s": round(end - start, 4),
+        "scale": round(scale, 6)}
     return motion
 
 
