@@ -26,7 +26,8 @@ GENERATE_OPTIONS = {
     "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm", "refill": "--refill", "library_dirs": "--library",
     "side_evidence": "--side-evidence", "texture": "--texture", "pooled_calibration": "--pooled-calibration",
     "nominal_unseen_postures": "--nominal-unseen-postures", "k_unseen": "--k-unseen",
-    "unseen_intensity": "--unseen-intensity", "seen_intensity": "--seen-intensity", "executor": "--executor",
+    "unseen_intensity": "--unseen-intensity", "seen_intensity": "--seen-intensity", "event_durations": "--event-durations",
+    "executor": "--executor",
     "workers": "--workers",
     "address": "--address", "cache_dir": "--cache-dir", "gpus_per_task": "--gpus-per-task",
 }
@@ -36,7 +37,8 @@ EVALUATE_OPTIONS = {
     "per_class_rank": "--per-class-rank", "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm",
     "side_evidence": "--side-evidence", "texture": "--texture", "pooled_calibration": "--pooled-calibration",
     "nominal_unseen_postures": "--nominal-unseen-postures", "k_unseen": "--k-unseen",
-    "unseen_intensity": "--unseen-intensity", "seen_intensity": "--seen-intensity", "refill": "--refill",
+    "unseen_intensity": "--unseen-intensity", "seen_intensity": "--seen-intensity", "event_durations": "--event-durations",
+    "refill": "--refill",
     "library_dirs": "--library",
     "executor": "--executor", "workers": "--workers", "address": "--address",
 }

@@ -49,6 +49,7 @@ from vsmp_imu.filtering.faithfulness import (
 )
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
+from vsmp_imu.filtering.verdict import Verdict
 from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding.durations import draw_duration, event_durations, window_hop
 from vsmp_imu.grounding.durations import summary as duration_summary
@@ -374,7 +375,8 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
                  motion_dir: Path | None = None, motion_fit: str = "",
                  class_windows: int | None = None, texture: dict | None = None,
                  events: tuple[np.ndarray, float] | None = None) -> list[SampleTask]:
-    """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants);
+    """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants, and with
+    `events` rounds of the variants alternate between timed to a real event and the SMP's timing);
     `class_windows`: the class's real training windows in the fold, kept in the provenance (0: the
     class gets `spec.k_unseen` variants per base SMP); `texture`: what the worker needs to add the
     movement texture (`texture_task`); `events`: the class's real event durations and the hop in
@@ -386,7 +388,9 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
     for slot in slots:
         src, i, base = variants[slot % len(variants)]
         event = None
-        if events is not None and isinstance(base, SMP) and is_discrete(base):
+        # every other round of the variants is timed, so each variant is made both ways
+        timed = (slot // len(variants)) % 2 == 0
+        if events is not None and timed and isinstance(base, SMP) and is_discrete(base):
             event = draw_duration(events[0], events[1], rng_for(seed, fold, label, slot, "event-duration"))
         tasks.append(SampleTask(
             key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
@@ -406,22 +410,23 @@ def is_discrete(smp: SMP) -> bool:
     return ts.periodicity == "single" and not ts.is_repetitive
 
 
-def class_events(spec: GenerationSpec, info: DatasetInfo, train: Windows,
+def class_events(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources,
                  budget: np.ndarray) -> tuple[dict[str, tuple[np.ndarray, float]], dict[str, dict]]:
-    """With `spec.event_durations` and the procedural backend, per class with a budget its real event
-    durations (grounding.durations) and the real windows' hop in seconds; and per class what was found."""
+    """With `spec.event_durations` and the procedural backend, per class with a budget and a discrete
+    base SMP its real event durations (grounding.durations) and the real windows' hop in seconds; and
+    per such class what was found."""
     if not spec.event_durations or spec.backend != "procedural":
         return {}, {}
-    hop, length = window_hop(train), train.n_timesteps
-    if hop is None:
-        return {}, {label: duration_summary(np.zeros(0), "the real windows carry no recording and start")
-                    for c, label in enumerate(info.label_names) if budget[c] > 0}
-    shares = info.share_vector()
+    labels = [label for c, label in enumerate(info.label_names) if budget[c] > 0 and label in sources
+              and any(isinstance(base, SMP) and is_discrete(base) for _, base in sources[label])]
+    hop, length, shares = window_hop(train), train.n_timesteps, info.share_vector()
     events, found = {}, {}
-    for c, label in enumerate(info.label_names):
-        if budget[c] <= 0:
-            continue
-        seconds, reason = event_durations(train, c, hop, length, float(shares[c]), info.fs_hz)
+    for label in labels:
+        c = info.label_names.index(label)
+        if hop is None:
+            seconds, reason = np.zeros(0), "the real windows carry no recording and start"
+        else:
+            seconds, reason = event_durations(train, c, hop, length, float(shares[c]), info.fs_hz)
         found[label] = duration_summary(seconds, reason)
         if len(seconds):
             events[label] = (seconds, hop / info.fs_hz)
@@ -681,6 +686,59 @@ def choose_tau(f_train, y_train, is_val, f_syn, y, proba, keep, validated, seed,
     return tau
 
 
+# -- stage 5b: the timing of each discrete event ---------------------------------------------------
+TIMINGS = ("both", "timed", "untimed")
+
+
+def choose_timing(info: DatasetInfo, train: Windows, job: FilterJob | None, windows: WindowSet, keep: np.ndarray,
+                  found: dict[str, dict], seed: int, fold: str, threads: int = 1) -> np.ndarray:
+    """Per class timed to real events (`found[label]["used"]`), which of its kept windows to use: those
+    of the samples timed to a real event, those with the SMP's timing, or both. Chosen class by class
+    (in label order, the others as chosen so far, starting from both) by the Macro-F1 of a quick forest
+    trained on the kept synthetic windows alone and scored on every real training window, so the
+    choice asks which timing makes the class's windows look like its real ones. The dropped windows
+    get a failing "timing" verdict; `found[label]` gets the choice and its scores."""
+    classes = [info.label_names.index(n) for n, f in found.items() if f["used"]]
+    if not classes or not keep.any():
+        return keep
+    X, y, records = windows.X, windows.y, windows.records
+    timed = np.array([bool((r.provenance.motion.controls or {}).get("event_duration"))
+                      if r.provenance.motion is not None else False for r in records[: len(X)]])
+    f_real = job.features if job is not None and job.features is not None else ecdf_features(train.X)
+    f_syn = ecdf_features(X[keep])
+    kept = np.flatnonzero(keep)
+
+    def mask_for(choice: dict[int, str]) -> np.ndarray:
+        use = keep.copy()
+        for c, option in choice.items():
+            if option != "both":
+                use &= ~((y == c) & (timed != (option == "timed")))
+        return use
+
+    def score(use: np.ndarray) -> float:
+        rows = use[kept]
+        model = RandomForestClassifier(n_estimators=25, n_jobs=threads,
+                                       random_state=int(rng_for(seed, fold, "timing").integers(2**31)))
+        model.fit(f_syn[rows], y[kept][rows])
+        return macro_f1(train.y, model.predict(f_real))
+
+    choice = {c: "both" for c in classes}
+    best = score(mask_for(choice))
+    for c in classes:
+        scores = {"both": best}
+        for option in TIMINGS[1:]:
+            scores[option] = score(mask_for({**choice, c: option}))
+        choice[c] = max(TIMINGS, key=lambda o: (round(scores[o], 10), -TIMINGS.index(o)))
+        best = scores[choice[c]]
+        found[info.label_names[c]].update(chosen=choice[c], scores={o: round(v, 4) for o, v in scores.items()})
+    use = mask_for(choice)
+    for i in np.flatnonzero(keep & ~use):
+        option = choice[int(y[i])]
+        records[i].verdicts.append(Verdict(False, "timing", f"the class's {option} samples were chosen"))
+        records[i].kept = False
+    return use
+
+
 # -- stage 6: select -----------------------------------------------------------------------------------
 def select(info: DatasetInfo, X: np.ndarray, y: np.ndarray, keep: np.ndarray, budget: np.ndarray, seed: int,
            fold: str) -> np.ndarray:
@@ -781,7 +839,7 @@ class FoldGenerator:
         setup = prepare(spec, info, train, sources, seed, threads)
         sources, self.sides = self.sides_from_evidence(info, train, sources, setup, budget, seed, fold)
         self.motion_fits = self.fit_motions(info, sources, setup, budget, seed, fold)
-        self.events, events_found = class_events(spec, info, train, budget)
+        self.events, events_found = class_events(spec, info, train, sources, budget)
         job = None
         if spec.quality_filter:
             job = make_filter_job(info, train, seed, fold, spec.val_fraction, spec.min_validator_windows,
@@ -797,6 +855,7 @@ class FoldGenerator:
             windows = window(info, ok, grounded, length, hop)
             windows.records += failed_records(info, results)
             keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads)
+            keep = choose_timing(info, train, job, windows, keep, events_found, seed, fold, threads)
             more = [] if attempt == spec.refill else self.refill(
                 info, sources, budget, windows.y, keep, by_class, seed, fold, setup.locations)
             if not more:
@@ -895,7 +954,9 @@ class FoldGenerator:
         `job` (the filter models) rides along with the first round. Returns the tasks, the
         results per class and the fitted filter models."""
         spec = self.config
-        need = {n: math.ceil(spec.oversample * budget[i]) for i, n in enumerate(info.label_names)}
+        # a class timed to real events is made both ways (stage 5b chooses): twice the windows
+        need = {n: math.ceil(spec.oversample * budget[i] * (2 if n in self.events else 1))
+                for i, n in enumerate(info.label_names)}
         results: dict[str, list[SampleResult]] = {n: [] for n in info.label_names}
         all_tasks: list[SampleTask] = []
         fitted = None
