@@ -7,7 +7,9 @@ only; the held-out subject is never passed in.
 Stages:
 1. stratified D_stat / D_rank split of the real training windows;
 2. per class, K constrained SMP variants S(k) ~ A(S) of each base SMP, each
-   realized with its own seed (as many slots as the budget needs);
+   realized with its own seed (as many slots as the budget needs); with
+   `event_durations`, every other round of a discrete event's variants timed to
+   one of its class's real events (grounding.durations);
 3. per sample (executor, cached): verbalize, motion, theta ~ p(theta),
    kinematics, eta* by CEM against the class's D_stat, A_gamma; alongside,
    one executor job fits the filter's real-data models (plausibility
@@ -16,7 +18,9 @@ Stages:
    fitted on D_stat), then rank grounding per location with F_v from all the
    fold's synthetic samples and G_r from D_rank;
 5. windows, then the quality filter (motion plausibility, class faithfulness
-   with tau_cls chosen by validation Macro-F1, redundancy);
+   with tau_cls chosen by validation Macro-F1, redundancy); with
+   `event_durations`, per such class its timed windows, its untimed ones or
+   both, by a synthetic-only forest scored on the real training windows;
 6. the per-class budget taken from the retained windows;
 7. with `unseen_intensity`, an intensity factor for each selected window of a
    class without real training windows (grounding.intensity);
