@@ -31,9 +31,11 @@ def _windows(events_s: list[float], share: float, gap_s: float = 6.0, recordings
                    meta={"recording": np.array(recs), "start": np.concatenate(starts)})
 
 
-def test_the_hop_is_the_commonest_step_within_a_recording():
+def test_the_hop_is_read_from_the_starts_even_of_scattered_windows():
     w = _windows([3.0] * 6, 0.5, recordings=2)
     assert dur.window_hop(w) == STEP
+    scattered = w[np.arange(0, len(w), 7)]  # no two windows one hop apart
+    assert (np.diff(scattered.meta["start"]) != STEP).all() and dur.window_hop(scattered) == STEP
     no_meta = Windows(w.X, w.y, w.subjects, w.label_names, w.channel_names, FS)
     assert dur.window_hop(no_meta) is None
 

@@ -32,19 +32,14 @@ SCALE_BOUNDS = (0.5, 2.5)  # the factor a sample's primitive durations may be sc
 
 
 def window_hop(windows: Windows) -> int | None:
-    """The hop between the real windows in samples (the commonest step within a recording)."""
-    if "recording" not in windows.meta or "start" not in windows.meta or len(windows) < 2:
+    """The hop between the real windows in samples: every window starts a whole number of hops into
+    its recording, so the hop is the starts' greatest common divisor (also where only a few scattered
+    windows are kept, as in the low-resource protocol, whose commonest step is many hops)."""
+    if "start" not in windows.meta or len(windows) < 2:
         return None
-    rec = np.asarray(windows.meta["recording"]).astype(str)
     start = np.asarray(windows.meta["start"]).astype(np.int64)
-    order = np.lexsort((start, rec))
-    same = rec[order][1:] == rec[order][:-1]
-    steps = np.diff(start[order])[same]
-    steps = steps[steps > 0]
-    if len(steps) == 0:
-        return None
-    values, counts = np.unique(steps, return_counts=True)
-    return int(values[np.argmax(counts)])
+    start = start[start > 0]
+    return int(np.gcd.reduce(start)) if len(start) else None
 
 
 def event_runs(windows: Windows, label_index: int, hop: int) -> np.ndarray:
