@@ -144,3 +144,20 @@ def test_the_timing_whose_windows_look_like_the_class_is_chosen():
     assert found["b"]["scores"]["timed"] > found["b"]["scores"]["untimed"]
     np.testing.assert_array_equal(keep, ~((y == 1) & ~timed))
     assert all(r.verdicts[0].filter == "timing" and not r.kept for r, k in zip(records, keep, strict=True) if not k)
+
+
+def test_generate_prints_each_class_durations_and_choice():
+    from vsmp_imu.cli.common import console
+    from vsmp_imu.cli.generate import _print_summary
+
+    summary = {"tau_cls": 0.5, "per_class": {}, "event_durations": {
+        "SIT_TO_LIE": {"used": True, "events": 52, "median_s": 4.1, "q10_s": 3.2, "q90_s": 5.3, "chosen": "both",
+                       "scores": {"both": 0.61, "timed": 0.6, "untimed": 0.58}},
+        "LIE_TO_SIT": {"used": False, "reason": "3 event(s) in the training windows, fewer than 5"}}}
+    with console.capture() as captured:
+        _print_summary(summary)
+    text = " ".join(captured.get().split())
+    assert ("event durations SIT_TO_LIE: every other round of samples timed to one of 52 real events (median "
+            "4.10 s, 10-90 % 3.20-5.30 s); kept: both (Macro-F1 on the real windows: both 0.610, timed 0.600, "
+            "untimed 0.580)") in text
+    assert "event durations LIE_TO_SIT: the SMP's timing (3 event(s) in the training windows, fewer than 5)" in text

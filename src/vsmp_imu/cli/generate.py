@@ -149,8 +149,12 @@ def durations_text(found: dict) -> str:
     """One class's real event durations, in words."""
     if not found["used"]:
         return f"the SMP's timing ({found['reason']})"
-    return (f"each sample timed to one of {found['events']} real events (median {found['median_s']:.2f} s, "
-            f"10-90 % {found['q10_s']:.2f}-{found['q90_s']:.2f} s)")
+    text = (f"every other round of samples timed to one of {found['events']} real events (median "
+            f"{found['median_s']:.2f} s, 10-90 % {found['q10_s']:.2f}-{found['q90_s']:.2f} s)")
+    if "chosen" in found:
+        scores = ", ".join(f"{k} {v:.3f}" for k, v in found["scores"].items())
+        text += f"; kept: {found['chosen']} (Macro-F1 on the real windows: {scores})"
+    return text
 
 
 def side_text(rec: dict) -> str:
