@@ -38,6 +38,8 @@ def test_the_hop_is_read_from_the_starts_even_of_scattered_windows():
     assert (np.diff(scattered.meta["start"]) != STEP).all() and dur.window_hop(scattered) == STEP
     no_meta = Windows(w.X, w.y, w.subjects, w.label_names, w.channel_names, FS)
     assert dur.window_hop(no_meta) is None
+    no_recording = Windows(w.X, w.y, w.subjects, w.label_names, w.channel_names, FS, meta={"start": w.meta["start"]})
+    assert dur.window_hop(no_recording) is None
 
 
 def test_runs_are_consecutive_windows_of_the_class_in_one_recording():

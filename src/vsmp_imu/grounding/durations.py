@@ -12,10 +12,11 @@ A class sampled window by window (the low-resource protocol keeps a few windows 
 no events: its windows rarely sit next to one another. Such a class, or one with fewer than
 `MIN_EVENTS` events, gets no durations, and its samples keep the SMP's timing.
 
-Each sample of a class with durations draws one (a real event's, de-quantized by a uniform
-draw over one hop) and its motion is generated a second time with every primitive's duration
-scaled so that its active span (`pipeline.sample.active_span`) lasts that long; the scale is
-clipped to `SCALE_BOUNDS`.
+A timed sample of a class with durations (every other round of its SMP variants,
+`pipeline.fold.sample_tasks`) draws one (a real event's, de-quantized by a uniform draw over one
+hop) and its motion is generated a second time with every primitive's duration scaled so that
+its active span (`pipeline.sample.active_span`) lasts that long; the scale is clipped to
+`SCALE_BOUNDS`.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ def window_hop(windows: Windows) -> int | None:
     """The hop between the real windows in samples: every window starts a whole number of hops into
     its recording, so the hop is the starts' greatest common divisor (also where only a few scattered
     windows are kept, as in the low-resource protocol, whose commonest step is many hops)."""
-    if "start" not in windows.meta or len(windows) < 2:
+    if "start" not in windows.meta or "recording" not in windows.meta or len(windows) < 2:
         return None
     start = np.asarray(windows.meta["start"]).astype(np.int64)
     start = start[start > 0]
@@ -84,7 +85,7 @@ def scale_for(target_s: float, active_s: float) -> float:
 
 
 def summary(durations: np.ndarray, reason: str) -> dict:
-    """What the provenance and the generate report keep of a class's durations."""
+    """What the generation summary (and `generate`'s report) keeps of a class's durations."""
     if len(durations) == 0:
         return {"used": False, "reason": reason}
     return {"used": True, "events": len(durations), "median_s": round(float(np.median(durations)), 3),
