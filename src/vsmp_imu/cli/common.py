@@ -208,8 +208,10 @@ SEEN_INTENSITY = typer.Option(
          "class's real windows'")
 EVENT_DURATIONS = typer.Option(
     False, "--event-durations/--no-event-durations",
-    help="time each synthetic sample of a discrete event (a transition, one gesture) to the duration of one "
-         "of its class's real events, read from consecutive real training windows")
+    help="time half the synthetic samples of a discrete event (a transition, one gesture) to the duration of "
+         "one of its class's real events, read from consecutive real training windows; per class keep the "
+         "timed windows, the untimed ones or both, whichever a synthetic-only forest scores best on the real "
+         "windows")
 K = typer.Option(4, "--k", min=1, max=64,
                  help="SMP variants per base SMP for a class with real training windows (the paper's K)")
 K_UNSEEN = typer.Option(

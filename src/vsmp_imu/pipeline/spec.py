@@ -78,8 +78,10 @@ class GenerationSpec:
     # from the window mean scaled by exp(s z), z ~ N(0, 1), where s is the log-intensity spread the
     # class's synthetic windows lack against its real ones (grounding.intensity)
     seen_intensity: bool = False
-    # each sample of a discrete event (an SMP with periodicity "single") whose class has real events
-    # in the training windows is timed to one of them (grounding.durations)
+    # half the samples of a discrete event (an SMP with periodicity "single") whose class has real
+    # events in the training windows are timed to one of them, and per class the timed windows, the
+    # untimed ones or both are kept (grounding.durations, pipeline.fold.choose_timing; measured in
+    # docs/results.md)
     event_durations: bool = False
     # where the side shows in the sensor, the side a class's real training windows support
     # (pipeline.side; measured in docs/results.md)
