@@ -212,6 +212,11 @@ EVENT_DURATIONS = typer.Option(
          "one of its class's real events, read from consecutive real training windows; per class keep the "
          "timed windows, the untimed ones or both, whichever a synthetic-only forest scores best on the real "
          "windows")
+CADENCE = typer.Option(
+    False, "--cadence/--no-cadence",
+    help="every synthetic sample of a gait (walking, stairs) whose class has real training windows steps at "
+         "the step rate of one of its class's real windows (the peak of the accelerometer magnitude's "
+         "spectrum), instead of the SMP's tempo")
 K = typer.Option(4, "--k", min=1, max=64,
                  help="SMP variants per base SMP for a class with real training windows (the paper's K)")
 K_UNSEEN = typer.Option(

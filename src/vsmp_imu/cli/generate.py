@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from vsmp_imu.cli.common import (
+    CADENCE,
     EVENT_DURATIONS,
     GRAVITY_NORM,
     K_UNSEEN,
@@ -66,6 +67,7 @@ def generate_cmd(
     unseen_intensity: str = UNSEEN_INTENSITY,
     seen_intensity: bool = SEEN_INTENSITY,
     event_durations: bool = EVENT_DURATIONS,
+    cadence: bool = CADENCE,
     side_evidence: bool = SIDE_EVIDENCE,
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
@@ -86,7 +88,7 @@ def generate_cmd(
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
         unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
-        event_durations=event_durations,
+        event_durations=event_durations, cadence=cadence,
         refine=not no_refine, uncertainty_conditioned=not no_uncertainty,
         library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None,
@@ -143,6 +145,8 @@ def _print_summary(summary: dict) -> None:
                       f"none for {len(matched) - len(widened)} (as wide already, or too few windows)", highlight=False)
     for name, found in summary.get("event_durations", {}).items():
         console.print(f"event durations {name}: {durations_text(found)}", highlight=False)
+    for name, found in summary.get("cadence", {}).items():
+        console.print(f"cadence {name}: {cadence_text(found)}", highlight=False)
 
 
 def durations_text(found: dict) -> str:
@@ -155,6 +159,14 @@ def durations_text(found: dict) -> str:
         scores = ", ".join(f"{k} {v:.3f}" for k, v in found["scores"].items())
         text += f"; kept: {found['chosen']} (Macro-F1 on the real windows: {scores})"
     return text
+
+
+def cadence_text(found: dict) -> str:
+    """One gait class's real step rates, in words."""
+    if not found["used"]:
+        return f"the SMP's tempo ({found['reason']})"
+    return (f"every sample steps at the rate of one of {found['windows']} real windows (median "
+            f"{found['median_hz']:.2f} steps/s, 10-90 % {found['q10_hz']:.2f}-{found['q90_hz']:.2f})")
 
 
 def side_text(rec: dict) -> str:

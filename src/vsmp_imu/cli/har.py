@@ -12,6 +12,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from vsmp_imu.cli.common import (
+    CADENCE,
     EVENT_DURATIONS,
     GRAVITY_NORM,
     K_UNSEEN,
@@ -164,6 +165,7 @@ def evaluate_cmd(
     unseen_intensity: str = UNSEEN_INTENSITY,
     seen_intensity: bool = SEEN_INTENSITY,
     event_durations: bool = EVENT_DURATIONS,
+    cadence: bool = CADENCE,
     side_evidence: bool = SIDE_EVIDENCE,
     workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
@@ -213,7 +215,7 @@ def evaluate_cmd(
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
         unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
-        event_durations=event_durations,
+        event_durations=event_durations, cadence=cadence,
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)

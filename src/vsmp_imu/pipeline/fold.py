@@ -42,7 +42,7 @@ import numpy as np
 from sklearn.ensemble import RandomForestClassifier
 from threadpoolctl import threadpool_limits
 
-from vsmp_imu.errors import ValidationError
+from vsmp_imu.errors import ValidationError, VsmpError
 from vsmp_imu.filtering.faithfulness import (
     TAU_DEFAULT,
     class_verdicts,
@@ -55,6 +55,7 @@ from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
 from vsmp_imu.filtering.verdict import Verdict
 from vsmp_imu.grounding.align import Convention, axes_matrix
+from vsmp_imu.grounding import cadence
 from vsmp_imu.grounding.durations import draw_duration, event_durations, window_hop
 from vsmp_imu.grounding.durations import summary as duration_summary
 from vsmp_imu.grounding.intensity import (
@@ -378,13 +379,15 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
                  seed: int, fold: str, fs_hz: float, locations: tuple[LocationTask, ...], library=None,
                  motion_dir: Path | None = None, motion_fit: str = "",
                  class_windows: int | None = None, texture: dict | None = None,
-                 events: tuple[np.ndarray, float] | None = None) -> list[SampleTask]:
+                 events: tuple[np.ndarray, float] | None = None,
+                 rates: np.ndarray | None = None) -> list[SampleTask]:
     """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants, and with
     `events` rounds of the variants alternate between timed to a real event and the SMP's timing);
     `class_windows`: the class's real training windows in the fold, kept in the provenance (0: the
     class gets `spec.k_unseen` variants per base SMP); `texture`: what the worker needs to add the
     movement texture (`texture_task`); `events`: the class's real event durations and the hop in
-    seconds (`class_events`), one drawn per sample of a discrete SMP."""
+    seconds (`class_events`), one drawn per sample of a discrete SMP; `rates`: the class's real step
+    rates (`class_cadences`), one drawn per sample of a cyclic SMP."""
     k = spec.variants_for(class_windows)
     variants = [(src, i, v) for src, base in bases
                 for i, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", k, library)]
@@ -396,6 +399,9 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
         timed = (slot // len(variants)) % 2 == 0
         if events is not None and timed and isinstance(base, SMP) and is_discrete(base):
             event = draw_duration(events[0], events[1], rng_for(seed, fold, label, slot, "event-duration"))
+        rate = None
+        if rates is not None and isinstance(base, SMP) and base.temporal_structure.periodicity == "cyclic":
+            rate = cadence.draw_rate(rates, rng_for(seed, fold, label, slot, "cadence"))
         tasks.append(SampleTask(
             key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
             variant=i, **_payload(base),
@@ -403,7 +409,7 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
             fs_hz=fs_hz, locations=locations, sim_in_the_loop=spec.sim_in_the_loop,
             noise=spec.noise, duration_s=spec.duration_s, library_dirs=tuple(spec.library_dirs),
             motion_dir=str(motion_dir) if motion_dir else None, motion_fit=motion_fit,
-            class_windows=class_windows, texture=texture, event_duration_s=event,
+            class_windows=class_windows, texture=texture, event_duration_s=event, cadence_hz=rate,
         ))
     return tasks
 
@@ -435,6 +441,38 @@ def class_events(spec: GenerationSpec, info: DatasetInfo, train: Windows, source
         if len(seconds):
             events[label] = (seconds, hop / info.fs_hz)
     return events, found
+
+
+def is_gait(spec: GenerationSpec, smp: SMP) -> bool:
+    """A cyclic SMP whose procedural motion walks (its recipe's locomotion is not "none")."""
+    if smp.temporal_structure.periodicity != "cyclic":
+        return False
+    try:
+        plan = backend_for(spec.backend, tuple(spec.library_dirs)).plan(smp, 0)
+    except VsmpError:
+        return False  # the samples report it
+    return plan.recipe.locomotion != "none"
+
+
+def class_cadences(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, budget: np.ndarray,
+                   plan) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
+    """With `spec.cadence` and the procedural backend, per class with a budget and a gait base SMP
+    its real windows' step rates (grounding.cadence, from the accelerometer at its first location);
+    and per such class what was found."""
+    if not spec.cadence or spec.backend != "procedural":
+        return {}, {}
+    rates, found = {}, {}
+    for c, label in enumerate(info.label_names):
+        if budget[c] <= 0 or label not in sources:
+            continue
+        if not any(isinstance(base, SMP) and is_gait(spec, base) for _, base in sources[label]):
+            continue
+        acc = train.X[train.y == c][..., channel_index(info, plan[label][0])[:3]]
+        values, reason = cadence.class_cadence(acc, info.fs_hz)
+        found[label] = cadence.summary(values, reason)
+        if len(values):
+            rates[label] = values
+    return rates, found
 
 
 # -- stage 2a: the side from evidence (pipeline.side) -------------------------------------------------
@@ -831,6 +869,7 @@ class FoldGenerator:
         self.class_windows_: dict[str, int] = {}  # per class, the real training windows of the fold
         self.textures: dict[str, TextureModel] = {}  # per location, set by `generate` (texture)
         self.events: dict[str, tuple] = {}  # per class, real event durations (event_durations)
+        self.rates: dict[str, np.ndarray] = {}  # per gait class, real step rates (cadence)
 
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
                  budget: np.ndarray, seed: int, fold: str) -> FoldOutput:
@@ -844,6 +883,7 @@ class FoldGenerator:
         sources, self.sides = self.sides_from_evidence(info, train, sources, setup, budget, seed, fold)
         self.motion_fits = self.fit_motions(info, sources, setup, budget, seed, fold)
         self.events, events_found = class_events(spec, info, train, sources, budget)
+        self.rates, rates_found = class_cadences(spec, info, train, sources, budget, setup.plan)
         job = None
         if spec.quality_filter:
             job = make_filter_job(info, train, seed, fold, spec.val_fraction, spec.min_validator_windows,
@@ -897,6 +937,8 @@ class FoldGenerator:
             summary["motion_fit"] = self.motion_fits
         if events_found:  # per class: the real event durations its samples were timed to, or why not
             summary["event_durations"] = events_found
+        if rates_found:  # per gait class: the real step rates its samples were timed to, or why not
+            summary["cadence"] = rates_found
         if self.sides:
             summary["side_evidence"] = self.sides
         return FoldOutput(out, X, records, results, tasks, summary)
@@ -950,7 +992,7 @@ class FoldGenerator:
         return sample_tasks(self.config, label, index, bases, slots, seed, fold,
                             info.fs_hz, locations, self.library, self.motion_dir, fit,
                             self.class_windows_.get(label), texture_task(self.textures, index, seed, fold),
-                            self.events.get(label))
+                            self.events.get(label), self.rates.get(label))
 
     def synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
         """Rounds of per-sample synthesis until every class has oversample x budget raw windows.

@@ -32,6 +32,7 @@ from vsmp_imu.errors import SampleError, VsmpError
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
 from vsmp_imu.grounding.calibrate import CalibrationResult, CemProblem, SimInTheLoopCalibrator
+from vsmp_imu.grounding import cadence
 from vsmp_imu.grounding.durations import scale_for
 from vsmp_imu.grounding.stats import StatSummary
 from vsmp_imu.grounding.texture import add_texture
@@ -119,6 +120,9 @@ class SampleTask:
     # a real event's duration (grounding.durations): the motion is timed so that its active span
     # lasts this long; None: the SMP's own timing
     event_duration_s: float | None = None
+    # a real window's step rate in Hz (grounding.cadence): a gait's cycle is timed to step at this
+    # rate; None: the SMP's own tempo
+    cadence_hz: float | None = None
 
     def content_hash(self) -> str:
         payload = asdict(self)
@@ -290,6 +294,8 @@ def _timed(backend, smp: SMP, task: SampleTask, offsets: dict[str, float]) -> Mo
     """The motion; with `task.event_duration_s`, generated again with its primitives' durations
     scaled so that its active span lasts that long (grounding.durations)."""
     extra = {"offsets_deg": offsets} if offsets else {}
+    if task.cadence_hz is not None:
+        return _cadenced(backend, smp, task, extra)
     motion = backend.generate(smp, task.seed, task.duration_s, **extra)
     if task.event_duration_s is None:
         return motion
@@ -298,6 +304,20 @@ def _timed(backend, smp: SMP, task: SampleTask, offsets: dict[str, float]) -> Mo
     motion = backend.generate(smp, task.seed, task.duration_s, duration_scale=scale, **extra)
     motion.meta.setdefault("controls", {})["event_duration"] = {
         "target_s": round(float(task.event_duration_s), 4), "nominal_active_s": round(end - start, 4),
+        "scale": round(scale, 6)}
+    return motion
+
+
+def _cadenced(backend, smp: SMP, task: SampleTask, extra: dict) -> Motion:
+    """The gait's motion with every duration scaled so that it steps at `task.cadence_hz`
+    (grounding.cadence): its plan's cycle holds two steps when the recipe alternates the legs."""
+    plan = backend.plan(smp, task.seed, task.duration_s)
+    cycle = plan.recipe.cycle
+    steps = 2 if cycle is not None and cycle.alternate else 1
+    scale = cadence.scale_for(task.cadence_hz, steps, plan.cycle_s)
+    motion = backend.generate(smp, task.seed, task.duration_s, duration_scale=scale, **extra)
+    motion.meta.setdefault("controls", {})["cadence"] = {
+        "target_hz": round(float(task.cadence_hz), 4), "nominal_hz": round(steps / plan.cycle_s, 4),
         "scale": round(scale, 6)}
     return motion
 

@@ -83,6 +83,10 @@ class GenerationSpec:
     # untimed ones or both are kept (grounding.durations, pipeline.fold.choose_timing; measured in
     # docs/results.md)
     event_durations: bool = False
+    # every sample of a gait (a cyclic SMP whose procedural recipe walks) whose class has real
+    # training windows steps at one real window's step rate (grounding.cadence; measured in
+    # docs/results.md)
+    cadence: bool = False
     # where the side shows in the sensor, the side a class's real training windows support
     # (pipeline.side; measured in docs/results.md)
     side_evidence: bool = True
