@@ -54,8 +54,8 @@ from vsmp_imu.filtering.faithfulness import (
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
 from vsmp_imu.filtering.verdict import Verdict
-from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding import cadence
+from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding.durations import draw_duration, event_durations, window_hop
 from vsmp_imu.grounding.durations import summary as duration_summary
 from vsmp_imu.grounding.intensity import (

@@ -30,9 +30,9 @@ from scipy.spatial.transform import Rotation
 
 from vsmp_imu.errors import SampleError, VsmpError
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
+from vsmp_imu.grounding import cadence
 from vsmp_imu.grounding.align import Convention, ConventionAlignment, sample_mounting_perturbation
 from vsmp_imu.grounding.calibrate import CalibrationResult, CemProblem, SimInTheLoopCalibrator
-from vsmp_imu.grounding import cadence
 from vsmp_imu.grounding.durations import scale_for
 from vsmp_imu.grounding.stats import StatSummary
 from vsmp_imu.grounding.texture import add_texture
