@@ -91,3 +91,18 @@ def test_the_fold_times_gait_classes_to_the_training_subjects_steps(library, tmp
     plain = FoldGenerator(replace(spec, cadence=False), LocalExecutor(1, show_progress=False), tmp_path / "cache",
                           library=library).generate(info, train, sources, budget, seed=0, fold="t")
     assert "cadence" not in plain.summary and all(t.cadence_hz is None for t in plain.tasks)
+
+
+def test_generate_prints_each_gait_class_cadence():
+    from vsmp_imu.cli.common import console
+    from vsmp_imu.cli.generate import _print_summary
+
+    summary = {"tau_cls": 0.5, "per_class": {}, "cadence": {
+        "WALKING": {"used": True, "windows": 2069, "median_hz": 1.76, "q10_hz": 1.61, "q90_hz": 1.9},
+        "WALKING_UPSTAIRS": {"used": False, "reason": "3 real window(s), fewer than 5"}}}
+    with console.capture() as captured:
+        _print_summary(summary)
+    text = " ".join(captured.get().split())
+    assert ("cadence WALKING: every sample steps at the rate of one of 2069 real windows (median 1.76 steps/s, "
+            "10-90 % 1.61-1.90)") in text
+    assert "cadence WALKING_UPSTAIRS: the SMP's tempo (3 real window(s), fewer than 5)" in text
