@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from vsmp_imu.grounding.durations import spread_summary
+
 BAND_HZ = (1.0, 3.0)  # step rates of walking and stairs (running steps faster; no running class here)
 N_FFT = 1024  # zero-padded length of the spectrum (0.05 Hz bins at 50 Hz)
 MIN_WINDOWS = 5  # real windows a class needs before its cadence is used
@@ -63,8 +65,4 @@ def scale_for(target_hz: float, steps_per_cycle: int, cycle_s: float) -> float:
 
 def summary(rates: np.ndarray, reason: str) -> dict:
     """What the generation summary (and `generate`'s report) keeps of a class's cadence."""
-    if len(rates) == 0:
-        return {"used": False, "reason": reason}
-    return {"used": True, "windows": len(rates), "median_hz": round(float(np.median(rates)), 3),
-            "q10_hz": round(float(np.quantile(rates, 0.1)), 3),
-            "q90_hz": round(float(np.quantile(rates, 0.9)), 3)}
+    return spread_summary(rates, reason, "windows", "hz")

@@ -86,8 +86,14 @@ def scale_for(target_s: float, active_s: float) -> float:
 
 def summary(durations: np.ndarray, reason: str) -> dict:
     """What the generation summary (and `generate`'s report) keeps of a class's durations."""
-    if len(durations) == 0:
+    return spread_summary(durations, reason, "events", "s")
+
+
+def spread_summary(values: np.ndarray, reason: str, count: str, unit: str) -> dict:
+    """Whether a class's real values are used, how many (`count`), their median and 10 and 90 %
+    quantiles (keys suffixed by `unit`); or why not."""
+    if len(values) == 0:
         return {"used": False, "reason": reason}
-    return {"used": True, "events": len(durations), "median_s": round(float(np.median(durations)), 3),
-            "q10_s": round(float(np.quantile(durations, 0.1)), 3),
-            "q90_s": round(float(np.quantile(durations, 0.9)), 3)}
+    return {"used": True, count: len(values), f"median_{unit}": round(float(np.median(values)), 3),
+            f"q10_{unit}": round(float(np.quantile(values, 0.1)), 3),
+            f"q90_{unit}": round(float(np.quantile(values, 0.9)), 3)}
