@@ -53,7 +53,7 @@ def test_a_gait_sample_steps_at_its_drawn_rate_and_says_so(library, activity, ta
 
 def test_only_walking_cycles_are_gaits(library):
     spec = GenerationSpec()
-    assert spec.cadence is False and BASELINE_CHAIN["cadence"] is False  # off by default
+    assert spec.cadence is True and BASELINE_CHAIN["cadence"] is False  # on by default, not for baselines
     assert is_gait(spec, library.get("walking").smp) and is_gait(spec, library.get("walking_downstairs").smp)
     for name in ("jumping_jacks", "sit_to_lie", "standing"):
         assert not is_gait(spec, library.get(name).smp)

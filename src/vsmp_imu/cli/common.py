@@ -213,7 +213,7 @@ EVENT_DURATIONS = typer.Option(
          "timed windows, the untimed ones or both, whichever a synthetic-only forest scores best on the real "
          "windows")
 CADENCE = typer.Option(
-    False, "--cadence/--no-cadence",
+    True, "--cadence/--no-cadence",
     help="every synthetic sample of a gait (walking, stairs) whose class has real training windows steps at "
          "the step rate of one of its class's real windows (the peak of the accelerometer magnitude's "
          "spectrum), instead of the SMP's tempo")

@@ -12,7 +12,8 @@ A sample of a gait class (an SMP with periodicity "cyclic" whose procedural reci
 `locomotion` is not "none") with at least `MIN_WINDOWS` real training windows draws one real
 window's step rate, and its motion is planned a second time with every duration scaled so that
 its cycle (two steps when the recipe's cycle alternates the legs) lasts that long; the factor is
-clipped to `SCALE_BOUNDS`. A class without evidence keeps the SMP's tempo.
+clipped to `SCALE_BOUNDS`. A class without evidence keeps the SMP's tempo. On by default
+(`GenerationSpec.cadence`; the baselines' chain keeps the SMPs' tempo).
 """
 
 from __future__ import annotations

@@ -85,8 +85,8 @@ class GenerationSpec:
     event_durations: bool = False
     # every sample of a gait (a cyclic SMP whose procedural recipe walks) whose class has real
     # training windows steps at one real window's step rate (grounding.cadence; measured in
-    # docs/results.md)
-    cadence: bool = False
+    # docs/results.md: TSTR's gait classes gain, level next to real windows)
+    cadence: bool = True
     # where the side shows in the sensor, the side a class's real training windows support
     # (pipeline.side; measured in docs/results.md)
     side_evidence: bool = True
