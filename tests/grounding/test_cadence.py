@@ -60,3 +60,9 @@ def test_a_draw_is_one_of_the_real_rates_and_seeded():
     draws = [cadence.draw_rate(rates, np.random.default_rng(s)) for s in range(20)]
     assert set(draws) <= set(rates.tolist()) and len(set(draws)) > 1
     assert cadence.draw_rate(rates, np.random.default_rng(4)) == cadence.draw_rate(rates, np.random.default_rng(4))
+
+
+def test_the_step_rate_is_read_at_the_trunk_where_there_is_one():
+    assert cadence.reading_location(["left_lower_leg", "right_wrist", "chest"]) == "chest"
+    assert cadence.reading_location(["right_wrist", "waist", "back"]) == "waist"
+    assert cadence.reading_location(["right_wrist", "left_lower_leg"]) == "right_wrist"

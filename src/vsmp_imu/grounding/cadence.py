@@ -5,8 +5,8 @@ the SMP: its tempo word ("medium") and its uncertainty only say roughly how fast
 a class's few SMP variants each draw a tempo, and on HAPT12 a fold's stair classes came out with
 their real cadences swapped (synthetic ascent 2.15 steps/s against 1.61 real, descent 1.42
 against 1.76; docs/results.md). The real windows carry the cadence: a walking window's
-accelerometer magnitude peaks once per step, so the frequency of its largest peak between
-`BAND_HZ` is the window's step rate.
+accelerometer magnitude peaks once per step (at the trunk: `reading_location`), so the frequency of
+its largest peak between `BAND_HZ` is the window's step rate.
 
 A sample of a gait class (an SMP with periodicity "cyclic" whose procedural recipe walks: its
 `locomotion` is not "none") with at least `MIN_WINDOWS` real training windows draws one real
@@ -22,6 +22,9 @@ import numpy as np
 
 from vsmp_imu.grounding.durations import spread_summary
 
+# where the body bounces once per step: the step rate is read at the first of these a class is worn at
+# (a foot's or shank's sensor peaks once per stride, a wrist's with the arm swing too)
+TRUNK_LOCATIONS = ("waist", "back", "chest", "head")
 BAND_HZ = (1.0, 3.0)  # step rates of walking and stairs (running steps faster; no running class here)
 N_FFT = 1024  # zero-padded length of the spectrum (0.05 Hz bins at 50 Hz)
 MIN_WINDOWS = 5  # real windows a class needs before its cadence is used
@@ -43,6 +46,12 @@ def step_rates(acc: np.ndarray, fs_hz: float) -> np.ndarray:
     if not band.any():
         raise ValueError(f"a sampling rate of {fs_hz:g} Hz cannot resolve {BAND_HZ} Hz")
     return freq[band][np.argmax(power[:, band], axis=1)]
+
+
+def reading_location(names: list[str] | tuple[str, ...]) -> str:
+    """Where a class's step rate is read: its first trunk location, else its first location."""
+    trunk = [n for n in TRUNK_LOCATIONS if n in names]
+    return trunk[0] if trunk else names[0]
 
 
 def class_cadence(acc: np.ndarray, fs_hz: float) -> tuple[np.ndarray, str]:

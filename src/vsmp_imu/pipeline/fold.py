@@ -457,8 +457,8 @@ def is_gait(spec: GenerationSpec, smp: SMP) -> bool:
 def class_cadences(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, budget: np.ndarray,
                    plan) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
     """With `spec.cadence` and the procedural backend, per class with a budget and a gait base SMP
-    its real windows' step rates (grounding.cadence, from the accelerometer at its first location);
-    and per such class what was found."""
+    its real windows' step rates (grounding.cadence, from the accelerometer at its trunk location if
+    it has one, else at its first); and per such class what was found."""
     if not spec.cadence or spec.backend != "procedural":
         return {}, {}
     rates, found = {}, {}
@@ -467,7 +467,9 @@ def class_cadences(spec: GenerationSpec, info: DatasetInfo, train: Windows, sour
             continue
         if not any(isinstance(base, SMP) and is_gait(spec, base) for _, base in sources[label]):
             continue
-        acc = train.X[train.y == c][..., channel_index(info, plan[label][0])[:3]]
+        by_name = {loc.name: loc for loc in plan[label]}
+        loc = by_name[cadence.reading_location(list(by_name))]
+        acc = train.X[train.y == c][..., channel_index(info, loc)[:3]]
         values, reason = cadence.class_cadence(acc, info.fs_hz)
         found[label] = cadence.summary(values, reason)
         if len(values):
