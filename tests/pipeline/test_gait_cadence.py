@@ -106,3 +106,18 @@ def test_generate_prints_each_gait_class_cadence():
     assert ("cadence WALKING: every sample steps at the rate of one of 2069 real windows (median 1.76 steps/s, "
             "10-90 % 1.61-1.90)") in text
     assert "cadence WALKING_UPSTAIRS: the SMP's tempo (3 real window(s), fewer than 5)" in text
+
+
+def test_only_the_gait_bases_of_a_class_draw_a_rate(library):
+    from vsmp_imu.pipeline.fold import sample_tasks
+
+    conv = Convention(axes=("up", "forward", "left"), gravity_included=True).as_dict()
+    bases = [("walk", library.get("walking").smp), ("jacks", library.get("jumping_jacks").smp)]
+    spec = GenerationSpec(k=2)
+    tasks = sample_tasks(spec, "WALKING", 0, bases, range(8), 0, "t", FS, (LocationTask("waist", conv, True, None),),
+                         library, rates=np.array([1.6, 1.8]))
+    assert {t.source for t in tasks} == {"walk", "jacks"}
+    for task in tasks:
+        assert (task.cadence_hz in (1.6, 1.8)) if task.source == "walk" else task.cadence_hz is None
+    assert all(t.cadence_hz is None for t in sample_tasks(spec, "WALKING", 0, bases, range(8), 0, "t", FS,
+                                                          (LocationTask("waist", conv, True, None),), library))

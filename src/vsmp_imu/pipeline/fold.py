@@ -387,10 +387,11 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
     class gets `spec.k_unseen` variants per base SMP); `texture`: what the worker needs to add the
     movement texture (`texture_task`); `events`: the class's real event durations and the hop in
     seconds (`class_events`), one drawn per sample of a discrete SMP; `rates`: the class's real step
-    rates (`class_cadences`), one drawn per sample of a cyclic SMP."""
+    rates (`class_cadences`), one drawn per sample of a gait base SMP's variants (`is_gait`)."""
     k = spec.variants_for(class_windows)
     variants = [(src, i, v) for src, base in bases
                 for i, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", k, library)]
+    gaits = {src for src, base in bases if rates is not None and isinstance(base, SMP) and is_gait(spec, base)}
     tasks = []
     for slot in slots:
         src, i, base = variants[slot % len(variants)]
@@ -399,9 +400,7 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
         timed = (slot // len(variants)) % 2 == 0
         if events is not None and timed and isinstance(base, SMP) and is_discrete(base):
             event = draw_duration(events[0], events[1], rng_for(seed, fold, label, slot, "event-duration"))
-        rate = None
-        if rates is not None and isinstance(base, SMP) and base.temporal_structure.periodicity == "cyclic":
-            rate = cadence.draw_rate(rates, rng_for(seed, fold, label, slot, "cadence"))
+        rate = cadence.draw_rate(rates, rng_for(seed, fold, label, slot, "cadence")) if src in gaits else None
         tasks.append(SampleTask(
             key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
             variant=i, **_payload(base),
