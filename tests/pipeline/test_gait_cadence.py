@@ -109,15 +109,22 @@ def test_generate_prints_each_gait_class_cadence():
 
 
 def test_only_the_gait_bases_of_a_class_draw_a_rate(library):
-    from vsmp_imu.pipeline.fold import sample_tasks
+    from vsmp_imu.pipeline.fold import class_cadences, location_plan, sample_tasks
 
+    ds = load_dataset("hapt12")
+    info, train = ds.info, ds.windows().where_subjects(["2", "3"])
     conv = Convention(axes=("up", "forward", "left"), gravity_included=True).as_dict()
     bases = [("walk", library.get("walking").smp), ("jacks", library.get("jumping_jacks").smp)]
     spec = GenerationSpec(k=2)
+    budget = np.zeros(info.n_classes, np.int64)
+    budget[info.label_names.index("WALKING")] = 4
+    rates, _ = class_cadences(spec, info, train, {"WALKING": bases}, budget, location_plan(info))
+    values, gaits = rates["WALKING"]
+    assert gaits == {"walk"}
     tasks = sample_tasks(spec, "WALKING", 0, bases, range(8), 0, "t", FS, (LocationTask("waist", conv, True, None),),
-                         library, rates=np.array([1.6, 1.8]))
+                         library, rates=rates["WALKING"])
     assert {t.source for t in tasks} == {"walk", "jacks"}
     for task in tasks:
-        assert (task.cadence_hz in (1.6, 1.8)) if task.source == "walk" else task.cadence_hz is None
+        assert (task.cadence_hz in set(values.tolist())) if task.source == "walk" else task.cadence_hz is None
     assert all(t.cadence_hz is None for t in sample_tasks(spec, "WALKING", 0, bases, range(8), 0, "t", FS,
                                                           (LocationTask("waist", conv, True, None),), library))

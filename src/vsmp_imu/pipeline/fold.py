@@ -380,18 +380,17 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
                  motion_dir: Path | None = None, motion_fit: str = "",
                  class_windows: int | None = None, texture: dict | None = None,
                  events: tuple[np.ndarray, float] | None = None,
-                 rates: np.ndarray | None = None) -> list[SampleTask]:
+                 rates: tuple[np.ndarray, frozenset[str]] | None = None) -> list[SampleTask]:
     """The SampleTasks of a class's generation slots (slot s uses variant s mod the variants, and with
     `events` rounds of the variants alternate between timed to a real event and the SMP's timing);
     `class_windows`: the class's real training windows in the fold, kept in the provenance (0: the
     class gets `spec.k_unseen` variants per base SMP); `texture`: what the worker needs to add the
     movement texture (`texture_task`); `events`: the class's real event durations and the hop in
     seconds (`class_events`), one drawn per sample of a discrete SMP; `rates`: the class's real step
-    rates (`class_cadences`), one drawn per sample of a gait base SMP's variants (`is_gait`)."""
+    rates and its gait sources (`class_cadences`), one rate drawn per sample of those sources."""
     k = spec.variants_for(class_windows)
     variants = [(src, i, v) for src, base in bases
                 for i, v in smp_variants(spec, base, seed, f"{fold}/{label}/{src}", k, library)]
-    gaits = {src for src, base in bases if rates is not None and isinstance(base, SMP) and is_gait(spec, base)}
     tasks = []
     for slot in slots:
         src, i, base = variants[slot % len(variants)]
@@ -400,7 +399,9 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
         timed = (slot // len(variants)) % 2 == 0
         if events is not None and timed and isinstance(base, SMP) and is_discrete(base):
             event = draw_duration(events[0], events[1], rng_for(seed, fold, label, slot, "event-duration"))
-        rate = cadence.draw_rate(rates, rng_for(seed, fold, label, slot, "cadence")) if src in gaits else None
+        rate = None
+        if rates is not None and src in rates[1]:
+            rate = cadence.draw_rate(rates[0], rng_for(seed, fold, label, slot, "cadence"))
         tasks.append(SampleTask(
             key=f"{fold}/{label}/{slot:04d}", label=label, label_index=label_index, source=src,
             variant=i, **_payload(base),
@@ -454,17 +455,19 @@ def is_gait(spec: GenerationSpec, smp: SMP) -> bool:
 
 
 def class_cadences(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, budget: np.ndarray,
-                   plan) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
+                   plan) -> tuple[dict[str, tuple[np.ndarray, frozenset[str]]], dict[str, dict]]:
     """With `spec.cadence` and the procedural backend, per class with a budget and a gait base SMP
     its real windows' step rates (grounding.cadence, from the accelerometer at its trunk location if
-    it has one, else at its first); and per such class what was found."""
+    it has one, else at its first) and the sources of its gait base SMPs (a class's other cyclic
+    bases keep their tempo); and per such class what was found."""
     if not spec.cadence or spec.backend != "procedural":
         return {}, {}
     rates, found = {}, {}
     for c, label in enumerate(info.label_names):
         if budget[c] <= 0 or label not in sources:
             continue
-        if not any(isinstance(base, SMP) and is_gait(spec, base) for _, base in sources[label]):
+        gaits = frozenset(src for src, base in sources[label] if isinstance(base, SMP) and is_gait(spec, base))
+        if not gaits:
             continue
         by_name = {loc.name: loc for loc in plan[label]}
         loc = by_name[cadence.reading_location(list(by_name))]
@@ -472,7 +475,7 @@ def class_cadences(spec: GenerationSpec, info: DatasetInfo, train: Windows, sour
         values, reason = cadence.class_cadence(acc, info.fs_hz)
         found[label] = cadence.summary(values, reason)
         if len(values):
-            rates[label] = values
+            rates[label] = (values, gaits)
     return rates, found
 
 
@@ -870,7 +873,7 @@ class FoldGenerator:
         self.class_windows_: dict[str, int] = {}  # per class, the real training windows of the fold
         self.textures: dict[str, TextureModel] = {}  # per location, set by `generate` (texture)
         self.events: dict[str, tuple] = {}  # per class, real event durations (event_durations)
-        self.rates: dict[str, np.ndarray] = {}  # per gait class, real step rates (cadence)
+        self.rates: dict[str, tuple] = {}  # per gait class, real step rates and gait sources (cadence)
 
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
                  budget: np.ndarray, seed: int, fold: str) -> FoldOutput:

@@ -291,8 +291,9 @@ def _smp_motion(task: SampleTask, smp: SMP) -> Motion:
 
 
 def _timed(backend, smp: SMP, task: SampleTask, offsets: dict[str, float]) -> Motion:
-    """The motion; with `task.event_duration_s`, generated again with its primitives' durations
-    scaled so that its active span lasts that long (grounding.durations)."""
+    """The motion; with `task.cadence_hz`, stepping at that rate (`_cadenced`); with
+    `task.event_duration_s`, generated again with its primitives' durations scaled so that its
+    active span lasts that long (grounding.durations)."""
     extra = {"offsets_deg": offsets} if offsets else {}
     if task.cadence_hz is not None:
         return _cadenced(backend, smp, task, extra)
