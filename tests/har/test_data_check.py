@@ -199,3 +199,29 @@ def test_two_harmonics_of_about_equal_power_are_one_rhythm():
     high[..., 0] = 9.81 + 1.0 * np.sin(2 * np.pi * 4.0 * t) + 0.3 * np.sin(2 * np.pi * 2.0 * t)
     assert dominant_frequency(both, 50.0) == 4.0 and dominant_frequency(high, 50.0) == 4.0
     assert strong_at(both, 50.0, 2.0) and not strong_at(high, 50.0, 2.0)
+
+
+def test_executions_turning_either_way_are_no_gap_but_the_other_way_is():
+    """A stairwell's executions each turn to a drawn side: their class mean cancels, while every real
+    window turns left; as long as the simulated windows turn as much either way, nothing is flagged."""
+    from vsmp_imu.har.dataset import SensorLocation
+    from vsmp_imu.pipeline.check import compare, turns_either_way
+
+    rng = np.random.default_rng(0)
+    loc = SensorLocation(name="waist", channels=("acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"),
+                         axes=("up", "forward", "left"), gravity_included=True, acc_unit="m/s^2", gyr_unit="rad/s")
+
+    def windows(turns):
+        out = rng.normal(0.0, 0.2, size=(len(turns), 100, 6))
+        out[..., 0] += 9.81
+        out[..., 3] += np.asarray(turns)[:, None]
+        return out
+
+    real = windows([0.5] * 20 + [0.0] * 20)
+    either = windows([0.5] * 10 + [-0.5] * 10 + [0.0] * 20)
+    other = windows([-0.5] * 20 + [0.0] * 20)
+    assert turns_either_way(either) and not turns_either_way(other) and not turns_either_way(real)
+    turn_flags = lambda syn: [f for f in compare("stairs", loc, "x", real, syn, 50.0).flags if "rotation" in f]
+    assert turn_flags(either) == []
+    assert "check the side" in turn_flags(other)[0]
+    assert "lacks" in turn_flags(windows([0.05] * 40))[0]  # no turn at all is still a gap

@@ -113,6 +113,7 @@ def test_jumping_jacks_keeps_its_smp(library):
      "procedural.primitives.jump_open.keys", "increase"),
     (lambda r: r["cycle"]["wave"].__setitem__("root_dy", [[0.5, 0.0]]), "procedural.cycle.wave",
      "at least 2"),
+    (lambda r: r.__setitem__("turns", {"turn_steps": [8, 4]}), "procedural.turns", "fewest steps first"),
 ])
 def test_recipe_errors_name_file_and_field(library, edit, field, words):
     data = _jj_recipe(library)

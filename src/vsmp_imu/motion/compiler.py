@@ -163,6 +163,8 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
         data["stair_swing"] = (0.5, 0.7)
     if gait and (walk := _gait_move(gait).name) in WALKING_PELVIS:
         data["pelvis"] = dict(WALKING_PELVIS[walk])
+        if loco.startswith("stairs"):
+            data["turns"] = {}  # a stairwell's flights and landings, as the library's stairs
     joints = _principal_joints(data, base, steps)
     data["principal_joints"] = joints
     data["symmetry_joints"] = _paired(joints)

@@ -53,6 +53,7 @@ from vsmp_imu.motion.dofs import (
 )
 from vsmp_imu.motion.measure import lowpass
 from vsmp_imu.motion.motion import Motion
+from vsmp_imu.motion.quat import axis_angle, multiply, rotate
 from vsmp_imu.motion.quat import forward_kinematics as fast_fk
 from vsmp_imu.motion.recipe import Recipe, recipe_for_entry
 from vsmp_imu.motion.skeleton import (
@@ -309,6 +310,7 @@ class ProceduralBackend:
             lift = _ground_offset(heights, CLEARANCE_170 * s)
         lift = lift + dofs[:, DOF_INDEX["root_dy"]] * s
         travel = np.zeros((n, 3))
+        steps = None
         feet = _foot_heights(pos, lift, s, None if floors is None else floors[:, :2]) \
             if recipe.locomotion != "none" else None
         if recipe.locomotion != "none" and c["displacement_m"] != 0.0 and recipe.pelvis is None:
@@ -329,7 +331,11 @@ class ProceduralBackend:
                 travel[:, 0], lift, travel[:, 2] = _pendulum_pelvis(
                     recipe.pelvis, steps, _stance_side(pos, feet), lift, travel[:, 2], s, fps, swing)
         travel[:, 1] = lift
-        pos = pos + travel[:, None, :]
+        if recipe.turns is not None and steps is not None:
+            heading = _heading(recipe.turns, steps, rng_for(seed, BACKEND_NAME, plan.activity, "turns"))
+            pos, rot = _turned(pos, rot, travel, heading)
+        else:
+            pos = pos + travel[:, None, :]
 
         meta = {
             "backend": BACKEND_NAME,
@@ -817,6 +823,33 @@ def _gait_speed(recipe: Recipe, pos: np.ndarray, steps: np.ndarray, fps: float) 
                                  - pos[:, _J["pelvis"], 2], [0.95, 0.05]))
         for side in ("left", "right")])
     return float(excursion) * rate / (2.0 * recipe.pelvis.stance_share)
+
+
+def _heading(turns, steps: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Heading (rad, about the vertical) per frame of a path of straight stretches and turns
+    (recipe.PathTurns), counted in steps taken; one side for every turn, drawn."""
+    sign = float(rng.choice([-1.0, 1.0]))
+    angle = math.radians(turns.angle_deg)
+    heading = np.zeros(len(steps))
+    mark = steps[0] - rng.uniform(0.0, turns.straight_steps[1] + turns.turn_steps[1])
+    while mark < steps[-1]:
+        mark += rng.integers(turns.straight_steps[0], turns.straight_steps[1] + 1)
+        length = int(rng.integers(turns.turn_steps[0], turns.turn_steps[1] + 1))
+        heading += sign * angle * minimum_jerk((steps - mark) / length)
+        mark += length
+    return heading
+
+
+def _turned(pos: np.ndarray, rot: np.ndarray, travel: np.ndarray,
+            heading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The body turned about the vertical by `heading` per frame, its horizontal travel (the
+    body frame's x and z) laid along the turning path, its vertical travel as it was."""
+    turn = axis_angle("Y", heading)
+    step = np.diff(travel, axis=0, prepend=travel[:1])
+    path = rotate(turn[:1], travel[:1]) + np.cumsum(rotate(turn, step), axis=0)
+    path[:, 1] = travel[:, 1]
+    turned = rotate(turn[:, None, :], pos) + path[:, None, :]
+    return turned, multiply(turn[:, None, :], rot)
 
 
 def _step_arc(u: np.ndarray) -> np.ndarray:

@@ -131,6 +131,25 @@ class PelvisGait(_Strict):
     stance_share: Annotated[float, Field(ge=0.5, le=0.8)] = 0.6
 
 
+class PathTurns(_Strict):
+    """A gait path of straight stretches and turns, as a stairwell's flights and landings (docs/motion.md):
+    `straight_steps` steps straight (drawn per stretch), then a turn of `angle_deg` spread over
+    `turn_steps` steps, always to the same side (left or right, drawn per execution); an execution
+    starts at a random point of that pattern."""
+
+    straight_steps: tuple[Annotated[int, Field(ge=1, le=100)], Annotated[int, Field(ge=1, le=100)]] = (6, 12)
+    turn_steps: tuple[Annotated[int, Field(ge=1, le=40)], Annotated[int, Field(ge=1, le=40)]] = (6, 12)
+    angle_deg: Annotated[float, Field(gt=0.0, le=360.0)] = 180.0
+
+    @model_validator(mode="after")
+    def _ordered(self) -> PathTurns:
+        for name in ("straight_steps", "turn_steps"):
+            low, high = getattr(self, name)
+            if low > high:
+                raise ValueError(f"{name}: {low} > {high} (give the fewest steps first)")
+        return self
+
+
 class Recipe(_Strict):
     """The procedural recipe of one activity."""
 
@@ -149,6 +168,8 @@ class Recipe(_Strict):
     stair_going_m: Annotated[float, Field(ge=0.15, le=0.45)] = 0.28
     # locomotion only: the pelvis path of a walking gait (None: the path the planted feet imply)
     pelvis: PelvisGait | None = None
+    # locomotion with a pelvis path only: straight stretches and turns (None: straight ahead)
+    turns: PathTurns | None = None
     # cycle-phase window in which the left foot moves to its next step (the right: +0.5)
     stair_swing: tuple[Annotated[float, Field(ge=0.0, lt=1.0)], Annotated[float, Field(gt=0.0, le=1.0)]] = (0.4, 0.7)
     continuous: bool = False
