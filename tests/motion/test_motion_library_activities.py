@@ -92,45 +92,6 @@ def test_locomotion_travels_forward(backend, library, name, expected):
     assert abs(root[-1, 0] - root[0, 0]) < 0.3
 
 
-def _walk(backend, library, name, amplitude, seed):
-    smp = library.get(name).smp.model_copy(deep=True)
-    smp.execution_attributes.amplitude = amplitude
-    return backend.generate(smp, seed=seed)
-
-
-def _speed(m):
-    root = _at(m, "pelvis")
-    return (root[-1, 2] - root[0, 2]) / m.duration_s
-
-
-@pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_a_walk_travels_as_far_as_its_legs_reach(backend, library, seed):
-    medium = _walk(backend, library, "walking", "medium", seed)
-    small = _walk(backend, library, "walking", "small", seed)
-    assert 0.9 < _speed(medium) < 1.4  # normative walking speed, m/s
-    # shorter steps walk slower, but walk (a stance foot that could not be told from the swing
-    # foot once left a small-amplitude walk shuffling at 0.0-0.3 m/s)
-    assert 0.5 < _speed(small) < 0.9 * _speed(medium)
-    for m in (medium, small):  # the lower foot stays nearly planted
-        feet = np.stack([_at(m, f"{side}_ankle") for side in ("left", "right")], axis=1)
-        lower = np.argmin(feet[:, :, 1], axis=1)
-        slide = np.gradient(feet[:, :, 2], axis=0)[np.arange(len(lower)), lower] * m.fps
-        assert np.median(np.abs(slide)) < 0.6 * _speed(m)
-
-
-@pytest.mark.parametrize("name", ["walking_upstairs", "walking_downstairs"])
-def test_stairs_travel_one_tread_per_step(backend, library, name):
-    from vsmp_imu.motion.recipe import recipe_for_entry
-
-    going = recipe_for_entry(library.get(name)).stair_going_m
-    for amplitude in ("small", "large"):  # the stairs, not the legs, set the travel
-        m = _walk(backend, library, name, amplitude, seed=1)
-        step_hz = 2.0 / m.meta["controls"]["cycle_s"]
-        root = _at(m, "pelvis")
-        along_path = np.linalg.norm(np.diff(root[:, [0, 2]], axis=0), axis=1).sum() / m.duration_s
-        assert along_path == pytest.approx(going * step_hz, rel=0.1)  # the sway adds a little
-
-
 def _heading(m, joint="pelvis"):
     """Unwrapped heading (rad) of a joint's forward axis on the floor, per frame."""
     from vsmp_imu.motion.quat import rotate
@@ -188,11 +149,9 @@ def test_flight_is_detected_in_running_only(backend, library, monkeypatch):
     lowest: list[np.ndarray] = []
     real = procedural._hold_in_flight
     monkeypatch.setattr(procedural, "_hold_in_flight", lambda v, h: lowest.append(h) or real(v, h))
-    for name in ("walking", "walking_upstairs"):  # a pelvis gait's speed comes from its legs
+    for name in ("walking", "walking_upstairs", "nordic_walking"):
         backend.generate(library.get(name).smp, seed=0)
-        assert lowest == [], name
-    backend.generate(library.get("nordic_walking").smp, seed=0)
-    assert lowest[-1].max() < FLIGHT_START_M  # always a foot on the floor: the hold is off
+        assert lowest[-1].max() < FLIGHT_START_M, name  # always a foot on the floor: the hold is off
     backend.generate(library.get("running").smp, seed=0)
     assert (lowest[-1] > FLIGHT_START_M + FLIGHT_RAMP_M).mean() > 0.1
 

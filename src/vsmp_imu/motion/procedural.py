@@ -313,7 +313,7 @@ class ProceduralBackend:
         steps = None
         feet = _foot_heights(pos, lift, s, None if floors is None else floors[:, :2]) \
             if recipe.locomotion != "none" else None
-        if recipe.locomotion != "none" and c["displacement_m"] != 0.0 and recipe.pelvis is None:
+        if recipe.locomotion != "none" and c["displacement_m"] != 0.0:
             travel[:, 2] = _stance_travel(pos, feet, s, fps)
         elif recipe.locomotion == "none" and c["drift_m"] > 0:
             travel[:, 2] = c["drift_m"] * minimum_jerk(t / max(t[-1], 1e-9))
@@ -326,8 +326,6 @@ class ProceduralBackend:
                 # the legs' excursion factor; a longer step than the nominal keeps its rise (more
                 # would take the stance foot through the floor at heel strike)
                 swing = min(1.0, c["amplitude_factor"] * c["stride_factor"])
-                if c["displacement_m"] != 0.0:
-                    travel[:, 2] = t * _gait_speed(recipe, pos, steps, fps)
                 travel[:, 0], lift, travel[:, 2] = _pendulum_pelvis(
                     recipe.pelvis, steps, _stance_side(pos, feet), lift, travel[:, 2], s, fps, swing)
         travel[:, 1] = lift
@@ -805,24 +803,6 @@ def _step_count(plan: Plan, t: np.ndarray, feet: np.ndarray) -> np.ndarray | Non
         return None
     offset = np.angle(np.exp(2j * np.pi * steps[switch]).mean()) / (2 * np.pi)
     return steps - offset
-
-
-def _gait_speed(recipe: Recipe, pos: np.ndarray, steps: np.ndarray, fps: float) -> float:
-    """A walking gait's mean forward speed (m/s) from its legs and its step rate.
-
-    Level walking: a planted foot moves back under the pelvis by its whole forward excursion
-    during stance, which lasts `recipe.pelvis.stance_share` of the cycle, so the body travels
-    excursion / stance share per stride (about 1.1 m/s for the library's walk). Stairs: one
-    tread (`recipe.stair_going_m`) per step, whatever the legs swing.
-    """
-    rate = float(np.median(np.diff(steps))) * fps  # steps per second
-    if recipe.locomotion.startswith("stairs"):
-        return recipe.stair_going_m * rate
-    excursion = np.mean([
-        np.subtract(*np.quantile(0.5 * (pos[:, _J[f"{side}_ankle"], 2] + pos[:, _J[f"{side}_foot"], 2])
-                                 - pos[:, _J["pelvis"], 2], [0.95, 0.05]))
-        for side in ("left", "right")])
-    return float(excursion) * rate / (2.0 * recipe.pelvis.stance_share)
 
 
 def _heading(turns, steps: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -126,9 +126,6 @@ class PelvisGait(_Strict):
     rise_m: Annotated[float, Field(ge=0.0, le=0.15)] = 0.05  # vertical excursion per step
     sway_m: Annotated[float, Field(ge=0.0, le=0.1)] = 0.02  # lateral half-excursion per stride
     speed_fluctuation: Annotated[float, Field(ge=0.0, le=0.5)] = 0.25  # +- fraction of the mean speed
-    # share of the gait cycle a foot stands (normative walking about 0.6): with the foot's excursion
-    # under the pelvis it sets the walking speed
-    stance_share: Annotated[float, Field(ge=0.5, le=0.8)] = 0.6
 
 
 class PathTurns(_Strict):
@@ -164,8 +161,6 @@ class Recipe(_Strict):
     grounding: Literal["lowest", "none"] = "lowest"
     locomotion: Literal["none", "forward", "stairs_up", "stairs_down"] = "none"
     stair_rise_m: Annotated[float, Field(gt=0.0, le=0.3)] = 0.17
-    # a stair's tread depth: a pelvis gait on stairs travels one per step (building codes: 0.25-0.32 m)
-    stair_going_m: Annotated[float, Field(ge=0.15, le=0.45)] = 0.28
     # locomotion only: the pelvis path of a walking gait (None: the path the planted feet imply)
     pelvis: PelvisGait | None = None
     # locomotion with a pelvis path only: straight stretches and turns (None: straight ahead)
