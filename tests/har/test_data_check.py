@@ -221,7 +221,10 @@ def test_executions_turning_either_way_are_no_gap_but_the_other_way_is():
     either = windows([0.5] * 10 + [-0.5] * 10 + [0.0] * 20)
     other = windows([-0.5] * 20 + [0.0] * 20)
     assert turns_either_way(either) and not turns_either_way(other) and not turns_either_way(real)
-    turn_flags = lambda syn: [f for f in compare("stairs", loc, "x", real, syn, 50.0).flags if "rotation" in f]
+
+    def turn_flags(syn):
+        return [f for f in compare("stairs", loc, "x", real, syn, 50.0).flags if "rotation" in f]
+
     assert turn_flags(either) == []
     assert "check the side" in turn_flags(other)[0]
     assert "lacks" in turn_flags(windows([0.05] * 40))[0]  # no turn at all is still a gap
