@@ -109,6 +109,9 @@ def test_stairs_turn_at_the_landings(backend, library, name, seed):
     # 30 s of stairs hold two or more half turns, all to one side; only the pelvis's own
     # rotation with each stride (a few degrees) ever turns back
     assert abs(heading[-1] - heading[0]) > 1.8 * np.pi
+    turns = m.meta["controls"]["turns"]  # in the provenance: positive headings turn left
+    assert turns["side"] == ("left" if side > 0 else "right")
+    assert turns["turned_deg"] == pytest.approx(np.degrees(abs(heading[-1] - heading[0])), abs=20)
     assert (side * heading - np.maximum.accumulate(side * heading)).min() > -np.radians(15)
     # the body travels the way it faces
     root = _at(m, "pelvis")
@@ -122,6 +125,7 @@ def test_stairs_turn_at_the_landings(backend, library, name, seed):
 def test_level_walking_keeps_its_heading(backend, library):
     m = backend.generate(library.get("walking").smp, seed=0, duration_s=30.0)
     assert np.ptp(_heading(m)) < np.radians(20)
+    assert "turns" not in m.meta["controls"]
 
 
 def test_running_has_a_flight_phase_and_keeps_its_speed(backend, library):

@@ -55,7 +55,7 @@ from vsmp_imu.motion.measure import lowpass
 from vsmp_imu.motion.motion import Motion
 from vsmp_imu.motion.quat import axis_angle, multiply, rotate
 from vsmp_imu.motion.quat import forward_kinematics as fast_fk
-from vsmp_imu.motion.recipe import Recipe, recipe_for_entry
+from vsmp_imu.motion.recipe import PathTurns, Recipe, recipe_for_entry
 from vsmp_imu.motion.skeleton import (
     DEFAULT_HEIGHT_M,
     SMPL22_JOINTS,
@@ -329,9 +329,12 @@ class ProceduralBackend:
                 travel[:, 0], lift, travel[:, 2] = _pendulum_pelvis(
                     recipe.pelvis, steps, _stance_side(pos, feet), lift, travel[:, 2], s, fps, swing)
         travel[:, 1] = lift
+        turned = None
         if recipe.turns is not None and steps is not None:
             heading = _heading(recipe.turns, steps, rng_for(seed, BACKEND_NAME, plan.activity, "turns"))
             pos, rot = _turned(pos, rot, travel, heading)
+            turned = {"side": "left" if heading[-1] >= heading[0] else "right",
+                      "turned_deg": round(float(np.degrees(abs(heading[-1] - heading[0]))), 1)}
         else:
             pos = pos + travel[:, None, :]
 
@@ -350,7 +353,7 @@ class ProceduralBackend:
             "symmetry_joints": list(recipe.symmetry_joints),
             "duration_joints": list(recipe.duration_joints or recipe.principal_joints),
             "central_primitive": plan.central_primitive,
-            "controls": dict(c, body_height_m=round(height, 4)),
+            "controls": dict(c, body_height_m=round(height, 4), **({"turns": turned} if turned else {})),
             "phases": [
                 {"primitive": seg.smp_name, "recipe_primitive": seg.primitive,
                  "start_s": round(seg.start_s, 4), "end_s": round(seg.end_s, 4),
@@ -805,9 +808,9 @@ def _step_count(plan: Plan, t: np.ndarray, feet: np.ndarray) -> np.ndarray | Non
     return steps - offset
 
 
-def _heading(turns, steps: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Heading (rad, about the vertical) per frame of a path of straight stretches and turns
-    (recipe.PathTurns), counted in steps taken; one side for every turn, drawn."""
+def _heading(turns: PathTurns, steps: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Heading (rad, about the vertical; positive turns left) per frame of a path of straight
+    stretches and turns, counted in steps taken; one side for every turn, drawn."""
     sign = float(rng.choice([-1.0, 1.0]))
     angle = math.radians(turns.angle_deg)
     heading = np.zeros(len(steps))
