@@ -115,3 +115,17 @@ def test_a_record_whose_digest_has_the_run_settings_still_resumes(pooled, tiny_f
     path.write_text(json.dumps({**record, "settings_digest": DIGEST_WITH_RUN_A}), encoding="utf-8")
     lines = _run(_config(RUN_B), tiny_factory(), out)
     assert [line.endswith("(cached)") for line in lines] == [True, False]
+
+
+def test_a_method_that_makes_windows_from_motion_reruns_after_a_code_change(pooled, tiny_dataset, monkeypatch):
+    """Its records hold the synthesis code's fingerprint; Real-only's and the others' do not."""
+    from vsmp_imu.har import synthetic
+    from vsmp_imu.pipeline import sample
+
+    monkeypatch.setattr(synthetic, "UNSEEN_CAPABLE", {*synthetic.UNSEEN_CAPABLE, "pooled"})
+    monkeypatch.setattr("vsmp_imu.har.evaluate.UNSEEN_CAPABLE", synthetic.UNSEEN_CAPABLE)
+    evaluation = Evaluation(_config(), tiny_dataset)
+    before = {m: evaluation._digest("rf", m) for m in ("real", "pooled")}
+    monkeypatch.setattr(sample, "code_fingerprint", lambda: "another code")
+    after = {m: evaluation._digest("rf", m) for m in ("real", "pooled")}
+    assert after["real"] == before["real"] and after["pooled"] != before["pooled"]
