@@ -331,10 +331,9 @@ class ProceduralBackend:
         travel[:, 1] = lift
         turned = None
         if recipe.turns is not None and steps is not None:
-            heading = _heading(recipe.turns, steps, rng_for(seed, BACKEND_NAME, plan.activity, "turns"))
+            heading, side = _heading(recipe.turns, steps, rng_for(seed, BACKEND_NAME, plan.activity, "turns"))
             pos, rot = _turned(pos, rot, travel, heading)
-            turned = {"side": "left" if heading[-1] >= heading[0] else "right",
-                      "turned_deg": round(float(np.degrees(abs(heading[-1] - heading[0]))), 1)}
+            turned = {"side": side, "turned_deg": round(float(np.degrees(abs(heading[-1] - heading[0]))), 1)}
         else:
             pos = pos + travel[:, None, :]
 
@@ -808,9 +807,10 @@ def _step_count(plan: Plan, t: np.ndarray, feet: np.ndarray) -> np.ndarray | Non
     return steps - offset
 
 
-def _heading(turns: PathTurns, steps: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def _heading(turns: PathTurns, steps: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, str]:
     """Heading (rad, about the vertical; positive turns left) per frame of a path of straight
-    stretches and turns, counted in steps taken; one side for every turn, drawn."""
+    stretches and turns, counted in steps taken, and the side drawn for every turn (also where
+    the motion ends before its first turn)."""
     sign = float(rng.choice([-1.0, 1.0]))
     angle = math.radians(turns.angle_deg)
     heading = np.zeros(len(steps))
@@ -820,7 +820,7 @@ def _heading(turns: PathTurns, steps: np.ndarray, rng: np.random.Generator) -> n
         length = int(rng.integers(turns.turn_steps[0], turns.turn_steps[1] + 1))
         heading += sign * angle * minimum_jerk((steps - mark) / length)
         mark += length
-    return heading
+    return heading, "left" if sign > 0 else "right"
 
 
 def _turned(pos: np.ndarray, rot: np.ndarray, travel: np.ndarray,
