@@ -122,6 +122,23 @@ def test_stairs_turn_at_the_landings(backend, library, name, seed):
     assert np.median(along / np.linalg.norm(travel, axis=1)) > 0.95
 
 
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_stairs_turn_to_the_smps_dominant_side(backend, library, side):
+    """The SMP's dominant side is the way the stairwell turns (the side from evidence sets it)."""
+    smp = _with_side(library.get("walking_upstairs").smp, side)
+    for seed in range(3):
+        m = backend.generate(smp, seed=seed, duration_s=20.0)
+        heading = _heading(m)
+        assert np.sign(heading[-1] - heading[0]) == (1 if side == "left" else -1)
+        assert m.meta["controls"]["turns"]["side"] == side
+
+
+def test_stairs_without_a_side_turn_either_way(backend, library):
+    smp = _with_side(library.get("walking_downstairs").smp, "none")
+    sides = {backend.generate(smp, seed=seed, duration_s=8.0).meta["controls"]["turns"]["side"] for seed in range(8)}
+    assert sides == {"left", "right"}
+
+
 def test_level_walking_keeps_its_heading(backend, library):
     m = backend.generate(library.get("walking").smp, seed=0, duration_s=30.0)
     assert np.ptp(_heading(m)) < np.radians(20)

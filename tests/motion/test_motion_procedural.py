@@ -292,7 +292,7 @@ def straight(monkeypatch):
     """Gaits with `turns` (the stairs) keep their heading: the pelvis path alone."""
     from vsmp_imu.motion import procedural
 
-    monkeypatch.setattr(procedural, "_heading", lambda turns, steps, rng: (np.zeros(len(steps)), "left"))
+    monkeypatch.setattr(procedural, "_heading", lambda turns, steps, rng, side=None: (np.zeros(len(steps)), "left"))
 
 
 def _peak_hz(x: np.ndarray, fps: float) -> float:

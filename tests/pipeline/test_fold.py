@@ -178,13 +178,14 @@ def test_gravity_norm_gives_the_grounded_windows_the_real_gravity_reading(hapt12
 
 
 def test_the_side_evidence_reaches_the_summary_and_every_sample_of_the_class(fold):
-    """The lying transitions' sides come from the training windows (pipeline.side): the summary
-    records each decision and every sample of the class is a variant of the decided SMP."""
+    """The lying transitions' and the stairs' sides come from the training windows (pipeline.side):
+    the summary records each decision and every sample of the class is a variant of the decided SMP."""
     from vsmp_imu.smp import SMP
 
     out, _, _ = fold
     sides = out.summary["side_evidence"]
-    assert set(sides) == {"SIT_TO_LIE", "LIE_TO_SIT", "STAND_TO_LIE", "LIE_TO_STAND"}
+    assert set(sides) == {"SIT_TO_LIE", "LIE_TO_SIT", "STAND_TO_LIE", "LIE_TO_STAND",
+                          "WALKING_UPSTAIRS", "WALKING_DOWNSTAIRS"}
     for label, (rec,) in sides.items():
         assert rec["used"] and rec["source"] == f"library:{label.lower()}"
         tasks = [t for t in out.tasks if t.label == label]

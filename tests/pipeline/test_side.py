@@ -16,6 +16,7 @@ from vsmp_imu.smp.augment import SMPAugmenter
 from vsmp_imu.smp.library import ActivityLibrary
 
 LYING = ("SIT_TO_LIE", "LIE_TO_SIT", "STAND_TO_LIE", "LIE_TO_STAND")
+STAIRS = {"WALKING_UPSTAIRS": "left", "WALKING_DOWNSTAIRS": "right"}  # the way HAPT's stairwell turns
 TRAIN_SUBJECTS = ["2", "3", "4", "5", "6", "7"]
 
 
@@ -100,7 +101,7 @@ def _mirrored(info, train):
 def test_hapt_lying_transitions_turn_right_and_their_mirror_image_left(hapt12, library, tmp_path):
     info, train = hapt12
     sources, out, records = _sides(hapt12, library, train, tmp_path)
-    assert set(records) == set(LYING)  # no other HAPT activity lets its variants change side
+    assert set(records) == set(LYING) | set(STAIRS)  # no other HAPT activity lets its variants change side
     for label in LYING:
         rec = records[label][0]
         assert rec["used"] and rec["side"] == "right" and rec["p_right"] > 0.6, rec
@@ -113,6 +114,20 @@ def test_hapt_lying_transitions_turn_right_and_their_mirror_image_left(hapt12, l
         rec = mirrored[label][0]
         assert rec["side"] == "left" and rec["p_right"] < 0.4, rec
         assert out[label][0][1].execution_attributes.dominant_side == "left"
+
+
+def test_hapt_stairs_turn_each_their_own_way_and_their_mirror_image_the_other(hapt12, library, tmp_path):
+    """HAPT's stairwell turns one way going up and the other coming down (recipe `turns`); the
+    windows of each say so almost unanimously, and the mirrored windows say the opposite."""
+    info, train = hapt12
+    mirror = {"left": "right", "right": "left"}
+    for windows, expected in ((train, STAIRS), (_mirrored(info, train), {k: mirror[v] for k, v in STAIRS.items()})):
+        _, out, records = _sides(hapt12, library, windows, tmp_path)
+        for label, side in expected.items():
+            rec = records[label][0]
+            assert rec["used"] and rec["side"] == side, rec
+            assert min(rec["p_right"], 1 - rec["p_right"]) < 0.1, rec
+            assert out[label][0][1].execution_attributes.dominant_side == side
 
 
 def test_a_class_without_real_windows_keeps_its_50_50_variants(hapt12, library, tmp_path):

@@ -17,6 +17,8 @@ attributes are realized as follows (docs/motion.md, "Controls"):
   library default (median ratio removed) scales that primitive only;
 - symmetry "asymmetric": the non-dominant side lags and moves less;
 - dominant side opposite to the recipe's side: the whole motion is mirrored;
+- a path with turns (recipe `turns`: stairs) turns toward the dominant side when it
+  is left or right, each way with equal chance otherwise;
 - global displacement: locomotion travels by its foot contacts (stride
   scaled by extent / default extent within 0.75..1.25, none when
   "stationary"); other activities travel as their keyframes say and drift
@@ -331,7 +333,8 @@ class ProceduralBackend:
         travel[:, 1] = lift
         turned = None
         if recipe.turns is not None and steps is not None:
-            heading, side = _heading(recipe.turns, steps, rng_for(seed, BACKEND_NAME, plan.activity, "turns"))
+            heading, side = _heading(recipe.turns, steps, rng_for(seed, BACKEND_NAME, plan.activity, "turns"),
+                                     c["dominant_side"])
             pos, rot = _turned(pos, rot, travel, heading)
             turned = {"side": side, "turned_deg": round(float(np.degrees(abs(heading[-1] - heading[0]))), 1)}
         else:
@@ -807,11 +810,15 @@ def _step_count(plan: Plan, t: np.ndarray, feet: np.ndarray) -> np.ndarray | Non
     return steps - offset
 
 
-def _heading(turns: PathTurns, steps: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, str]:
+def _heading(turns: PathTurns, steps: np.ndarray, rng: np.random.Generator,
+             side: str | None = None) -> tuple[np.ndarray, str]:
     """Heading (rad, about the vertical; positive turns left) per frame of a path of straight
-    stretches and turns, counted in steps taken, and the side drawn for every turn (also where
-    the motion ends before its first turn)."""
+    stretches and turns, counted in steps taken, and the side of every turn (also where the
+    motion ends before its first turn): `side` when it is left or right (the SMP's dominant
+    side), else drawn."""
     sign = float(rng.choice([-1.0, 1.0]))
+    if side in ("left", "right"):
+        sign = 1.0 if side == "left" else -1.0
     angle = math.radians(turns.angle_deg)
     heading = np.zeros(len(steps))
     mark = steps[0] - rng.uniform(0.0, turns.straight_steps[1] + turns.turn_steps[1])
