@@ -49,6 +49,8 @@ def test_captions_with_attribute_phrases_keep_their_activity(library, name):
     ("moving both sides asymmetrically, leading with the left arm", {"symmetry": "asymmetric",
                                                                     "dominant_side": "left"}),
     ("walking, covering about 3.5 meters", {"global_displacement": 3.5}),
+    ("walking upstairs, turning left at each landing", {"dominant_side": "left"}),
+    ("going down the stairs turning to the right at the landings", {"dominant_side": "right"}),
     ("repeating the complete movement eleven times", {"repetitions": 11}),
 ])
 def test_attribute_phrases(text, expected):

@@ -134,6 +134,12 @@ def test_only_supported_fields_are_mentioned():
     side = simple_smp(**{"execution_attributes.dominant_side": "right",
                          "body_parts.dominant_moving_segments": ["right_forearm"]})
     assert "leading with the right arm" in verbalize(side)
+    # on stairs the side is the way the stairwell turns (procedural `turns`), and reads back as such
+    stairs = simple_smp(**{"execution_attributes.dominant_side": "left",
+                           "object_contact.required_contact": ["stairs"]})
+    assert "turning left at each landing" in verbalize(stairs) and "leading with" not in verbalize(stairs)
+    from vsmp_imu.motion.prompt import parse_attributes
+    assert parse_attributes(verbalize(stairs))["dominant_side"] == "left"
     walking = simple_smp(**{"execution_attributes.global_displacement": 3.0})
     assert "covering about 3 meters" in verbalize(walking) and "in place" not in verbalize(walking)
 

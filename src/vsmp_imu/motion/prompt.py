@@ -47,7 +47,8 @@ REPETITION_PATTERN = re.compile(
 ONCE_TWICE = {"once": 1, "twice": 2, "thrice": 3}
 SIDE_PATTERN = re.compile(
     r"\b(?:leading with|with|using|on)\s+(?:the|their|his|her)\s+(left|right)\s+"
-    r"(?:arm|hand|leg|foot|side|fist)|\b(left|right)[- ]handed\b", re.I)
+    r"(?:arm|hand|leg|foot|side|fist)|\b(left|right)[- ]handed\b"
+    r"|\bturning\s+(?:to\s+the\s+)?(left|right)\s+at\s+(?:each|every|the)\s+landings?\b", re.I)
 DISPLACEMENT_PATTERNS: tuple[tuple[str, Any], ...] = (
     (r"covering about ([0-9.]+)\s*(?:m|meters|metres)\b", "metres"),
     (r"moving a short distance", "small"),
@@ -171,7 +172,7 @@ def parse_attributes(text: str) -> dict[str, Any]:
         out["symmetry"] = "symmetric"
     side = SIDE_PATTERN.search(text)
     if side:
-        out["dominant_side"] = (side.group(1) or side.group(2)).lower()
+        out["dominant_side"] = next(g for g in side.groups() if g).lower()
     for pattern, kind in DISPLACEMENT_PATTERNS:
         match = re.search(pattern, text, re.I)
         if match:

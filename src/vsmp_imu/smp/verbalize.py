@@ -219,6 +219,12 @@ def _limb(smp: SMP, side: str) -> str:
     return "side"
 
 
+def _on_stairs(smp: SMP) -> bool:
+    """The SMP needs stairs: its side is the way the stairwell turns (the procedural `turns`)."""
+    oc = smp.object_contact
+    return any("stair" in c for c in (*oc.required_contact, *oc.environment_contact))
+
+
 def _attribute_items(smp: SMP, phase_durations: bool) -> list[tuple[str, str]]:
     """(category, phrase) in prompt order."""
     items: list[tuple[str, str]] = []
@@ -231,7 +237,9 @@ def _attribute_items(smp: SMP, phase_durations: bool) -> list[tuple[str, str]]:
     if amp is not None:
         items.append(("amplitude", _level_phrase(amp, AMPLITUDE_PHRASES, AMPLITUDE_BETWEEN,
                                                  ("small", "medium", "large"))))
-    if ea.dominant_side in ("left", "right"):
+    if ea.dominant_side in ("left", "right") and _on_stairs(smp):
+        items.append(("side", f"turning {ea.dominant_side} at each landing"))  # a stairwell's turns
+    elif ea.dominant_side in ("left", "right"):
         items.append(("side", f"leading with the {ea.dominant_side} {_limb(smp, ea.dominant_side)}"))
     if ea.symmetry in SYMMETRY_PHRASES:
         items.append(("symmetry", SYMMETRY_PHRASES[ea.symmetry]))
