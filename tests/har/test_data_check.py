@@ -9,6 +9,7 @@ import pandas as pd
 import yaml
 
 from vsmp_imu.imu import ImuSimulator
+from vsmp_imu.pipeline.check import SIDE_FROM_EVIDENCE
 from vsmp_imu.pipeline.sample import backend_for
 from vsmp_imu.smp import save_smp
 from vsmp_imu.smp.library import ActivityLibrary
@@ -155,6 +156,8 @@ def test_turning_the_other_way_is_flagged_and_the_same_way_is_not(cli, tmp_path)
             assert abs(real[1] - syn[1]) < 0.25 * abs(real[1])
     assert len(flags["library"]) == 1
     assert flags["left"] == []
+    # the library's file leaves the side to its variants: the flag says the generator takes it from the data
+    assert flags["library"][0].endswith("check the side" + SIDE_FROM_EVIDENCE)
 
 
 def test_the_turn_flag_needs_a_gap_beyond_the_floor_and_half_the_larger_turn():

@@ -41,7 +41,10 @@ the other's: one rhythm with two harmonics of about equal power), when one
 moves `MAX_MOTION_RATIO` times more than the other, or when the two turn
 differently on average (mean gyroscope vectors further apart than
 `MIN_TURN_RAD_S` and half the larger one; the flag says whether one side does
-not turn, the two turn opposite ways, or one turns further per window).
+not turn, the two turn opposite ways, or one turns further per window; for
+an SMP that lists `dominant_side` among its variant fields, an opposite turn
+adds that the generator takes the side from the real windows, since the file
+leaves it open: pipeline/side.py).
 Nothing but the mounting is fitted: it is a look, not a grounding.
 """
 
@@ -61,6 +64,8 @@ from vsmp_imu.imu import simulate_kinematics
 from vsmp_imu.io import atomic_path
 from vsmp_imu.motion import Motion
 from vsmp_imu.pipeline.sample import backend_for
+from vsmp_imu.pipeline.side import side_is_free
+from vsmp_imu.smp import SMP
 
 MAX_GRAVITY_ANGLE_DEG = 45.0
 MAX_FREQUENCY_RATIO = 1.6
@@ -71,6 +76,9 @@ MIN_FREQUENCY_HZ = 0.2
 GYRO = slice(3, 6)  # the gyroscope's channels of a 6-channel window
 MIN_TURN_RAD_S = 0.1  # mean rotation rates closer than this never differ
 MAX_MOUNTING_DEG = 60.0  # a sensor turned further than this from its declared axes: check them
+# an SMP that lets its variants change side: the generator already takes the side the real windows show
+SIDE_FROM_EVIDENCE = (" (the SMP leaves the side to its variants: generate and evaluate take it from the "
+                      "real windows, the side from evidence)")
 
 
 @dataclass
@@ -354,7 +362,11 @@ class DataCheck:
             loc = info.location(place)
             s_turned = turned(s, by_place[place])
             self.windows_[(label, place)] = (r, s_turned)
-            self.results_.append(compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s))
+            result = compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s)
+            base = sources[label][0][1]
+            if isinstance(base, SMP) and side_is_free(base):
+                result.flags = [f + SIDE_FROM_EVIDENCE if f.endswith("check the side") else f for f in result.flags]
+            self.results_.append(result)
         return self.results_
 
     def _mounting(self, loc: SensorLocation, declared: dict) -> MountingCheck:
