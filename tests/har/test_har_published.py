@@ -152,6 +152,29 @@ def test_record_files_that_do_not_say_their_class_order_need_it_given(tmp_path):
     assert load_run(tmp_path / "res", "partial").label_names == order
 
 
+def test_a_folder_run_into_once_per_seed_imports_every_seed_only_when_asked(tmp_path, cli):
+    """results.json holds the last invocation's records (here seed 1); records/ every invocation's."""
+    run = tmp_path / "run"
+    (run / "records").mkdir(parents=True)
+    records = _records()
+    for i, record in enumerate(records):
+        (run / "records" / f"r{i}.json").write_text(json.dumps(record))
+    last = [r for r in records if r["seed"] == 1]
+    (run / "results.json").write_text(json.dumps({"config": {}, "label_names": list(LABELS), "records": last}))
+    with pytest.raises(ConfigError, match="8 records and .* 8 more") as info:
+        import_run(run, "seeds", "cmd", tmp_path / "res")
+    assert info.value.field == "--every-record"
+    folder = import_run(run, "seeds", "cmd", tmp_path / "res", every_record=True)
+    rows = [json.loads(line) for line in (folder / "records.jsonl").read_text().splitlines()]
+    assert len(rows) == 16 and {r["seed"] for r in rows} == {0, 1}
+    code, _, err = cli("report", "import", run, "--name", "seeds2", "--command", "cmd", "--root", tmp_path)
+    assert code == 2 and "--every-record" in err
+    code, _, err = cli("report", "import", run, "--name", "seeds2", "--command", "cmd", "--root", tmp_path,
+                       "--every-record")
+    assert code == 0, err
+    assert len((tmp_path / "results" / "seeds2" / "records.jsonl").read_text().splitlines()) == 16
+
+
 def test_import_refuses_a_folder_without_records(tmp_path):
     with pytest.raises(InputFileError, match="not an `vsmp-imu evaluate` output folder"):
         import_run(tmp_path, "x", "cmd", tmp_path / "res")

@@ -82,6 +82,9 @@ def import_cmd(
     labels: str | None = typer.Option(
         None, "--labels", help="CLASS,CLASS,...: the confusion matrices' class order, for record files "
                                "that do not say it (an unfinished run of an older version)"),
+    every_record: bool = typer.Option(
+        False, "--every-record", help="also the records of earlier runs into the folder (records/*.json; "
+                                      "results.json holds the last run's only, e.g. one --only-seeds)"),
 ) -> None:
     """Copy a run's records into results/NAME/: records.jsonl + run.json for an evaluation,
     study.json + run.json for a study (told by the command, `vsmp-imu study NAME ...`)."""
@@ -92,7 +95,7 @@ def import_cmd(
         folder = import_study(run_dir, name, command, root / "results", commit or _head_commit(), note)
     else:
         folder = import_run(run_dir, name, command, root / "results", commit or _head_commit(), note,
-                            tuple(parse_csv(labels, option="--labels")) if labels else ())
+                            tuple(parse_csv(labels, option="--labels")) if labels else (), every_record)
     console.print(f"wrote {folder}/", highlight=False)
 
 

@@ -110,19 +110,28 @@ def _read_json(path: Path) -> Any:
         raise InputFileError(f"not valid JSON: {exc}", file=path) from exc
 
 
-def read_evaluation(run_dir: str | Path) -> tuple[dict[str, Any], tuple[str, ...], list[dict]]:
+def read_evaluation(run_dir: str | Path, every_record: bool = False
+                    ) -> tuple[dict[str, Any], tuple[str, ...], list[dict]]:
     """Configuration, class names and records of an `evaluate` output folder: its
     `results.json`, or (for a run still going) the class names of none and the files
-    in `records/`."""
+    in `records/`. `results.json` holds the last invocation's records only; where
+    `records/` holds more (several invocations into one folder, e.g. one per
+    `--only-seeds`), `every_record` takes them all and otherwise it is a ConfigError."""
     run_dir = Path(run_dir)
     results = run_dir / "results.json"
+    files = sorted((run_dir / "records").glob("*.json")) if (run_dir / "records").is_dir() else []
     if results.exists():
         data = _read_json(results)
         if not isinstance(data, dict) or "records" not in data:
             raise InputFileError("not an evaluation result (no 'records')", file=results)
-        return data.get("config", {}), tuple(data.get("label_names", ())), data["records"]
-    folder = run_dir / "records"
-    files = sorted(folder.glob("*.json")) if folder.is_dir() else []
+        records = data["records"]
+        extra = _extra_records(records, [_read_json(f) for f in files])
+        if extra and not every_record:
+            raise ConfigError(
+                f"{results} holds {len(records)} records and {run_dir / 'records'} {len(extra)} more (earlier "
+                "runs into this folder, e.g. one per --only-seeds): --every-record imports them all",
+                field="--every-record")
+        return data.get("config", {}), tuple(data.get("label_names", ())), records + extra
     if not files:
         raise InputFileError(
             "no results.json and no records/*.json: not an `vsmp-imu evaluate` output folder",
@@ -134,6 +143,15 @@ def read_evaluation(run_dir: str | Path) -> tuple[dict[str, Any], tuple[str, ...
     return {}, orders.pop() if len(orders) == 1 else (), records
 
 
+def _extra_records(records: list[dict], files: list[Any]) -> list[dict]:
+    """The record files whose run (RUN_KEYS and the unseen classes) `records` lacks."""
+    def key(r: dict) -> tuple:
+        return (*(str(r.get(k)) for k in RUN_KEYS), tuple(r.get("unseen_classes") or ()))
+
+    known = {key(r) for r in records if isinstance(r, dict)}
+    return [r for r in files if isinstance(r, dict) and key(r) not in known]
+
+
 def import_run(
     run_dir: str | Path,
     name: str,
@@ -142,14 +160,16 @@ def import_run(
     code_commit: str | None = None,
     note: str | None = None,
     labels: tuple[str, ...] = (),
+    every_record: bool = False,
 ) -> Path:
     """Write `results_dir/NAME/` from an `evaluate` output folder; returns the folder.
     `labels`: the class order of the confusion matrices, for a folder that does not say it
-    (the record files of an unfinished run written before records carried it)."""
+    (the record files of an unfinished run written before records carried it);
+    `every_record`: also the records of earlier invocations into the folder (read_evaluation)."""
     check_name(name)
     if not command.strip():
         raise ConfigError("the command that produced the records is required", field="--command")
-    config, label_names, records = read_evaluation(run_dir)
+    config, label_names, records = read_evaluation(run_dir, every_record)
     rows = sorted((compact(r) for r in records), key=_sort_key)
     label_names = _class_order(label_names, tuple(labels), rows)
     folder = Path(results_dir) / name
