@@ -628,21 +628,18 @@ def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | N
 
 
 # -- curves -----------------------------------------------------------------------------
-def _keys(plan: Plan) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Key times, poses, stop flags and land flags (tracks.hermite_track)."""
+def _keys(plan: Plan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     recipe = plan.recipe
     cur = recipe.pose("start")
-    times, values, stops, lands = [0.0], [cur], [True], [False]
+    times, values, stops = [0.0], [cur], [True]
 
-    def add(time: float, value: np.ndarray, stop: bool, land: bool = False) -> None:
+    def add(time: float, value: np.ndarray, stop: bool) -> None:
         if time <= times[-1] + 1e-6:
             times[-1], values[-1], stops[-1] = times[-1], value, stops[-1] or stop
-            lands[-1] = lands[-1] or land
             return
         times.append(time)
         values.append(value)
         stops.append(stop)
-        lands.append(land)
 
     poses: dict[str, np.ndarray] = {}
     for seg in plan.segments:
@@ -657,10 +654,10 @@ def _keys(plan: Plan) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
                 value = poses[key.pose]
             else:
                 value = recipe.pose(key.pose)
-            add(seg.start_s + key.at * (seg.end_s - seg.start_s), value, key.ease == "stop", key.ease == "land")
+            add(seg.start_s + key.at * (seg.end_s - seg.start_s), value, key.ease == "stop")
             cur = value
     add(max(plan.duration_s, times[-1]) + 1.0, cur, True)
-    return np.array(times), np.array(values), np.array(stops), np.array(lands)
+    return np.array(times), np.array(values), np.array(stops)
 
 
 def _phase_map(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
@@ -699,7 +696,7 @@ def _wave_columns(plan: Plan) -> list[tuple[int, PeriodicWave, float]]:
 def _curves_at(plan: Plan, t: np.ndarray, keys: tuple[np.ndarray, np.ndarray, np.ndarray],
                waves: list[tuple[int, PeriodicWave, float]], phase_map: tuple[np.ndarray, np.ndarray]
                ) -> np.ndarray:
-    values = hermite_track(*keys[:3], t, land=keys[3])
+    values = hermite_track(keys[0], keys[1], keys[2], t)
     if not waves or plan.block is None or len(phase_map[0]) < 2:
         return values
     start, end = plan.block

@@ -49,9 +49,8 @@ class KeyFrame(_Strict):
 
     at: Annotated[float, Field(gt=0.0, le=1.0)]
     pose: PoseRef
-    # stop: arrive at rest (minimum-jerk-like); smooth: pass through with velocity; land: arrive
-    # moving and stop at once (a body meeting a seat: a short deceleration peak)
-    ease: Literal["stop", "smooth", "land"] = "stop"
+    # stop: arrive at rest (minimum-jerk-like); smooth: pass through with velocity
+    ease: Literal["stop", "smooth"] = "stop"
 
     @model_validator(mode="before")
     @classmethod

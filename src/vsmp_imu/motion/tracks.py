@@ -4,10 +4,7 @@ Keyframes are joined by quintic Hermite segments with zero acceleration at
 the keys. A "stop" key has zero velocity (each segment between two stop keys
 is then the minimum-jerk profile 10u^3 - 15u^4 + 6u^5); a "smooth" key passes
 through with the Catmull-Rom velocity of its neighbours. The result is C2
-everywhere (velocity and acceleration continuous), except at a "land" key:
-it is reached at LAND_SPEED x its segment's mean speed and left at rest, as
-a body meets a seat (the IMU simulator's smoothing turns the stop into a
-short deceleration peak). Periodic waves are
+everywhere (velocity and acceleration continuous). Periodic waves are
 periodic cubic splines over the cycle phase. Everything is vectorized over
 frames and DOFs.
 """
@@ -24,9 +21,6 @@ def minimum_jerk(u: np.ndarray) -> np.ndarray:
     return u**3 * (10.0 - 15.0 * u + 6.0 * u**2)
 
 
-LAND_SPEED = 1.0  # a land key's arrival speed / its segment's mean speed (monotone below 2.5)
-
-
 def key_velocities(times: np.ndarray, values: np.ndarray, stop: np.ndarray) -> np.ndarray:
     """Velocity at each key: zero at stop keys and at the ends, Catmull-Rom otherwise."""
     vel = np.zeros_like(values)
@@ -39,23 +33,17 @@ def key_velocities(times: np.ndarray, values: np.ndarray, stop: np.ndarray) -> n
     return vel
 
 
-def hermite_track(times: np.ndarray, values: np.ndarray, stop: np.ndarray, t: np.ndarray,
-                  land: np.ndarray | None = None) -> np.ndarray:
+def hermite_track(times: np.ndarray, values: np.ndarray, stop: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Evaluate the keyframe track at times `t` -> (len(t), D).
 
-    `times` (K,) strictly increasing, `values` (K, D), `stop` (K,) bool, `land` (K,) bool: keys
-    reached moving and left at rest (a land key counts as a stop for the segment it starts).
+    `times` (K,) strictly increasing, `values` (K, D), `stop` (K,) bool.
     Before the first key and after the last, the end values hold.
     """
     times = np.asarray(times, dtype=float)
     values = np.asarray(values, dtype=float)
     if len(times) == 1:
         return np.repeat(values[:1], len(t), axis=0)
-    land = np.zeros(len(times), bool) if land is None else np.asarray(land, dtype=bool)
-    vel = key_velocities(times, values, np.asarray(stop, dtype=bool) | land)
-    arrive = vel.copy()
-    k = np.flatnonzero(land[1:]) + 1
-    arrive[k] = LAND_SPEED * (values[k] - values[k - 1]) / (times[k] - times[k - 1])[:, None]
+    vel = key_velocities(times, values, np.asarray(stop, dtype=bool))
     i = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
     h = (times[i + 1] - times[i])[:, None]
     u = np.clip((t[:, None] - times[i][:, None]) / h, 0.0, 1.0)
@@ -65,7 +53,7 @@ def hermite_track(times: np.ndarray, values: np.ndarray, stop: np.ndarray, t: np
     h1 = u - 6.0 * u3 + 8.0 * u4 - 3.0 * u5
     h4 = -4.0 * u3 + 7.0 * u4 - 3.0 * u5
     h5 = 10.0 * u3 - 15.0 * u4 + 6.0 * u5
-    return h0 * values[i] + h5 * values[i + 1] + h * (h1 * vel[i] + h4 * arrive[i + 1])
+    return h0 * values[i] + h5 * values[i + 1] + h * (h1 * vel[i] + h4 * vel[i + 1])
 
 
 class PeriodicWave:
