@@ -169,7 +169,9 @@ def test_the_turn_flag_needs_a_gap_beyond_the_floor_and_half_the_larger_turn():
     flag = turn_flag(np.array([0.4, 0, 0]), np.array([0.15, 0, 0]), axes)
     assert flag and "x (up): +0.40 rad/s real vs +0.15 simulated" in flag and "0.4x as far" in flag
     opposite = turn_flag(np.array([0, 0, -0.3]), np.array([0, 0, 0.3]), axes)
-    assert "z (backward)" in opposite and "check the side" in opposite
+    assert "z (backward)" in opposite and opposite.endswith("check the side")
+    free = turn_flag(np.array([0, 0, -0.3]), np.array([0, 0, 0.3]), axes, side_free=True)
+    assert free == opposite + SIDE_FROM_EVIDENCE
     assert "the activity file lacks" in turn_flag(np.array([0.3, 0, 0]), np.zeros(3), axes)
     assert "the real windows lack" in turn_flag(np.zeros(3), np.array([0, 0.3, 0]), axes)
 

@@ -816,7 +816,7 @@ def _heading(turns: PathTurns, steps: np.ndarray, rng: np.random.Generator,
     stretches and turns, counted in steps taken, and the side of every turn (also where the
     motion ends before its first turn): `side` when it is left or right (the SMP's dominant
     side), else drawn."""
-    sign = float(rng.choice([-1.0, 1.0]))
+    sign = float(rng.choice([-1.0, 1.0]))  # drawn either way: the stretches' draws stay the same
     if side in ("left", "right"):
         sign = 1.0 if side == "left" else -1.0
     angle = math.radians(turns.angle_deg)

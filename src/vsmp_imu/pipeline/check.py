@@ -234,8 +234,9 @@ def turns_either_way(windows: np.ndarray) -> bool:
     return False
 
 
-def turn_flag(real: np.ndarray, syn: np.ndarray, axes) -> str | None:
-    """What looks off when one side turns one way on average and the other does not."""
+def turn_flag(real: np.ndarray, syn: np.ndarray, axes, side_free: bool = False) -> str | None:
+    """What looks off when one side turns one way on average and the other does not (`side_free`:
+    the SMP leaves its side to its variants, so the generator takes it from the real windows)."""
     gap = float(np.linalg.norm(real - syn))
     if gap <= max(MIN_TURN_RAD_S, 0.5 * max(np.linalg.norm(real), np.linalg.norm(syn))):
         return None
@@ -245,7 +246,7 @@ def turn_flag(real: np.ndarray, syn: np.ndarray, axes) -> str | None:
     if min(abs(r), abs(s)) < 0.5 * MIN_TURN_RAD_S:
         hint = "a turn the activity file lacks" if abs(r) > abs(s) else "a turn the real windows lack"
     elif np.sign(r) != np.sign(s):
-        hint = "check the side"
+        hint = "check the side" + (SIDE_FROM_EVIDENCE if side_free else "")
     else:
         hint = (f"the simulation turns {abs(s / r):.1f}x as far per window: check the tempo, or how far the "
                 "activity file turns")
@@ -273,9 +274,10 @@ def simulate_windows(motion: Motion, loc: SensorLocation, fs_hz: float, size: in
 
 
 def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn: np.ndarray,
-            fs_hz: float, declared: np.ndarray | None = None) -> ClassCheck:
+            fs_hz: float, declared: np.ndarray | None = None, side_free: bool = False) -> ClassCheck:
     """The statistics of one class at one location, and what looks off (`syn` turned by the
-    mounting; `declared`: the same windows before it, for the angle in the declared axes)."""
+    mounting; `declared`: the same windows before it, for the angle in the declared axes;
+    `side_free`: turn_flag)."""
     out = ClassCheck(label, loc.name, source, len(real), len(syn))
     if len(real) == 0 or len(syn) == 0:
         out.flags.append("no real windows" if len(real) == 0 else "no simulated windows")
@@ -293,7 +295,7 @@ def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn:
         r_gyro, s_gyro = mean_gyro(real), mean_gyro(syn)
         out.real_mean_gyro, out.synthetic_mean_gyro = r_gyro.round(3).tolist(), s_gyro.round(3).tolist()
         out.real_turn_rms, out.synthetic_turn_rms = motion_rms(real, GYRO), motion_rms(syn, GYRO)
-        turn = turn_flag(r_gyro, s_gyro, loc.axes)
+        turn = turn_flag(r_gyro, s_gyro, loc.axes, side_free)
         # executions that turn to a drawn side (a stairwell's landings) cancel in the class mean:
         # turning either way as much per window as the real windows turn is no gap
         if turn and not (turns_either_way(syn)
@@ -362,11 +364,9 @@ class DataCheck:
             loc = info.location(place)
             s_turned = turned(s, by_place[place])
             self.windows_[(label, place)] = (r, s_turned)
-            result = compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s)
             base = sources[label][0][1]
-            if isinstance(base, SMP) and side_is_free(base):
-                result.flags = [f + SIDE_FROM_EVIDENCE if f.endswith("check the side") else f for f in result.flags]
-            self.results_.append(result)
+            self.results_.append(compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s,
+                                         side_free=isinstance(base, SMP) and side_is_free(base)))
         return self.results_
 
     def _mounting(self, loc: SensorLocation, declared: dict) -> MountingCheck:
