@@ -344,11 +344,13 @@ class DataCheck:
         backend = backend_for(self.backend, tuple(self.library_dirs))
         declared: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
         sources_of: dict[str, str] = {}
+        side_free: dict[str, bool] = {}  # the base SMP leaves its side to its variants (turn_flag)
         for i, label in enumerate(info.label_names):
             if label not in sources:
                 continue
             source, base = sources[label][0]
             sources_of[label] = source
+            side_free[label] = isinstance(base, SMP) and side_is_free(base)
             motions = [Motion.load(base) if isinstance(base, Path) else backend.generate(base, seed)
                        for seed in range(self.samples)]
             for loc in locations_of(info, label):
@@ -364,9 +366,8 @@ class DataCheck:
             loc = info.location(place)
             s_turned = turned(s, by_place[place])
             self.windows_[(label, place)] = (r, s_turned)
-            base = sources[label][0][1]
             self.results_.append(compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s,
-                                         side_free=isinstance(base, SMP) and side_is_free(base)))
+                                         side_free=side_free[label]))
         return self.results_
 
     def _mounting(self, loc: SensorLocation, declared: dict) -> MountingCheck:
