@@ -68,6 +68,15 @@ def test_words_name_movements(name, description, expected):
     assert expected <= set(read_primitive(name, description).movements)
 
 
+@pytest.mark.parametrize(("words", "expected"), [
+    ("draw the knees up", ("hip_flexion",)), ("pull the left knee up", ("hip_flexion",)),
+    ("bring the legs up", ("hip_flexion",)), ("draw the hand up", ("shoulder_flexion_overhead",)),
+    ("pull the bar up", ("elbow_flexion",))])
+def test_legs_drawn_up_flex_the_hips_and_hands_drawn_up_raise_the_arm(words, expected):
+    """'draw the knees up' had read as a hand raised overhead (its object is a leg)."""
+    assert movements_in(words) == expected
+
+
 def test_hammer_curl_keeps_the_grip_neutral():
     assert "forearm_supination" not in read_primitive("curl_up", "hammer curl the kettlebells up").movements
 

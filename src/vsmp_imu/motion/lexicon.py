@@ -20,6 +20,8 @@ from vsmp_imu.motion.anatomy import MOVEMENTS
 
 _ARM = r"(arms?|hands?|fists?|elbows?|forearms?|wrists?|dumbbells?|weights?|kettlebells?|bar|ball|racket|bat|club)"
 _ANY = r"[a-z ,'-]*?"
+# "draw the knees up" names the legs, not a hand drawn upward
+_NOT_LEGS = r"(?!(the |both |each |one )?(left |right )?(knees?|legs?|thighs?|feet|foot)\b)"
 
 # (pattern, movement): a movement is read when its pattern occurs in the action part
 RULES: tuple[tuple[str, str], ...] = (
@@ -67,7 +69,7 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bcurl\w*\b(?! the trunk)(?! (the |both )?wrists?)|\bhammer|\bbend\w* (the |both |each |one )?(left |right )?(elbows?|arms?)"
      r"|\bflex\w* (the |both )?(left |right )?elbows?|\b(hands?|fists?|dumbbells?) (up )?to the shoulders?"
      r"|\bwith the elbows? bent|\bguard\b|\bpull\w* (it |them |the \w+ )?in\b|\bto the chest|\bover the chest"
-     r"|\bbehind the head|\bbeside the head|\bin front of the (chest|chin|face)|\bpull\w* " + _ANY + r"\bup\b"
+     r"|\bbehind the head|\bbeside the head|\bin front of the (chest|chin|face)|\bpull\w* " + _NOT_LEGS + _ANY + r"\bup\b"
      r"|\brow\b|\brow(s|ing)\b|\bsteer\w*|\bwheel\b", "elbow_flexion"),
     (r"\bstraighten\w* (the |both |each )?(left |right )?(elbows?|arms?)|\bextend\w* (the |both |each |one )?"
      r"(left |right )?(elbows?|arms?|fists?|hands?)|\bpunch\w*|\bjab\w*|\bthrust\w*|\bpush\w* (forward|up|away|out)"
@@ -77,7 +79,7 @@ RULES: tuple[tuple[str, str], ...] = (
      r"|\bforward and up|\btoward the door", "shoulder_flexion"),
     (r"\boverhead\b|\babove the head|\bup high|\breach\w* up\b|(?<!rope )\bover the head|\btoward the ceiling"
      r"|\bskyward|\bbehind the head|\boverhand|\bto the top\b|\bupper left|\bstraight up\b|\bbeside the head"
-     r"|\b(draw|move|trace)\w* " + _ANY + r"\bup\b", "shoulder_flexion_overhead"),
+     r"|\b(draw|move|trace)\w* " + _NOT_LEGS + _ANY + r"\bup\b", "shoulder_flexion_overhead"),
     (r"\b(draw|move|trace)\w* " + _ANY + r"\bdown\b", "shoulder_flexion"),
     (r"\bout to the sides?\b|\b(raise|lift|spread|extend)\w* " + _ANY + r"\bto the sides?\b|\bsideways\b"
      r"|\blateral raise|\bspread\w* (the |both )?arms|\bout to the (left|right)"
@@ -106,7 +108,7 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bswing\w* (the |both |his |her )?(left |right )?arms?\b|\barms? swings?|\bpendulum|\bsweep\w* "
      + _ANY + r"\b(left|right) and back|\bwave\w*|\bsweep\w* the (cloth|hand)", "arm_pendulum_swing"),
     # legs
-    (r"\b(lift|raise|drive)\w* (the |both |each |one )?(left |right )?(knees?|legs?|thighs?)\b"
+    (r"\b(lift|raise|drive|draw|pull|bring|tuck)\w* (the |both |each |one )?(left |right )?(knees?|legs?|thighs?)\b"
      r"(?! (out|to the side|sideways|back))|\bknee raise|\bhigh knees"
      r"|\bmarch\w*|\bleg raise|\bpedal", "hip_flexion"),
     (r"\bkick\w*", "leg_kick"),
