@@ -95,18 +95,18 @@ def test_wrong_axes_turn_gravity_away(cli, tmp_path):
 
 
 def test_a_sensor_askew_on_the_body_is_taken_up_by_the_mounting(cli, tmp_path):
-    """A phone turned 45° about the body's long axis on the belt: the check estimates the turn,
+    """A phone turned 35° about the body's long axis on the belt: the check estimates the turn,
     compares each class after it, and flags nothing; in the declared axes alone gravity and the
     turns of lying down differ."""
     from scipy.spatial.transform import Rotation
 
-    turn = Rotation.from_rotvec(np.radians(45.0) * np.array([1.0, 0.0, 0.0])).as_matrix()  # device x = up
+    turn = Rotation.from_rotvec(np.radians(35.0) * np.array([1.0, 0.0, 0.0])).as_matrix()  # device x = up
     path = _dataset(tmp_path / "ds", ActivityLibrary.load(), turn, labels=("walking", "sitting", "sit_to_lie"))
     code, out, err = cli("data", "check", path, "--samples", "2", "-o", tmp_path / "chk")
     assert code == 0, err
     written = json.loads((tmp_path / "chk" / "check.json").read_text())
     (mounting,) = written["mountings"]
-    assert abs(mounting["angle_deg"] - 45.0) < 5 and mounting["axis"][0] > 0.97 and mounting["flags"] == []
+    assert abs(mounting["angle_deg"] - 35.0) < 5 and mounting["axis"][0] > 0.97 and mounting["flags"] == []
     assert f"sits {mounting['angle_deg']:.0f}° from its declared axes" in " ".join(out.split())
     classes = {c["label"]: c for c in written["classes"]}
     assert all(c["flags"] == [] for c in classes.values()), classes
