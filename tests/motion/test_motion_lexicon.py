@@ -77,6 +77,11 @@ def test_legs_drawn_up_flex_the_hips_and_hands_drawn_up_raise_the_arm(words, exp
     assert movements_in(words) == expected
 
 
+@pytest.mark.parametrize("words", ["jump while bringing the legs together", "pull the legs apart"])
+def test_legs_brought_together_or_apart_do_not_flex_the_hips(words):
+    assert "hip_flexion" not in movements_in(words)
+
+
 def test_hammer_curl_keeps_the_grip_neutral():
     assert "forearm_supination" not in read_primitive("curl_up", "hammer curl the kettlebells up").movements
 

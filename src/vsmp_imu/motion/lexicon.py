@@ -109,7 +109,7 @@ RULES: tuple[tuple[str, str], ...] = (
      + _ANY + r"\b(left|right) and back|\bwave\w*|\bsweep\w* the (cloth|hand)", "arm_pendulum_swing"),
     # legs
     (r"\b(lift|raise|drive|draw|pull|bring|tuck)\w* (the |both |each |one )?(left |right )?(knees?|legs?|thighs?)\b"
-     r"(?! (out|to the side|sideways|back))|\bknee raise|\bhigh knees"
+     r"(?! (out|to the side|sideways|back|together|apart))|\bknee raise|\bhigh knees"
      r"|\bmarch\w*|\bleg raise|\bpedal", "hip_flexion"),
     (r"\bkick\w*", "leg_kick"),
     (r"\b(legs?|feet) apart|\bspread\w* (the |both )?legs|\bleg (out )?to the side|\bstep\w* (out )?to the side",
