@@ -5,6 +5,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 PIP_FLAGS := --disable-pip-version-check --no-input -q
+# pytest processes for `make test` (pytest-xdist; 0 runs the suite in this process)
+PYTEST_WORKERS ?= auto
 
 .PHONY: install demo test test-all lint bench mutation clean
 
@@ -29,7 +31,7 @@ lint: $(STAMP)
 
 test: $(STAMP) lint
 	$(BIN)/vsmp-imu report --check
-	$(BIN)/python -m pytest -m "not slow" -q
+	$(BIN)/python -m pytest -m "not slow" -q -n $(PYTEST_WORKERS) --maxprocesses 4
 
 test-all: $(STAMP) lint
 	$(BIN)/vsmp-imu report --check
