@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 from scipy.stats import spearmanr
 
-from vsmp_imu.errors import ConfigError, ValidationError
+from vsmp_imu.errors import ConfigError
 from vsmp_imu.executor import LocalExecutor
-from vsmp_imu.filtering.faithfulness import TAU_CANDIDATES, class_keep_mask
 from vsmp_imu.grounding.split import stat_rank_split
 from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.synthetic import synthetic_budget
@@ -156,7 +155,7 @@ def test_refill_tops_up_classes_short_of_their_budget(hapt12, library, tmp_path)
 
 
 def test_refill_must_not_be_negative():
-    from vsmp_imu.errors import ConfigError, ValidationError
+    from vsmp_imu.errors import ConfigError
 
     with pytest.raises(ConfigError, match="refill"):
         GenerationSpec(refill=-1)
@@ -453,66 +452,3 @@ def test_with_seen_intensity_a_class_with_real_windows_gets_the_spread_its_real_
     before, after = plain.generated[target][:, :, gyro], matched.generated[target][:, :, gyro]
     np.testing.assert_allclose(after.std(axis=1) / before.std(axis=1),
                                np.repeat(factors[target][:, None], len(gyro), axis=1), rtol=1e-3)
-
-
-@pytest.mark.parametrize("synthetic_only", [False, True])
-def test_tau_is_chosen_with_the_forest_the_protocol_trains(monkeypatch, synthetic_only):
-    """Mixed: each candidate's forest sees the real windows of the fitting subjects and the kept
-    synthetic ones; synthetic only (tstr): the kept synthetic windows alone. Both are scored on the
-    validation subjects' real windows."""
-    from vsmp_imu.pipeline import fold as fold_module
-
-    sizes = []
-
-    class Spy(fold_module.RandomForestClassifier):
-        def fit(self, X, y, *args, **kwargs):
-            sizes.append(len(X))
-            return super().fit(X, y, *args, **kwargs)
-
-    monkeypatch.setattr(fold_module, "RandomForestClassifier", Spy)
-    rng = np.random.default_rng(0)
-    y_train = np.repeat([0, 1], 40)
-    f_train = rng.normal(0, 1, (80, 4)) + y_train[:, None] * 3
-    is_val = np.zeros(80, bool)
-    is_val[::4] = True  # 20 validation windows, 60 fitting ones
-    y = np.repeat([0, 1], 30)
-    f_syn = rng.normal(0, 1, (60, 4)) + y[:, None] * 3
-    proba = np.column_stack([np.linspace(0.3, 1.0, 60), np.zeros(60)])
-    proba[:, 1] = 1 - proba[:, 0]
-    proba[y == 1] = proba[y == 1][:, ::-1]  # each window's own class gets 0.3..1.0
-    keep = np.ones(60, bool)
-    tau = fold_module.choose_tau(f_train, y_train, is_val, f_syn, y, proba, keep, None, 0, "t",
-                                 synthetic_only=synthetic_only)
-    assert tau in TAU_CANDIDATES
-    kept = sorted({int(class_keep_mask(proba, y, t, None).sum()) for t in TAU_CANDIDATES})
-    real = 0 if synthetic_only else 60
-    assert sorted(sizes) == [real + k for k in kept]
-
-
-def test_the_fold_generator_names_its_tau_model():
-    with pytest.raises(ValidationError, match="tau_model"):
-        FoldGenerator(GenerationSpec(), LocalExecutor(1, show_progress=False), tau_model="real")
-
-
-def test_tstr_chooses_tau_with_a_synthetic_only_forest(monkeypatch):
-    """The method gives the fold generator the tau model of its protocol."""
-    from vsmp_imu.pipeline import method as method_module
-
-    seen = []
-
-    class Stub:
-        def __init__(self, *args, tau_model="mixed", **kwargs):
-            seen.append(tau_model)
-
-        def generate(self, *args, **kwargs):
-            raise RuntimeError("stop")
-
-    monkeypatch.setattr(method_module, "FoldGenerator", Stub)
-    ds = load_dataset("hapt12")
-    train = ds.windows().where_subjects(["2"])
-    for protocol in ("tstr", "low-resource"):
-        context = method_module.FoldContext(dataset=ds.info, fold="1", held_out_subject="1", train=train,
-                                            train_subjects=(), seed=0, budget={}, alpha=1.0, protocol=protocol)
-        with pytest.raises(RuntimeError, match="stop"):
-            method_module.VsmpMethod().generate(context)
-    assert seen == ["synthetic", "mixed"]

@@ -677,10 +677,10 @@ def failed_records(info: DatasetInfo, results: list[SampleResult]) -> list[Windo
 # -- stage 5: filter -----------------------------------------------------------------------------------
 def filter_windows(spec: GenerationSpec, info: DatasetInfo, train: Windows, windows: WindowSet,
                    ok: list[SampleResult], job: FilterJob | None, models: FilterModels | None, seed: int,
-                   fold: str, threads: int = 1, tau_model: str = "mixed") -> tuple[np.ndarray, float | None]:
+                   fold: str, threads: int = 1) -> tuple[np.ndarray, float | None]:
     """The quality filter: each window's verdicts and kept flag (motion and inertial plausibility,
-    class faithfulness with tau_cls chosen by validation Macro-F1 of a `tau_model` forest (see
-    `choose_tau`), redundancy). Returns the kept mask and tau_cls (None: no class filter)."""
+    class faithfulness with tau_cls chosen by validation Macro-F1, redundancy). Returns the kept
+    mask and tau_cls (None: no class filter)."""
     X, y, records = windows.X, windows.y, windows.records
     keep = np.ones(len(X), dtype=bool)
     if job is None or len(X) == 0:
@@ -699,8 +699,7 @@ def filter_windows(spec: GenerationSpec, info: DatasetInfo, train: Windows, wind
     if spec.class_filter:
         proba = validator.predict_proba_features(f_syn)
         validated = job.validated()
-        tau = choose_tau(job.features, train.y, is_val, f_syn, y, proba, keep, validated, seed, fold, threads,
-                         synthetic_only=tau_model == "synthetic")
+        tau = choose_tau(job.features, train.y, is_val, f_syn, y, proba, keep, validated, seed, fold, threads)
         for i, v in enumerate(class_verdicts(proba, y, tau, validated)):
             records[i].verdicts.append(v)
             keep[i] &= v.passed
@@ -714,20 +713,11 @@ def filter_windows(spec: GenerationSpec, info: DatasetInfo, train: Windows, wind
     return keep, tau
 
 
-# the forest tau_cls is chosen with: real + kept synthetic windows (the paper's), or the kept
-# synthetic windows alone (for a protocol whose model sees no real window: tstr)
-TAU_MODELS = ("mixed", "synthetic")
-
-
-def choose_tau(f_train, y_train, is_val, f_syn, y, proba, keep, validated, seed, fold, threads: int = 1,
-               synthetic_only: bool = False) -> float:
-    """tau_cls by validation Macro-F1 of a quick forest on real + kept synthetic ECDF features; with
-    `synthetic_only`, on the kept synthetic features alone (the model a protocol that trains on
-    synthetic windows only fits)."""
+def choose_tau(f_train, y_train, is_val, f_syn, y, proba, keep, validated, seed, fold, threads: int = 1) -> float:
+    """tau_cls by validation Macro-F1 of a quick forest on real + kept synthetic ECDF features."""
     if not is_val.any() or len(np.unique(y_train[is_val])) < 2 or is_val.all():
         return TAU_DEFAULT
-    fit = np.zeros(len(y_train), bool) if synthetic_only else ~is_val
-    f_fit, y_fit = f_train[fit], y_train[fit]
+    f_fit, y_fit = f_train[~is_val], y_train[~is_val]
 
     def score(mask: np.ndarray) -> float:
         chosen = keep & mask
@@ -872,12 +862,8 @@ class FoldGenerator:
     """
 
     def __init__(self, config: GenerationSpec, executor, cache_dir: Path | None = None,
-                 motion_dir: Path | None = None, library=None, tau_model: str = "mixed") -> None:
-        if tau_model not in TAU_MODELS:
-            raise ValidationError(f"tau_model must be one of {', '.join(TAU_MODELS)}, got {tau_model!r}",
-                                  field="tau_model", allowed=", ".join(TAU_MODELS))
+                 motion_dir: Path | None = None, library=None) -> None:
         self.config = config
-        self.tau_model = tau_model
         self.executor = executor
         self.cache_dir = cache_dir
         self.motion_dir = motion_dir
@@ -916,8 +902,7 @@ class FoldGenerator:
             grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads, unseen)  # F_v: all so far
             windows = window(info, ok, grounded, length, hop)
             windows.records += failed_records(info, results)
-            keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads,
-                                       self.tau_model)
+            keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads)
             keep = choose_timing(info, train, job, windows, keep, events_found, seed, fold, threads)
             more = [] if attempt == spec.refill else self.refill(
                 info, sources, budget, windows.y, keep, by_class, seed, fold, setup.locations)
@@ -938,8 +923,6 @@ class FoldGenerator:
                       meta={"sample": np.array([records[i].sample for i in np.flatnonzero(selected)],
                                                dtype=object).astype(str)})
         summary = _summary(info, results, records, budget, out, tau, len(setup.d_stat), len(setup.d_rank))
-        if spec.class_filter and self.tau_model != "mixed":  # tau_cls chosen by a synthetic-only forest
-            summary["tau_model"] = self.tau_model
         if rank_map:  # per location and class: its own map, the pooled one, or none (no evidence)
             summary["rank_map"] = rank_map
         if self.textures:  # per location: the ratios fitted on D_stat and which each class got

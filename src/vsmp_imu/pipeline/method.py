@@ -50,10 +50,7 @@ class VsmpMethod:
         info = context.dataset
         sources = make_smp_source(spec.source, library).smps(info.name, info.label_names)
         cache = Path(spec.cache_dir) if spec.cache_dir else None
-        # tstr trains on the synthetic windows alone: tau_cls is chosen with the model it trains
-        tau_model = "synthetic" if context.protocol == "tstr" else "mixed"
-        generator = FoldGenerator(spec, spec.make_executor(show_progress=False), cache, library=library,
-                                  tau_model=tau_model)
+        generator = FoldGenerator(spec, spec.make_executor(show_progress=False), cache, library=library)
         out = generator.generate(info, context.train, sources, context.budget_vector(), context.seed,
                                  fold_key(context))
         self.last_output_ = out
