@@ -12,8 +12,8 @@ from scipy.stats import norm
 
 from vsmp_imu.grounding.rank import (
     GAP_WIDTHS,
+    ChannelMap,
     _balance_weights,
-    _ChannelMap,
     _kernel_smoothed,
     _probs,
     _quantile_grid,
@@ -124,13 +124,13 @@ def test_the_map_is_the_real_inverse_cdf_of_the_synthetic_cdf(threads):
     rng = np.random.default_rng(9)
     syn = rng.gamma(2.0, 1.0, size=(600, 3))
     real = rng.normal(0.0, 1.0, size=(400, 3)) * [1.0, 2.0, 3.0]
-    m = _ChannelMap(syn, real, 256, threads=threads)
+    m = ChannelMap(syn, real, 256, threads=threads)
     x = rng.gamma(2.0, 1.0, size=(5000, 3))  # above the threaded-rows threshold
     out = m.apply(x)
     for c in range(3):
         p = np.interp(x[:, c], m.v_grid[:, c], m.v_probs)
         assert np.array_equal(out[:, c], np.interp(p, m.r_probs, m.r_grid[:, c]))
-    assert np.array_equal(out, _ChannelMap(syn, real, 256, threads=1).apply(x))
+    assert np.array_equal(out, ChannelMap(syn, real, 256, threads=1).apply(x))
     assert m.apply(x[:7].reshape(7, 1, 3)).shape == (7, 1, 3)
 
 
@@ -165,12 +165,12 @@ def test_both_sides_are_smoothed_with_one_bandwidth_relative_to_their_spread():
         0, [0.1, 3.0, 3.0], size=(12, 1, 3)).repeat(per_window, axis=0).reshape(-1, 3)  # one spread below 1
     syn = rng.gamma(2.0, 1.0, size=(300, 3)) * [0.1, 2.0, 0.5]
     weights = rng.uniform(0.5, 2.0, size=300)
-    m = _ChannelMap(syn, real, 64, weights, per_window=per_window)
+    m = ChannelMap(syn, real, 64, weights, per_window=per_window)
     h_real = window_bandwidths(real, per_window)  # in the real data's units
     relative = h_real / real.std(axis=0)
     assert np.array_equal(m.r_grid, _quantile_grid(real, 64, bandwidths=relative * real.std(axis=0))[1])
     assert np.array_equal(m.v_grid, _quantile_grid(syn, 64, weights, bandwidths=relative * _spread(syn, weights))[1])
-    rows = _ChannelMap(syn, real, 64, weights)  # without a window length every row is a window
+    rows = ChannelMap(syn, real, 64, weights)  # without a window length every row is a window
     assert np.array_equal(rows.r_grid, _quantile_grid(real, 64, bandwidths=window_bandwidths(real, 1))[1])
     assert not np.allclose(m.r_grid, rows.r_grid)  # windows matter
 

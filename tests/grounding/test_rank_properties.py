@@ -198,13 +198,13 @@ def test_an_unseen_class_leaves_the_weighted_pooled_map_as_it_was(balanced):
 
 
 def test_a_class_map_keeps_the_window_length_for_its_bandwidth():
-    from vsmp_imu.grounding.rank import _ChannelMap
+    from vsmp_imu.grounding.rank import ChannelMap
 
     rng = np.random.default_rng(8)
     syn, ys = _classes(rng, [-2.0, 2.0], [20, 20])
     real, yr = _classes(rng, [-1.0, 1.0], [20, 20])
     g = RankGrounder(per_class=True).fit(syn, real, ys, yr)
-    own = _ChannelMap(syn[ys == 0].reshape(-1, 1), real[yr == 0].reshape(-1, 1), g.n_quantiles, per_window=50)
+    own = ChannelMap(syn[ys == 0].reshape(-1, 1), real[yr == 0].reshape(-1, 1), g.n_quantiles, per_window=50)
     assert np.array_equal(g.per_class_[0].r_grid, own.r_grid)
 
 

@@ -188,6 +188,9 @@ SIDE_EVIDENCE = typer.Option(True, "--side-evidence/--no-side-evidence",
 TEXTURE = typer.Option(True, "--texture/--no-texture",
                        help="add the 3-12 Hz movement texture procedural motion lacks, in proportion to each "
                             "sample's own motion, by ratios fitted on the real training windows (VSMP-IMU)")
+WINDOW_LEVELS = typer.Option(True, "--window-levels/--no-window-levels",
+                             help="shift each transition's windows so that their means follow its real "
+                                  "training windows' (classes with 20 real windows or more)")
 POOLED_CALIBRATION = typer.Option(
     True, "--pooled-calibration/--no-pooled-calibration",
     help="sim-in-the-loop for a class with no real training windows (an unseen class) against the other "

@@ -20,6 +20,7 @@ from vsmp_imu.cli.common import (
     SIDE_EVIDENCE,
     TEXTURE,
     UNSEEN_INTENSITY,
+    WINDOW_LEVELS,
     K,
     console,
     executor_options,
@@ -62,6 +63,7 @@ def generate_cmd(
     gravity_norm: bool = GRAVITY_NORM,
     motion_fit: bool = MOTION_FIT,
     texture: bool = TEXTURE,
+    window_levels: bool = WINDOW_LEVELS,
     pooled_calibration: bool = POOLED_CALIBRATION,
     nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
     unseen_intensity: str = UNSEEN_INTENSITY,
@@ -86,6 +88,7 @@ def generate_cmd(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, sim_in_the_loop=not no_sim_loop,
         rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
+        window_levels=window_levels,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
         unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
         event_durations=event_durations, cadence=cadence,
@@ -131,6 +134,11 @@ def _print_summary(summary: dict) -> None:
             ratios = ", ".join(f"{k:.2f}" for k in tex["pooled"])
             console.print(f"movement texture at {name}: 3-12 Hz / 0.3-3 Hz ratio per channel {ratios} (all "
                           f"classes), a class's own for {len(tex['classes'])} classes", highlight=False)
+    for name, levels in summary.get("window_levels", {}).items():
+        mapped = ", ".join(f"{c} ({v['real_windows']})" for c, v in levels["classes"].items()) or "none"
+        few = ", ".join(f"{c} ({k})" for c, k in levels["too_few"].items())
+        console.print(f"window levels at {name}: mapped {mapped}" + (f"; too few real windows: {few}" if few else ""),
+                      highlight=False)
     for name, records in summary.get("side_evidence", {}).items():
         for rec in records:
             console.print(f"side {name}: {side_text(rec)}", highlight=False)

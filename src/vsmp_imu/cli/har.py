@@ -24,6 +24,7 @@ from vsmp_imu.cli.common import (
     SIDE_EVIDENCE,
     TEXTURE,
     UNSEEN_INTENSITY,
+    WINDOW_LEVELS,
     K,
     console,
     executor_options,
@@ -160,6 +161,7 @@ def evaluate_cmd(
     gravity_norm: bool = GRAVITY_NORM,
     motion_fit: bool = MOTION_FIT,
     texture: bool = TEXTURE,
+    window_levels: bool = WINDOW_LEVELS,
     pooled_calibration: bool = POOLED_CALIBRATION,
     nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
     unseen_intensity: str = UNSEEN_INTENSITY,
@@ -213,6 +215,7 @@ def evaluate_cmd(
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
+        window_levels=window_levels,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
         unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
         event_durations=event_durations, cadence=cadence,

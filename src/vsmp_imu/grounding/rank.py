@@ -120,7 +120,7 @@ def _kernel_smoothed(grid: np.ndarray, probs: np.ndarray, h: float) -> np.ndarra
     return smooth
 
 
-class _ChannelMap:
+class ChannelMap:
     """One pair (F_v, G_r^-1) for C channels, both kernel-smoothed with the same bandwidth
     relative to their spread, from real windows of `per_window` samples (`window_bandwidths`)."""
 
@@ -201,17 +201,17 @@ class RankGrounder:
         if labelled and unseen:  # no sort of the per-sample labels when no class is named
             unseen = (unseen & set(np.unique(syn_lab).tolist())) - set(np.unique(rea_lab).tolist())
             self.unmapped_ = self.unmapped_ | unseen
-        self.per_class_: dict[int, _ChannelMap] = {}
+        self.per_class_: dict[int, ChannelMap] = {}
         if self.per_class:
             for cls in np.intersect1d(np.unique(syn_lab), np.unique(rea_lab)):
                 s, r = syn[syn_lab == cls], rea[rea_lab == cls]
                 if min(len(s), len(r)) >= self.min_class_samples:
-                    self.per_class_[int(cls)] = _ChannelMap(s, r, self.n_quantiles, threads=self.threads,
+                    self.per_class_[int(cls)] = ChannelMap(s, r, self.n_quantiles, threads=self.threads,
                                                             per_window=per_window)
         return self
 
     def _pooled_map(self, syn: np.ndarray, rea: np.ndarray, syn_lab: np.ndarray | None,
-                    rea_lab: np.ndarray | None, per_window: int) -> _ChannelMap:
+                    rea_lab: np.ndarray | None, per_window: int) -> ChannelMap:
         """The pooled pair, F_v from the synthetic classes the real data has (class-balanced);
         sets `unmapped_` when it has none of them."""
         self.unmapped_: frozenset[int] = frozenset()
@@ -224,7 +224,7 @@ class RankGrounder:
                 syn, weights = syn[known], None if weights is None else weights[known]
             elif not known.any():  # nothing learns how synthetic values become real ones
                 self.unmapped_ = frozenset(int(c) for c in np.unique(syn_lab))
-        return _ChannelMap(syn, rea, self.n_quantiles, weights, self.threads, per_window)
+        return ChannelMap(syn, rea, self.n_quantiles, weights, self.threads, per_window)
 
     def transform(self, x: np.ndarray, labels: np.ndarray | None = None) -> np.ndarray:
         """Ground windows (N, T, C), or rows (N, C) with N labels (any (..., C) array when

@@ -65,6 +65,7 @@ from vsmp_imu.grounding.intensity import (
     spread_channels,
     spread_intensity,
 )
+from vsmp_imu.grounding.levels import LevelMap
 from vsmp_imu.grounding.mounting import estimate_mounting
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.split import stat_rank_split
@@ -668,6 +669,31 @@ def window(info: DatasetInfo, ok: list[SampleResult], grounded: list[dict[str, n
     return WindowSet(np.stack(xs).astype(np.float32), np.array(ys, dtype=np.int64), records)
 
 
+def level_windows(spec: GenerationSpec, info: DatasetInfo, windows: WindowSet, d_rank: Windows) -> dict:
+    """Stage 5b: each event class's windows shifted so that their means follow D_rank's windows of
+    that class (grounding.levels), per location, in place. Returns per location the classes mapped
+    (real windows, mean absolute shift per channel) and those left alone for want of real windows."""
+    events = np.flatnonzero(info.share_vector() < 1.0)
+    n = len(windows.X)
+    if not spec.window_levels or n == 0 or len(events) == 0:
+        return {}
+    X, summary = windows.X.astype(np.float64), {}
+    for loc in info.locations:
+        worn = np.array([loc.name in r.locations for r in windows.records[:n]], dtype=bool)
+        if not worn.any():
+            continue
+        cols = channel_index(info, loc)
+        part = X[worn]
+        levels = LevelMap().fit(part[..., cols], windows.y[worn], d_rank.X[..., cols], d_rank.y, events)
+        part[..., cols] = levels.transform(part[..., cols], windows.y[worn])
+        X[worn] = part
+        names = info.label_names
+        summary[loc.name] = {"classes": {names[c]: v for c, v in levels.classes_.items()},
+                             "too_few": {names[c]: k for c, k in levels.skipped_.items()}}
+    windows.X = X.astype(np.float32)
+    return summary
+
+
 def failed_records(info: DatasetInfo, results: list[SampleResult]) -> list[WindowRecord]:
     """A record per sample that failed or gave no signal."""
     return [WindowRecord(r.key, info.label_names[r.label_index], None, r.provenance, error=r.error, kept=False)
@@ -901,6 +927,7 @@ class FoldGenerator:
             ok = [r for r in results if not r.error and r.signals]
             grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads, unseen)  # F_v: all so far
             windows = window(info, ok, grounded, length, hop)
+            levels = level_windows(spec, info, windows, setup.d_rank)
             windows.records += failed_records(info, results)
             keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads)
             keep = choose_timing(info, train, job, windows, keep, events_found, seed, fold, threads)
@@ -925,6 +952,8 @@ class FoldGenerator:
         summary = _summary(info, results, records, budget, out, tau, len(setup.d_stat), len(setup.d_rank))
         if rank_map:  # per location and class: its own map, the pooled one, or none (no evidence)
             summary["rank_map"] = rank_map
+        if levels:  # per location: the event classes whose window means were mapped, and those without evidence
+            summary["window_levels"] = levels
         if self.textures:  # per location: the ratios fitted on D_stat and which each class got
             summary["texture"] = texture_summary(info, self.textures, ok)
         if setup.nominal_sensor:  # unseen postures: no sim-in-the-loop (eta nominal)

@@ -96,6 +96,9 @@ class GenerationSpec:
     # sample's own 0.3-3 Hz motion by ratios fitted on D_stat (grounding.texture; docs/results.md)
     texture: bool = True
     rank_grounding: bool = True
+    # after windowing, each event class's window means mapped onto its real windows' means where it
+    # has real windows enough (grounding.levels; measured in docs/results.md, "Window levels")
+    window_levels: bool = True
     # one rank map per class where the class has real windows enough (RankGrounder's
     # min_class_samples), the pooled map otherwise (the paper's); measured in docs/results.md
     per_class_rank: bool = True

@@ -1,0 +1,87 @@
+"""Window levels: an event class's synthetic windows shifted so that their means follow the real ones.
+
+The rank map (grounding.rank) matches a class's sample values, pooled over its windows. For an
+event (a transition, whose windows need only a share of the window inside the label: the
+dataset's `min_share`) that is not enough: what a window averages, the gravity direction between
+the two postures and how far into either it reaches, depends on where the window falls in the
+event, and the synthetic events fall differently from the real ones. On HAPT12 a synthetic lying
+transition window's accelerometer mean sat about 1 m/s^2 per axis away from where the real
+windows' means put it (docs/results.md, "Window levels").
+
+`LevelMap` fits, per event class with at least `MIN_WINDOWS` real windows, one monotone map per
+channel from the synthetic windows' means to the real windows' means (the rank map's
+kernel-smoothed pair, each window one value), and shifts every window of that class by its
+mapped mean minus its own: the window's course inside stays as it is. Classes whose windows are
+whole (steady activities), and classes with fewer real windows (low-resource budgets, unseen
+classes), keep their windows. On by default (`GenerationSpec.window_levels`; the baselines'
+chain does without).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.grounding.rank import DEFAULT_N_QUANTILES, ChannelMap
+
+# real windows an event class needs before its windows' means are mapped
+MIN_WINDOWS = 20
+
+
+@dataclass(eq=False, repr=False)
+class LevelMap:
+    """Per class, a map of the synthetic windows' per-channel means onto the real windows' means.
+
+    fit(synthetic, synthetic_labels, real, real_labels, classes): windows (N, T, C); only the
+    classes in `classes` (the event classes) are considered, each needing `min_windows` windows
+    on both sides. transform(X, y) shifts those classes' windows; the rest come back unchanged.
+    `classes_` holds, per mapped class, its real window count and mean absolute shift per channel
+    (fit's synthetic windows); `skipped_` the event classes left alone, with their real window count.
+    """
+
+    min_windows: int = MIN_WINDOWS
+    n_quantiles: int = DEFAULT_N_QUANTILES
+    maps_: dict[int, ChannelMap] = field(default_factory=dict, init=False)
+    classes_: dict[int, dict] = field(default_factory=dict, init=False)
+    skipped_: dict[int, int] = field(default_factory=dict, init=False)
+
+    def fit(self, synthetic: np.ndarray, synthetic_labels: np.ndarray, real: np.ndarray,
+            real_labels: np.ndarray, classes) -> LevelMap:
+        synthetic, real = _windows(synthetic, "synthetic"), _windows(real, "real")
+        if synthetic.shape[2] != real.shape[2]:
+            raise ValidationError(f"synthetic has {synthetic.shape[2]} channels but real has {real.shape[2]}",
+                                  field="channels")
+        syn_y, real_y = np.asarray(synthetic_labels), np.asarray(real_labels)
+        for cls in sorted({int(c) for c in classes}):
+            syn, rea = synthetic[syn_y == cls], real[real_y == cls]
+            if len(syn) == 0:
+                continue
+            if len(rea) < self.min_windows or len(syn) < self.min_windows:
+                self.skipped_[cls] = int(len(rea))
+                continue
+            means = syn.mean(axis=1)
+            self.maps_[cls] = ChannelMap(means, rea.mean(axis=1), self.n_quantiles)
+            shift = self.maps_[cls].apply(means) - means
+            self.classes_[cls] = {"real_windows": int(len(rea)),
+                                  "mean_abs_shift": np.abs(shift).mean(axis=0).round(4).tolist()}
+        return self
+
+    def transform(self, X: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Windows (N, T, C) with the mapped classes' windows shifted (float64)."""
+        X = np.array(_windows(X, "X"), dtype=np.float64)
+        y = np.asarray(y)
+        for cls, channel_map in self.maps_.items():
+            mask = y == cls
+            if mask.any():
+                means = X[mask].mean(axis=1)
+                X[mask] += (channel_map.apply(means) - means)[:, None, :]
+        return X
+
+
+def _windows(x: np.ndarray, name: str) -> np.ndarray:
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim != 3:
+        raise ValidationError(f"{name} must be windows (N, T, C), got shape {x.shape}", field=name)
+    return x

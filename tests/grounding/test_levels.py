@@ -1,0 +1,65 @@
+"""Window levels: an event class's window means mapped onto the real ones (grounding.levels)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.grounding.levels import MIN_WINDOWS, LevelMap
+
+
+def _windows(levels: np.ndarray, seed: int, n_t: int = 50, wiggle: float = 0.3) -> np.ndarray:
+    """Windows (N, T, 2) at the given per-window levels (N, 2), each with its own course inside."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 1, n_t)
+    course = wiggle * np.sin(2 * np.pi * (t[None, :, None] + rng.uniform(0, 1, (len(levels), 1, 2))))
+    return levels[:, None, :] + course
+
+
+def test_the_mapped_means_follow_the_real_ones_and_the_course_inside_stays():
+    rng = np.random.default_rng(0)
+    real = _windows(np.c_[rng.normal(-3.0, 1.0, 300), rng.normal(5.0, 0.5, 300)], seed=1)
+    syn = _windows(np.c_[rng.normal(1.0, 0.3, 200), rng.normal(2.0, 2.0, 200)], seed=2)
+    y_syn, y_real = np.full(200, 7), np.full(300, 7)
+    out = LevelMap().fit(syn, y_syn, real, y_real, classes=[7]).transform(syn, y_syn)
+    means = out.mean(axis=1)
+    # the synthetic means' quantiles now sit where the real means' do
+    for q in (0.1, 0.5, 0.9):
+        assert np.quantile(means, q, axis=0) == pytest.approx(np.quantile(real.mean(axis=1), q, axis=0), abs=0.3)
+    # a constant shift per window: what the window does inside it is untouched
+    assert np.allclose(out - means[:, None, :], syn - syn.mean(axis=1)[:, None, :])
+    # and the map is monotone per channel: the windows keep their order
+    for c in range(2):
+        assert (np.argsort(means[:, c]) == np.argsort(syn.mean(axis=1)[:, c])).all()
+
+
+def test_only_the_named_classes_with_evidence_enough_move():
+    rng = np.random.default_rng(3)
+    syn = _windows(rng.normal(0, 1, (90, 2)), seed=4)
+    y_syn = np.repeat([0, 1, 2], 30)
+    real = _windows(rng.normal(5, 1, (70, 2)), seed=5)
+    y_real = np.r_[np.zeros(30), np.ones(30), np.full(10, 2)].astype(int)  # class 2: too few real windows
+    levels = LevelMap().fit(syn, y_syn, real, y_real, classes=[1, 2])
+    out = levels.transform(syn, y_syn)
+    assert np.array_equal(out[y_syn == 0], syn[y_syn == 0])  # not an event class
+    assert np.array_equal(out[y_syn == 2], syn[y_syn == 2])  # 10 real windows < MIN_WINDOWS
+    assert not np.allclose(out[y_syn == 1], syn[y_syn == 1])
+    assert levels.skipped_ == {2: 10} and 10 < MIN_WINDOWS
+    assert set(levels.classes_) == {1} and levels.classes_[1]["real_windows"] == 30
+    assert levels.classes_[1]["mean_abs_shift"][0] > 3.0
+
+
+def test_a_class_without_real_windows_is_left_alone_and_said_so():
+    syn = _windows(np.zeros((30, 2)), seed=6)
+    real = _windows(np.ones((30, 2)), seed=7)
+    levels = LevelMap().fit(syn, np.full(30, 4), real, np.full(30, 0), classes=[4])
+    assert levels.skipped_ == {4: 0}
+    assert np.array_equal(levels.transform(syn, np.full(30, 4)), syn)
+
+
+def test_mismatched_channels_and_shapes_are_named():
+    with pytest.raises(ValidationError, match="channels"):
+        LevelMap().fit(np.zeros((30, 10, 2)), np.zeros(30), np.zeros((30, 10, 3)), np.zeros(30), classes=[0])
+    with pytest.raises(ValidationError, match="windows"):
+        LevelMap().fit(np.zeros((30, 2)), np.zeros(30), np.zeros((30, 10, 2)), np.zeros(30), classes=[0])
