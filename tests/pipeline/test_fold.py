@@ -452,3 +452,37 @@ def test_with_seen_intensity_a_class_with_real_windows_gets_the_spread_its_real_
     before, after = plain.generated[target][:, :, gyro], matched.generated[target][:, :, gyro]
     np.testing.assert_allclose(after.std(axis=1) / before.std(axis=1),
                                np.repeat(factors[target][:, None], len(gyro), axis=1), rtol=1e-3)
+
+
+def test_window_levels_move_a_transitions_window_means_onto_its_real_ones(hapt12):
+    """Stage 5b (grounding.levels) on the fold's windows: a transition with 20 or more D_rank windows
+    gets its window means mapped, one with fewer and a steady class keep theirs."""
+    from types import SimpleNamespace
+
+    from vsmp_imu.pipeline.fold import WindowSet, level_windows
+
+    info, windows = hapt12
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    d_rank = train[stat_rank_split(train.y, 0)[1]]
+    names = info.label_names
+    lie, stand_up, walk = names.index("STAND_TO_LIE"), names.index("SIT_TO_STAND"), names.index("WALKING")
+    assert (d_rank.y == lie).sum() >= 20 > (d_rank.y == stand_up).sum()
+    other = windows.where_subjects(["6", "7", "8", "9", "10"])
+    pick = np.isin(other.y, [lie, stand_up, walk])
+    X, y = other.X[pick].astype(np.float32), other.y[pick]
+    X[..., 0] += 3.0  # "synthetic" windows: other subjects' real windows, 3 m/s^2 off on one axis
+
+    def windowset():
+        return WindowSet(X.copy(), y, [SimpleNamespace(locations=["waist"]) for _ in y])
+
+    ws = windowset()
+    summary = level_windows(GenerationSpec(), info, ws, d_rank)
+    assert list(summary["waist"]["classes"]) == ["STAND_TO_LIE"]
+    assert summary["waist"]["too_few"] == {"SIT_TO_STAND": int((d_rank.y == stand_up).sum())}
+    real = d_rank.X[d_rank.y == lie, :, 0].mean()
+    assert abs(X[y == lie, :, 0].mean() - real) > 2.5
+    assert abs(ws.X[y == lie, :, 0].mean() - real) < 0.5
+    assert np.array_equal(ws.X[y != lie], X[y != lie])
+    off = windowset()
+    assert level_windows(GenerationSpec(window_levels=False), info, off, d_rank) == {}
+    assert np.array_equal(off.X, X)
