@@ -28,10 +28,12 @@ SPEC_FIELDS = frozenset(f.name for f in fields(GenerationSpec))
 KINDS = ("real", "augmentation", "baseline", "vsmp")
 VSMP_TARGET = "vsmp_imu.pipeline.method:VsmpMethod"
 # The baselines' chain: no refinement, no sim-in-the-loop (sensor or motion), declared mounting, no
-# movement texture, rank grounding without window levels, plausibility filter without the class validator, one variant per
-# description, no refill, no intensity spread or match, the SMPs' own timing and tempo.
+# movement texture, rank grounding without window levels, plausibility filter without the class
+# validator, one variant per description, no refill, no intensity spread or match, the SMPs' own
+# timing and tempo.
 BASELINE_CHAIN: dict[str, Any] = {"k": 1, "refine": False, "sim_in_the_loop": False, "motion_fit": False,
-                                  "side_evidence": False, "texture": False, "rank_grounding": True, "window_levels": False,
+                                  "side_evidence": False, "texture": False, "rank_grounding": True,
+                                  "window_levels": False,
                                   "estimate_mounting": False, "quality_filter": True, "class_filter": False,
                                   "refill": 0, "unseen_intensity": None, "seen_intensity": False,
                                   "event_durations": False, "cadence": False}

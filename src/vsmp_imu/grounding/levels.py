@@ -54,6 +54,7 @@ class LevelMap:
             raise ValidationError(f"synthetic has {synthetic.shape[2]} channels but real has {real.shape[2]}",
                                   field="channels")
         syn_y, real_y = np.asarray(synthetic_labels), np.asarray(real_labels)
+        self.maps_, self.classes_, self.skipped_ = {}, {}, {}  # a second fit starts afresh
         for cls in sorted({int(c) for c in classes}):
             syn, rea = synthetic[syn_y == cls], real[real_y == cls]
             if len(syn) == 0:

@@ -207,7 +207,7 @@ class RankGrounder:
                 s, r = syn[syn_lab == cls], rea[rea_lab == cls]
                 if min(len(s), len(r)) >= self.min_class_samples:
                     self.per_class_[int(cls)] = ChannelMap(s, r, self.n_quantiles, threads=self.threads,
-                                                            per_window=per_window)
+                                                           per_window=per_window)
         return self
 
     def _pooled_map(self, syn: np.ndarray, rea: np.ndarray, syn_lab: np.ndarray | None,
