@@ -63,3 +63,16 @@ def test_mismatched_channels_and_shapes_are_named():
         LevelMap().fit(np.zeros((30, 10, 2)), np.zeros(30), np.zeros((30, 10, 3)), np.zeros(30), classes=[0])
     with pytest.raises(ValidationError, match="windows"):
         LevelMap().fit(np.zeros((30, 2)), np.zeros(30), np.zeros((30, 10, 2)), np.zeros(30), classes=[0])
+
+
+def test_generate_prints_which_transitions_got_window_levels():
+    from vsmp_imu.cli.common import console
+    from vsmp_imu.cli.generate import _print_summary
+
+    summary = {"tau_cls": 0.5, "per_class": {}, "window_levels": {"waist": {
+        "classes": {"STAND_TO_LIE": {"real_windows": 23, "mean_abs_shift": [1.1, 0.7, 0.5, 0.1, 0.1, 0.1]}},
+        "too_few": {"SIT_TO_STAND": 11}}}}
+    with console.capture() as captured:
+        _print_summary(summary)
+    assert ("window levels at waist: mapped STAND_TO_LIE (23); too few real windows: SIT_TO_STAND (11)"
+            in " ".join(captured.get().split()))
