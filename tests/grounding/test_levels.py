@@ -122,10 +122,21 @@ def test_generate_prints_the_window_spread_factors():
     from vsmp_imu.cli.common import console
     from vsmp_imu.cli.generate import _print_summary
 
-    summary = {"tau_cls": 0.5, "per_class": {}, "window_levels": {"waist": {
-        "classes": {"SIT_TO_STAND": {"real_windows": 40, "mean_abs_shift": [0.1] * 2,
-                                     "median_spread_factor": [0.81, 1.2]}}, "too_few": {}}}}
+    summary = {"tau_cls": 0.5, "per_class": {}, "window_spreads": {"waist": {
+        "classes": {"SIT_TO_STAND": {"real_windows": 40, "median_spread_factor": [0.81, 1.2]}}, "too_few": {}}}}
     with console.capture() as captured:
         _print_summary(summary)
     assert "window spreads SIT_TO_STAND at waist: median factor per channel 0.81, 1.20" in " ".join(
         captured.get().split())
+
+
+def test_spreads_alone_leave_the_means_where_they_are():
+    rng = np.random.default_rng(14)
+    real = _spread_windows(rng.normal(5, 1, (100, 2)), rng.lognormal(0, 0.3, (100, 2)), seed=15)
+    syn = _spread_windows(rng.normal(0, 1, (100, 2)), rng.lognormal(1, 0.3, (100, 2)), seed=16)
+    y = np.zeros(100, int)
+    levels = LevelMap(spreads=True, means=False).fit(syn, y, real, y, classes=[0])
+    out = levels.transform(syn, y)
+    assert np.allclose(out.mean(axis=1), syn.mean(axis=1))
+    assert np.median(out.std(axis=1)) == pytest.approx(np.median(real.std(axis=1)), rel=0.15)
+    assert "mean_abs_shift" not in levels.classes_[0] and levels.maps_ == {}

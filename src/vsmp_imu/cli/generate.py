@@ -141,10 +141,10 @@ def _print_summary(summary: dict) -> None:
         few = ", ".join(f"{c} ({k})" for c, k in levels["too_few"].items())
         console.print(f"window levels at {name}: mapped {mapped}" + (f"; too few real windows: {few}" if few else ""),
                       highlight=False)
-        for c, v in levels["classes"].items():
-            if "median_spread_factor" in v:
-                factors = ", ".join(f"{f:.2f}" for f in v["median_spread_factor"])
-                console.print(f"window spreads {c} at {name}: median factor per channel {factors}", highlight=False)
+    for name, spreads in summary.get("window_spreads", {}).items():
+        for c, v in spreads["classes"].items():
+            factors = ", ".join(f"{f:.2f}" for f in v["median_spread_factor"])
+            console.print(f"window spreads {c} at {name}: median factor per channel {factors}", highlight=False)
     for name, records in summary.get("side_evidence", {}).items():
         for rec in records:
             console.print(f"side {name}: {side_text(rec)}", highlight=False)

@@ -54,6 +54,7 @@ class LevelMap:
     min_windows: int = MIN_WINDOWS
     n_quantiles: int = DEFAULT_N_QUANTILES
     spreads: bool = False
+    means: bool = True  # False: the spreads alone (windows whose means were mapped already)
     maps_: dict[int, ChannelMap] = field(default_factory=dict, init=False)
     spread_maps_: dict[int, ChannelMap] = field(default_factory=dict, init=False)
     classes_: dict[int, dict] = field(default_factory=dict, init=False)
@@ -74,11 +75,12 @@ class LevelMap:
             if len(rea) < self.min_windows or len(syn) < self.min_windows:
                 self.skipped_[cls] = int(len(rea))
                 continue
-            means = syn.mean(axis=1)
-            self.maps_[cls] = ChannelMap(means, rea.mean(axis=1), self.n_quantiles)
-            shift = self.maps_[cls].apply(means) - means
-            self.classes_[cls] = {"real_windows": int(len(rea)),
-                                  "mean_abs_shift": np.abs(shift).mean(axis=0).round(4).tolist()}
+            self.classes_[cls] = {"real_windows": int(len(rea))}
+            if self.means:
+                means = syn.mean(axis=1)
+                self.maps_[cls] = ChannelMap(means, rea.mean(axis=1), self.n_quantiles)
+                shift = self.maps_[cls].apply(means) - means
+                self.classes_[cls]["mean_abs_shift"] = np.abs(shift).mean(axis=0).round(4).tolist()
             if self.spreads:
                 self.spread_maps_[cls] = ChannelMap(syn.std(axis=1), rea.std(axis=1), self.n_quantiles)
                 factor = self._spread_factor(cls, syn.std(axis=1))
@@ -94,7 +96,7 @@ class LevelMap:
         deviations scaled first (float64)."""
         X = np.array(_windows(X, "X"), dtype=np.float64)
         y = np.asarray(y)
-        for cls, channel_map in self.maps_.items():
+        for cls in self.classes_:
             mask = y == cls
             if mask.any():
                 part = X[mask]
@@ -102,7 +104,9 @@ class LevelMap:
                 if cls in self.spread_maps_:
                     factor = self._spread_factor(cls, part.std(axis=1))
                     part = means[:, None, :] + (part - means[:, None, :]) * factor[:, None, :]
-                X[mask] = part + (channel_map.apply(means) - means)[:, None, :]
+                if cls in self.maps_:
+                    part = part + (self.maps_[cls].apply(means) - means)[:, None, :]
+                X[mask] = part
         return X
 
 
