@@ -33,7 +33,7 @@ VSMP_TARGET = "vsmp_imu.pipeline.method:VsmpMethod"
 # timing and tempo.
 BASELINE_CHAIN: dict[str, Any] = {"k": 1, "refine": False, "sim_in_the_loop": False, "motion_fit": False,
                                   "side_evidence": False, "texture": False, "rank_grounding": True,
-                                  "window_levels": False, "window_spreads": False,
+                                  "window_levels": False,
                                   "estimate_mounting": False, "quality_filter": True, "class_filter": False,
                                   "refill": 0, "unseen_intensity": None, "seen_intensity": False,
                                   "event_durations": False, "cadence": False}

@@ -486,34 +486,3 @@ def test_window_levels_move_a_transitions_window_means_onto_its_real_ones(hapt12
     off = windowset()
     assert level_windows(GenerationSpec(window_levels=False), info, off, d_rank) == {}
     assert np.array_equal(off.X, X)
-
-
-def test_window_spreads_bring_a_transitions_selected_windows_to_its_real_spread(hapt12):
-    """Stage 6c (`window_spreads`): a transition's selected windows, moving twice as vigorously as
-    real ones, come back to the real spread; its means, the unselected windows and the other
-    classes stay as they are; off by default."""
-    from types import SimpleNamespace
-
-    from vsmp_imu.pipeline.fold import spread_windows
-
-    info, windows = hapt12
-    train = windows.where_subjects(TRAIN_SUBJECTS)
-    d_rank = train[stat_rank_split(train.y, 0)[1]]
-    lie, walk = info.label_names.index("STAND_TO_LIE"), info.label_names.index("WALKING")
-    other = windows.where_subjects(["6", "7", "8", "9", "10"])
-    pick = np.isin(other.y, [lie, walk])
-    X, y = other.X[pick].astype(np.float32), other.y[pick]
-    means = X.mean(axis=1, keepdims=True)
-    X[y == lie] = (means + 2.0 * (X - means))[y == lie]
-    selected = np.ones(len(y), bool)
-    selected[np.flatnonzero(y == lie)[:3]] = False
-    records = [SimpleNamespace(locations=["waist"]) for _ in y]
-    assert spread_windows(GenerationSpec(), info, X, y, selected, records, d_rank) == (X, {})
-    out, summary = spread_windows(GenerationSpec(window_spreads=True), info, X, y, selected, records, d_rank)
-    factors = summary["waist"]["classes"]["STAND_TO_LIE"]["median_spread_factor"]
-    assert all(0.3 < f < 0.7 for f in factors)  # about a half: other subjects move a little differently
-    moved = selected & (y == lie)
-    real_sd = np.median(d_rank.X[d_rank.y == lie].std(axis=1), axis=0)
-    assert np.allclose(np.median(out[moved].std(axis=1), axis=0), real_sd, rtol=0.2)
-    assert np.allclose(out[moved].mean(axis=1), X[moved].mean(axis=1), atol=1e-4)
-    assert np.array_equal(out[~moved], X[~moved]) and out.dtype == np.float32

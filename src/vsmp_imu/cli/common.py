@@ -191,9 +191,6 @@ TEXTURE = typer.Option(True, "--texture/--no-texture",
 WINDOW_LEVELS = typer.Option(True, "--window-levels/--no-window-levels",
                              help="shift each transition's windows so that their means follow its real "
                                   "training windows' (classes with 20 real windows or more)")
-WINDOW_SPREADS = typer.Option(False, "--window-spreads/--no-window-spreads",
-                              help="with window levels, also scale each transition window's deviations from its "
-                                   "mean so that its spread follows its class's real windows'")
 POOLED_CALIBRATION = typer.Option(
     True, "--pooled-calibration/--no-pooled-calibration",
     help="sim-in-the-loop for a class with no real training windows (an unseen class) against the other "

@@ -21,7 +21,6 @@ from vsmp_imu.cli.common import (
     TEXTURE,
     UNSEEN_INTENSITY,
     WINDOW_LEVELS,
-    WINDOW_SPREADS,
     K,
     console,
     executor_options,
@@ -65,7 +64,6 @@ def generate_cmd(
     motion_fit: bool = MOTION_FIT,
     texture: bool = TEXTURE,
     window_levels: bool = WINDOW_LEVELS,
-    window_spreads: bool = WINDOW_SPREADS,
     pooled_calibration: bool = POOLED_CALIBRATION,
     nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
     unseen_intensity: str = UNSEEN_INTENSITY,
@@ -90,7 +88,7 @@ def generate_cmd(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, sim_in_the_loop=not no_sim_loop,
         rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
-        window_levels=window_levels, window_spreads=window_spreads,
+        window_levels=window_levels,
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
         unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
         event_durations=event_durations, cadence=cadence,
@@ -141,10 +139,6 @@ def _print_summary(summary: dict) -> None:
         few = ", ".join(f"{c} ({k})" for c, k in levels["too_few"].items())
         console.print(f"window levels at {name}: mapped {mapped}" + (f"; too few real windows: {few}" if few else ""),
                       highlight=False)
-    for name, spreads in summary.get("window_spreads", {}).items():
-        for c, v in spreads["classes"].items():
-            factors = ", ".join(f"{f:.2f}" for f in v["median_spread_factor"])
-            console.print(f"window spreads {c} at {name}: median factor per channel {factors}", highlight=False)
     for name, records in summary.get("side_evidence", {}).items():
         for rec in records:
             console.print(f"side {name}: {side_text(rec)}", highlight=False)

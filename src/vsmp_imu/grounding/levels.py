@@ -15,14 +15,6 @@ mapped mean minus its own: the window's course inside stays as it is. Classes wh
 whole (steady activities), and classes with fewer real windows (low-resource budgets, unseen
 classes), keep their windows. On by default (`GenerationSpec.window_levels`; the baselines'
 chain does without).
-
-With `spreads=True` (`GenerationSpec.window_spreads`, off by default) each mapped class gets a
-second monotone map per channel, from its synthetic windows' standard deviations (each window's
-spread about its own mean) to the real windows', and every window's deviations from its mean are
-scaled by its mapped spread over its own (the factor clipped to `SPREAD_BOUNDS`) before its mean
-is shifted: how vigorously a window moves follows the real windows of its class, window by
-window, while its course keeps its shape. One scale for the whole class does not do that
-(docs/results.md, "Window spreads").
 """
 
 from __future__ import annotations
@@ -36,7 +28,6 @@ from vsmp_imu.grounding.rank import DEFAULT_N_QUANTILES, ChannelMap
 
 # real windows an event class needs before its windows' means are mapped
 MIN_WINDOWS = 20
-SPREAD_BOUNDS = (0.25, 4.0)  # the factor a window's deviations from its mean may be scaled by
 
 
 @dataclass(eq=False, repr=False)
@@ -47,16 +38,12 @@ class LevelMap:
     classes in `classes` (the event classes) are considered, each needing `min_windows` windows
     on both sides. transform(X, y) shifts those classes' windows; the rest come back unchanged.
     `classes_` holds, per mapped class, its real window count and mean absolute shift per channel
-    (fit's synthetic windows), and with `spreads` the median spread factor per channel;
-    `skipped_` the event classes left alone, with their real window count.
+    (fit's synthetic windows); `skipped_` the event classes left alone, with their real window count.
     """
 
     min_windows: int = MIN_WINDOWS
     n_quantiles: int = DEFAULT_N_QUANTILES
-    spreads: bool = False
-    means: bool = True  # False: the spreads alone (windows whose means were mapped already)
     maps_: dict[int, ChannelMap] = field(default_factory=dict, init=False)
-    spread_maps_: dict[int, ChannelMap] = field(default_factory=dict, init=False)
     classes_: dict[int, dict] = field(default_factory=dict, init=False)
     skipped_: dict[int, int] = field(default_factory=dict, init=False)
 
@@ -67,7 +54,7 @@ class LevelMap:
             raise ValidationError(f"synthetic has {synthetic.shape[2]} channels but real has {real.shape[2]}",
                                   field="channels")
         syn_y, real_y = np.asarray(synthetic_labels), np.asarray(real_labels)
-        self.maps_, self.spread_maps_, self.classes_, self.skipped_ = {}, {}, {}, {}  # a second fit starts afresh
+        self.maps_, self.classes_, self.skipped_ = {}, {}, {}  # a second fit starts afresh
         for cls in sorted({int(c) for c in classes}):
             syn, rea = synthetic[syn_y == cls], real[real_y == cls]
             if len(syn) == 0:
@@ -75,38 +62,22 @@ class LevelMap:
             if len(rea) < self.min_windows or len(syn) < self.min_windows:
                 self.skipped_[cls] = int(len(rea))
                 continue
-            self.classes_[cls] = {"real_windows": int(len(rea))}
-            if self.means:
-                means = syn.mean(axis=1)
-                self.maps_[cls] = ChannelMap(means, rea.mean(axis=1), self.n_quantiles)
-                shift = self.maps_[cls].apply(means) - means
-                self.classes_[cls]["mean_abs_shift"] = np.abs(shift).mean(axis=0).round(4).tolist()
-            if self.spreads:
-                self.spread_maps_[cls] = ChannelMap(syn.std(axis=1), rea.std(axis=1), self.n_quantiles)
-                factor = self._spread_factor(cls, syn.std(axis=1))
-                self.classes_[cls]["median_spread_factor"] = np.median(factor, axis=0).round(4).tolist()
+            means = syn.mean(axis=1)
+            self.maps_[cls] = ChannelMap(means, rea.mean(axis=1), self.n_quantiles)
+            shift = self.maps_[cls].apply(means) - means
+            self.classes_[cls] = {"real_windows": int(len(rea)),
+                                  "mean_abs_shift": np.abs(shift).mean(axis=0).round(4).tolist()}
         return self
 
-    def _spread_factor(self, cls: int, spread: np.ndarray) -> np.ndarray:
-        mapped = self.spread_maps_[cls].apply(spread)
-        return np.clip(mapped / np.maximum(spread, 1e-12), *SPREAD_BOUNDS)
-
     def transform(self, X: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Windows (N, T, C) with the mapped classes' windows shifted, and with `spreads` their
-        deviations scaled first (float64)."""
+        """Windows (N, T, C) with the mapped classes' windows shifted (float64)."""
         X = np.array(_windows(X, "X"), dtype=np.float64)
         y = np.asarray(y)
-        for cls in self.classes_:
+        for cls, channel_map in self.maps_.items():
             mask = y == cls
             if mask.any():
-                part = X[mask]
-                means = part.mean(axis=1)
-                if cls in self.spread_maps_:
-                    factor = self._spread_factor(cls, part.std(axis=1))
-                    part = means[:, None, :] + (part - means[:, None, :]) * factor[:, None, :]
-                if cls in self.maps_:
-                    part = part + (self.maps_[cls].apply(means) - means)[:, None, :]
-                X[mask] = part
+                means = X[mask].mean(axis=1)
+                X[mask] += (channel_map.apply(means) - means)[:, None, :]
         return X
 
 

@@ -21,9 +21,7 @@ Stages:
    with tau_cls chosen by validation Macro-F1, redundancy); with
    `event_durations`, per such class its timed windows, its untimed ones or
    both, by a synthetic-only forest scored on the real training windows;
-6. the per-class budget taken from the retained windows; with `window_spreads`, each
-   event class's selected windows' per-channel spreads mapped onto its real windows'
-   (grounding.levels);
+6. the per-class budget taken from the retained windows;
 7. with `unseen_intensity`, an intensity factor for each selected window of a
    class without real training windows (grounding.intensity);
 8. with `seen_intensity`, an intensity factor for each selected window of a
@@ -696,32 +694,6 @@ def level_windows(spec: GenerationSpec, info: DatasetInfo, windows: WindowSet, d
     return summary
 
 
-def spread_windows(spec: GenerationSpec, info: DatasetInfo, X: np.ndarray, y: np.ndarray, selected: np.ndarray,
-                   records: list[WindowRecord], d_rank: Windows) -> tuple[np.ndarray, dict]:
-    """Stage 6c (`window_spreads`): each event class's selected windows get their deviations from
-    their means scaled so that their per-channel spreads follow D_rank's windows of that class
-    (grounding.levels, spreads alone), per location. Returns the windows and per location the
-    classes scaled (real windows, median factor per channel) and those left alone."""
-    events = np.flatnonzero(info.share_vector() < 1.0)
-    if not spec.window_spreads or not selected.any() or len(events) == 0:
-        return X, {}
-    X, summary = X.astype(np.float64), {}
-    for loc in info.locations:
-        worn = selected & np.array([loc.name in r.locations for r in records[: len(X)]], dtype=bool)
-        if not worn.any():
-            continue
-        cols = channel_index(info, loc)
-        part = X[worn]
-        spreads = LevelMap(spreads=True, means=False).fit(part[..., cols], y[worn], d_rank.X[..., cols], d_rank.y,
-                                                          events)
-        part[..., cols] = spreads.transform(part[..., cols], y[worn])
-        X[worn] = part
-        names = info.label_names
-        summary[loc.name] = {"classes": {names[c]: v for c, v in spreads.classes_.items()},
-                             "too_few": {names[c]: k for c, k in spreads.skipped_.items()}}
-    return X.astype(np.float32), summary
-
-
 def failed_records(info: DatasetInfo, results: list[SampleResult]) -> list[WindowRecord]:
     """A record per sample that failed or gave no signal."""
     return [WindowRecord(r.key, info.label_names[r.label_index], None, r.provenance, error=r.error, kept=False)
@@ -971,7 +943,6 @@ class FoldGenerator:
         selected = select(info, X, y, keep, budget, seed, fold)
         for i, rec in enumerate(records[: len(X)]):
             rec.selected = bool(selected[i])
-        X, spreads = spread_windows(spec, info, X, y, selected, records, setup.d_rank)
         X, spread = spread_unseen(spec, info, X, y, selected, records, unseen, seed, fold)
         X, matched = match_seen(spec, info, train, X, y, selected, records, unseen, seed, fold)
         out = Windows(X[selected], y[selected], np.full(int(selected.sum()), "synthetic"),
@@ -983,8 +954,6 @@ class FoldGenerator:
             summary["rank_map"] = rank_map
         if levels:  # per location: the event classes whose window means were mapped, and those without evidence
             summary["window_levels"] = levels
-        if spreads:  # per location: the event classes whose selected windows' spreads were mapped
-            summary["window_spreads"] = spreads
         if self.textures:  # per location: the ratios fitted on D_stat and which each class got
             summary["texture"] = texture_summary(info, self.textures, ok)
         if setup.nominal_sensor:  # unseen postures: no sim-in-the-loop (eta nominal)

@@ -99,10 +99,6 @@ class GenerationSpec:
     # after windowing, each event class's window means mapped onto its real windows' means where it
     # has real windows enough (grounding.levels; measured in docs/results.md, "Window levels")
     window_levels: bool = True
-    # with window levels, each mapped window's deviations from its mean also scaled so that its
-    # spread follows its class's real windows' (grounding.levels; measured in docs/results.md,
-    # "Window spreads")
-    window_spreads: bool = False
     # one rank map per class where the class has real windows enough (RankGrounder's
     # min_class_samples), the pooled map otherwise (the paper's); measured in docs/results.md
     per_class_rank: bool = True
