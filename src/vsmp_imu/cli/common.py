@@ -220,8 +220,8 @@ CADENCE = typer.Option(
     help="every synthetic sample of a gait (walking, stairs) whose class has real training windows steps at "
          "the step rate of one of its class's real windows (the peak of the accelerometer magnitude's "
          "spectrum), instead of the SMP's tempo")
-K = typer.Option(4, "--k", min=1, max=64,
-                 help="SMP variants per base SMP for a class with real training windows (the paper's K)")
+K = typer.Option(16, "--k", min=1, max=64,
+                 help="SMP variants per base SMP for a class with real training windows (the paper's K is 4)")
 K_UNSEEN = typer.Option(
     16, "--k-unseen", min=1, max=64,
     help="SMP variants per base SMP for a class with no real training windows (an unseen class, whose "
