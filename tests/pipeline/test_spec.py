@@ -62,6 +62,13 @@ def test_every_spec_field_is_an_option_or_named_as_fixed():
     assert set(EVALUATE_OPTIONS.values()) <= _options("evaluate")
 
 
+@pytest.mark.parametrize("command", ["generate", "evaluate"])
+def test_the_variant_counts_default_to_the_spec(command):
+    click_app = typer.main.get_command(app)
+    defaults = {p.name: p.default for p in click_app.commands[command].params}
+    assert (defaults["k"], defaults["k_unseen"]) == (GenerationSpec().k, GenerationSpec().k_unseen) == (16, 16)
+
+
 @pytest.mark.parametrize("name", ["noise", "hop_fraction", "refill"])
 def test_a_pipeline_field_reaches_the_methods_without_registry_edits(name):
     value = {"noise": False, "hop_fraction": 0.25, "refill": 2}[name]
@@ -79,7 +86,7 @@ def test_method_params_keep_the_recorded_shape():
     """The parameters an evaluation records for its methods (their settings digest) are those
     of the earlier per-method dicts: the options, the variant name or the baselines' k = 1."""
     spec = GenerationSpec(cache_dir="c")
-    options = {"source": "library", "k": 4, "backend": "procedural", "per_class_rank": True, "library_dirs": (),
+    options = {"source": "library", "k": 16, "backend": "procedural", "per_class_rank": True, "library_dirs": (),
                "workers": 1, "executor": "local", "address": None, "cache_dir": "c"}
     assert REGISTRY["vsmp-class-rank"].params(spec) == {**options, "variant": "vsmp-class-rank"}
     # a variant's switch is what its records say, not the spec's value

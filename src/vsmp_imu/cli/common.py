@@ -15,7 +15,7 @@ from rich.errors import MarkupError
 from rich.segment import Segment
 
 from vsmp_imu.errors import ConfigError, VsmpError
-from vsmp_imu.pipeline.spec import INTENSITY
+from vsmp_imu.pipeline.spec import INTENSITY, GenerationSpec
 
 
 def parse_csv(value: str, allowed: tuple[str, ...] | None = None, option: str = "") -> list[str]:
@@ -220,10 +220,10 @@ CADENCE = typer.Option(
     help="every synthetic sample of a gait (walking, stairs) whose class has real training windows steps at "
          "the step rate of one of its class's real windows (the peak of the accelerometer magnitude's "
          "spectrum), instead of the SMP's tempo")
-K = typer.Option(16, "--k", min=1, max=64,
+K = typer.Option(GenerationSpec.k, "--k", min=1, max=64,
                  help="SMP variants per base SMP for a class with real training windows (the paper's K is 4)")
 K_UNSEEN = typer.Option(
-    16, "--k-unseen", min=1, max=64,
+    GenerationSpec.k_unseen, "--k-unseen", min=1, max=64,
     help="SMP variants per base SMP for a class with no real training windows (an unseen class, whose "
          "samples rest on its SMP alone; --k for the others)")
 MOTION_FIT = typer.Option(False, "--motion-fit",
