@@ -57,7 +57,11 @@ def _timed(args) -> float:
 
 
 def _kill_repeatedly(make_args, dataset, out, n_kills: int, t_max: float, seed: int) -> list[float]:
-    """SIGKILL n_kills runs at random times in (0.05 s, t_max); runs that finish first do not count."""
+    """SIGKILL n_kills runs at random times in (0.05 s, t_max); runs that finish first do not count.
+
+    A run that finishes leaves nothing to resume (every later run would end at once, on a loaded
+    machine before its kill): its folder is cleared, and the kills start a new chain on it.
+    """
     rng = random.Random(seed)
     kills: list[float] = []
     for _ in range(6 * n_kills):
@@ -66,6 +70,8 @@ def _kill_repeatedly(make_args, dataset, out, n_kills: int, t_max: float, seed: 
         at = rng.uniform(0.05, t_max)
         if kill_at(make_args(dataset, out, rng.choice((1, 2))), at):
             kills.append(at)
+        else:
+            shutil.rmtree(out)
     assert len(kills) == n_kills, f"only {len(kills)} of {n_kills} runs were still running when killed"
     return kills
 
