@@ -110,7 +110,11 @@ def test_eval_config_budgets_follow_the_protocol():
     assert EvalConfig("x", protocol="low-resource").check().budgets == (1.0, 5.0, 10.0, 25.0, 50.0)
     assert EvalConfig("x", protocol="low-resource", budgets=(5,)).check().budgets == (5.0,)
     assert EvalConfig("x", protocol="long-tail").check().budgets == (None,)
-    with pytest.raises(ConfigError, match="low-resource protocol only"):
+    assert EvalConfig("x", protocol="tstr").check().budgets == (None,)  # every window grounds
+    assert EvalConfig("x", protocol="tstr", budgets=(5, 1)).check().budgets == (5.0, 1.0)
+    with pytest.raises(ConfigError, match="low-resource and tstr protocols only"):
         EvalConfig("x", protocol="lopo", budgets=(5.0,)).check()
+    with pytest.raises(ConfigError, match="out of range"):
+        EvalConfig("x", protocol="tstr", budgets=(150.0,)).check()
     with pytest.raises(ConfigError, match="out of range"):
         EvalConfig("x", protocol="low-resource", budgets=(0.0,)).check()

@@ -14,6 +14,7 @@ from vsmp_imu.errors import ValidationError
 from vsmp_imu.har.backbones import BACKBONES, RandomForestECDF
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
 from vsmp_imu.har.protocols import split_fold
+from vsmp_imu.har.report import results_markdown
 from vsmp_imu.har.synthetic import METHODS, FoldContext
 from vsmp_imu.har.windows import Windows
 
@@ -104,6 +105,37 @@ def test_the_model_trains_on_synthetic_windows_only(recording, tiny_dataset, hel
     assert len(context.train) == n_train and context.protocol == "tstr"
 
 
+def _rows(windows: Windows) -> set[bytes]:
+    return {x.tobytes() + bytes([int(y)]) for x, y in zip(windows.X, windows.y, strict=True)}
+
+
+def test_a_label_budget_draws_the_windows_low_resource_draws(tiny_dataset):
+    """tstr at 40 %: the pool low-resource draws at the same seed, fold and budget (its fit and
+    validation subjects together), all of it for the synthetic source."""
+    windows = tiny_dataset.windows(2.0, 0.5)
+    tstr = split_fold(windows, "3", "tstr", seed=1, budget_percent=40)
+    low = split_fold(windows, "3", "low-resource", seed=1, budget_percent=40)
+    assert tstr.val_subjects == () and len(tstr.val) == 0
+    assert _rows(tstr.fit) == _rows(low.fit) | _rows(low.val)
+    assert len(tstr.fit) == len(low.fit) + len(low.val) < len(split_fold(windows, "3", "tstr", seed=1).fit)
+    assert _rows(tstr.test) == _rows(low.test)
+
+
+def test_tstr_with_a_label_budget(recording, tiny_dataset):
+    config = EvalConfig(dataset="tiny", protocol="tstr", budgets=(40.0,), backbones=("rec-rf",),
+                        methods=("real", "marked"), folds=("2",), alpha=2.0,
+                        backbone_params={"rec-rf": {"n_estimators": 5, "n_jobs": 1}})
+    results = Evaluation(config, tiny_dataset).run()
+    records = {r["method"]: r for r in results.records}
+    pool = split_fold(tiny_dataset.windows(2.0, 0.5), "2", "tstr", seed=0, budget_percent=40).fit
+    (context,) = CONTEXTS
+    assert _rows(context.train) == _rows(pool) and context.label_budget == 40.0
+    assert records["real"]["n_train_real"] == len(pool) == FITS[0]["n"]  # TRTR on the budget's windows
+    assert records["marked"]["n_synthetic_requested"] == 2 * len(pool) and records["marked"]["n_train_real"] == 0
+    assert {r["budget"] for r in results.records} == {40.0}
+    assert "### 40 % of the labels" in results_markdown(results.to_json())
+
+
 def test_alpha_sets_the_synthetic_training_set(recording, tiny_dataset):
     results = Evaluation(_config("2", methods=("marked",), alpha=0.5), tiny_dataset).run()
     (record,) = results.records
@@ -152,7 +184,7 @@ def test_the_budget_defaults_follow_the_protocol(protocol, given, expected):
 
 
 @pytest.mark.parametrize("args,option,allowed", [
-    (("--protocol", "tstr", "--budgets", "5"), "--budgets", "low-resource"),
+    (("--protocol", "long-tail", "--budgets", "5"), "--budgets", "low-resource or tstr"),
     (("--protocol", "tsrt"), "--protocol", "tstr"),
 ])
 def test_tstr_option_errors_exit_2(cli, tmp_path, args, option, allowed):

@@ -107,7 +107,8 @@ def evaluate_cmd(
              "group such as transitions), or 'each' for leave-one-class-out",
     ),
     budgets: str = typer.Option(
-        None, "--budgets", help="label budgets in percent for low-resource (default 1,5,10,25,50)"
+        None, "--budgets", help="label budgets in percent for low-resource (default 1,5,10,25,50) "
+                                "and tstr (default: every window grounds the synthetic ones)"
     ),
     backbones: str = typer.Option("rf", "--backbones", help="rf,rf-seg,dclstm,dclstm-attn,bilstm-attn"),
     methods: str = typer.Option(

@@ -36,6 +36,7 @@ from vsmp_imu.har.noharm import (
     take_shares,
 )
 from vsmp_imu.har.protocols import (
+    BUDGETED,
     DEFAULT_BUDGETS,
     DEFAULT_RHO,
     DEFAULT_VAL_FRACTION,
@@ -121,24 +122,21 @@ class EvalConfig:
     synthetic_weight: float | None = None
 
     def __post_init__(self) -> None:
-        """Normalise the budgets: (None,) outside low-resource, the default budgets when none are
-        given, else the parsed percentages (a budget outside low-resource is left for `check`)."""
-        if self.protocol != "low-resource":
-            if all(b is None for b in self.budgets):
-                self.budgets = (None,)
-        elif self.budgets == (None,):
-            self.budgets = DEFAULT_BUDGETS
-        else:
+        """Normalise the budgets: none given is the default budgets for low-resource and (None,)
+        elsewhere; given ones are parsed where a protocol takes them (others are left for `check`)."""
+        if all(b is None for b in self.budgets):
+            self.budgets = DEFAULT_BUDGETS if self.protocol == "low-resource" else (None,)
+        elif self.protocol in BUDGETED:
             self.budgets = parse_budgets(",".join(f"{b:g}" for b in self.budgets), self.protocol)
 
     def check(self) -> EvalConfig:
         """Validate the settings (changes nothing); returns self."""
         check_protocol(self.protocol, field="--protocol")
-        if self.protocol != "low-resource" and any(b is not None for b in self.budgets):
+        if self.protocol not in BUDGETED and any(b is not None for b in self.budgets):
             raise ConfigError(
-                "label budgets apply to the low-resource protocol only",
+                "label budgets apply to the low-resource and tstr protocols only",
                 field="--budgets",
-                allowed="use --protocol low-resource",
+                allowed="use --protocol low-resource or tstr",
             )
         if self.unseen and self.protocol != "unseen":
             raise ConfigError("unseen classes apply to the unseen protocol only", field="--unseen",

@@ -2,7 +2,8 @@
 long-tail and `unseen` (classes with no real training window); validation subjects
 drawn from the training subjects of each fold. `tstr` (train on synthetic, test on
 real) splits as `lopo` without validation subjects: the synthetic source sees every
-training subject, and the model trains on its windows only."""
+training subject, and the model trains on its windows only; with a label budget the
+source sees the same share of each class's windows as low-resource would."""
 
 from __future__ import annotations
 
@@ -21,6 +22,8 @@ PROTOCOLS = ("lopo", "low-resource", "long-tail", "unseen", "tstr")
 EACH_CLASS = "each"
 # Label budgets of the low-resource protocol, percent of labelled training windows.
 DEFAULT_BUDGETS = (1.0, 5.0, 10.0, 25.0, 50.0)
+# Protocols that take label budgets (tstr: none by default, the whole pool).
+BUDGETED = ("low-resource", "tstr")
 # Maximum head-to-tail imbalance ratio of the long-tail protocol.
 DEFAULT_RHO = 10.0
 DEFAULT_VAL_FRACTION = 0.2
@@ -135,7 +138,7 @@ def split_fold(
     """The windows of one LOPO fold under a protocol.
 
     1. test = the held-out subject's windows; the pool = every other subject's.
-    2. The protocol subsamples the pool (low-resource: budget% per class;
+    2. The protocol subsamples the pool (low-resource, and tstr with a budget: budget% per class;
        long-tail: n_r per class rank), seeded per (seed, fold, budget);
        unseen: every window of the `unseen` classes leaves the pool.
     3. Validation subjects are drawn from the pool's subjects; fit = the rest
@@ -149,7 +152,7 @@ def split_fold(
     pool = windows.where_subjects([fold], keep=False)
     head = tail = None
     counts = pool.class_counts()
-    if protocol == "low-resource":
+    if protocol == "low-resource" or (protocol == "tstr" and budget_percent is not None):
         if budget_percent is None or not 0 < budget_percent <= 100:
             raise ConfigError(
                 f"label budget {budget_percent} out of range",
@@ -210,8 +213,9 @@ def resolve_unseen(
 
 
 def parse_budgets(text: str | None, protocol: str) -> tuple[float | None, ...]:
-    """Budgets for a protocol: percent values for low-resource, (None,) otherwise."""
-    if protocol != "low-resource":
+    """Budgets for a protocol: percent values for low-resource (the defaults when none are given)
+    and for tstr (none given: the whole pool, (None,)); (None,) otherwise."""
+    if protocol not in BUDGETED or (protocol == "tstr" and not text):
         return (None,)
     if not text:
         return DEFAULT_BUDGETS

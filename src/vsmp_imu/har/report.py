@@ -88,7 +88,7 @@ def results_markdown(results: dict[str, Any]) -> str:
             elif protocol == "unseen":
                 parts.append(_unseen(rows, config))
             else:
-                parts.append(_standard(rows, config))
+                parts.append(_by_budget(rows, config))
             parts.append("")
             delivered = _synthetic_counts(rows, config)
             if delivered:
@@ -113,6 +113,15 @@ def _synthetic_counts(rows: list[dict[str, Any]], config: dict[str, Any]) -> str
                         f"{r['n_synthetic_requested_mean']:.0f}", f"{100 * share:.0f} %"])
     header = ["Backbone", "Budget", "Method", "Synthetic windows per run", "Asked for", "Delivered"]
     return "Synthetic windows mixed in (mean per run):\n\n" + _table(header, out)
+
+
+def _by_budget(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
+    """`_standard`, one table per label budget where rows have one (tstr with `--budgets`)."""
+    budgets = list(dict.fromkeys(r.get("budget") for r in rows))
+    if budgets == [None]:
+        return _standard(rows, config)
+    return "\n\n".join(f"### {'all labels' if b is None else f'{b:g} % of the labels'}\n\n"
+                         + _standard([r for r in rows if r.get("budget") == b], config) for b in budgets)
 
 
 def _standard(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
