@@ -39,15 +39,32 @@ def test_only_the_named_classes_with_evidence_enough_move():
     syn = _windows(rng.normal(0, 1, (90, 2)), seed=4)
     y_syn = np.repeat([0, 1, 2], 30)
     real = _windows(rng.normal(5, 1, (70, 2)), seed=5)
-    y_real = np.r_[np.zeros(30), np.ones(30), np.full(10, 2)].astype(int)  # class 2: too few real windows
+    y_real = np.r_[np.zeros(30), np.ones(30), np.full(10, 2)].astype(int)
+    y_real[-7:] = 3  # class 2 keeps 3 real windows: too few
     levels = LevelMap().fit(syn, y_syn, real, y_real, classes=[1, 2])
     out = levels.transform(syn, y_syn)
     assert np.array_equal(out[y_syn == 0], syn[y_syn == 0])  # not an event class
-    assert np.array_equal(out[y_syn == 2], syn[y_syn == 2])  # 10 real windows < MIN_WINDOWS
+    assert np.array_equal(out[y_syn == 2], syn[y_syn == 2])  # 3 real windows < MIN_WINDOWS
     assert not np.allclose(out[y_syn == 1], syn[y_syn == 1])
-    assert levels.skipped_ == {2: 10} and MIN_WINDOWS > 10
+    assert levels.skipped_ == {2: 3} and MIN_WINDOWS > 3
     assert set(levels.classes_) == {1} and levels.classes_[1]["real_windows"] == 30
     assert levels.classes_[1]["mean_abs_shift"][0] > 3.0
+
+
+def test_a_few_real_windows_move_the_means_to_their_level_and_no_further():
+    """A low-resource budget leaves an event class a handful of real windows (HAPT12 at 5 %: 5 to
+    11 per transition): the kernel-smoothed map moves the synthetic means to the real ones' level
+    and spreads them no wider than a few real windows' spread allows."""
+    rng = np.random.default_rng(8)
+    real_means = np.c_[rng.normal(-4.0, 0.5, MIN_WINDOWS), rng.normal(6.0, 0.5, MIN_WINDOWS)]
+    syn = _windows(np.c_[rng.normal(1.0, 0.3, 150), rng.normal(0.0, 1.0, 150)], seed=9)
+    levels = LevelMap().fit(syn, np.full(150, 5), _windows(real_means, seed=10), np.full(MIN_WINDOWS, 5), [5])
+    means = levels.transform(syn, np.full(150, 5)).mean(axis=1)
+    assert levels.classes_[5]["real_windows"] == MIN_WINDOWS
+    assert np.median(means, axis=0) == pytest.approx(np.median(real_means, axis=0), abs=0.5)
+    low, high = real_means.min(axis=0), real_means.max(axis=0)
+    span = high - low
+    assert (means >= low - span).all() and (means <= high + span).all()
 
 
 def test_a_class_without_real_windows_is_left_alone_and_said_so():
