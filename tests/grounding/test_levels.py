@@ -88,8 +88,8 @@ def test_generate_prints_which_transitions_got_window_levels():
 
     summary = {"tau_cls": 0.5, "per_class": {}, "window_levels": {"waist": {
         "classes": {"STAND_TO_LIE": {"real_windows": 23, "mean_abs_shift": [1.1, 0.7, 0.5, 0.1, 0.1, 0.1]}},
-        "too_few": {"SIT_TO_STAND": 11}}}}
+        "too_few": {"SIT_TO_STAND": 3}}}}
     with console.capture() as captured:
         _print_summary(summary)
-    assert ("window levels at waist: mapped STAND_TO_LIE (23); too few real windows: SIT_TO_STAND (11)"
+    assert ("window levels at waist: mapped STAND_TO_LIE (23); too few real windows: SIT_TO_STAND (3)"
             in " ".join(captured.get().split()))
