@@ -19,6 +19,7 @@ from sklearn.neighbors import NearestNeighbors
 
 from vsmp_imu.executor import thread_map
 from vsmp_imu.filtering.verdict import Verdict
+from vsmp_imu.grounding import floors
 
 TAU_CANDIDATES = (0.50, 0.55, 0.60, 0.65, 0.70)
 TAU_DEFAULT = 0.60
@@ -99,7 +100,7 @@ def _normalize(z: np.ndarray) -> np.ndarray:
 
 
 def nn_thresholds(real_embeddings: np.ndarray, real_labels: np.ndarray,
-                  min_class_windows: int = 2) -> dict[int, float]:
+                  min_class_windows: int = floors.NN_MIN_WINDOWS) -> dict[int, float]:
     """tau_nn(y) per class.
 
     A class with fewer than `min_class_windows` real windows (a 5th percentile

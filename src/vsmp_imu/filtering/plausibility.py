@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vsmp_imu.filtering.verdict import Verdict
+from vsmp_imu.grounding import floors
 from vsmp_imu.motion import Motion
 from vsmp_imu.units import STANDARD_GRAVITY_M_S2
 
@@ -23,7 +24,7 @@ A_CAP = 6 * STANDARD_GRAVITY_M_S2  # 6 g = 58.84 m/s^2
 W_CAP = 35.0  # rad/s
 E_FLOOR = 1e-4
 MAX_STEP_FRACTION = 0.20
-MIN_CLASS_WINDOWS = 100
+MIN_CLASS_WINDOWS = floors.PLAUSIBILITY.floor
 
 
 def motion_energy(windows: np.ndarray) -> np.ndarray:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vsmp_imu.grounding import floors
 from vsmp_imu.grounding.durations import spread_summary
 
 # where the body bounces once per step: the step rate is read at the first of these a class is worn at
@@ -27,7 +28,7 @@ from vsmp_imu.grounding.durations import spread_summary
 TRUNK_LOCATIONS = ("waist", "back", "chest", "head")
 BAND_HZ = (1.0, 3.0)  # step rates of walking and stairs (running steps faster; no running class here)
 N_FFT = 1024  # zero-padded length of the spectrum (0.05 Hz bins at 50 Hz)
-MIN_WINDOWS = 5  # real windows a class needs before its cadence is used
+MIN_WINDOWS = floors.CADENCE.floor  # real windows a class needs before its cadence is used
 SCALE_BOUNDS = (0.6, 1.6)  # the factor a sample's durations may be scaled by
 
 

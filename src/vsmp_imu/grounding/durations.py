@@ -23,9 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from vsmp_imu.grounding import floors
 from vsmp_imu.har.windows import Windows
 
-MIN_EVENTS = 5  # events a class needs before its durations are used
+MIN_EVENTS = floors.EVENT_DURATIONS.floor  # events a class needs before its durations are used
 # a class whose windows mostly stand alone (no same-class neighbour one hop away) was sampled
 # window by window, not recorded as events
 MIN_RUN_SHARE = 0.5

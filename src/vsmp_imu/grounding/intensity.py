@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from vsmp_imu.grounding import floors
+
 
 def spread_channels(channel_names: tuple[str, ...]) -> np.ndarray:
     """Indices of the channels a factor scales: the gyroscopes, or every channel where there is none."""
@@ -49,7 +51,8 @@ def spread_intensity(X: np.ndarray, mask: np.ndarray, bounds: tuple[float, float
 
 
 # -- a class with real windows: the spread of intensity its real windows show ---------------------------
-MATCH_MIN_WINDOWS = 20  # real and synthetic windows a class needs for its spread to be measured
+# real and synthetic windows a class needs for its spread to be measured
+MATCH_MIN_WINDOWS = floors.SEEN_INTENSITY.floor
 MATCH_Z_MAX = 2.5  # the normal draws are clipped here (no window scaled beyond 2.5 standard deviations)
 
 

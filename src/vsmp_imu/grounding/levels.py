@@ -24,11 +24,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vsmp_imu.errors import ValidationError
+from vsmp_imu.grounding import floors
 from vsmp_imu.grounding.rank import DEFAULT_N_QUANTILES, ChannelMap
 
 # real windows an event class needs before its windows' means are mapped (20 before the 5 %
 # measurement in docs/results.md, "Window levels from five real windows")
-MIN_WINDOWS = 5
+MIN_WINDOWS = floors.WINDOW_LEVELS.floor
 
 
 @dataclass(eq=False, repr=False)

@@ -21,6 +21,7 @@ from scipy.ndimage import gaussian_filter1d
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.executor import thread_map
+from vsmp_imu.grounding import floors
 from vsmp_imu.quantiles import sorted_quantiles
 
 DEFAULT_N_QUANTILES = 4096
@@ -171,7 +172,7 @@ class RankGrounder:
 
     per_class: bool = False
     n_quantiles: int = DEFAULT_N_QUANTILES
-    min_class_samples: int = 200
+    min_class_samples: int = floors.RANK_MAP.floor
     class_balanced: bool = True
     threads: int = 1
 

@@ -30,6 +30,7 @@ from functools import lru_cache
 import numpy as np
 
 from vsmp_imu.executor import thread_map
+from vsmp_imu.grounding import floors
 
 COV_WINDOW_S = 2.0
 PSD_BAND_EDGES_HZ = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0)  # last band is (8, fs/2]
@@ -265,7 +266,7 @@ class TargetStatistics:
     statistics (the fold's pooled D_stat).
     """
 
-    def __init__(self, fs_hz: float, min_windows: int = 20) -> None:
+    def __init__(self, fs_hz: float, min_windows: int = floors.STAT_TARGET.floor) -> None:
         self.fs_hz = fs_hz
         self.min_windows = min_windows
 

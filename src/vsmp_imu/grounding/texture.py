@@ -28,6 +28,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.signal import butter, sosfiltfilt
 
 from vsmp_imu.errors import ValidationError
+from vsmp_imu.grounding import floors
 
 LF_BAND_HZ = (0.3, 3.0)
 HF_BAND_HZ = (3.0, 12.0)
@@ -65,7 +66,7 @@ class TextureModel:
     """Per-channel HF/LF ratios from real windows, and the texture they ask for (see module doc)."""
 
     fs_hz: float
-    min_class_windows: int = 20
+    min_class_windows: int = floors.TEXTURE.floor
     pooled_: np.ndarray | None = None  # (C,) kappa of all windows
     per_class_: dict[int, np.ndarray] = field(default_factory=dict)
 

@@ -54,7 +54,7 @@ from vsmp_imu.filtering.faithfulness import (
 from vsmp_imu.filtering.plausibility import MotionPlausibilityFilter
 from vsmp_imu.filtering.validator import HarValidator
 from vsmp_imu.filtering.verdict import Verdict
-from vsmp_imu.grounding import cadence
+from vsmp_imu.grounding import cadence, floors
 from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding.durations import draw_duration, event_durations, window_hop
 from vsmp_imu.grounding.durations import summary as duration_summary
@@ -297,7 +297,7 @@ def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_
         syn, real, weights = [], [], []
         for i, label in enumerate(info.label_names):
             mask = d_stat.y == i
-            if label not in sources or loc not in plan[label] or not mask.any():
+            if label not in sources or loc not in plan[label] or not floors.MOUNTING.met(int(mask.sum())):
                 continue
             base = sources[label][0][1]
             motion = Motion.load(base) if isinstance(base, Path) else \
@@ -984,10 +984,13 @@ class FoldGenerator:
         spec = self.config
         todo = free_sides(spec, info, sources, setup.plan, budget, self.library) if spec.side_evidence else []
         records: dict[str, list[dict]] = {}
-        for label, j, _ in todo:  # a class without real windows keeps its side: no probe to run
-            if not np.any(train.y == info.label_names.index(label)):
+        for label, j, _ in todo:  # a class below the floor keeps its side: no probe to run
+            n = int(np.sum(train.y == info.label_names.index(label)))
+            if not floors.SIDE_EVIDENCE.met(n):
+                reason = "no real window of the class" if n == 0 else \
+                    f"{n} real window(s), fewer than {floors.SIDE_EVIDENCE.floor}"
                 records.setdefault(label, []).append({"source": sources[label][j][0], "used": False,
-                                                      "reason": "no real window of the class"})
+                                                      "reason": reason})
         todo = [t for t in todo if t[0] not in records]
         if not todo:
             return sources, records

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from vsmp_imu.grounding import floors
 from vsmp_imu.grounding.align import Convention
 from vsmp_imu.grounding.calibrate import (
     ETA_NOMINAL,
@@ -50,7 +51,7 @@ INIT_STD = np.array([0.5, 0.5, 5.0, 5.0])
 DRAW_MIN_STD = np.array([0.25, 0.25, 2.0, 2.0])
 N_ITERATIONS, N_CANDIDATES, ELITE_FRACTION = 5, 8, 0.25
 LAMBDA_GRAVITY = 1.0  # per radian between the mean accelerometer directions
-MIN_FIT_WINDOWS = 20  # D_stat windows a class needs (TargetStatistics' per-class floor)
+MIN_FIT_WINDOWS = floors.MOTION_FIT.floor  # D_stat windows a class needs (TargetStatistics' per-class floor)
 FIT_BACKENDS = ("procedural",)
 
 

@@ -23,6 +23,7 @@ from dataclasses import asdict, dataclass, fields
 from typing import Any
 
 from vsmp_imu.errors import ConfigError
+from vsmp_imu.grounding import floors
 
 BUDGET_FIELDS = ("source", "alpha", "policy", "clips")
 RUN_FIELDS = ("executor", "workers", "address", "cache_dir", "gpus_per_task")
@@ -107,7 +108,7 @@ class GenerationSpec:
     gravity_norm: bool = False
     estimate_mounting: bool = True  # nominal dataset mounting frame from D_stat class means
     # the validator judges a class only after training on at least this many of its real windows
-    min_validator_windows: int = 10
+    min_validator_windows: int = floors.VALIDATOR.floor
     quality_filter: bool = True  # all three filters; the two below switch single ones off
     class_filter: bool = True
     redundancy_filter: bool = True
