@@ -10,7 +10,7 @@ The model is a ratio per channel, kappa = sqrt(sum HF^2 / sum LF^2) over real
 windows (HF: 3-12 Hz, LF: 0.3-3 Hz band-passed signals; energy-weighted, so
 windows with motion decide it, not the sensor noise of a posture). A class
 with `min_class_windows` real windows gets its own kappa, every other class
-(one without real windows: the unseen protocol) the pooled one.
+the pooled one (a class with few real windows, or none: the unseen protocol).
 
 `apply` adds band-limited Gaussian noise where the signal's own HF falls
 short of kappa times its local LF amplitude (1 s envelopes): the texture
