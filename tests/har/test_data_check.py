@@ -66,6 +66,7 @@ def test_a_wrong_activity_file_is_flagged_and_the_right_one_is_not(cli, tmp_path
     code, out, err = cli("data", "check", path, "--samples", "2", "-o", tmp_path / "chk2")
     written = json.loads((tmp_path / "chk2" / "check.json").read_text())
     assert code == 0 and [c["flags"] for c in written["classes"]] == [[], []] and written["warnings"] == []
+    assert written["pairs"] == []  # real walking and sitting differ on every cue: no pair to check
 
 
 def test_wrong_axes_turn_gravity_away(cli, tmp_path):
@@ -233,3 +234,56 @@ def test_executions_turning_either_way_are_no_gap_but_the_other_way_is():
     assert turn_flags(either) == []
     assert "check the side" in turn_flags(other)[0]
     assert "lacks" in turn_flags(windows([0.05] * 40))[0]  # no turn at all is still a gap
+
+
+def _pair_windows(rng, n, shift_q1=0.0, shift_mean=0.0):
+    """n windows (T=40, 2 channels) of noise; channel 0's first quarter raised by `shift_q1`,
+    channel 1 raised by `shift_mean`."""
+    w = rng.normal(0.0, 1.0, (n, 40, 2))
+    w[:, :10, 0] += shift_q1
+    w[:, :, 1] += shift_mean
+    return w
+
+
+def test_a_pair_the_simulation_tells_apart_by_a_cue_the_real_windows_lack_is_flagged():
+    from vsmp_imu.pipeline.check import compare_pair
+
+    rng = np.random.default_rng(0)
+    real = (_pair_windows(rng, 30), _pair_windows(rng, 30))  # the real pair: alike
+    sharp = (_pair_windows(rng, 12, shift_q1=2.0), _pair_windows(rng, 12))
+    found = compare_pair("waist", "sit_to_lie", "stand_to_lie", real, sharp, ("a", "b"))
+    assert found.cue == "a q1" and found.synthetic_auc > 0.95 and abs(found.real_auc - 0.5) < 0.2
+    assert len(found.flags) == 1 and "by a q1" in found.flags[0] and "hardly" in found.flags[0]
+    # simulated windows as alike as the real ones: the pair is reported, not flagged
+    alike = compare_pair("waist", "sit_to_lie", "stand_to_lie", real,
+                         (_pair_windows(rng, 12), _pair_windows(rng, 12)), ("a", "b"))
+    assert alike is not None and alike.flags == []
+
+
+def test_a_cue_reversed_in_the_simulation_is_flagged_and_clear_pairs_are_skipped():
+    from vsmp_imu.pipeline.check import MIN_PAIR_WINDOWS, compare_pair
+
+    rng = np.random.default_rng(1)
+    # the real first class reads a little higher on b (AUC about 0.7), the simulated one lower
+    real = (_pair_windows(rng, 40, shift_mean=0.12), _pair_windows(rng, 40))
+    syn = (_pair_windows(rng, 20, shift_mean=-0.12), _pair_windows(rng, 20))
+    found = compare_pair("waist", "x", "y", real, syn, ("a", "b"))
+    assert found.real_auc is not None
+    assert any("the other way" in f and "b " in f for f in found.flags), found.flags
+    # a real cue already separates the pair: nothing to learn wrongly there
+    clear = (_pair_windows(rng, 30, shift_mean=1.0), _pair_windows(rng, 30))
+    assert compare_pair("waist", "x", "y", clear, syn, ("a", "b")) is None
+    # too few simulated windows say nothing
+    few = (syn[0][: MIN_PAIR_WINDOWS - 1], syn[1])
+    assert compare_pair("waist", "x", "y", real, few, ("a", "b")) is None
+
+
+def test_pairs_are_checked_within_each_location():
+    from vsmp_imu.pipeline.check import check_pairs
+
+    rng = np.random.default_rng(2)
+    w = {(label, place): (_pair_windows(rng, 20), _pair_windows(rng, 10, shift_q1=3.0 * (label == "x")))
+         for place in ("wrist", "ankle") for label in ("x", "y")}
+    found = check_pairs(w, {"wrist": ("a", "b"), "ankle": ("a", "b")})
+    assert [(p.location, p.first, p.second) for p in found] == [("wrist", "x", "y"), ("ankle", "x", "y")]
+    assert all(p.cue == "a q1" and p.flags for p in found)

@@ -75,7 +75,8 @@ def check_cmd(
     write_json(output / "check.json", {"dataset": ds.info.name, "source": source, "backend": backend,
                                        "samples": samples, "warnings": list(ds.warnings) + unlinked,
                                        "mountings": [asdict(m) for m in check.mountings_],
-                                       "classes": check.to_json()})
+                                       "classes": check.to_json(),
+                                       "pairs": [asdict(p) for p in check.pairs_]})
     check.plot(output / "check.png", ds.info.fs_hz)
     places = sorted({r.location for r in results})
     one_place = len(places) == 1  # the location goes into the title, its column away (80 columns)
@@ -103,6 +104,9 @@ def check_cmd(
     for r in results:
         for flag in r.flags:
             console.print(f"[yellow]{r.label}[/] ({r.location}, {r.source}): {flag}", highlight=False)
+    for p in check.pairs_:
+        for flag in p.flags:
+            console.print(f"[yellow]{p.first} vs {p.second}[/] ({p.location}): {flag}", highlight=False)
     console.print(f"[green]wrote[/] {output / 'check.json'} and {output / 'check.png'}", highlight=False)
 
 

@@ -46,6 +46,20 @@ an SMP that lists `dominant_side` among its variant fields, an opposite turn
 adds that the generator takes the side from the real windows, since the file
 leaves it open: pipeline/side.py).
 Nothing but the mounting is fitted: it is a look, not a grounding.
+
+Pairs of classes (`check_pairs`): a model learns from synthetic windows the
+cues that tell two classes apart. Where the simulated windows of two classes
+differ sharply on a cue the real windows of the same two classes barely
+differ on (or differ on the other way), the model learns a rule a real
+subject does not follow: on HAPT12 the simulated sit-to-lie and stand-to-lie
+differed in the first half second, the real ones hardly at all. Per location
+and pair whose real windows no single cue tells apart well (every AUC within
+`MAX_REAL_SEPARATION` of 0.5), each cue (every channel's mean over each
+quarter of the window, its window mean and standard deviation) is scored by
+the AUC of the pair on the real and on the simulated windows; the pair is
+flagged when a cue separates the simulated windows by `MIN_OVERSHARP_GAP`
+more than the real ones (|AUC - 0.5|), or the two sides separate clearly
+(beyond `MIN_REVERSED`) in opposite directions.
 """
 
 from __future__ import annotations
@@ -76,6 +90,11 @@ MIN_FREQUENCY_HZ = 0.2
 GYRO = slice(3, 6)  # the gyroscope's channels of a 6-channel window
 MIN_TURN_RAD_S = 0.1  # mean rotation rates closer than this never differ
 MAX_MOUNTING_DEG = 60.0  # a sensor turned further than this from its declared axes: check them
+MAX_REAL_SEPARATION = 0.35  # a pair some real cue separates beyond AUC 0.85 is told apart anyway
+MIN_OVERSHARP_GAP = 0.25  # |AUC - 0.5| simulated minus real that flags a cue
+MIN_REVERSED = 0.15  # |AUC - 0.5| on both sides, opposite ways: a reversed cue
+MIN_PAIR_WINDOWS = 6  # per class and side; fewer windows say nothing about a cue
+QUARTERS = 4
 # an SMP that lets its variants change side: the generator already takes the side the real windows show
 SIDE_FROM_EVIDENCE = (" (the SMP leaves the side to its variants: generate and evaluate take it from the "
                       "real windows, the side from evidence)")
@@ -273,6 +292,91 @@ def simulate_windows(motion: Motion, loc: SensorLocation, fs_hz: float, size: in
     return np.stack([signal[s : s + size] for s in starts])
 
 
+@dataclass
+class PairCheck:
+    """Two classes at one location: the cue the simulated windows separate them by most beyond the
+    real ones (AUC of the first class against the second; 0.5: no separation)."""
+
+    location: str
+    first: str
+    second: str
+    n_real: list[int]
+    n_synthetic: list[int]
+    real_best_separation: float  # max |AUC - 0.5| of any cue on the real windows
+    cue: str | None = None
+    real_auc: float | None = None
+    synthetic_auc: float | None = None
+    flags: list[str] = field(default_factory=list)
+
+
+def pair_cues(windows: np.ndarray, channels: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Per window (N, T, C): each channel's mean over each quarter, its mean and its standard
+    deviation, named like 'acc_z q1', 'acc_z mean', 'acc_z std'."""
+    n, t, _ = windows.shape
+    quarters = windows[:, : t - t % QUARTERS].reshape(n, QUARTERS, -1, windows.shape[2]).mean(axis=2)
+    out = {}
+    for c, name in enumerate(channels):
+        for k in range(QUARTERS):
+            out[f"{name} q{k + 1}"] = quarters[:, k, c]
+        out[f"{name} mean"] = windows[..., c].mean(axis=1)
+        out[f"{name} std"] = windows[..., c].std(axis=1)
+    return out
+
+
+def _auc(first: np.ndarray, second: np.ndarray) -> float:
+    from sklearn.metrics import roc_auc_score
+
+    return float(roc_auc_score(np.r_[np.ones(len(first)), np.zeros(len(second))], np.r_[first, second]))
+
+
+def compare_pair(location: str, first: str, second: str, real: tuple[np.ndarray, np.ndarray],
+                 syn: tuple[np.ndarray, np.ndarray], channels: tuple[str, ...]) -> PairCheck | None:
+    """The pair's sharpest simulated cue against the real windows (see module doc); None where a
+    side has too few windows or a real cue already tells the two apart."""
+    if min(len(w) for w in (*real, *syn)) < MIN_PAIR_WINDOWS:
+        return None
+    ra, rb = (pair_cues(w, channels) for w in real)
+    sa, sb = (pair_cues(w, channels) for w in syn)
+    real_auc = {k: _auc(ra[k], rb[k]) for k in ra}
+    best_real = max(abs(v - 0.5) for v in real_auc.values())
+    if best_real > MAX_REAL_SEPARATION:
+        return None
+    syn_auc = {k: _auc(sa[k], sb[k]) for k in sa}
+    cue = max(syn_auc, key=lambda k: (abs(syn_auc[k] - 0.5) - abs(real_auc[k] - 0.5), k))
+    out = PairCheck(location, first, second, [len(w) for w in real], [len(w) for w in syn], round(best_real, 3),
+                    cue, round(real_auc[cue], 3), round(syn_auc[cue], 3))
+    r, s = real_auc[cue] - 0.5, syn_auc[cue] - 0.5
+    if abs(s) - abs(r) >= MIN_OVERSHARP_GAP:
+        out.flags.append(f"the simulated windows tell {first} from {second} by {cue} (AUC {syn_auc[cue]:.2f}), "
+                         f"the real ones {'hardly' if abs(r) < MIN_REVERSED else 'less'} (AUC {real_auc[cue]:.2f}): "
+                         "a model learns a rule real subjects do not follow; check what the two activity files "
+                         "do differently there")
+    reversed_ = [k for k in real_auc if min(abs(real_auc[k] - 0.5), abs(syn_auc[k] - 0.5)) >= MIN_REVERSED
+                 and (real_auc[k] - 0.5) * (syn_auc[k] - 0.5) < 0]
+    if reversed_:
+        k = max(reversed_, key=lambda k: (abs(syn_auc[k] - 0.5), k))
+        out.flags.append(f"{k} separates {first} from {second} the other way in the simulated windows "
+                         f"(AUC {syn_auc[k]:.2f}) than in the real ones ({real_auc[k]:.2f})")
+    return out
+
+
+def check_pairs(windows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]],
+                channels: dict[str, tuple[str, ...]]) -> list[PairCheck]:
+    """`compare_pair` for every two classes at each location (`windows`: (label, location) ->
+    (real, simulated) windows; `channels`: location -> channel names)."""
+    out = []
+    keys = list(windows)
+    for i, (a, place) in enumerate(keys):
+        for b, other in keys[i + 1:]:
+            if other != place:
+                continue
+            (ra, sa), (rb, sb) = windows[(a, place)], windows[(b, other)]
+            found = compare_pair(place, a, b, (ra, rb), (sa, sb), channels[place])
+            if found is not None:
+                out.append(found)
+    return out
+
+
 def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn: np.ndarray,
             fs_hz: float, declared: np.ndarray | None = None, side_free: bool = False) -> ClassCheck:
     """The statistics of one class at one location, and what looks off (`syn` turned by the
@@ -336,6 +440,7 @@ class DataCheck:
     results_: list[ClassCheck] = field(default_factory=list)
     mountings_: list[MountingCheck] = field(default_factory=list)
     windows_: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    pairs_: list[PairCheck] = field(default_factory=list)
 
     def run(self, dataset: HarDataset, sources: dict[str, list]) -> list[ClassCheck]:
         info = dataset.info
@@ -368,6 +473,7 @@ class DataCheck:
             self.windows_[(label, place)] = (r, s_turned)
             self.results_.append(compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s,
                                          side_free=side_free[label]))
+        self.pairs_ = check_pairs(self.windows_, {loc.name: tuple(loc.channels) for loc in info.locations})
         return self.results_
 
     def _mounting(self, loc: SensorLocation, declared: dict) -> MountingCheck:
