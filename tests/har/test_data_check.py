@@ -287,3 +287,18 @@ def test_pairs_are_checked_within_each_location():
     found = check_pairs(w, {"wrist": ("a", "b"), "ankle": ("a", "b")})
     assert [(p.location, p.first, p.second) for p in found] == [("wrist", "x", "y"), ("ankle", "x", "y")]
     assert all(p.cue == "a q1" and p.flags for p in found)
+
+
+def test_flagged_pairs_are_plotted_and_none_means_no_plot(tmp_path):
+    from vsmp_imu.pipeline.check import DataCheck, check_pairs
+
+    rng = np.random.default_rng(3)
+    check = DataCheck()
+    check.windows_ = {(label, "wrist"): (_pair_windows(rng, 20), _pair_windows(rng, 10, shift_q1=3.0 * (label == "x")))
+                      for label in ("x", "y")}
+    check._channels = {"wrist": ("a", "b")}
+    check.pairs_ = check_pairs(check.windows_, check._channels)
+    path = check.plot_pairs(tmp_path / "pairs.png")
+    assert path is not None and path.read_bytes()[:4] == b"\x89PNG"
+    check.pairs_ = [p for p in check.pairs_ if not p.flags]
+    assert check.plot_pairs(tmp_path / "none.png") is None and not (tmp_path / "none.png").exists()

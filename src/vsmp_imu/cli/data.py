@@ -78,6 +78,7 @@ def check_cmd(
                                        "classes": check.to_json(),
                                        "pairs": [asdict(p) for p in check.pairs_]})
     check.plot(output / "check.png", ds.info.fs_hz)
+    pairs_png = check.plot_pairs(output / "check_pairs.png")
     places = sorted({r.location for r in results})
     one_place = len(places) == 1  # the location goes into the title, its column away (80 columns)
     title = f"{ds.info.name}: activity files vs real windows" + (f" ({places[0]})" if one_place else "")
@@ -107,7 +108,8 @@ def check_cmd(
     for p in check.pairs_:
         for flag in p.flags:
             console.print(f"[yellow]{p.first} vs {p.second}[/] ({p.location}): {flag}", highlight=False)
-    console.print(f"[green]wrote[/] {output / 'check.json'} and {output / 'check.png'}", highlight=False)
+    written = f"{output / 'check.json'}, {output / 'check.png'}" + (f" and {pairs_png}" if pairs_png else "")
+    console.print(f"[green]wrote[/] {written}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -441,6 +441,7 @@ class DataCheck:
     mountings_: list[MountingCheck] = field(default_factory=list)
     windows_: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     pairs_: list[PairCheck] = field(default_factory=list)
+    _channels: dict[str, tuple[str, ...]] = field(default_factory=dict, repr=False)
 
     def run(self, dataset: HarDataset, sources: dict[str, list]) -> list[ClassCheck]:
         info = dataset.info
@@ -473,7 +474,8 @@ class DataCheck:
             self.windows_[(label, place)] = (r, s_turned)
             self.results_.append(compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s,
                                          side_free=side_free[label]))
-        self.pairs_ = check_pairs(self.windows_, {loc.name: tuple(loc.channels) for loc in info.locations})
+        self._channels = {loc.name: tuple(loc.channels) for loc in info.locations}
+        self.pairs_ = check_pairs(self.windows_, self._channels)
         return self.results_
 
     def _mounting(self, loc: SensorLocation, declared: dict) -> MountingCheck:
@@ -481,6 +483,38 @@ class DataCheck:
             return MountingCheck(loc.name, 0)
         return estimate_location_mounting(loc.name, [pair for (_, place), pair in declared.items()
                                                      if place == loc.name])
+
+    def plot_pairs(self, path: Path) -> Path | None:
+        """Per flagged pair: its cue's distribution in the two classes, real beside simulated
+        (written atomically); None when no pair is flagged."""
+        flagged = [p for p in self.pairs_ if p.flags]
+        if not flagged:
+            return None
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        channels = self._channels
+        fig, axes = plt.subplots(len(flagged), 2, figsize=(8, 2.1 * len(flagged)), squeeze=False)
+        try:
+            for pair, row in zip(flagged, axes, strict=True):
+                for ax, side, name in ((row[0], 0, "real"), (row[1], 1, "simulated")):
+                    values = [pair_cues(self.windows_[(label, pair.location)][side], channels[pair.location])[pair.cue]
+                              for label in (pair.first, pair.second)]
+                    bins = np.histogram_bin_edges(np.concatenate(values), bins=20)
+                    for v, label, color in zip(values, (pair.first, pair.second), ("#1f6fb4", "#d9822b"),
+                                               strict=True):
+                        ax.hist(v, bins=bins, density=True, alpha=0.55, color=color, label=label)
+                    auc = pair.real_auc if side == 0 else pair.synthetic_auc
+                    ax.set_title(f"{name}: {pair.cue} @ {pair.location} (AUC {auc:.2f})", fontsize=9, loc="left")
+                row[0].legend(fontsize=7)
+            fig.tight_layout()
+            with atomic_path(path, suffix=".png") as tmp:
+                fig.savefig(tmp, format="png", dpi=90)
+        finally:
+            plt.close(fig)
+        return Path(path)
 
     def to_json(self) -> list[dict]:
         return [asdict(r) for r in self.results_]
