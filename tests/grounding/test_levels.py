@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vsmp_imu.errors import ValidationError
-from vsmp_imu.grounding.levels import MIN_WINDOWS, LevelMap
+from vsmp_imu.grounding.levels import MIN_WINDOWS, PARTS, LevelMap, part_means, shift_course
 
 
 def _windows(levels: np.ndarray, seed: int, n_t: int = 50, wiggle: float = 0.3) -> np.ndarray:
@@ -22,6 +22,7 @@ def test_the_mapped_means_follow_the_real_ones_and_the_course_inside_stays():
     real = _windows(np.c_[rng.normal(-3.0, 1.0, 300), rng.normal(5.0, 0.5, 300)], seed=1)
     syn = _windows(np.c_[rng.normal(1.0, 0.3, 200), rng.normal(2.0, 2.0, 200)], seed=2)
     y_syn, y_real = np.full(200, 7), np.full(300, 7)
+    assert PARTS == 1  # the default: the whole window's mean
     out = LevelMap().fit(syn, y_syn, real, y_real, classes=[7]).transform(syn, y_syn)
     means = out.mean(axis=1)
     # the synthetic means' quantiles now sit where the real means' do
@@ -32,6 +33,45 @@ def test_the_mapped_means_follow_the_real_ones_and_the_course_inside_stays():
     # and the map is monotone per channel: the windows keep their order
     for c in range(2):
         assert (np.argsort(means[:, c]) == np.argsort(syn.mean(axis=1)[:, c])).all()
+
+
+def test_each_quarter_follows_the_real_ones_and_the_shift_has_no_step():
+    """Real windows that change posture in the middle (a low first half, a high second half, at
+    a level that varies per window), synthetic ones that change too early and too little: each
+    quarter's mean is mapped onto the real ones' of that quarter, through a shift that runs
+    linearly between the quarters' centres."""
+    rng = np.random.default_rng(11)
+    n_t = 40
+    step_real = np.r_[np.zeros(n_t // 2), np.ones(n_t // 2)]
+    step_syn = np.r_[np.zeros(n_t // 4), np.ones(3 * n_t // 4)]
+    real = (rng.normal(-2.0, 0.5, (200, 1, 1)) + 6.0 * step_real[None, :, None]
+            + rng.normal(0, 0.2, (200, n_t, 1)))
+    syn = (rng.normal(0.0, 0.3, (150, 1, 1)) + 2.0 * step_syn[None, :, None]
+           + rng.normal(0, 0.2, (150, n_t, 1)))
+    y_syn, y_real = np.zeros(150, int), np.zeros(200, int)
+    out = LevelMap(parts=4).fit(syn, y_syn, real, y_real, classes=[0]).transform(syn, y_syn)
+    got, want = part_means(out, 4), part_means(real, 4)
+    # the outer quarters, whose shift is flat across them, land where the real ones are
+    for q in (0.1, 0.5, 0.9):
+        for k in (0, 3):
+            assert np.quantile(got[:, k], q) == pytest.approx(np.quantile(want[:, k], q), abs=0.35)
+    # a single level could not: it moves the whole window and keeps the early, small change
+    one = LevelMap(parts=1).fit(syn, y_syn, real, y_real, classes=[0]).transform(syn, y_syn)
+    assert abs(np.median(part_means(one, 4)[:, 3] - part_means(one, 4)[:, 0]) - 6.0) > 3.0
+    assert abs(np.median(got[:, 3] - got[:, 0]) - 6.0) < 1.0
+    # the added shift changes by at most its range over a quarter's length per sample: no step
+    added = out - syn
+    span = np.ptp(added, axis=1).max()
+    assert np.abs(np.diff(added, axis=1)).max() <= span / (n_t / 4) + 1e-9
+
+
+def test_the_shift_course_is_flat_outside_and_linear_between_the_part_centres():
+    shift = np.array([[1.0, 10.0, -2.0, 3.0]])[:, :, None].reshape(1, 4)  # one window, one channel
+    course = shift_course(shift, 40, 4)[0, :, 0]
+    assert course.shape == (40,)
+    assert np.allclose(course[:5], 1.0) and np.allclose(course[-5:], 3.0)  # before the first centre, after the last
+    assert course[15] == pytest.approx(10.0, abs=0.5) and course[25] == pytest.approx(-2.0, abs=0.7)
+    assert np.allclose(shift_course(np.array([[2.0, -1.0]]), 5, 1), [[[2.0, -1.0]] * 5])
 
 
 def test_only_the_named_classes_with_evidence_enough_move():
@@ -93,3 +133,12 @@ def test_generate_prints_which_transitions_got_window_levels():
         _print_summary(summary)
     assert ("window levels at waist: mapped STAND_TO_LIE (23); too few real windows: SIT_TO_STAND (3)"
             in " ".join(captured.get().split()))
+
+
+def test_the_command_line_default_is_the_library_default():
+    from vsmp_imu.cli.common import LEVEL_PARTS, WINDOW_LEVELS
+    from vsmp_imu.grounding import floors
+    from vsmp_imu.pipeline.spec import GenerationSpec
+
+    assert LEVEL_PARTS.default == PARTS == GenerationSpec().level_parts
+    assert f"with {floors.WINDOW_LEVELS.floor} real windows" in WINDOW_LEVELS.help

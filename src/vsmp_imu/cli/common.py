@@ -190,7 +190,10 @@ TEXTURE = typer.Option(True, "--texture/--no-texture",
                             "sample's own motion, by ratios fitted on the real training windows (VSMP-IMU)")
 WINDOW_LEVELS = typer.Option(True, "--window-levels/--no-window-levels",
                              help="shift each transition's windows so that their means follow its real "
-                                  "training windows' (classes with 20 real windows or more)")
+                                  "training windows' (classes with 5 real windows or more)")
+LEVEL_PARTS = typer.Option(1, "--level-parts", min=1, max=16,
+                           help="window levels: the window's equal parts whose means follow the real "
+                                "windows', each on its own (1: the whole window's mean; 4: its quarters)")
 POOLED_CALIBRATION = typer.Option(
     True, "--pooled-calibration/--no-pooled-calibration",
     help="sim-in-the-loop for a class with no real training windows (an unseen class) against the other "

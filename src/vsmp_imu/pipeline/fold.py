@@ -684,7 +684,7 @@ def level_windows(spec: GenerationSpec, info: DatasetInfo, windows: WindowSet, d
             continue
         cols = channel_index(info, loc)
         part = X[worn]
-        levels = LevelMap().fit(part[..., cols], windows.y[worn], d_rank.X[..., cols], d_rank.y, events)
+        levels = LevelMap(parts=spec.level_parts).fit(part[..., cols], windows.y[worn], d_rank.X[..., cols], d_rank.y, events)
         part[..., cols] = levels.transform(part[..., cols], windows.y[worn])
         X[worn] = part
         names = info.label_names

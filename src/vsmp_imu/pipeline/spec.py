@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass, fields
 from typing import Any
 
 from vsmp_imu.errors import ConfigError
-from vsmp_imu.grounding import floors
+from vsmp_imu.grounding import floors, levels
 
 BUDGET_FIELDS = ("source", "alpha", "policy", "clips")
 RUN_FIELDS = ("executor", "workers", "address", "cache_dir", "gpus_per_task")
@@ -100,6 +100,9 @@ class GenerationSpec:
     # after windowing, each event class's window means mapped onto its real windows' means where it
     # has real windows enough (grounding.levels; measured in docs/results.md, "Window levels")
     window_levels: bool = True
+    # the window's equal parts whose means window levels map, each on its own (1: the whole
+    # window's mean; measured in docs/results.md, "Window levels per quarter")
+    level_parts: int = levels.PARTS
     # one rank map per class where the class has real windows enough (RankGrounder's
     # min_class_samples), the pooled map otherwise (the paper's); measured in docs/results.md
     per_class_rank: bool = True
@@ -134,7 +137,7 @@ class GenerationSpec:
         if self.unseen_intensity is not None:
             object.__setattr__(self, "unseen_intensity", intensity_bounds(",".join(map(str, self.unseen_intensity)),
                                                                         "unseen_intensity"))
-        for name in ("k", "k_unseen"):
+        for name in ("k", "k_unseen", "level_parts"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}", field=name)
         if not self.oversample >= 1.0:
