@@ -18,8 +18,9 @@ join into a course linear between the parts' centres (flat before the first and 
 last), so no step enters the signal. Where in the window a transition's posture changes is then
 where the real windows have it (one level leaves the lying pairs told apart by one quarter's
 mean the real windows do not differ on, `vsmp-imu data check`). Quarters made the windows of a
-5 % run better alone and left the mixes level or lower (docs/results.md, "Window levels per
-quarter"), so the default maps the whole window's mean (`PARTS`). Classes whose windows are
+5 % run better alone, those of the full training set worse, and left the mixes level or lower
+(docs/results.md, "Window levels per quarter"), so the default maps the whole window's mean
+(`PARTS`). Classes whose windows are
 whole (steady activities), and classes with fewer real windows (low-resource budgets, unseen
 classes), keep their windows. On by default (`GenerationSpec.window_levels`; the baselines'
 chain does without).
