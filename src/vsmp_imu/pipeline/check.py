@@ -52,7 +52,7 @@ cues that tell two classes apart. Where the simulated windows of two classes
 differ sharply on a cue the real windows of the same two classes barely
 differ on (or differ on the other way), the model learns a rule a real
 subject does not follow: on HAPT12 the simulated sit-to-lie and stand-to-lie
-differed in the first half second, the real ones hardly at all. Per location
+differ in one quarter of the window, the real ones hardly at all. Per location
 and pair whose real windows no single cue tells apart well (every AUC within
 `MAX_REAL_SEPARATION` of 0.5), each cue (every channel's mean over each
 quarter of the window, its window mean and standard deviation) is scored by
@@ -71,6 +71,7 @@ import numpy as np
 from scipy.stats import skew
 
 from vsmp_imu.grounding.align import SIM_AXES, Convention, ConventionAlignment
+from vsmp_imu.grounding.levels import part_means
 from vsmp_imu.grounding.stats import sim_loss, summarize_windows
 from vsmp_imu.har.dataset import HarDataset, SensorLocation
 from vsmp_imu.har.windows import window_geometry, window_starts
@@ -312,8 +313,7 @@ class PairCheck:
 def pair_cues(windows: np.ndarray, channels: tuple[str, ...]) -> dict[str, np.ndarray]:
     """Per window (N, T, C): each channel's mean over each quarter, its mean and its standard
     deviation, named like 'acc_z q1', 'acc_z mean', 'acc_z std'."""
-    n, t, _ = windows.shape
-    quarters = windows[:, : t - t % QUARTERS].reshape(n, QUARTERS, -1, windows.shape[2]).mean(axis=2)
+    quarters = part_means(windows, QUARTERS).reshape(len(windows), QUARTERS, -1)
     out = {}
     for c, name in enumerate(channels):
         for k in range(QUARTERS):
@@ -495,12 +495,12 @@ class DataCheck:
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
-        channels = self._channels
         fig, axes = plt.subplots(len(flagged), 2, figsize=(8, 2.1 * len(flagged)), squeeze=False)
         try:
             for pair, row in zip(flagged, axes, strict=True):
                 for ax, side, name in ((row[0], 0, "real"), (row[1], 1, "simulated")):
-                    values = [pair_cues(self.windows_[(label, pair.location)][side], channels[pair.location])[pair.cue]
+                    values = [pair_cues(self.windows_[(label, pair.location)][side],
+                                        self._channels[pair.location])[pair.cue]
                               for label in (pair.first, pair.second)]
                     bins = np.histogram_bin_edges(np.concatenate(values), bins=20)
                     for v, label, color in zip(values, (pair.first, pair.second), ("#1f6fb4", "#d9822b"),
