@@ -302,3 +302,88 @@ def test_flagged_pairs_are_plotted_and_none_means_no_plot(tmp_path):
     assert path is not None and path.read_bytes()[:4] == b"\x89PNG"
     check.pairs_ = [p for p in check.pairs_ if not p.flags]
     assert check.plot_pairs(tmp_path / "none.png") is None and not (tmp_path / "none.png").exists()
+
+
+def _executions(root, library, scale: float) -> object:
+    """Two subjects, each standing up from sitting twice (each execution `scale` times as long as
+    the library's file makes it), sitting between: per-sample labels, one run per execution."""
+    backend = backend_for("procedural", ())
+    rows = []
+    for n, subject in enumerate(["a", "b"]):
+        for k in range(2):
+            for label, extra in (("sit_to_stand", {"duration_scale": scale}), ("sitting", {})):
+                seed = 40 + 4 * n + 2 * k + (label == "sitting")
+                motion = backend.generate(library.get(label).smp, seed, **extra)
+                imu = ImuSimulator(50.0, seed=n).simulate(motion, "waist").data
+                acc, gyr = imu[:, :3] @ P.T, imu[:, 3:] @ P.T
+                rows.append(pd.DataFrame({"subject": subject, "label": label, "ax": acc[:, 0], "ay": acc[:, 1],
+                                          "az": acc[:, 2], "gx": gyr[:, 0], "gy": gyr[:, 1], "gz": gyr[:, 2]}))
+    (root / "data").mkdir(parents=True)
+    pd.concat(rows).to_csv(root / "data" / "all.csv", index=False)
+    spec = {"name": "my_phone", "data": "data", "fs_hz": 50, "class_min_share": {"sit_to_stand": 0.5},
+            "locations": [{"name": "waist", "acc": ["ax", "ay", "az"], "gyr": ["gx", "gy", "gz"],
+                           "acc_unit": "m/s^2", "gyr_unit": "rad/s", "axes": ["up", "left", "backward"]}]}
+    (root / "dataset.yaml").write_text(yaml.safe_dump(spec))
+    return root / "dataset.yaml"
+
+
+def test_a_single_execution_faster_than_the_real_ones_is_flagged(cli, tmp_path):
+    """People who stand up 1.8x as slowly as the library's file: its duration is flagged (the
+    dominant frequency, which a single execution does not have, is not); at the file's own speed
+    its duration is not."""
+    library = ActivityLibrary.load()
+    found = {}
+    for scale in (1.0, 1.8):
+        path = _executions(tmp_path / f"ds{scale}", library, scale)
+        code, out, err = cli("data", "check", path, "--samples", "3", "-o", tmp_path / f"chk{scale}")
+        assert code == 0, err
+        written = json.loads((tmp_path / f"chk{scale}" / "check.json").read_text())
+        found[scale] = {c["label"]: c for c in written["classes"]}
+    same, slow = found[1.0]["sit_to_stand"], found[1.8]["sit_to_stand"]  # the file's speed, and 1.8x slower
+    assert same["n_real_executions"] == slow["n_real_executions"] == 4
+    assert abs(same["real_duration_s"] / same["synthetic_duration_s"] - 1) < 0.15
+    assert not [f for f in same["flags"] if "execution" in f or "frequency" in f]
+    assert 1.6 < slow["real_duration_s"] / slow["synthetic_duration_s"] < 2.0
+    assert [f for f in slow["flags"] if "too fast" in f and "4 labelled executions" in f]
+    # a continuous activity has no execution to time
+    assert found[1.8]["sitting"]["n_real_executions"] is None and found[1.8]["sitting"]["real_duration_s"] is None
+
+
+def test_movement_is_timed_from_the_rotation_rate_or_without_a_gyroscope_the_acceleration():
+    from vsmp_imu.pipeline.check import MIN_EVENTS, Timing, duration_flag, movement_s, timing
+
+    fs = 50.0
+    t = np.arange(int(8 * fs)) / fs
+
+    def bump(seconds):  # one rotation about one axis, rising and falling over `seconds`, mid-signal
+        rate = np.where(np.abs(t - 4) < seconds / 2, np.cos(np.pi * (t - 4) / seconds) ** 2, 0.0)
+        acc = np.c_[9.81 * np.cos(np.cumsum(rate) / fs), 9.81 * np.sin(np.cumsum(rate) / fs), 0 * t]
+        return np.c_[acc, rate, 0 * t, 0 * t]
+
+    short, long_ = movement_s(bump(1.5), fs), movement_s(bump(3.0), fs)
+    assert 1.7 < long_ / short < 2.3 and short < 1.5
+    assert movement_s(bump(3.0)[:, :3], fs) > movement_s(bump(1.5)[:, :3], fs)  # acceleration only
+    assert movement_s(np.zeros((100, 6)), fs) is None
+    assert timing([3.0] * (MIN_EVENTS - 1), [2.0]).real_s is None  # too few real executions to say
+    assert duration_flag(Timing(3.0, 2.0, 9)) and "too fast" in duration_flag(Timing(3.0, 2.0, 9))
+    assert "too slow" in duration_flag(Timing(2.0, 3.0, 9))
+    assert duration_flag(Timing(2.4, 2.0, 9)) is None and duration_flag(Timing(None, 2.0, 1)) is None
+
+
+def test_a_single_execution_is_timed_instead_of_read_for_a_rhythm():
+    """Windows that peak at 1 Hz against windows at 3 Hz: a frequency flag for an activity with a
+    rhythm, none for a single execution (compared by its duration instead)."""
+    from vsmp_imu.har.datasets.hapt import WAIST
+    from vsmp_imu.pipeline.check import Timing, compare
+
+    t = np.arange(100) / 50.0
+
+    def windows(hz):
+        acc = np.c_[9.81 + 2 * np.sin(2 * np.pi * hz * t), 0 * t, 0 * t]
+        return np.repeat(np.c_[acc, np.zeros((100, 3))][None], 8, axis=0)
+
+    real, syn = windows(1.0), windows(3.0)
+    rhythm = compare("x", WAIST, "x.json", real, syn, 50.0)
+    single = compare("x", WAIST, "x.json", real, syn, 50.0, executions=Timing(3.0, 3.0, 5))
+    assert [f for f in rhythm.flags if "dominant frequency" in f]
+    assert single.flags == [] and single.real_duration_s == single.synthetic_duration_s == 3.0

@@ -84,15 +84,17 @@ def check_cmd(
     title = f"{ds.info.name}: activity files vs real windows" + (f" ({places[0]})" if one_place else "")
     table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1, 0, 0),
                   caption="pairs are real/simulated; angle: between real and simulated mean acc (gravity); "
-                          "Hz: dominant frequency of |acc|; rms: m/s² around the window mean; turn: rad/s "
+                          "tempo: dominant frequency of |acc| in Hz, or for a single execution (a transition) how long it "
+                          "moves, in s; rms: m/s² around the window mean; turn: rad/s "
                           "around it; skew: of |acc| within a window (impacts make it positive); !: see below")
-    columns = ("class", *(() if one_place else ("at",)), "real", "L_sim", "angle", "Hz", "rms", "turn", "skew", "")
+    columns = ("class", *(() if one_place else ("at",)), "real", "L_sim", "angle", "tempo", "rms", "turn", "skew", "")
     for col in columns:
         table.add_column(col, overflow="fold", no_wrap=col != "class", min_width=12 if col == "class" else None)
     for r in results:
         table.add_row(r.label, *(() if one_place else (r.location,)), str(r.n_real), _num(r.l_sim, ".1f"),
                       _num(r.gravity_angle_deg, ".0f"),
-                      _pair(r.real_frequency_hz, r.synthetic_frequency_hz),
+                      _pair(r.real_frequency_hz, r.synthetic_frequency_hz) if r.n_real_executions is None
+                      else _pair(r.real_duration_s, r.synthetic_duration_s) + "s",
                       _pair(r.real_motion_rms, r.synthetic_motion_rms),
                       _pair(r.real_turn_rms, r.synthetic_turn_rms),
                       _pair(r.real_acc_skew, r.synthetic_acc_skew),

@@ -23,7 +23,10 @@ declared axes alone. Per class:
 - the mean acceleration vector (where gravity points, device frame) and the
   angle between the real and the simulated one (also before the mounting:
   `declared_gravity_angle_deg`);
-- the dominant frequency of the acceleration magnitude;
+- the dominant frequency of the acceleration magnitude; for a single
+  execution (an activity file that makes one execution, not a rhythm: a
+  transition) how long one execution moves instead (`movement_s`), the
+  simulated executions' median against the real labelled runs' median;
 - the RMS of the acceleration around its window mean (how much it moves);
 - the median skewness of |acc| within a window: impacts (heel strikes, a seat
   stopping the body) make it positive, a sine-like or minimum-jerk movement
@@ -35,8 +38,9 @@ declared axes alone. Per class:
   here).
 
 A class is flagged when gravity points more than `MAX_GRAVITY_ANGLE_DEG`
-apart, when the dominant frequencies differ by more than a factor
-`MAX_FREQUENCY_RATIO` (unless either side's spectrum peaks nearly as high at
+apart, when one execution moves more than `MAX_DURATION_RATIO` times faster or
+slower than the real ones, when the dominant frequencies of an activity with
+a rhythm differ by more than a factor `MAX_FREQUENCY_RATIO` (unless either side's spectrum peaks nearly as high at
 the other's: one rhythm with two harmonics of about equal power), when one
 moves `MAX_MOTION_RATIO` times more than the other, or when the two turn
 differently on average (mean gyroscope vectors further apart than
@@ -96,6 +100,10 @@ MIN_OVERSHARP_GAP = 0.25  # |AUC - 0.5| simulated minus real that flags a cue
 MIN_REVERSED = 0.15  # |AUC - 0.5| on both sides, opposite ways: a reversed cue
 MIN_PAIR_WINDOWS = 6  # per class and side; fewer windows say nothing about a cue
 QUARTERS = 4
+MAX_DURATION_RATIO = 1.3  # one execution's movement, simulated vs real, beyond this either way: flagged
+MIN_EVENTS = 3  # labelled real executions a class needs for its duration
+MOVING_FRACTION = 0.2  # of an execution's peak rotation rate (the pipeline's active span uses 20 % too)
+RATE_SMOOTH_S = 0.3  # moving average of the rotation rate before the threshold
 # an SMP that lets its variants change side: the generator already takes the side the real windows show
 SIDE_FROM_EVIDENCE = (" (the SMP leaves the side to its variants: generate and evaluate take it from the "
                       "real windows, the side from evidence)")
@@ -124,6 +132,9 @@ class ClassCheck:
     real_turn_rms: float | None = None
     synthetic_turn_rms: float | None = None
     l_sim: float | None = None
+    real_duration_s: float | None = None  # one execution's movement (median), single executions only
+    synthetic_duration_s: float | None = None
+    n_real_executions: int | None = None
     declared_gravity_angle_deg: float | None = None  # before the mounting
     flags: list[str] = field(default_factory=list)
 
@@ -280,17 +291,92 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float | None:
     return float(np.degrees(np.arccos(np.clip(a @ b / (na * nb), -1.0, 1.0))))
 
 
-def simulate_windows(motion: Motion, loc: SensorLocation, fs_hz: float, size: int, step: int) -> np.ndarray:
-    """Windows (N, size, C) of a motion at one location, in its declared convention (SI units)."""
+def simulate_signal(motion: Motion, loc: SensorLocation, fs_hz: float) -> np.ndarray:
+    """The motion's readings (T, C) at one location, in its declared convention (SI units)."""
     kin = simulate_kinematics(motion, loc.name, fs_hz)
     signal = np.hstack([kin.specific_force_seg(), kin.gyr_seg])
     conv = Convention(axes=loc.axes or SIM_AXES, gravity_included=loc.gravity_included)
-    signal = ConventionAlignment(conv).transform(signal, kin.grav_seg)[:, : len(loc.channels)]
+    return ConventionAlignment(conv).transform(signal, kin.grav_seg)[:, : len(loc.channels)]
+
+
+def simulate_windows(signal: np.ndarray, size: int, step: int) -> np.ndarray:
+    """Windows (N, size, C) of a simulated signal (T, C)."""
     starts = window_starts(len(signal), size, step)
     if len(starts) == 0:  # a motion shorter than one window: one window, last sample repeated
         pad = np.repeat(signal[-1:], size - len(signal), axis=0)
         return np.concatenate([signal, pad])[None]
     return np.stack([signal[s : s + size] for s in starts])
+
+
+def single_execution(motion: Motion) -> bool:
+    """Whether the motion is one execution of a discrete activity (a transition, a throw), not a
+    rhythm: its windows have no tempo to read from a spectrum, its duration says how fast it is."""
+    controls = motion.meta.get("controls") or {}
+    return controls.get("repetitions") == 1 and controls.get("continuous") is False
+
+
+def movement_s(signal: np.ndarray, fs_hz: float) -> float | None:
+    """Seconds between the first and the last moment the signal (T, C) moves: its rotation rate
+    (the gyroscope's norm; without one, how fast the acceleration changes), smoothed
+    over `RATE_SMOOTH_S`, above `MOVING_FRACTION` of its peak. None for a signal that never moves."""
+    if len(signal) < 2:
+        return None
+    if signal.shape[1] >= 6:
+        rate = np.linalg.norm(signal[:, GYRO], axis=1)
+    else:
+        rate = np.linalg.norm(np.gradient(signal[:, :3], axis=0), axis=1)
+    k = max(1, int(round(RATE_SMOOTH_S * fs_hz)))
+    rate = np.convolve(rate, np.ones(k) / k, mode="same")
+    if not rate.max() > 0:
+        return None
+    moving = np.flatnonzero(rate > MOVING_FRACTION * rate.max())
+    return float((moving[-1] - moving[0]) / fs_hz)
+
+
+def real_executions(dataset: HarDataset, label_index: int, cols: list[int]) -> list[float]:
+    """`movement_s` of every labelled run of the class in the dataset's recordings (each run one
+    execution; the readings of the location's channels `cols`)."""
+    out = []
+    for rec in dataset.recordings():
+        edges = np.diff(np.r_[0, (rec.labels == label_index).astype(np.int8), 0])
+        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+            seconds = movement_s(rec.data[a:b][:, cols].astype(np.float64), dataset.info.fs_hz)
+            if seconds is not None:
+                out.append(seconds)
+    return out
+
+
+@dataclass(frozen=True)
+class Timing:
+    """One execution's movement in seconds: real (median of `n_real` labelled runs; None with fewer
+    than `MIN_EVENTS`) and simulated (median of the executions simulated)."""
+
+    real_s: float | None
+    synthetic_s: float | None
+    n_real: int
+
+
+def timing(real: list[float], simulated: list[float]) -> Timing:
+    return Timing(float(np.median(real)) if len(real) >= MIN_EVENTS else None,
+                  float(np.median(simulated)) if simulated else None, len(real))
+
+
+def duration_flag(t: Timing) -> str | None:
+    """What looks off when one simulated execution moves much faster or slower than a real one."""
+    if not (t.real_s and t.synthetic_s):
+        return None
+    ratio = t.real_s / t.synthetic_s
+    if 1 / MAX_DURATION_RATIO <= ratio <= MAX_DURATION_RATIO:
+        return None
+    if ratio > 1:
+        hint = (f"the activity file is {ratio:.1f}x too fast: slow its tempo or lengthen its primitives' "
+                "duration_s")
+    else:
+        hint = (f"the activity file is {1 / ratio:.1f}x too slow: raise its tempo or shorten its primitives' "
+                "duration_s")
+    return (f"one execution moves for {t.synthetic_s:.1f} s simulated vs {t.real_s:.1f} s real (median of "
+            f"{t.n_real} labelled executions): {hint} (or time each sample to a real execution: "
+            "--event-durations)")
 
 
 @dataclass
@@ -378,11 +464,17 @@ def check_pairs(windows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]],
 
 
 def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn: np.ndarray,
-            fs_hz: float, declared: np.ndarray | None = None, side_free: bool = False) -> ClassCheck:
+            fs_hz: float, declared: np.ndarray | None = None, side_free: bool = False,
+            executions: Timing | None = None) -> ClassCheck:
     """The statistics of one class at one location, and what looks off (`syn` turned by the
     mounting; `declared`: the same windows before it, for the angle in the declared axes;
-    `side_free`: turn_flag)."""
+    `side_free`: turn_flag; `executions`: a single execution's timing, which replaces the
+    dominant frequency's flag)."""
     out = ClassCheck(label, loc.name, source, len(real), len(syn))
+    if executions is not None:
+        out.real_duration_s = None if executions.real_s is None else round(executions.real_s, 3)
+        out.synthetic_duration_s = None if executions.synthetic_s is None else round(executions.synthetic_s, 3)
+        out.n_real_executions = executions.n_real
     if len(real) == 0 or len(syn) == 0:
         out.flags.append("no real windows" if len(real) == 0 else "no simulated windows")
         return out
@@ -409,7 +501,10 @@ def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn:
         out.flags.append(f"gravity points {out.gravity_angle_deg:.0f}° apart: check the declared axes, "
                          "the side, or the posture in the activity file")
     fr, fs = out.real_frequency_hz, out.synthetic_frequency_hz
-    if (fr and fs and max(fr, fs) / min(fr, fs) > MAX_FREQUENCY_RATIO
+    timed = duration_flag(executions) if executions is not None else None
+    if timed:
+        out.flags.append(timed)
+    if (executions is None and fr and fs and max(fr, fs) / min(fr, fs) > MAX_FREQUENCY_RATIO
             and not strong_at(syn, fs_hz, fr) and not strong_at(real, fs_hz, fs)):
         out.flags.append(f"dominant frequency {fs:.2f} Hz simulated vs {fr:.2f} Hz real: check the tempo "
                          "or the repetitions in the activity file")
@@ -449,6 +544,7 @@ class DataCheck:
         real = dataset.windows(self.window_s, self.overlap)
         backend = backend_for(self.backend, tuple(self.library_dirs))
         declared: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
+        timings: dict[tuple[str, str], Timing] = {}  # single executions only
         sources_of: dict[str, str] = {}
         side_free: dict[str, bool] = {}  # the base SMP leaves its side to its variants (turn_flag)
         for i, label in enumerate(info.label_names):
@@ -459,11 +555,16 @@ class DataCheck:
             side_free[label] = isinstance(base, SMP) and side_is_free(base)
             motions = [Motion.load(base) if isinstance(base, Path) else backend.generate(base, seed)
                        for seed in range(self.samples)]
+            single = all(single_execution(m) for m in motions)
             for loc in locations_of(info, label):
                 cols = [info.channel_names.index(c) for c in loc.channels]
                 r = real.X[real.y == i][..., cols].astype(np.float64)
-                s = np.concatenate([simulate_windows(m, loc, info.fs_hz, size, step) for m in motions])
+                signals = [simulate_signal(m, loc, info.fs_hz) for m in motions]
+                s = np.concatenate([simulate_windows(sig, size, step) for sig in signals])
                 declared[(label, loc.name)] = (r, s)
+                if single:
+                    simulated = [v for v in (movement_s(sig, info.fs_hz) for sig in signals) if v is not None]
+                    timings[(label, loc.name)] = timing(real_executions(dataset, i, cols), simulated)
         self.mountings_ = [self._mounting(loc, declared) for loc in info.locations
                            if any(name == loc.name for _, name in declared)]
         by_place = {m.location: m for m in self.mountings_}
@@ -473,7 +574,7 @@ class DataCheck:
             s_turned = turned(s, by_place[place])
             self.windows_[(label, place)] = (r, s_turned)
             self.results_.append(compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s,
-                                         side_free=side_free[label]))
+                                         side_free=side_free[label], executions=timings.get((label, place))))
         self._channels = {loc.name: tuple(loc.channels) for loc in info.locations}
         self.pairs_ = check_pairs(self.windows_, self._channels)
         return self.results_
