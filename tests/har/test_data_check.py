@@ -149,7 +149,7 @@ def test_turning_the_other_way_is_flagged_and_the_same_way_is_not(cli, tmp_path)
         code, _, err = cli("data", "check", path, *extra, "--samples", "2", "-o", tmp_path / name)
         assert code == 0, err
         (result,) = json.loads((tmp_path / name / "check.json").read_text())["classes"]
-        flags[name] = [f for f in result["flags"] if "rotation rate" in f]
+        flags[name] = [f for f in result["flags"] if "one execution turns" in f]  # 3 labelled runs
         if name == "library":
             real, syn = np.array(result["real_mean_gyro"]), np.array(result["synthetic_mean_gyro"])
             # the mirror image: the rates about up and backward change sign, the pitch (about left) not
@@ -364,7 +364,13 @@ def test_movement_is_timed_from_the_rotation_rate_or_without_a_gyroscope_the_acc
     assert 1.7 < long_ / short < 2.3 and short < 1.5
     assert movement_s(bump(3.0)[:, :3], fs) > movement_s(bump(1.5)[:, :3], fs)  # acceleration only
     assert movement_s(np.zeros((100, 6)), fs) is None
-    assert timing([3.0] * (MIN_EVENTS - 1), [2.0]).real_s is None  # too few real executions to say
+    few = timing([bump(3.0)] * (MIN_EVENTS - 1), [bump(1.5)], fs)  # too few real executions to say
+    assert few.real_s is None and few.real_turns is None and few.synthetic_s == short
+    enough = timing([bump(3.0)] * MIN_EVENTS, [bump(1.5)], fs)
+    assert enough.real_s == long_ and enough.n_real == MIN_EVENTS
+    # each bump turns by its integral: the longer one twice as far, about x only
+    assert np.allclose(enough.real_turns[:, 0], 2 * enough.synthetic_turns[0, 0], rtol=0.02)
+    assert np.allclose(enough.real_turns[:, 1:], 0)
     assert duration_flag(Timing(3.0, 2.0, 9)) and "too fast" in duration_flag(Timing(3.0, 2.0, 9))
     assert "too slow" in duration_flag(Timing(2.0, 3.0, 9))
     assert duration_flag(Timing(2.4, 2.0, 9)) is None and duration_flag(Timing(None, 2.0, 1)) is None
@@ -387,3 +393,29 @@ def test_a_single_execution_is_timed_instead_of_read_for_a_rhythm():
     single = compare("x", WAIST, "x.json", real, syn, 50.0, executions=Timing(3.0, 3.0, 5))
     assert [f for f in rhythm.flags if "dominant frequency" in f]
     assert single.flags == [] and single.real_duration_s == single.synthetic_duration_s == 3.0
+
+
+def test_a_single_execution_is_judged_by_its_net_turn_not_by_where_windows_cut_it():
+    """A movement that turns and turns back: windows that catch more of the first half read a
+    net rate the real windows do not, the whole execution turns back to where it started on both
+    sides. A single execution's turn flag compares the executions; a real turn the other way is
+    still flagged."""
+    from vsmp_imu.har.datasets.hapt import WAIST
+    from vsmp_imu.pipeline.check import Timing, compare, turn_flag
+
+    t = np.arange(100) / 50.0
+    rest = np.c_[np.full(100, 9.81), np.zeros((100, 2))]
+    real = np.repeat(np.c_[rest, np.zeros((100, 3))][None], 8, axis=0)
+    syn = real.copy()
+    syn[..., 3] = 0.6 * np.sin(np.pi * t / 2)  # each window catches only the turn out, not the turn back
+    there_and_back = np.zeros((5, 3))
+    windows = compare("x", WAIST, "x.json", real, syn, 50.0)
+    single = compare("x", WAIST, "x.json", real, syn, 50.0,
+                     executions=Timing(2.0, 2.0, 5, there_and_back, there_and_back[:2]))
+    assert [f for f in windows.flags if "rotation rate" in f]
+    assert single.flags == [] and single.real_execution_turn_deg == [0.0, 0.0, 0.0]
+    quarter = np.array([0.0, 0.0, 90.0])
+    assert turn_flag(quarter, quarter * 1.1, None, per="execution") is None
+    assert "check the side" in turn_flag(quarter, -quarter, None, per="execution")
+    assert "lacks" in turn_flag(quarter, 0 * quarter, None, per="execution")
+    assert "one execution turns +90° about z" in turn_flag(quarter, 0 * quarter, None, per="execution")

@@ -3,7 +3,10 @@
 Before a whole evaluation, a user wants to know which activity file (or which
 declared convention) is off. Per class and sensor location this simulates a
 few executions of the class's base SMP (the default motion, no grounding, no
-filter), puts them in the dataset's declared convention (axes, gravity), turns
+filter), cuts them into windows as the pipeline does (a class whose real
+windows need only a share of the window, a transition, keeps the windows that
+overlap the movement by that share), puts them in the dataset's declared
+convention (axes, gravity), turns
 them by the sensor's mounting and compares them with the real windows of the
 class.
 
@@ -33,7 +36,9 @@ declared axes alone. Per class:
   does not, and the ECDF features of a HAR model see exactly these
   within-window distributions;
 - the mean gyroscope vector (a net turn, one way on average, e.g. the quarter
-  turn of lying down along a bed), and the RMS of the rotation rate around
+  turn of lying down along a bed; for a single execution, how far each
+  execution turns from start to end, since a window's mean rate of a movement
+  that turns and turns back depends on where the window cuts it), and the RMS of the rotation rate around
   each window's mean (how much it turns: a too rigid simulated pelvis shows
   here).
 
@@ -82,7 +87,7 @@ from vsmp_imu.har.windows import window_geometry, window_starts
 from vsmp_imu.imu import simulate_kinematics
 from vsmp_imu.io import atomic_path
 from vsmp_imu.motion import Motion
-from vsmp_imu.pipeline.sample import backend_for
+from vsmp_imu.pipeline.sample import active_span, backend_for
 from vsmp_imu.pipeline.side import side_is_free
 from vsmp_imu.smp import SMP
 
@@ -94,6 +99,7 @@ STATIC_RMS_M_S2 = 0.5  # below this RMS around the mean a window set has no domi
 MIN_FREQUENCY_HZ = 0.2
 GYRO = slice(3, 6)  # the gyroscope's channels of a 6-channel window
 MIN_TURN_RAD_S = 0.1  # mean rotation rates closer than this never differ
+MIN_EXECUTION_TURN_DEG = 20.0  # net turns of one execution closer than this never differ
 MAX_MOUNTING_DEG = 60.0  # a sensor turned further than this from its declared axes: check them
 MAX_REAL_SEPARATION = 0.35  # a pair some real cue separates beyond AUC 0.85 is told apart anyway
 MIN_OVERSHARP_GAP = 0.25  # |AUC - 0.5| simulated minus real that flags a cue
@@ -135,6 +141,8 @@ class ClassCheck:
     real_duration_s: float | None = None  # one execution's movement (median), single executions only
     synthetic_duration_s: float | None = None
     n_real_executions: int | None = None
+    real_execution_turn_deg: list[float] | None = None  # mean net turn of one execution (x, y, z)
+    synthetic_execution_turn_deg: list[float] | None = None
     declared_gravity_angle_deg: float | None = None  # before the mounting
     flags: list[str] = field(default_factory=list)
 
@@ -254,34 +262,38 @@ def mean_turn_size(windows: np.ndarray) -> np.ndarray:
     return np.abs(windows[..., 3:6].mean(axis=1)).mean(axis=0)
 
 
-def turns_either_way(windows: np.ndarray) -> bool:
-    """Whether the windows (N, T, 6) that turn (net rate above 3 MIN_TURN_RAD_S about some axis)
+def turns_either_way(windows: np.ndarray, threshold: float = 3 * MIN_TURN_RAD_S) -> bool:
+    """Whether the windows (N, T, 6) that turn (net rate above `threshold` about some axis)
     turn both ways about it, each way in at least a quarter of them."""
     rate = windows[..., 3:6].mean(axis=1)
     for k in range(3):
-        turning = rate[np.abs(rate[:, k]) > 3 * MIN_TURN_RAD_S, k]
+        turning = rate[np.abs(rate[:, k]) > threshold, k]
         if len(turning) and min((turning > 0).mean(), (turning < 0).mean()) >= 0.25:
             return True
     return False
 
 
-def turn_flag(real: np.ndarray, syn: np.ndarray, axes, side_free: bool = False) -> str | None:
+def turn_flag(real: np.ndarray, syn: np.ndarray, axes, side_free: bool = False, per: str = "window") -> str | None:
     """What looks off when one side turns one way on average and the other does not (`side_free`:
-    the SMP leaves its side to its variants, so the generator takes it from the real windows)."""
+    the SMP leaves its side to its variants, so the generator takes it from the real windows).
+    `per` "window": mean rotation rates (rad/s); "execution": one execution's net turn (degrees)."""
+    floor = MIN_TURN_RAD_S if per == "window" else MIN_EXECUTION_TURN_DEG
     gap = float(np.linalg.norm(real - syn))
-    if gap <= max(MIN_TURN_RAD_S, 0.5 * max(np.linalg.norm(real), np.linalg.norm(syn))):
+    if gap <= max(floor, 0.5 * max(np.linalg.norm(real), np.linalg.norm(syn))):
         return None
     k = int(np.argmax(np.abs(real - syn)))
     axis = f"{'xyz'[k]} ({axes[k]})" if axes else "xyz"[k]
     r, s = real[k], syn[k]
-    if min(abs(r), abs(s)) < 0.5 * MIN_TURN_RAD_S:
-        hint = "a turn the activity file lacks" if abs(r) > abs(s) else "a turn the real windows lack"
+    if min(abs(r), abs(s)) < 0.5 * floor:
+        hint = "a turn the activity file lacks" if abs(r) > abs(s) else f"a turn the real {per}s lack"
     elif np.sign(r) != np.sign(s):
         hint = "check the side" + (SIDE_FROM_EVIDENCE if side_free else "")
     else:
-        hint = (f"the simulation turns {abs(s / r):.1f}x as far per window: check the tempo, or how far the "
-                "activity file turns")
-    return f"mean rotation rate about {axis}: {r:+.2f} rad/s real vs {s:+.2f} simulated: {hint}"
+        hint = f"the simulation turns {abs(s / r):.1f}x as far per {per}: check " + (
+            "the tempo, or how far the activity file turns" if per == "window" else "how far the activity file turns")
+    if per == "window":
+        return f"mean rotation rate about {axis}: {r:+.2f} rad/s real vs {s:+.2f} simulated: {hint}"
+    return f"one execution turns {r:+.0f}° about {axis} real vs {s:+.0f}° simulated: {hint}"
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> float | None:
@@ -291,17 +303,24 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float | None:
     return float(np.degrees(np.arccos(np.clip(a @ b / (na * nb), -1.0, 1.0))))
 
 
-def simulate_signal(motion: Motion, loc: SensorLocation, fs_hz: float) -> np.ndarray:
-    """The motion's readings (T, C) at one location, in its declared convention (SI units)."""
+def simulate_signal(motion: Motion, loc: SensorLocation, fs_hz: float) -> tuple[np.ndarray, float]:
+    """The motion's readings (T, C) at one location, in its declared convention (SI units), and the
+    motion time of the first one."""
     kin = simulate_kinematics(motion, loc.name, fs_hz)
     signal = np.hstack([kin.specific_force_seg(), kin.gyr_seg])
     conv = Convention(axes=loc.axes or SIM_AXES, gravity_included=loc.gravity_included)
-    return ConventionAlignment(conv).transform(signal, kin.grav_seg)[:, : len(loc.channels)]
+    return ConventionAlignment(conv).transform(signal, kin.grav_seg)[:, : len(loc.channels)], float(kin.times[0])
 
 
-def simulate_windows(signal: np.ndarray, size: int, step: int) -> np.ndarray:
-    """Windows (N, size, C) of a simulated signal (T, C)."""
+def simulate_windows(signal: np.ndarray, size: int, step: int, span: tuple[float, float] | None = None,
+                     share: float = 1.0) -> np.ndarray:
+    """Windows (N, size, C) of a simulated signal (T, C). With `span` (first and last sample the
+    body moves) and a `share` below 1, only the windows that overlap the span by that share of the
+    window, as the pipeline keeps a transition's windows (the dataset's labelling rule)."""
     starts = window_starts(len(signal), size, step)
+    if span is not None and share < 1.0 and len(starts):
+        overlap = np.minimum(starts + size, span[1]) - np.maximum(starts, span[0])
+        starts = starts[overlap >= share * size] if (overlap >= share * size).any() else starts[[overlap.argmax()]]
     if len(starts) == 0:  # a motion shorter than one window: one window, last sample repeated
         pad = np.repeat(signal[-1:], size - len(signal), axis=0)
         return np.concatenate([signal, pad])[None]
@@ -333,32 +352,44 @@ def movement_s(signal: np.ndarray, fs_hz: float) -> float | None:
     return float((moving[-1] - moving[0]) / fs_hz)
 
 
-def real_executions(dataset: HarDataset, label_index: int, cols: list[int]) -> list[float]:
-    """`movement_s` of every labelled run of the class in the dataset's recordings (each run one
-    execution; the readings of the location's channels `cols`)."""
+def real_executions(dataset: HarDataset, label_index: int, cols: list[int]) -> list[np.ndarray]:
+    """Every labelled run of the class in the dataset's recordings (each run one execution), the
+    readings of the location's channels `cols`."""
     out = []
     for rec in dataset.recordings():
         edges = np.diff(np.r_[0, (rec.labels == label_index).astype(np.int8), 0])
         for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
-            seconds = movement_s(rec.data[a:b][:, cols].astype(np.float64), dataset.info.fs_hz)
-            if seconds is not None:
-                out.append(seconds)
+            out.append(rec.data[a:b][:, cols].astype(np.float64))
     return out
+
+
+def net_turn_deg(signal: np.ndarray, fs_hz: float) -> np.ndarray | None:
+    """How far the execution (T, 6) turns about each gyroscope axis, start to end, in degrees."""
+    return np.degrees(signal[:, GYRO].sum(axis=0) / fs_hz) if signal.shape[1] >= 6 else None
 
 
 @dataclass(frozen=True)
 class Timing:
-    """One execution's movement in seconds: real (median of `n_real` labelled runs; None with fewer
-    than `MIN_EVENTS`) and simulated (median of the executions simulated)."""
+    """One execution: how long it moves in seconds, real (median of `n_real` labelled runs; None
+    with fewer than `MIN_EVENTS`) and simulated (median of the executions simulated); and with a
+    gyroscope each execution's net turn (rows of degrees about x, y, z; None without)."""
 
     real_s: float | None
     synthetic_s: float | None
     n_real: int
+    real_turns: np.ndarray | None = None
+    synthetic_turns: np.ndarray | None = None
 
 
-def timing(real: list[float], simulated: list[float]) -> Timing:
-    return Timing(float(np.median(real)) if len(real) >= MIN_EVENTS else None,
-                  float(np.median(simulated)) if simulated else None, len(real))
+def timing(real: list[np.ndarray], simulated: list[np.ndarray], fs_hz: float) -> Timing:
+    """The Timing of real and simulated executions (T, C) in the same frame."""
+    seconds = [[v for v in (movement_s(x, fs_hz) for x in side) if v is not None] for side in (real, simulated)]
+    turns = [np.array([net_turn_deg(x, fs_hz) for x in side]) if side and side[0].shape[1] >= 6 else None
+             for side in (real, simulated)]
+    enough = len(seconds[0]) >= MIN_EVENTS
+    return Timing(float(np.median(seconds[0])) if enough else None,
+                  float(np.median(seconds[1])) if seconds[1] else None, len(seconds[0]),
+                  turns[0] if enough else None, turns[1])
 
 
 def duration_flag(t: Timing) -> str | None:
@@ -463,6 +494,23 @@ def check_pairs(windows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]],
     return out
 
 
+def _turns(out: ClassCheck, real: np.ndarray, syn: np.ndarray, executions: Timing | None) -> tuple:
+    """What the turn flag compares: (real, simulated, per, either-way threshold). The windows, or for
+    a single execution with both sides' net turns, one row per execution (as (N, 1, 6) windows
+    whose gyroscope is the turn in degrees): a window's mean rate of a movement that turns and
+    turns back depends on where the window cuts it and on the tempo, the whole execution's net
+    turn does not."""
+    if executions is None or executions.real_turns is None or executions.synthetic_turns is None:
+        return real, syn, "window", 3 * MIN_TURN_RAD_S
+    out.real_execution_turn_deg = executions.real_turns.mean(axis=0).round(1).tolist()
+    out.synthetic_execution_turn_deg = executions.synthetic_turns.mean(axis=0).round(1).tolist()
+
+    def rows(turns: np.ndarray) -> np.ndarray:
+        return np.concatenate([np.zeros((len(turns), 1, 3)), turns[:, None, :]], axis=2)
+
+    return rows(executions.real_turns), rows(executions.synthetic_turns), "execution", MIN_EXECUTION_TURN_DEG
+
+
 def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn: np.ndarray,
             fs_hz: float, declared: np.ndarray | None = None, side_free: bool = False,
             executions: Timing | None = None) -> ClassCheck:
@@ -491,11 +539,13 @@ def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn:
         r_gyro, s_gyro = mean_gyro(real), mean_gyro(syn)
         out.real_mean_gyro, out.synthetic_mean_gyro = r_gyro.round(3).tolist(), s_gyro.round(3).tolist()
         out.real_turn_rms, out.synthetic_turn_rms = motion_rms(real, GYRO), motion_rms(syn, GYRO)
-        turn = turn_flag(r_gyro, s_gyro, loc.axes, side_free)
+        turns = _turns(out, real, syn, executions)
+        turn = turn_flag(mean_gyro(turns[0]), mean_gyro(turns[1]), loc.axes, side_free, turns[2])
         # executions that turn to a drawn side (a stairwell's landings) cancel in the class mean:
         # turning either way as much per window as the real windows turn is no gap
-        if turn and not (turns_either_way(syn)
-                         and turn_flag(mean_turn_size(real), mean_turn_size(syn), loc.axes) is None):
+        if turn and not (turns_either_way(turns[1], turns[3])
+                         and turn_flag(mean_turn_size(turns[0]), mean_turn_size(turns[1]), loc.axes,
+                                       per=turns[2]) is None):
             out.flags.append(turn)
     if out.gravity_angle_deg is not None and out.gravity_angle_deg > MAX_GRAVITY_ANGLE_DEG:
         out.flags.append(f"gravity points {out.gravity_angle_deg:.0f}° apart: check the declared axes, "
@@ -541,10 +591,11 @@ class DataCheck:
     def run(self, dataset: HarDataset, sources: dict[str, list]) -> list[ClassCheck]:
         info = dataset.info
         size, step = window_geometry(info.fs_hz, self.window_s, self.overlap)
+        shares = info.share_vector()
         real = dataset.windows(self.window_s, self.overlap)
         backend = backend_for(self.backend, tuple(self.library_dirs))
         declared: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
-        timings: dict[tuple[str, str], Timing] = {}  # single executions only
+        executions: dict[tuple[str, str], tuple[list, list]] = {}  # single executions: (real, simulated)
         sources_of: dict[str, str] = {}
         side_free: dict[str, bool] = {}  # the base SMP leaves its side to its variants (turn_flag)
         for i, label in enumerate(info.label_names):
@@ -559,15 +610,21 @@ class DataCheck:
             for loc in locations_of(info, label):
                 cols = [info.channel_names.index(c) for c in loc.channels]
                 r = real.X[real.y == i][..., cols].astype(np.float64)
-                signals = [simulate_signal(m, loc, info.fs_hz) for m in motions]
-                s = np.concatenate([simulate_windows(sig, size, step) for sig in signals])
+                signals, windows = [], []
+                for m in motions:
+                    sig, start_s = simulate_signal(m, loc, info.fs_hz)
+                    span = tuple((t - start_s) * info.fs_hz for t in active_span(m))
+                    signals.append(sig)
+                    windows.append(simulate_windows(sig, size, step, span, shares[i]))
+                s = np.concatenate(windows)
                 declared[(label, loc.name)] = (r, s)
                 if single:
-                    simulated = [v for v in (movement_s(sig, info.fs_hz) for sig in signals) if v is not None]
-                    timings[(label, loc.name)] = timing(real_executions(dataset, i, cols), simulated)
+                    executions[(label, loc.name)] = (real_executions(dataset, i, cols), signals)
         self.mountings_ = [self._mounting(loc, declared) for loc in info.locations
                            if any(name == loc.name for _, name in declared)]
         by_place = {m.location: m for m in self.mountings_}
+        timings = {key: timing(r, [turned(x[None], by_place[key[1]])[0] for x in s], info.fs_hz)
+                   for key, (r, s) in executions.items()}
         self.results_, self.windows_ = [], {}
         for (label, place), (r, s) in declared.items():
             loc = info.location(place)
