@@ -1,0 +1,38 @@
+"""The activity folders under examples/: each overrides library activities of the same name."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from vsmp_imu.pipeline.check import movement_s, simulate_signal
+from vsmp_imu.pipeline.sample import backend_for
+from vsmp_imu.smp.library import ActivityLibrary
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+TIMED = EXAMPLES / "hapt12_timed"
+# how much longer each timed file's execution moves than the library's (what data check measured)
+SLOWER = {"stand_to_sit": 1.4, "sit_to_lie": 1.7, "lie_to_sit": 1.4}
+
+
+def test_the_timed_files_override_the_library_with_its_smps():
+    plain, timed = ActivityLibrary.load(), ActivityLibrary.load([TIMED])
+    assert sorted(p.stem for p in TIMED.glob("*.yaml")) == sorted(SLOWER)
+    for name in SLOWER:
+        assert timed.get(name).path.parent == TIMED and plain.get(name).path.parent != TIMED
+        assert timed.get(name).smp == plain.get(name).smp  # only the recipe's timing differs
+
+
+@pytest.mark.parametrize("name", sorted(SLOWER))
+def test_each_timed_execution_moves_as_much_longer_as_intended(name):
+    from vsmp_imu.har.datasets.hapt import WAIST
+
+    seconds = {}
+    for key, dirs in (("plain", ()), ("timed", (str(TIMED),))):
+        backend = backend_for("procedural", dirs)
+        library = ActivityLibrary.load([Path(d) for d in dirs])
+        runs = [movement_s(simulate_signal(backend.generate(library.get(name).smp, seed), WAIST, 50.0)[0], 50.0)
+                for seed in range(3)]
+        seconds[key] = sum(runs) / len(runs)
+    assert abs(seconds["timed"] / seconds["plain"] / SLOWER[name] - 1) < 0.12
