@@ -494,7 +494,8 @@ def check_pairs(windows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]],
     return out
 
 
-def _turns(out: ClassCheck, real: np.ndarray, syn: np.ndarray, executions: Timing | None) -> tuple:
+def _turns(out: ClassCheck, real: np.ndarray, syn: np.ndarray,
+           executions: Timing | None) -> tuple[np.ndarray, np.ndarray, str, float]:
     """What the turn flag compares: (real, simulated, per, either-way threshold). The windows, or for
     a single execution with both sides' net turns, one row per execution (as (N, 1, 6) windows
     whose gyroscope is the turn in degrees): a window's mean rate of a movement that turns and
@@ -539,13 +540,13 @@ def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn:
         r_gyro, s_gyro = mean_gyro(real), mean_gyro(syn)
         out.real_mean_gyro, out.synthetic_mean_gyro = r_gyro.round(3).tolist(), s_gyro.round(3).tolist()
         out.real_turn_rms, out.synthetic_turn_rms = motion_rms(real, GYRO), motion_rms(syn, GYRO)
-        turns = _turns(out, real, syn, executions)
-        turn = turn_flag(mean_gyro(turns[0]), mean_gyro(turns[1]), loc.axes, side_free, turns[2])
+        real_turns, syn_turns, per, either_way = _turns(out, real, syn, executions)
+        turn = turn_flag(mean_gyro(real_turns), mean_gyro(syn_turns), loc.axes, side_free, per)
         # executions that turn to a drawn side (a stairwell's landings) cancel in the class mean:
         # turning either way as much per window as the real windows turn is no gap
-        if turn and not (turns_either_way(turns[1], turns[3])
-                         and turn_flag(mean_turn_size(turns[0]), mean_turn_size(turns[1]), loc.axes,
-                                       per=turns[2]) is None):
+        if turn and not (turns_either_way(syn_turns, either_way)
+                         and turn_flag(mean_turn_size(real_turns), mean_turn_size(syn_turns), loc.axes,
+                                       per=per) is None):
             out.flags.append(turn)
     if out.gravity_angle_deg is not None and out.gravity_angle_deg > MAX_GRAVITY_ANGLE_DEG:
         out.flags.append(f"gravity points {out.gravity_angle_deg:.0f}° apart: check the declared axes, "
