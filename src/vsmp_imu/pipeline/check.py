@@ -87,7 +87,7 @@ from vsmp_imu.har.windows import window_geometry, window_starts
 from vsmp_imu.imu import simulate_kinematics
 from vsmp_imu.io import atomic_path
 from vsmp_imu.motion import Motion
-from vsmp_imu.pipeline.sample import active_span, backend_for
+from vsmp_imu.pipeline.sample import ACTIVE_SPEED_FRACTION, active_span, backend_for
 from vsmp_imu.pipeline.side import side_is_free
 from vsmp_imu.smp import SMP
 
@@ -108,7 +108,6 @@ MIN_PAIR_WINDOWS = 6  # per class and side; fewer windows say nothing about a cu
 QUARTERS = 4
 MAX_DURATION_RATIO = 1.3  # one execution's movement, simulated vs real, beyond this either way: flagged
 MIN_EVENTS = 3  # labelled real executions a class needs for its duration
-MOVING_FRACTION = 0.2  # of an execution's peak rotation rate (the pipeline's active span uses 20 % too)
 RATE_SMOOTH_S = 0.3  # moving average of the rotation rate before the threshold
 # an SMP that lets its variants change side: the generator already takes the side the real windows show
 SIDE_FROM_EVIDENCE = (" (the SMP leaves the side to its variants: generate and evaluate take it from the "
@@ -337,7 +336,8 @@ def single_execution(motion: Motion) -> bool:
 def movement_s(signal: np.ndarray, fs_hz: float) -> float | None:
     """Seconds between the first and the last moment the signal (T, C) moves: its rotation rate
     (the gyroscope's norm; without one, how fast the acceleration changes), smoothed
-    over `RATE_SMOOTH_S`, above `MOVING_FRACTION` of its peak. None for a signal that never moves."""
+    over `RATE_SMOOTH_S`, above `ACTIVE_SPEED_FRACTION` of its peak (the fraction of the pipeline's
+    active span). None for a signal that never moves."""
     if len(signal) < 2:
         return None
     if signal.shape[1] >= 6:
@@ -348,7 +348,7 @@ def movement_s(signal: np.ndarray, fs_hz: float) -> float | None:
     rate = np.convolve(rate, np.ones(k) / k, mode="same")
     if not rate.max() > 0:
         return None
-    moving = np.flatnonzero(rate > MOVING_FRACTION * rate.max())
+    moving = np.flatnonzero(rate > ACTIVE_SPEED_FRACTION * rate.max())
     return float((moving[-1] - moving[0]) / fs_hz)
 
 
