@@ -129,3 +129,35 @@ def test_a_method_that_makes_windows_from_motion_reruns_after_a_code_change(pool
     monkeypatch.setattr(sample, "code_fingerprint", lambda: "another code")
     after = {m: evaluation._digest("rf", m) for m in ("real", "pooled")}
     assert after["real"] == before["real"] and after["pooled"] != before["pooled"]
+
+
+def test_a_method_that_makes_windows_from_motion_reruns_after_its_activity_files_change(
+        pooled, tiny_dataset, monkeypatch, tmp_path):
+    """Its records hold a digest of the activity library it animates (built-in and --library
+    folders); Real-only's do not."""
+    import shutil
+    from pathlib import Path
+
+    from vsmp_imu.har import synthetic
+    from vsmp_imu.pipeline.sample import library_for
+
+    monkeypatch.setattr(synthetic, "UNSEEN_CAPABLE", {*synthetic.UNSEEN_CAPABLE, "pooled"})
+    monkeypatch.setattr("vsmp_imu.har.evaluate.UNSEEN_CAPABLE", synthetic.UNSEEN_CAPABLE)
+    example = Path(__file__).resolve().parents[2] / "examples" / "hapt12_timed"
+    folder = tmp_path / "lib"
+    shutil.copytree(example, folder)
+
+    def digests(library: Path) -> dict[str, str]:
+        library_for.cache_clear()
+        config = _config(method_params={"pooled": {"k": 2, **RUN_A, "library_dirs": (str(library),)}})
+        return {m: Evaluation(config, tiny_dataset)._digest("rf", m) for m in ("real", "pooled")}
+
+    before = digests(folder)
+    path = folder / "sit_to_lie.yaml"
+    text = path.read_text()
+    path.write_text(text.replace("lean_back: {duration_s: 2.0", "lean_back: {duration_s: 2.5"))
+    after = digests(folder)
+    assert after["real"] == before["real"] and after["pooled"] != before["pooled"]
+    path.write_text(text)
+    assert digests(folder) == before
+    library_for.cache_clear()

@@ -7,7 +7,8 @@ from vsmp_imu.pipeline.sample import code_fingerprint, source_fingerprint
 
 def _package(root: Path) -> Path:
     for rel, text in {"seeding.py": "SEED = 1\n", "cli/main.py": "X = 1\n", "motion/gait.py": "STEP = 1\n",
-                      "smp/library/walk.yaml": "label: walk\n", "har/report.py": "R = 1\n"}.items():
+                      "smp/library/walk.yaml": "label: walk\n", "har/report.py": "R = 1\n",
+                      "smp/activities/walking.yaml": "name: walking\n"}.items():
         (root / rel).parent.mkdir(parents=True, exist_ok=True)
         (root / rel).write_text(text)
     return root
@@ -28,7 +29,8 @@ def test_a_top_level_module_or_a_room_changes_the_fingerprint(tmp_path):
 def test_code_a_sample_never_runs_leaves_the_fingerprint(tmp_path):
     root = _package(tmp_path / "pkg")
     before = source_fingerprint(root)
-    for rel in ("cli/main.py", "har/report.py"):
+    # activity files are data: a sample's key holds its own entry's digest (test_sample_key.py)
+    for rel in ("cli/main.py", "har/report.py", "smp/activities/walking.yaml"):
         (root / rel).write_text("CHANGED = 2\n")
     (root / "notes.txt").write_text("not code\n")
     assert source_fingerprint(root) == before

@@ -312,10 +312,12 @@ class Evaluation:
             payload["share_selection"] = [c.share_selection, HARM_P]
         if c.synthetic_weight is not None and method != "real":  # Real-only has no synthetic window to weigh
             payload["synthetic_weight"] = c.synthetic_weight
-        if method in UNSEEN_CAPABLE:  # windows made from motion: another code's record is stale
-            from vsmp_imu.pipeline.sample import code_fingerprint
+        if method in UNSEEN_CAPABLE:  # windows made from motion: another code's or library's record is stale
+            from vsmp_imu.pipeline.sample import code_fingerprint, library_for
 
             payload["code"] = code_fingerprint()
+            dirs = c.method_params.get(method, {}).get("library_dirs", ())
+            payload["library"] = library_for(tuple(str(d) for d in dirs)).digest()
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 

@@ -54,14 +54,19 @@ PIPELINE_VERSION = "1"
 # Code whose changes invalidate cached samples: the rooms a sample passes through, and the
 # package's top-level modules (seeding, quantiles, units, ...) that those rooms import.
 _CODE_ROOMS = ("smp", "motion", "imu", "grounding", "filtering", "pipeline")
+# The built-in activity files are data, not code: a sample's key holds the digest of the library
+# entry it was made from (SampleTask.content_hash), so an edited file recomputes its class only.
+_ACTIVITY_FILES = Path("smp", "activities")
 
 
 def source_fingerprint(root: Path) -> str:
     """A hash of the package sources under `root` a sample depends on: every .py and .yaml
-    file of the rooms, and the .py files directly in `root`."""
+    file of the rooms but the activity files, and the .py files directly in `root`."""
     digest = hashlib.sha256(PIPELINE_VERSION.encode())
     files = sorted(root.glob("*.py")) + [path for room in _CODE_ROOMS for path in sorted((root / room).rglob("*"))]
     for path in files:
+        if path.relative_to(root).is_relative_to(_ACTIVITY_FILES):
+            continue
         if path.suffix in (".py", ".yaml") and path.is_file():
             digest.update(str(path.relative_to(root)).encode())
             digest.update(path.read_bytes())
@@ -128,9 +133,20 @@ class SampleTask:
         payload = asdict(self)
         payload.pop("motion_dir")
         payload.pop("motion_file")
+        payload.pop("library_dirs")  # where the activity files lie; what they say is "activity"
+        payload["activity"] = self.activity_digest()
         payload["code"] = code_fingerprint()
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+    def activity_digest(self) -> str:
+        """What the sample reads from the activity library, as a hash (`ActivityLibrary.digest`):
+        the entry its SMP's label names, or the whole library for a prompt; none for a recorded
+        motion. It comes from the library the backend animates with (`library_for`)."""
+        if self.motion_file:
+            return ""
+        label = json.loads(self.smp_json)["activity_label"] if self.smp_json else None
+        return library_for(self.library_dirs).digest(label)
 
 
 @dataclass
@@ -186,15 +202,22 @@ def json_default(value: Any) -> Any:
 _BACKENDS: dict[tuple, Any] = {}
 
 
+@functools.lru_cache(maxsize=8)
+def library_for(library_dirs: tuple[str, ...]):
+    """The activity library of a worker process (loaded once): what its backends animate, and
+    what the samples' cache keys digest."""
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    return ActivityLibrary.load([Path(d) for d in library_dirs])
+
+
 def backend_for(name: str, library_dirs: tuple[str, ...]):
-    """One backend per worker process (the library is loaded once)."""
+    """One backend per worker process, on `library_for`'s library."""
     key = (name, library_dirs)
     if key not in _BACKENDS:
         from vsmp_imu.motion.backends import get_backend
-        from vsmp_imu.smp.library import ActivityLibrary
 
-        library = ActivityLibrary.load([Path(d) for d in library_dirs])
-        _BACKENDS[key] = get_backend(name, library=library)
+        _BACKENDS[key] = get_backend(name, library=library_for(library_dirs))
     return _BACKENDS[key]
 
 

@@ -13,6 +13,8 @@ whose `name` equals a built-in one replaces it.
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
 import logging
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -95,6 +97,15 @@ class LibraryEntry:
 
     def __hash__(self) -> int:
         return hash((self.name, str(self.path)))
+
+    def digest(self) -> str:
+        """A hash of what the entry says (not where its file lies): part of the cache key of every
+        sample made from it, so an edited activity file recomputes its own samples only."""
+        content = {"name": self.name, "aliases": list(self.aliases), "datasets": self.datasets,
+                   "captions": list(self.captions), "central_primitive": self.central_primitive,
+                   "smp": self.smp.model_dump(mode="json"), "extras": self.extras}
+        text = json.dumps(content, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def lookup_keys(self) -> list[str]:
         """The normalized strings this entry answers to: name, aliases, SMP label."""
@@ -185,6 +196,7 @@ class ActivityLibrary:
                           self._entries[entry.name].path)
             self._entries[entry.name] = entry
         self._index = self._build_index()
+        self._digests: dict[str | None, str] = {}
 
     @classmethod
     def load(cls, extra_dirs: Sequence[str | Path] = ()) -> ActivityLibrary:
@@ -206,6 +218,19 @@ class ActivityLibrary:
                         file=entry.path, field="aliases")
                 index[key] = entry.name
         return index
+
+    def digest(self, label: str | None = None) -> str:
+        """A hash of what a motion made for `label` can read from the library: the entry that
+        `label` names exactly (`match`), or, for no label or a label no entry names, every entry
+        (a prompt, a fuzzy lookup or a name that a new file's alias may claim read the whole)."""
+        if label not in self._digests:
+            key = None if label is None else norm_name(label)
+            if key in self._index:
+                self._digests[label] = self._entries[self._index[key]].digest()
+            else:
+                every = "".join(self._entries[name].digest() for name in self.names())
+                self._digests[label] = hashlib.sha256(every.encode()).hexdigest()[:16]
+        return self._digests[label]
 
     # -- container protocol -------------------------------------------------
     def names(self) -> list[str]:
