@@ -329,6 +329,22 @@ def test_a_paired_table_can_take_its_baseline_from_another_backbone():
                   methods=["vsmp"], metrics=[{"label": "all", "metric": "macro_f1"}])
 
 
+def test_a_paired_table_can_take_its_baseline_from_another_budget():
+    """A learning curve's step: each method at the table's budgets against itself at one budget."""
+    from vsmp_imu.har.published import TableBuilder, TableSpec
+    from vsmp_imu.har.records import RecordSet
+
+    half = [_record("real", fold, 0, 50.0, 0.5) for fold in range(1, 7)]
+    full = [{**r, "budget": 100.0, "macro_f1": r["macro_f1"] + 0.01 * int(r["fold"])} for r in half]
+    spec = TableSpec(id="x:curve", records="curve", kind="paired", baseline="real", baseline_budget=50,
+                     budgets=[100], methods=["real"], metrics=[{"label": "all", "metric": "macro_f1"}])
+    table = TableBuilder(spec, RecordSet("curve", "cmd", None, None, {}, LABELS, tuple(half + full))).render()
+    assert "| 100 % | Real-only vs. Real-only at 50 % | +3.50 (6/6, p = 0.031) |" in table
+    with pytest.raises(ValueError, match="baseline_budget"):
+        TableSpec(id="x:bad", records="curve", kind="paired", baseline="real", baseline_budget=50,
+                  methods=["real"], metrics=[{"label": "all", "metric": "macro_f1"}])
+
+
 def test_a_per_seed_paired_table_tests_each_seed_over_its_own_folds():
     from vsmp_imu.har.published import TableBuilder, TableSpec
     from vsmp_imu.har.records import RecordSet

@@ -98,6 +98,8 @@ class TableSpec(BaseModel):
     baseline_records: str | None = None
     # paired: the baseline's runs on another backbone (the same windows, another model)
     baseline_backbone: str | None = None
+    # paired: the baseline's runs at another budget (e.g. twice the labels against the budget)
+    baseline_budget: float | None = None
     bold: bool = False
     per_seed: bool = False  # paired: a row per seed under each method's row over all seeds
     digits: int = Field(2, ge=0, le=4)
@@ -133,6 +135,8 @@ class TableSpec(BaseModel):
             raise ValueError("per_seed is an option of paired tables")
         if self.baseline_backbone is not None and (self.kind != "paired" or self.backbone is None):
             raise ValueError("baseline_backbone is an option of paired tables that name their backbone")
+        if self.baseline_budget is not None and (self.kind != "paired" or not self.budgets):
+            raise ValueError("baseline_budget is an option of paired tables that name their budgets")
         return self
 
 
@@ -366,7 +370,8 @@ class TableBuilder:
         rows = []
         for budget in self.budgets():
             for method in s.methods:
-                base = self.runs(self._baseline(method), budget, self.baseline_records, s.baseline_backbone)
+                base = self.runs(self._baseline(method), s.baseline_budget or budget, self.baseline_records,
+                                 s.baseline_backbone)
                 mine = self.runs(method, budget)
                 if self.baseline_records is not None:  # another set: the runs both have
                     both = _run_keys(mine) & _run_keys(base)
@@ -395,6 +400,8 @@ class TableBuilder:
                     + (f" of `{self.baseline_records.name}`" if self.baseline_records is not None else ""))
         if self.baseline_records is not None:
             return f"{_method_name(method)} vs. {baseline} of `{self.baseline_records.name}`"
+        if s.baseline_budget is not None:
+            return f"{_method_name(method)} vs. {baseline} at {_budget_name(s.baseline_budget)}"
         return _method_name(method)
 
     def _paired_cells(self, runs: list[dict], base: list[dict]) -> list[str]:
