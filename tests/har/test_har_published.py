@@ -340,6 +340,13 @@ def test_a_paired_table_can_take_its_baseline_from_another_budget():
                      budgets=[100], methods=["real"], metrics=[{"label": "all", "metric": "macro_f1"}])
     table = TableBuilder(spec, RecordSet("curve", "cmd", None, None, {}, LABELS, tuple(half + full))).render()
     assert "| 100 % | Real-only vs. Real-only at 50 % | +3.50 (6/6, p = 0.031) |" in table
+    # and from another record set: a method at one budget against the baseline with more labels
+    mixed = [{**r, "method": "vsmp", "macro_f1": 0.5 + 0.02 * int(r["fold"])} for r in half]
+    spec = spec.model_copy(update={"baseline_records": "curve", "budgets": [50], "methods": ["vsmp"],
+                                   "baseline_budget": 100})
+    table = TableBuilder(spec, RecordSet("mix", "cmd m", None, None, {}, LABELS, tuple(mixed)),
+                         RecordSet("curve", "cmd", None, None, {}, LABELS, tuple(half + full))).render()
+    assert "| 50 % | VSMP-IMU vs. Real-only of `curve` at 100 % | +3.50 (6/6, p = 0.031) |" in table
     with pytest.raises(ValueError, match="baseline_budget"):
         TableSpec(id="x:bad", records="curve", kind="paired", baseline="real", baseline_budget=50,
                   methods=["real"], metrics=[{"label": "all", "metric": "macro_f1"}])

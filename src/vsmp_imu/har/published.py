@@ -398,10 +398,11 @@ class TableBuilder:
         if s.baseline_backbone is not None:
             return (f"{_method_name(method)} with `{s.backbone}` vs. {baseline} with `{s.baseline_backbone}`"
                     + (f" of `{self.baseline_records.name}`" if self.baseline_records is not None else ""))
+        at = "" if s.baseline_budget is None else f" at {_budget_name(s.baseline_budget)}"
         if self.baseline_records is not None:
-            return f"{_method_name(method)} vs. {baseline} of `{self.baseline_records.name}`"
-        if s.baseline_budget is not None:
-            return f"{_method_name(method)} vs. {baseline} at {_budget_name(s.baseline_budget)}"
+            return f"{_method_name(method)} vs. {baseline} of `{self.baseline_records.name}`{at}"
+        if at:
+            return f"{_method_name(method)} vs. {baseline}{at}"
         return _method_name(method)
 
     def _paired_cells(self, runs: list[dict], base: list[dict]) -> list[str]:
