@@ -8,6 +8,7 @@ import os
 import re
 import subprocess
 import sys
+from collections import Counter
 from pathlib import Path
 
 TUTORIAL = Path(__file__).resolve().parents[2] / "docs" / "tutorial.md"
@@ -57,3 +58,53 @@ def test_tutorial_runs_as_written(tmp_path):
     check = json.loads((work / "my_watch/check/check.json").read_text())
     assert [c["label"] for c in check["classes"]] == ["walking", "sitting", "dumbbell curls"]
     assert (work / "my_watch/check/check.png").stat().st_size > 0
+
+
+def _sample_classes(folder: Path) -> dict[str, str]:
+    """Cache file name -> the class of the sample it holds (its key is fold/class/slot)."""
+    import pyarrow.parquet as pq
+
+    return {p.name: json.loads(pq.read_schema(p).metadata[b"vsmp_imu.sample"])["key"].split("/")[1]
+            for p in folder.glob("*.parquet")}
+
+
+def test_an_edited_activity_file_remakes_the_samples_that_read_it(tmp_path):
+    """The tutorial's promise: after an edit to an activity file the same evaluation makes that
+    activity's samples again and recomputes the VSMP-IMU record, keeping Real-only's. An edit that
+    leaves the sensor mounting (estimated from every class's default motion) where it was
+    reuses every other activity's samples; one that moves it remakes theirs as well."""
+    from vsmp_imu.smp.library import BUILTIN_DIR
+
+    env = {**os.environ, "VSMP_IMU_CACHE": str(tmp_path / "cache"),
+           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    work = tmp_path / "work"
+    work.mkdir()
+    found = blocks(TUTORIAL.read_text())
+    evaluate = next(body for lang, _, body in found if lang == "bash" and "vsmp-imu evaluate" in body)
+    for lang, info, body in found:
+        if "data check" not in body:
+            run_block(lang, info, body, work, env)
+    samples, records = tmp_path / "cache/samples", work / "my_watch/runs/records"
+    slots = Counter(_sample_classes(samples).values())  # samples per class in the run
+    curls = (BUILTIN_DIR / "bicep_curls.yaml").read_text()
+    (work / "mine").mkdir()
+
+    def rerun(text: str) -> tuple[dict[str, str], list[str]]:
+        """The classes of the samples made anew, and the records kept byte for byte."""
+        before = _sample_classes(samples)
+        kept = {p.name: p.read_bytes() for p in records.glob("*.json")}
+        (work / "mine/bicep_curls.yaml").write_text(text)
+        run_block("bash", "", evaluate.rstrip() + " --library mine\n", work, env)
+        made = {n: label for n, label in _sample_classes(samples).items() if n not in before}
+        return made, sorted(p.name for p in records.glob("*.json") if p.read_bytes() == kept.get(p.name))
+
+    # a caption: the default motion, hence the mounting, is unchanged
+    assert "A person does bicep curls" in curls
+    made, kept = rerun(curls.replace("A person does bicep curls", "A person curls"))
+    assert set(made.values()) == {"dumbbell curls"} and len(made) == slots["dumbbell curls"]
+    assert kept and all("_real_" in name for name in kept)
+    # the recipe's timing: the class's default motion moves, and with it the estimated mounting
+    assert "curl_up: {duration_s: 0.9," in curls
+    made, kept = rerun(curls.replace("curl_up: {duration_s: 0.9,", "curl_up: {duration_s: 1.3,"))
+    assert Counter(made.values())["dumbbell curls"] == slots["dumbbell curls"]
+    assert kept and all("_real_" in name for name in kept)
