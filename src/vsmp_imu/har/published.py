@@ -214,7 +214,10 @@ def paired_test(method: Sequence[dict], baseline: Sequence[dict], metric: Metric
     diffs = np.array([a - b for a, b in pairs if a is not None and b is not None], dtype=float)
     if len(diffs) == 0:
         return Paired(float("nan"), 0, 0, float("nan"))
-    p = float(wilcoxon(diffs).pvalue) if np.any(diffs != 0) else 1.0
+    if len(diffs) < 2:  # one run has no test
+        p = float("nan")
+    else:
+        p = float(wilcoxon(diffs).pvalue) if np.any(diffs != 0) else 1.0
     return Paired(float(diffs.mean()), int(np.sum(diffs > 0)), len(diffs), p)
 
 

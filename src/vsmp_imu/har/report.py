@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from vsmp_imu.har.backbones import DISPLAY_NAMES
+from vsmp_imu.har.published import Metric, paired_test
 from vsmp_imu.har.synthetic import METHOD_DISPLAY
 from vsmp_imu.io import atomic_path, write_text
 
@@ -93,7 +94,50 @@ def results_markdown(results: dict[str, Any]) -> str:
             delivered = _synthetic_counts(rows, config)
             if delivered:
                 parts += [delivered, ""]
+            paired = _paired([r for r in results.get("records", ())
+                              if r["dataset"] == dataset and r["protocol"] == protocol], config)
+            if paired:
+                parts += [paired, ""]
     return "\n".join(parts)
+
+
+# what each method is paired with: Real-only, and Classical Aug for the methods that make windows
+PAIRED_BASELINES = ("real", "classical")
+
+
+def _paired(records: list[dict[str, Any]], config: dict[str, Any]) -> str:
+    """Each method against Real-only, and each other method against Classical Aug, per backbone
+    and budget: the mean difference over the runs both have (same fold, seed and unseen set),
+    the runs it wins, and the two-sided Wilcoxon signed-rank p (`published.paired_test`)."""
+    methods = _ordered([r["method"] for r in records], config.get("methods"))
+    metrics = _paired_metrics(records)
+    out = []
+    for backbone in _ordered([r["backbone"] for r in records], config.get("backbones")):
+        for budget in dict.fromkeys(r["budget"] for r in records if r["backbone"] == backbone):
+            runs = {m: [r for r in records if r["backbone"] == backbone and r["budget"] == budget
+                        and r["method"] == m] for m in methods}
+            for baseline in (b for b in PAIRED_BASELINES if runs.get(b)):
+                done = PAIRED_BASELINES[:PAIRED_BASELINES.index(baseline) + 1]  # paired already
+                for method in (m for m in methods if runs[m] and m not in done):
+                    cells = [paired_test(runs[method], runs[baseline], metric).cell(2) for metric in metrics]
+                    out.append([_backbone(backbone), "" if budget is None else f"{budget:g}%",
+                                f"{_method(method)} vs. {_method(baseline)}"] + cells)
+    if not out:
+        return ""
+    header = ["Backbone", "Budget", "Pair"] + [m.label for m in metrics]
+    return ("Paired differences (points of F1; runs won of the runs both have, same fold and seed; "
+            "two-sided Wilcoxon signed-rank p; n/a with one run):\n\n" + _table(header, out))
+
+
+def _paired_metrics(records: list[dict[str, Any]]) -> list[Metric]:
+    """Macro-F1, the tail or unseen classes' where the protocol has them, and each report group."""
+    metrics = [Metric(label="Macro-F1", metric="macro_f1")]
+    if any(r.get("tail_macro_f1") is not None for r in records):
+        metrics.append(Metric(label="Tail Macro-F1", metric="tail"))
+    if any(r.get("unseen_macro_f1") is not None for r in records):
+        metrics.append(Metric(label="Unseen Macro-F1", metric="unseen"))
+    groups = dict.fromkeys(g for r in records for g in (r.get("group_macro_f1") or {}))
+    return metrics + [Metric(label=f"{g} Macro-F1", metric=f"group:{g}") for g in groups]
 
 
 def _synthetic_counts(rows: list[dict[str, Any]], config: dict[str, Any]) -> str:
