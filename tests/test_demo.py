@@ -23,5 +23,9 @@ def test_demo_writes_its_report_and_figures(tmp_path):
     config = json.loads((out / "evaluation" / "results.json").read_text())["config"]
     assert config["backbone_params"] == {"rf": {"class_weight": "balanced"}, "rf-seg": {"class_weight": "balanced"}}
     assert config["synthetic_weight"] == 0.5
+    # the samples live in the cache directory (conftest: a temporary one), not in the output folder
+    from vsmp_imu.har.cache import samples_dir
+
+    assert not (out / "cache").exists() and any(samples_dir().glob("*.parquet"))
     summary = json.loads((out / "synthetic" / "summary.json").read_text())
     assert summary["per_class"]["STAND_TO_SIT"]["budget"] > 0

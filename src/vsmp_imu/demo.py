@@ -22,6 +22,7 @@ import numpy as np
 
 from vsmp_imu.executor import LocalExecutor
 from vsmp_imu.har.backbones import DISPLAY_NAMES, option_params
+from vsmp_imu.har.cache import max_cache_bytes, prune_cache, samples_dir
 from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
 from vsmp_imu.har.protocols import split_fold
@@ -63,7 +64,7 @@ def run_evaluation(cfg: DemoConfig, out: Path, progress=None) -> dict[str, Any]:
     """Real-only, Classical Aug and VSMP-IMU under the same folds, budget and backbones."""
     register_all()
     ds = load_dataset(cfg.dataset)
-    vsmp = {"variant": "vsmp", "workers": cfg.workers, "cache_dir": str(out / "cache")}
+    vsmp = {"variant": "vsmp", "workers": cfg.workers, "cache_dir": str(samples_dir())}
     forests = {b: option_params(b, class_weight=cfg.class_weight) for b in cfg.backbones}
     config = EvalConfig(
         dataset=ds.info.name, protocol="low-resource", budgets=(cfg.budget_percent,), backbones=cfg.backbones,
@@ -82,10 +83,10 @@ def first_fold_synthetic(cfg: DemoConfig, out: Path) -> tuple[FoldOutput, Any, A
     info = ds.info
     split = split_fold(ds.windows(), cfg.folds[0], "low-resource", cfg.seed, budget_percent=cfg.budget_percent)
     budget = synthetic_budget(split.fit.class_counts(), cfg.alpha, cfg.policy, split.tail)
-    spec = GenerationSpec(alpha=cfg.alpha, policy=cfg.policy, workers=cfg.workers, cache_dir=str(out / "cache"))
+    spec = GenerationSpec(alpha=cfg.alpha, policy=cfg.policy, workers=cfg.workers, cache_dir=str(samples_dir()))
     library = ActivityLibrary.load()
     generator = FoldGenerator(spec, LocalExecutor(cfg.workers, show_progress=False),
-                              out / "cache", out / "synthetic" / "motions", library=library)
+                              samples_dir(), out / "synthetic" / "motions", library=library)
     from vsmp_imu.har.synthetic import FoldContext
 
     context = FoldContext(dataset=info, fold=split.fold, held_out_subject=split.fold, train=split.fit,
@@ -269,4 +270,5 @@ def run_demo(output: Path, cfg: DemoConfig = DemoConfig(), progress=None) -> dic
     elapsed = time.perf_counter() - start
     write_text(output / "report.md", report_markdown(cfg, rows, fold_out, elapsed))
     write_text(output / "summary.json", json.dumps({"rows": rows, "elapsed_s": elapsed}, indent=2) + "\n")
+    prune_cache(samples_dir(), max_cache_bytes())
     return {"rows": rows, "elapsed_s": elapsed}
