@@ -15,6 +15,7 @@ writes from its committed JSON (`har.bench_records`).
 from __future__ import annotations
 
 import difflib
+import os
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -27,10 +28,11 @@ from scipy.stats import wilcoxon
 
 from vsmp_imu.errors import ConfigError, InputFileError
 from vsmp_imu.har.bench_records import BenchTable
+from vsmp_imu.har.curves import CurveFigure, figure_path
 from vsmp_imu.har.metrics import mean_std
 from vsmp_imu.har.records import RecordSet, load_run
 from vsmp_imu.har.study_records import VIEWS, StudyRecord, StudyTable, load_study
-from vsmp_imu.io import read_structured, read_text, write_text
+from vsmp_imu.io import read_structured, read_text, write_bytes, write_text
 
 SPEC_FILE = "tables.yaml"
 DOC_GLOBS = ("README.md", "BENCHMARKS.md", "docs/*.md")
@@ -88,7 +90,11 @@ class TableSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     id: str = Field(pattern=r"^[a-z0-9_-]+:[a-z0-9_-]+$")
     records: str
-    kind: Literal["groups", "paired", "classes", "synthetic", "shares", "unseen_each", "study", "benchmark"]
+    kind: Literal["groups", "paired", "classes", "synthetic", "shares", "unseen_each", "study", "benchmark",
+                  "curve"]
+    # kind curve: more record sets the curve joins (a method's point at a budget comes from the
+    # first of `records` and these that has it; har.curves)
+    extra_records: list[str] = Field(default_factory=list)
     methods: list[str] = Field(default_factory=list)
     metrics: list[Metric] = Field(default_factory=list)
     budgets: list[float] | None = None
@@ -124,6 +130,10 @@ class TableSpec(BaseModel):
             return self
         if not self.methods:
             raise ValueError(f"a {self.kind} table needs methods")
+        if self.extra_records and self.kind != "curve":
+            raise ValueError("extra_records is an option of curves")
+        if self.kind == "curve" and not (self.metrics and self.budgets and self.backbone):
+            raise ValueError("a curve needs metrics, budgets and a backbone")
         if self.kind == "paired" and self.baseline is None:
             raise ValueError("a paired table needs a baseline method")
         if self.baseline == SAME and self.baseline_records is None and self.baseline_backbone is None:
@@ -560,6 +570,7 @@ class Publication:
         self.catalogue = load_catalogue(self.results_dir / SPEC_FILE)
         self._sets: dict[str, RecordSet] = {}
         self._studies: dict[str, StudyRecord] = {}
+        self._figures: dict[str, CurveFigure] = {}  # the curves placed in the documents, by id
 
     def documents(self) -> list[Path]:
         found: list[Path] = []
@@ -567,10 +578,14 @@ class Publication:
             found += sorted(self.root.glob(pattern))
         return [p for p in found if p.is_file()]
 
-    def render(self, table_id: str) -> str:
+    def render(self, table_id: str, document: Path | None = None) -> str:
+        """A table's Markdown; a curve's link (relative to `document`, default README.md) and
+        table of what it plots."""
         spec = next((t for t in self.catalogue.tables if t.id == table_id), None)
         if spec is None:
             raise ConfigError(f"no table '{table_id}' in {SPEC_FILE}", file=self.results_dir / SPEC_FILE)
+        if spec.kind == "curve":
+            return self._curve(spec, document or self.root / "README.md")
         if spec.kind == "benchmark":
             return BenchTable(self.root, spec.id, spec.source, spec.view).render()
         if spec.kind == "study":
@@ -583,13 +598,35 @@ class Publication:
         baseline = self._sets[spec.baseline_records] if spec.baseline_records else None
         return TableBuilder(spec, self._sets[spec.records], baseline).render()
 
+    def _curve(self, spec: TableSpec, document: Path) -> str:
+        for name in (spec.records, *spec.extra_records):
+            if name not in self._sets:
+                self._sets[name] = load_run(self.results_dir, name)
+        figure = CurveFigure(spec, [self._sets[n] for n in (spec.records, *spec.extra_records)],
+                             {m: _method_name(m) for m in spec.methods})
+        self._figures[spec.id] = figure
+        image = os.path.relpath(self.root / figure_path(spec.id), document.parent)
+        return figure.markdown(Path(image).as_posix())
+
     def _expected(self, block: Block, unbacked: dict[str, str], outcome: Outcome) -> str | None:
         if block.table_id in unbacked:
             rel = block.path.relative_to(self.root)
             outcome.warnings.append(f"{rel}: table '{block.table_id}' is not rebuilt from committed "
                                     f"records ({unbacked[block.table_id]})")
             return None
-        return self.render(block.table_id)
+        return self.render(block.table_id, block.path)
+
+    def _figures_out(self, write: bool, outcome: Outcome) -> None:
+        """With `write`, draw every curve the documents place; else name the ones not drawn."""
+        for table_id, figure in sorted(self._figures.items()):
+            path = self.root / figure_path(table_id)
+            if write:
+                png = figure.png()
+                if not path.is_file() or path.read_bytes() != png:
+                    outcome.written.append(write_bytes(path, png))
+            elif not path.is_file():
+                outcome.differing.append(f"{figure_path(table_id)}: figure '{table_id}' not drawn")
+                outcome.diffs.append(f"{figure_path(table_id)} is missing: run `vsmp-imu report --write`\n")
 
     def check(self, write: bool = False) -> Outcome:
         """Compare (or, with `write`, rewrite) every marked block with its records."""
@@ -623,4 +660,5 @@ class Publication:
                 outcome.written.append(write_text(path, "".join(new_text)))
         outcome.warnings += [f"table '{i}' is declared in {SPEC_FILE} but placed in no document"
                              for i in sorted(known - placed)]
+        self._figures_out(write, outcome)
         return outcome
