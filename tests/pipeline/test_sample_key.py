@@ -102,3 +102,13 @@ def test_a_cached_sample_is_not_reused_after_its_recipe_changes(tmp_path):
     second = cached_synthesize((_task("sit_to_lie", (str(folder),)), str(cache)))
     assert len(list(cache.glob("*.parquet"))) == 2
     assert first.signals["waist"].tobytes() != second.signals["waist"].tobytes()
+
+
+def test_a_task_whose_smp_is_not_one_still_has_a_key():
+    """A malformed variant is reported by `synthesize`; its key reads the whole library."""
+    from dataclasses import replace
+
+    broken = [replace(_task("walking"), smp_json=text) for text in ("{not json", "[1, 2]", '{"activity_label": 3}')]
+    keys = {t.content_hash() for t in broken}
+    assert len(keys) == 3
+    assert all(t.activity_digest() == library_for(()).digest() for t in broken)

@@ -145,8 +145,11 @@ class SampleTask:
         motion. It comes from the library the backend animates with (`library_for`)."""
         if self.motion_file:
             return ""
-        label = json.loads(self.smp_json)["activity_label"] if self.smp_json else None
-        return library_for(self.library_dirs).digest(label)
+        try:
+            label = json.loads(self.smp_json).get("activity_label") if self.smp_json else None
+        except (ValueError, AttributeError):  # not an SMP: synthesize reports it; the key reads everything
+            label = None
+        return library_for(self.library_dirs).digest(label if isinstance(label, str) else None)
 
 
 @dataclass
