@@ -93,3 +93,20 @@ def tiny_dataset():
 def tiny_factory():
     """`TinyDataset.make`: for tests that need several independent copies of the tiny dataset."""
     return TinyDataset.make
+
+
+@pytest.fixture
+def report_repo(tmp_path):
+    """A function making a repository skeleton for `vsmp-imu report`: results/tables.yaml from
+    `catalogue` and each of `docs` ({relative path: text}); returns its root."""
+
+    def make(catalogue: str, docs: dict[str, str]) -> Path:
+        root = tmp_path / "repo"
+        (root / "results").mkdir(parents=True)
+        (root / "results" / "tables.yaml").write_text(catalogue)
+        for rel, text in docs.items():
+            (root / rel).parent.mkdir(parents=True, exist_ok=True)
+            (root / rel).write_text(text)
+        return root
+
+    return make

@@ -47,13 +47,8 @@ DOC = "# Results\n\n<!-- report:curve:rf -->\n<!-- /report -->\n"
 
 
 @pytest.fixture()
-def repo(tmp_path: Path) -> Path:
-    root = tmp_path / "repo"
-    (root / "docs").mkdir(parents=True)
-    (root / "results").mkdir()
-    (root / "results" / "tables.yaml").write_text(CATALOGUE)
-    (root / "docs" / "results.md").write_text(DOC)
-    (root / "README.md").write_text(DOC)
+def repo(tmp_path: Path, report_repo) -> Path:
+    root = report_repo(CATALOGUE, {"docs/results.md": DOC, "README.md": DOC})
     low = [_record(m, b, f, 0.5 + 0.1 * (m == "vsmp") + 0.01 * f) for m in ("real", "vsmp") for b in (1.0, 5.0)
            for f in (1, 2)]
     # the curve's 5 % Real-only is also in this set, with other figures: the first set wins

@@ -93,12 +93,8 @@ Some prose quoting a mark, `<!-- report:ID -->`, which is not one.
 
 
 @pytest.fixture()
-def repo(tmp_path: Path) -> Path:
-    root = tmp_path / "repo"
-    (root / "docs").mkdir(parents=True)
-    (root / "results").mkdir()
-    (root / "results" / "tables.yaml").write_text(CATALOGUE)
-    (root / "docs" / "results.md").write_text(DOC)
+def repo(tmp_path: Path, report_repo) -> Path:
+    root = report_repo(CATALOGUE, {"docs/results.md": DOC})
     import_run(_evaluate_dir(tmp_path), "demo", "vsmp-imu evaluate --dataset hapt12 -o run",
                root / "results", code_commit="abc1234def")
     return root
