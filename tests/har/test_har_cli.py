@@ -119,6 +119,10 @@ def test_long_tail_with_classical_on_generic_data(cli, fixtures_dir, tmp_path):
     delivered = md.split("Synthetic windows mixed in")[1]
     assert "| Classical Aug. |" in delivered and "| 100 % |" in delivered
     assert "note:" not in stdout  # Classical Aug delivers its whole budget
+    # the paired differences, in results.md and on the console (Macro-F1 and the tail)
+    assert "| RF |  | Classical Aug. vs. Real-only |" in md
+    console = stdout[stdout.index("Paired over the same folds and seeds"):]  # cells wrap at 80 columns
+    assert all(word in console for word in ("Tail", "Classical", "Real-only", "p = "))
 
 
 def test_low_resource_table(cli, fixtures_dir, tmp_path):

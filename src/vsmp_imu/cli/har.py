@@ -229,6 +229,7 @@ def evaluate_cmd(
     with progress(f"{run.dataset.info.name} {protocol}", console=console, transient=False) as update:
         results, written = evaluate(run, lambda stage, done, total: update(done, total, stage))
     _print_summary(results.summary)
+    _print_paired(results.to_json())
     console.print(
         f"[green]wrote[/] {output / 'results.json'}, {written[0]} and "
         f"{len(written) - 1} confusion matrices"
@@ -386,6 +387,23 @@ def _print_summary(summary: list[dict[str, Any]]) -> None:
     console.print(table)
     for line in _shortfalls(summary) + _share_notes(summary):
         console.print(f"[yellow]note:[/] {line}", highlight=False)
+
+
+def _print_paired(results: dict[str, Any]) -> None:
+    """Each method against Real-only (and Classical Aug) over the same runs, on Macro-F1 and the
+    protocol's own figure (tail, unseen classes): `results.md` has every group too."""
+    from vsmp_imu.har.report import paired_rows
+
+    metrics, rows = paired_rows(results["records"], results.get("config", {}))
+    shown = [i for i, m in enumerate(metrics) if not m.metric.startswith("group:")]
+    if not rows or not any(r.get("n", 0) > 1 for r in results["summary"]):
+        return  # one run per method: nothing to test
+    table = Table(title="Paired over the same folds and seeds: difference (runs won, Wilcoxon p)")
+    for col in ("backbone", "budget", "pair", *(metrics[i].label for i in shown)):
+        table.add_column(col)
+    for row in rows:
+        table.add_row(*row[:3], *(row[3 + i] for i in shown))
+    console.print(table)
 
 
 def _share_notes(summary: list[dict[str, Any]]) -> list[str]:

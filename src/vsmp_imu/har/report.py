@@ -106,9 +106,20 @@ PAIRED_BASELINES = ("real", "classical")
 
 
 def _paired(records: list[dict[str, Any]], config: dict[str, Any]) -> str:
+    """`paired_rows` as a Markdown table with its caption ("" when nothing pairs)."""
+    metrics, out = paired_rows(records, config)
+    if not out:
+        return ""
+    header = ["Backbone", "Budget", "Pair"] + [m.label for m in metrics]
+    return ("Paired differences (points of F1; runs won of the runs both have, same fold and seed; "
+            "two-sided Wilcoxon signed-rank p; n/a with one run):\n\n" + _table(header, out))
+
+
+def paired_rows(records: list[dict[str, Any]], config: dict[str, Any]) -> tuple[list[Metric], list[list[str]]]:
     """Each method against Real-only, and each other method against Classical Aug, per backbone
     and budget: the mean difference over the runs both have (same fold, seed and unseen set),
-    the runs it wins, and the two-sided Wilcoxon signed-rank p (`published.paired_test`)."""
+    the runs it wins, and the two-sided Wilcoxon signed-rank p (`published.paired_test`).
+    Returns the metrics (columns after backbone, budget and pair) and the rows."""
     methods = _ordered([r["method"] for r in records], config.get("methods"))
     metrics = _paired_metrics(records)
     out = []
@@ -122,11 +133,7 @@ def _paired(records: list[dict[str, Any]], config: dict[str, Any]) -> str:
                     cells = [paired_test(runs[method], runs[baseline], metric).cell(2) for metric in metrics]
                     out.append([_backbone(backbone), "" if budget is None else f"{budget:g}%",
                                 f"{_method(method)} vs. {_method(baseline)}"] + cells)
-    if not out:
-        return ""
-    header = ["Backbone", "Budget", "Pair"] + [m.label for m in metrics]
-    return ("Paired differences (points of F1; runs won of the runs both have, same fold and seed; "
-            "two-sided Wilcoxon signed-rank p; n/a with one run):\n\n" + _table(header, out))
+    return metrics, out
 
 
 def _paired_metrics(records: list[dict[str, Any]]) -> list[Metric]:
