@@ -58,8 +58,9 @@ class CurveFigure:
                     break
         return out
 
-    def markdown(self, image: str) -> str:
-        """The picture's link and the table of what it plots (means in %, runs in brackets)."""
+    def table(self) -> tuple[list[str], list[list[str]], list[RecordSet]]:
+        """What the picture plots: a header, a row per budget (each method's mean in % and its
+        number of runs, per metric) and the record sets the points came from."""
         s = self.spec
         header = ["Budget"] + [f"{m.label}: {self.names.get(x, x)}" for m in s.metrics for x in s.methods]
         cells = {(m.label, x): {p.budget: p for p in self.points(x, m)} for m in s.metrics for x in s.methods}
@@ -71,17 +72,8 @@ class CurveFigure:
                     p = cells[(m.label, x)].get(budget)
                     row.append("–" if p is None else f"{100 * p.mean:.2f} ({p.n})")
             rows.append(row)
-        lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-        lines += ["| " + " | ".join(r) + " |" for r in rows]
-        used = sorted({p.source for c in cells.values() for p in c.values()},
-                      key=[r.name for r in self.sets].index)
-        sources = "; ".join(f"`results/{r.name}/` from `{r.command}`"
-                            + (f" at commit {r.code_commit[:7]}" if r.code_commit else "")
-                            for r in self.sets if r.name in used)
-        alt = f"{' and '.join(m.label for m in s.metrics)} against the label budget"
-        return (f"![{alt}]({image})\n\n" + "\n".join(lines)
-                + f"\n\nMean Macro-F1 (%) over the runs (their number in brackets), backbone `{s.backbone}`. "
-                + f"Records: {sources}; rebuilt by `vsmp-imu report --write`.\n")
+        used = {p.source for c in cells.values() for p in c.values()}
+        return header, rows, [r for r in self.sets if r.name in used]
 
     def png(self) -> bytes:
         """The figure: one panel per metric, the budget on a log axis, a line per method with a

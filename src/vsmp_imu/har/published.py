@@ -605,8 +605,14 @@ class Publication:
         figure = CurveFigure(spec, [self._sets[n] for n in (spec.records, *spec.extra_records)],
                              {m: _method_name(m) for m in spec.methods})
         self._figures[spec.id] = figure
-        image = os.path.relpath(self.root / figure_path(spec.id), document.parent)
-        return figure.markdown(Path(image).as_posix())
+        image = Path(os.path.relpath(self.root / figure_path(spec.id), document.parent)).as_posix()
+        header, rows, used = figure.table()
+        sources = "; ".join(f"`results/{r.name}/` from `{r.command}`"
+                            + (f" at commit {r.code_commit[:7]}" if r.code_commit else "") for r in used)
+        alt = f"{' and '.join(m.label for m in spec.metrics)} against the label budget"
+        return (f"![{alt}]({image})\n\n{_markdown(header, rows)}\n\nMeans (%) over the runs (their number "
+                f"in brackets), backbone `{spec.backbone}`. Records: {sources}; rebuilt by `vsmp-imu report "
+                "--write`.\n")
 
     def _expected(self, block: Block, unbacked: dict[str, str], outcome: Outcome) -> str | None:
         if block.table_id in unbacked:
