@@ -227,9 +227,11 @@ class ActivityLibrary:
             key = None if label is None else norm_name(label)
             if key in self._index:
                 self._digests[label] = self._entries[self._index[key]].digest()
+            elif label is not None:
+                self._digests[label] = self.digest(None)
             else:
                 every = "".join(self._entries[name].digest() for name in self.names())
-                self._digests[label] = hashlib.sha256(every.encode()).hexdigest()[:16]
+                self._digests[None] = hashlib.sha256(every.encode()).hexdigest()[:16]
         return self._digests[label]
 
     # -- container protocol -------------------------------------------------
