@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -490,3 +491,28 @@ def test_window_levels_move_a_transitions_window_means_onto_its_real_ones(hapt12
     off = windowset()
     assert level_windows(GenerationSpec(window_levels=False), info, off, d_rank) == {}
     assert np.array_equal(off.X, X)
+
+
+def test_a_retimed_transition_leaves_the_mounting_where_it_was(hapt12, library):
+    """The nominal mounting comes from the classes that hold a posture or repeat a rhythm: a
+    transition's timing (examples/hapt12_timed) changes its own samples only. With fewer than two
+    such classes every class counts, and there the retiming turns the sensor."""
+    from vsmp_imu.pipeline.fold import location_plan, nominal_mountings
+
+    info, windows = hapt12
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    d_stat = train[stat_rank_split(train.y, 0)[0]]
+    plan = location_plan(info)
+    timed = str(Path(__file__).parents[2] / "examples" / "hapt12_timed")
+
+    def mounting(dirs: tuple[str, ...], labels=None) -> np.ndarray:
+        lib = ActivityLibrary.load([Path(d) for d in dirs]) if dirs else library
+        sources = LibrarySmpSource(lib).smps("hapt12", info.label_names)
+        sources = {k: v for k, v in sources.items() if labels is None or k in labels}
+        return np.array(nominal_mountings(GenerationSpec(library_dirs=dirs), info, plan, sources, d_stat)["waist"])
+
+    plain, retimed = mounting(()), mounting((timed,))
+    assert not np.allclose(plain, [0, 0, 0, 1])  # a mounting was estimated
+    assert np.array_equal(plain, retimed)
+    few = ("STANDING", "SIT_TO_LIE", "LIE_TO_SIT", "STAND_TO_SIT")  # one posture only
+    assert not np.allclose(mounting((), few), mounting((timed,), few), atol=1e-6)

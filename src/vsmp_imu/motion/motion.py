@@ -101,6 +101,14 @@ class Motion:
         """Estimated standing height of the skeleton (from bone lengths)."""
         return estimate_height(self.positions, self.joint_names)
 
+    @property
+    def single_execution(self) -> bool:
+        """Whether the motion is one execution of a discrete activity (a transition, a throw), not a
+        rhythm or a held posture: its windows have no tempo, and what they average to depends on
+        its timing."""
+        controls = self.meta.get("controls") or {}
+        return controls.get("repetitions") == 1 and controls.get("continuous") is False
+
     def is_finite(self) -> bool:
         return bool(np.isfinite(self.positions).all() and np.isfinite(self.rotations).all())
 

@@ -326,13 +326,6 @@ def simulate_windows(signal: np.ndarray, size: int, step: int, span: tuple[float
     return np.stack([signal[s : s + size] for s in starts])
 
 
-def single_execution(motion: Motion) -> bool:
-    """Whether the motion is one execution of a discrete activity (a transition, a throw), not a
-    rhythm: its windows have no tempo to read from a spectrum, its duration says how fast it is."""
-    controls = motion.meta.get("controls") or {}
-    return controls.get("repetitions") == 1 and controls.get("continuous") is False
-
-
 def movement_s(signal: np.ndarray, fs_hz: float) -> float | None:
     """Seconds between the first and the last moment the signal (T, C) moves: its rotation rate
     (the gyroscope's norm; without one, how fast the acceleration changes), smoothed
@@ -607,7 +600,7 @@ class DataCheck:
             side_free[label] = isinstance(base, SMP) and side_is_free(base)
             motions = [Motion.load(base) if isinstance(base, Path) else backend.generate(base, seed)
                        for seed in range(self.samples)]
-            single = all(single_execution(m) for m in motions)
+            single = all(m.single_execution for m in motions)
             for loc in locations_of(info, label):
                 cols = [info.channel_names.index(c) for c in loc.channels]
                 r = real.X[real.y == i][..., cols].astype(np.float64)
@@ -621,7 +614,8 @@ class DataCheck:
                 declared[(label, loc.name)] = (r, s)
                 if single:
                     executions[(label, loc.name)] = (real_executions(dataset, i, cols), signals)
-        self.mountings_ = [self._mounting(loc, declared) for loc in info.locations
+        singles = {label for label, _ in executions}
+        self.mountings_ = [self._mounting(loc, declared, singles) for loc in info.locations
                            if any(name == loc.name for _, name in declared)]
         by_place = {m.location: m for m in self.mountings_}
         timings = {key: timing(r, [turned(x[None], by_place[key[1]])[0] for x in s], info.fs_hz)
@@ -637,11 +631,14 @@ class DataCheck:
         self.pairs_ = check_pairs(self.windows_, self._channels)
         return self.results_
 
-    def _mounting(self, loc: SensorLocation, declared: dict) -> MountingCheck:
+    def _mounting(self, loc: SensorLocation, declared: dict, singles: set[str]) -> MountingCheck:
+        """As grounding estimates it: from the classes that hold a posture or repeat a rhythm
+        where two or more have windows, else from every class."""
         if not (self.mounting and loc.gravity_included and loc.axes):
             return MountingCheck(loc.name, 0)
-        return estimate_location_mounting(loc.name, [pair for (_, place), pair in declared.items()
-                                                     if place == loc.name])
+        pairs = {label: pair for (label, place), pair in declared.items() if place == loc.name}
+        held = [pair for label, pair in pairs.items() if label not in singles and len(pair[0]) and len(pair[1])]
+        return estimate_location_mounting(loc.name, held if len(held) >= 2 else list(pairs.values()))
 
     def plot_pairs(self, path: Path) -> Path | None:
         """Per flagged pair: its cue's distribution in the two classes, real beside simulated

@@ -285,8 +285,13 @@ def target_statistics(info: DatasetInfo, d_stat: Windows, threads: int = 1) -> d
 
 
 def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_stat: Windows) -> dict[str, tuple]:
-    """R_target per location from one default execution per class vs the real class means."""
+    """R_target per location from one default execution per class vs the real class means.
+
+    Only the classes that hold a posture or repeat a rhythm count where at least two of them have
+    evidence: a single execution's mean (a transition's) depends on how long each of its phases
+    lasts, so a change to its timing would turn every class's sensor (docs/scale.md)."""
     out: dict[str, tuple] = {}
+    motions: dict[str, Motion] = {}
     for loc in info.locations:
         identity = (0.0, 0.0, 0.0, 1.0)
         if not (spec.estimate_mounting and loc.gravity_included and loc.axes):
@@ -294,20 +299,22 @@ def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_
             continue
         cols = channel_index(info, loc)
         to_segment = axes_matrix(loc.axes).T  # device axes -> segment frame
-        syn, real, weights = [], [], []
+        means = []  # (single execution, synthetic mean, real mean, weight) per class with evidence
         for i, label in enumerate(info.label_names):
             mask = d_stat.y == i
             if label not in sources or loc not in plan[label] or not floors.MOUNTING.met(int(mask.sum())):
                 continue
-            base = sources[label][0][1]
-            motion = Motion.load(base) if isinstance(base, Path) else \
-                backend_for(spec.backend, tuple(spec.library_dirs)).generate(base, 0)
-            kin = simulate_kinematics(motion, loc.name, info.fs_hz)
-            syn.append(kin.specific_force_seg().mean(axis=0))
-            real.append(to_segment @ d_stat.X[mask][..., cols[:3]].reshape(-1, 3).mean(axis=0))
-            weights.append(mask.sum())
-        rot, _ = estimate_mounting(np.array(syn), np.array(real), np.array(weights, dtype=float)) \
-            if len(syn) >= 2 else (None, None)
+            if label not in motions:
+                base = sources[label][0][1]
+                motions[label] = Motion.load(base) if isinstance(base, Path) else \
+                    backend_for(spec.backend, tuple(spec.library_dirs)).generate(base, 0)
+            kin = simulate_kinematics(motions[label], loc.name, info.fs_hz)
+            means.append((motions[label].single_execution, kin.specific_force_seg().mean(axis=0),
+                          to_segment @ d_stat.X[mask][..., cols[:3]].reshape(-1, 3).mean(axis=0), mask.sum()))
+        held = [m for m in means if not m[0]]
+        used = held if len(held) >= 2 else means
+        rot, _ = estimate_mounting(*(np.array([m[k] for m in used], dtype=float) for k in (1, 2, 3))) \
+            if len(used) >= 2 else (None, None)
         out[loc.name] = identity if rot is None else tuple(float(v) for v in rot.as_quat())
     return out
 
