@@ -139,8 +139,9 @@ def test_a_method_that_makes_windows_from_motion_reruns_after_its_activity_files
     from pathlib import Path
 
     from vsmp_imu.har import synthetic
-    from vsmp_imu.pipeline.sample import library_for
+    from vsmp_imu.pipeline import sample
 
+    monkeypatch.setattr(sample, "LIBRARY_RECHECK_S", 0.0)  # every use looks at the files
     monkeypatch.setattr(synthetic, "UNSEEN_CAPABLE", {*synthetic.UNSEEN_CAPABLE, "pooled"})
     monkeypatch.setattr("vsmp_imu.har.evaluate.UNSEEN_CAPABLE", synthetic.UNSEEN_CAPABLE)
     example = Path(__file__).resolve().parents[2] / "examples" / "hapt12_timed"
@@ -148,7 +149,6 @@ def test_a_method_that_makes_windows_from_motion_reruns_after_its_activity_files
     shutil.copytree(example, folder)
 
     def digests(library: Path) -> dict[str, str]:
-        library_for.cache_clear()
         config = _config(method_params={"pooled": {"k": 2, **RUN_A, "library_dirs": (str(library),)}})
         return {m: Evaluation(config, tiny_dataset)._digest("rf", m) for m in ("real", "pooled")}
 
@@ -160,4 +160,4 @@ def test_a_method_that_makes_windows_from_motion_reruns_after_its_activity_files
     assert after["real"] == before["real"] and after["pooled"] != before["pooled"]
     path.write_text(text)
     assert digests(folder) == before
-    library_for.cache_clear()
+    sample.forget_libraries()

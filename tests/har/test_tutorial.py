@@ -71,8 +71,9 @@ def _sample_classes(folder: Path) -> dict[str, str]:
 def test_an_edited_activity_file_remakes_the_samples_that_read_it(tmp_path):
     """The tutorial's promise: after an edit to an activity file the same evaluation makes that
     activity's samples again and recomputes the VSMP-IMU record, keeping Real-only's. An edit that
-    leaves the sensor mounting (estimated from every class's default motion) where it was
-    reuses every other activity's samples; one that moves it remakes theirs as well."""
+    leaves the sensor mounting (estimated from the default motions of the classes that hold a
+    posture or repeat a rhythm) where it was reuses every other activity's samples; one that
+    moves it remakes theirs as well."""
     from vsmp_imu.smp.library import BUILTIN_DIR
 
     env = {**os.environ, "VSMP_IMU_CACHE": str(tmp_path / "cache"),

@@ -21,13 +21,12 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "hapt12_timed"
 
 
 @pytest.fixture(autouse=True)
-def _fresh_libraries():
-    """Each test loads its folders as a new worker process would."""
-    library_for.cache_clear()
-    sample._BACKENDS.clear()
+def _fresh_libraries(monkeypatch):
+    """Each test loads its folders as a new process would, and sees each edit at once."""
+    monkeypatch.setattr(sample, "LIBRARY_RECHECK_S", 0.0)
+    sample.forget_libraries()
     yield
-    library_for.cache_clear()
-    sample._BACKENDS.clear()
+    sample.forget_libraries()
 
 
 def _task(activity: str | None, dirs: tuple[str, ...] = (), prompt: str = "") -> SampleTask:
@@ -49,7 +48,6 @@ def _edited(folder: Path, name: str, scale: float) -> None:
 
 
 def _keys(dirs: tuple[str, ...]) -> dict[str, str]:
-    library_for.cache_clear()
     return {name: _task(name, dirs).content_hash() for name in ("sit_to_lie", "walking")}
 
 
@@ -81,7 +79,6 @@ def test_a_prompt_sample_reads_the_whole_library(tmp_path):
     shutil.copytree(EXAMPLE, folder)
     before = _task(None, (str(folder),), prompt="a person walks").content_hash()
     _edited(folder, "sit_to_lie", 1.5)
-    library_for.cache_clear()
     assert _task(None, (str(folder),), prompt="a person walks").content_hash() != before
 
 
@@ -97,8 +94,6 @@ def test_a_cached_sample_is_not_reused_after_its_recipe_changes(tmp_path):
     first = cached_synthesize((_task("sit_to_lie", (str(folder),)), str(cache)))
     assert len(list(cache.glob("*.parquet"))) == 1
     _edited(folder, "sit_to_lie", 1.5)
-    library_for.cache_clear()
-    sample._BACKENDS.clear()
     second = cached_synthesize((_task("sit_to_lie", (str(folder),)), str(cache)))
     assert len(list(cache.glob("*.parquet"))) == 2
     assert first.signals["waist"].tobytes() != second.signals["waist"].tobytes()
@@ -112,3 +107,21 @@ def test_a_task_whose_smp_is_not_one_still_has_a_key():
     keys = {t.content_hash() for t in broken}
     assert len(keys) == 3
     assert all(t.activity_digest() == library_for(()).digest() for t in broken)
+
+
+def test_a_long_lived_process_animates_and_keys_an_edited_activity_file(tmp_path, monkeypatch):
+    """A notebook session that edits an activity file: within `LIBRARY_RECHECK_S` of its last look
+    the process keeps the library it has; after it, the edited file's library and a backend on it."""
+    folder = tmp_path / "lib"
+    shutil.copytree(EXAMPLE, folder)
+    dirs = (str(folder),)
+    first, backend = library_for(dirs), sample.backend_for("procedural", dirs)
+    monkeypatch.setattr(sample, "LIBRARY_RECHECK_S", 3600.0)
+    _edited(folder, "sit_to_lie", 1.5)
+    assert library_for(dirs) is first and sample.backend_for("procedural", dirs) is backend
+    monkeypatch.setattr(sample, "LIBRARY_RECHECK_S", 0.0)
+    edited = library_for(dirs)
+    assert edited is not first and edited.digest("sit_to_lie") != first.digest("sit_to_lie")
+    assert edited.digest("walking") == first.digest("walking")
+    assert sample.backend_for("procedural", dirs) is not backend
+    assert library_for(dirs) is edited  # files unchanged since: the same library

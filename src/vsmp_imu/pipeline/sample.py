@@ -18,6 +18,7 @@ import hashlib
 import io
 import json
 import os
+import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -202,26 +203,45 @@ def json_default(value: Any) -> Any:
     return str(value)
 
 
-_BACKENDS: dict[tuple, Any] = {}
+_BACKENDS: dict[tuple, tuple[Any, Any]] = {}  # (backend name, folders) -> (its library, the backend)
+_LIBRARIES: dict[tuple[str, ...], tuple[float, tuple, Any]] = {}  # folders -> (checked at, signature, library)
+# how often a process looks whether an activity file changed since it loaded its library: each look
+# stats every file (about 0.5 ms for the built-in folder), and a library is asked for once per sample
+LIBRARY_RECHECK_S = 1.0
 
 
-@functools.lru_cache(maxsize=8)
 def library_for(library_dirs: tuple[str, ...]):
-    """The activity library of a worker process (loaded once): what its backends animate, and
-    what the samples' cache keys digest."""
-    from vsmp_imu.smp.library import ActivityLibrary
+    """The activity library of a process: what its backends animate, and what the samples' cache
+    keys digest. Loaded once, and again when a file in its folders (built-in or `--library`)
+    changed, added or removed, which it looks for at most every `LIBRARY_RECHECK_S` seconds: a
+    long-lived session that edits an activity file animates and keys the edit."""
+    from vsmp_imu.smp.library import ActivityLibrary, library_signature
 
-    return ActivityLibrary.load([Path(d) for d in library_dirs])
+    now = time.monotonic()
+    held = _LIBRARIES.get(library_dirs)
+    if held is not None and now - held[0] < LIBRARY_RECHECK_S:
+        return held[2]
+    signature = library_signature([Path(d) for d in library_dirs])
+    library = held[2] if held is not None and held[1] == signature else \
+        ActivityLibrary.load([Path(d) for d in library_dirs])
+    _LIBRARIES[library_dirs] = (now, signature, library)
+    return library
+
+
+def forget_libraries() -> None:
+    """Drop the process's libraries and backends: the next use loads the folders as they are."""
+    _LIBRARIES.clear()
+    _BACKENDS.clear()
 
 
 def backend_for(name: str, library_dirs: tuple[str, ...]):
-    """One backend per worker process, on `library_for`'s library."""
-    key = (name, library_dirs)
-    if key not in _BACKENDS:
+    """One backend per process and library, on `library_for`'s library (a new one after an edit)."""
+    key, library = (name, library_dirs), library_for(library_dirs)
+    if key not in _BACKENDS or _BACKENDS[key][0] is not library:
         from vsmp_imu.motion.backends import get_backend
 
-        _BACKENDS[key] = get_backend(name, library=library_for(library_dirs))
-    return _BACKENDS[key]
+        _BACKENDS[key] = (library, get_backend(name, library=library))
+    return _BACKENDS[key][1]
 
 
 ACTIVE_SPEED_FRACTION = 0.20  # of the peak body speed (appendix: velocity landmarks at 20 %)

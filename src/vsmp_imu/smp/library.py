@@ -173,6 +173,12 @@ def _signature(folder: Path) -> tuple[tuple[str, int, int], ...]:
     return tuple(out)
 
 
+def library_signature(extra_dirs: Sequence[str | Path] = ()) -> tuple:
+    """What identifies `ActivityLibrary.load(extra_dirs)`'s files: the built-in folder's and each
+    extra folder's names, sizes and mtimes."""
+    return tuple(_signature(Path(folder).resolve()) for folder in (BUILTIN_DIR, *extra_dirs))
+
+
 @functools.lru_cache(maxsize=32)
 def _load_folder_cached(folder: str, signature: tuple) -> tuple[LibraryEntry, ...]:
     entries = [load_entry(Path(folder) / name) for name, _, _ in signature]
