@@ -19,7 +19,7 @@ from vsmp_imu.grounding.align import (
     signed_permutations,
 )
 from vsmp_imu.grounding.calibrate import SimInTheLoopCalibrator
-from vsmp_imu.grounding.mounting import MIN_MEAN_NORM, estimate_mounting
+from vsmp_imu.grounding.mounting import MIN_MEAN_NORM, estimate_mounting, mounting_classes
 from vsmp_imu.grounding.rank import _balance_weights
 from vsmp_imu.grounding.split import stat_rank_split
 from vsmp_imu.seeding import rng_for
@@ -217,3 +217,13 @@ def test_convention_errors_name_the_field_and_the_allowed_values():
     with pytest.raises(ValidationError) as err:
         axes_matrix(("left", "right", "up"))
     assert err.value.field == "axes" and "name the same body direction twice" in err.value.message
+
+
+def test_the_mounting_is_fitted_on_postures_and_rhythms_where_two_have_evidence():
+    def single(name):
+        return name.startswith("to_")
+
+    assert mounting_classes(["sit", "to_lie", "walk"], single) == ["sit", "walk"]
+    assert mounting_classes(["sit", "to_lie", "to_sit"], single) == ["sit", "to_lie", "to_sit"]  # one held
+    assert mounting_classes(["to_lie", "to_sit"], single) == ["to_lie", "to_sit"]
+    assert mounting_classes([], single) == []

@@ -19,6 +19,14 @@ from scipy.spatial.transform import Rotation
 MIN_MEAN_NORM = 3.0  # m/s^2: a class mean weaker than this carries no gravity direction
 
 
+def mounting_classes(items: list, single) -> list:
+    """The classes a mounting is fitted on: those that hold a posture or repeat a rhythm where at
+    least two have evidence, else every class. `single(item)`: the class is one execution of a
+    discrete activity (a transition), whose mean depends on how long each of its phases lasts."""
+    held = [item for item in items if not single(item)]
+    return held if len(held) >= 2 else list(items)
+
+
 def estimate_mounting(synthetic_means: np.ndarray, real_means: np.ndarray,
                       weights: np.ndarray | None = None) -> tuple[Rotation, float]:
     """Rotation R with R @ synthetic ~ real (both (C, 3), segment frame) and its rms residual angle (deg).

@@ -81,6 +81,7 @@ from scipy.stats import skew
 
 from vsmp_imu.grounding.align import SIM_AXES, Convention, ConventionAlignment
 from vsmp_imu.grounding.levels import part_means
+from vsmp_imu.grounding.mounting import mounting_classes
 from vsmp_imu.grounding.stats import sim_loss, summarize_windows
 from vsmp_imu.har.dataset import HarDataset, SensorLocation
 from vsmp_imu.har.windows import window_geometry, window_starts
@@ -636,9 +637,10 @@ class DataCheck:
         where two or more have windows, else from every class."""
         if not (self.mounting and loc.gravity_included and loc.axes):
             return MountingCheck(loc.name, 0)
-        pairs = {label: pair for (label, place), pair in declared.items() if place == loc.name}
-        held = [pair for label, pair in pairs.items() if label not in singles and len(pair[0]) and len(pair[1])]
-        return estimate_location_mounting(loc.name, held if len(held) >= 2 else list(pairs.values()))
+        pairs = [(label, pair) for (label, place), pair in declared.items()
+                 if place == loc.name and len(pair[0]) and len(pair[1])]
+        used = mounting_classes(pairs, lambda item: item[0] in singles)
+        return estimate_location_mounting(loc.name, [pair for _, pair in used])
 
     def plot_pairs(self, path: Path) -> Path | None:
         """Per flagged pair: its cue's distribution in the two classes, real beside simulated

@@ -66,7 +66,7 @@ from vsmp_imu.grounding.intensity import (
     spread_intensity,
 )
 from vsmp_imu.grounding.levels import LevelMap
-from vsmp_imu.grounding.mounting import estimate_mounting
+from vsmp_imu.grounding.mounting import estimate_mounting, mounting_classes
 from vsmp_imu.grounding.rank import RankGrounder
 from vsmp_imu.grounding.split import stat_rank_split
 from vsmp_imu.grounding.stats import TargetStatistics
@@ -311,8 +311,7 @@ def nominal_mountings(spec: GenerationSpec, info: DatasetInfo, plan, sources, d_
             kin = simulate_kinematics(motions[label], loc.name, info.fs_hz)
             means.append((motions[label].single_execution, kin.specific_force_seg().mean(axis=0),
                           to_segment @ d_stat.X[mask][..., cols[:3]].reshape(-1, 3).mean(axis=0), mask.sum()))
-        held = [m for m in means if not m[0]]
-        used = held if len(held) >= 2 else means
+        used = mounting_classes(means, lambda m: m[0])
         rot, _ = estimate_mounting(*(np.array([m[k] for m in used], dtype=float) for k in (1, 2, 3))) \
             if len(used) >= 2 else (None, None)
         out[loc.name] = identity if rot is None else tuple(float(v) for v in rot.as_quat())
