@@ -592,17 +592,17 @@ class Publication:
             if spec.records not in self._studies:
                 self._studies[spec.records] = load_study(self.results_dir, spec.records)
             return StudyTable(spec.id, spec.view, self._studies[spec.records]).render()
-        for name in (spec.records, spec.baseline_records):
-            if name is not None and name not in self._sets:
-                self._sets[name] = load_run(self.results_dir, name)
-        baseline = self._sets[spec.baseline_records] if spec.baseline_records else None
-        return TableBuilder(spec, self._sets[spec.records], baseline).render()
+        baseline = self._set(spec.baseline_records) if spec.baseline_records else None
+        return TableBuilder(spec, self._set(spec.records), baseline).render()
+
+    def _set(self, name: str) -> RecordSet:
+        """A committed record set, read once per publication."""
+        if name not in self._sets:
+            self._sets[name] = load_run(self.results_dir, name)
+        return self._sets[name]
 
     def _curve(self, spec: TableSpec, document: Path) -> str:
-        for name in (spec.records, *spec.extra_records):
-            if name not in self._sets:
-                self._sets[name] = load_run(self.results_dir, name)
-        figure = CurveFigure(spec, [self._sets[n] for n in (spec.records, *spec.extra_records)],
+        figure = CurveFigure(spec, [self._set(n) for n in (spec.records, *spec.extra_records)],
                              {m: _method_name(m) for m in spec.methods})
         self._figures[spec.id] = figure
         image = Path(os.path.relpath(self.root / figure_path(spec.id), document.parent)).as_posix()
