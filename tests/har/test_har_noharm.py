@@ -13,7 +13,7 @@ from vsmp_imu.har.backbones import RandomForestECDF
 from vsmp_imu.har.dataset import imu_channel_names
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
 from vsmp_imu.har.noharm import ShareSelector, dropped_summary, harm, shares_vector, take_shares
-from vsmp_imu.har.windows import Windows
+from vsmp_imu.har.windows import Windows, concat_windows
 from vsmp_imu.methods import register_all
 
 CHANNELS = imu_channel_names(None)
@@ -83,13 +83,53 @@ def test_a_method_whose_windows_are_label_noise_is_dropped_whole():
 def test_a_class_without_validation_windows_keeps_its_windows_and_says_why():
     rng = np.random.default_rng(1)
     real = _windows([0.0, 1.0, 2.0], [0, 1, 2], 6, rng, "1")
-    val = _windows([0.0, 1.0], [0, 1], 5, rng, "2")
+    val = _windows([0.0, 1.0], [0, 1], 20, rng, "2")
     synthetic = _windows([1.0, 2.0], [0, 2], 10, rng, "synthetic")
     choice = ShareSelector("class").choose(_rf_fit, real, synthetic, val)
     assert choice[2].share == 1 and choice[2].n_val == 0 and choice[2].mean_change is None
-    assert "no validation window of the class" in choice[2].reason
+    assert not choice[2].judged and choice[2].reason.startswith("kept unjudged: 0 validation windows")
+    assert choice[0].judged and choice[0].share == 0  # class 0's windows carry class 1's level
     nothing = ShareSelector("class").choose(_rf_fit, real, synthetic, val[:0])
-    assert all(s.share == 1 and "no validation windows" in s.reason for s in nothing.values())
+    assert all(s.share == 1 and not s.judged for s in nothing.values())
+
+
+def test_the_class_guard_judges_a_class_only_on_enough_windows_of_its_own():
+    """Label noise in class 1's synthetic windows is dropped with 20 validation windows of class 1
+    (test above) but kept unjudged with 5: the others' side alone would charge any class for being
+    learnt at all. Where no class reaches the floor nothing is fitted."""
+    from vsmp_imu.har.noharm import MIN_OWN_VALIDATION
+
+    rng = np.random.default_rng(0)
+    real = _windows([0.0, 1.0, 2.0], [0, 1, 2], 6, rng, "1")
+    synthetic = _windows([0.0, 2.0], [1, 2], 30, rng, "synthetic")
+    few = MIN_OWN_VALIDATION // 2
+    val = _windows([0.0, 1.0, 2.0], [0, 1, 2], few, rng, "2")
+    fits = []
+
+    def counted(windows):
+        fits.append(len(windows))
+        return _rf_fit(windows)
+
+    choice = ShareSelector("class").choose(counted, real, synthetic, val)
+    assert fits == [] and all(s.share == 1 and not s.judged for s in choice.values())
+    assert choice[1].reason.startswith(f"kept unjudged: {few} validation windows of the class, "
+                                       f"fewer than {MIN_OWN_VALIDATION}")
+    # one class at the floor: both fits run, and only that class is judged
+    val = concat_windows([_windows([0.0], [0], 20, rng, "2"), _windows([1.0], [1], MIN_OWN_VALIDATION, rng, "2"),
+                          _windows([2.0], [2], few, rng, "2")])
+    choice = ShareSelector("class").choose(counted, real, synthetic, val)
+    assert len(fits) == 2 and choice[1].judged and not choice[2].judged
+    assert choice[1].share == 0 and choice[2].share == 1
+    # the method-wide guard still judges every class on all validation windows
+    method = ShareSelector("method").choose(_rf_fit, real, synthetic, val)
+    assert all(s.judged for s in method.values())
+
+
+def test_the_summary_counts_unjudged_classes_from_the_choice_and_older_records_by_their_windows():
+    new = {"shares": {"A": {"share": 1.0, "n_val": 4, "judged": False}, "B": {"share": 0.0, "n_val": 30}}}
+    old = {"shares": {"A": {"share": 1.0, "n_val": 0}, "B": {"share": 1.0, "n_val": 3}}}
+    summary = dropped_summary([{"synthetic_shares": r["shares"]} for r in (new, old)])
+    assert summary == {"A": {"runs": 2, "none": 0, "unjudged": 2}, "B": {"runs": 2, "none": 1, "unjudged": 0}}
 
 
 def test_an_unknown_mode_is_a_config_error():
@@ -307,7 +347,7 @@ def test_the_dropped_summary_counts_runs_empty_classes_and_unjudged_ones():
 
     from vsmp_imu.har.noharm import choice_record
 
-    first = choice_record({1: _share(0.0), 0: replace(_share(1.0), n_val=0)}, ("a", "b"))
+    first = choice_record({1: _share(0.0), 0: replace(_share(1.0), n_val=0, judged=False)}, ("a", "b"))
     assert list(first) == ["a", "b"] and first["b"] == asdict(_share(0.0))
     second = choice_record({0: _share(1.0), 1: _share(1.0)}, ("a", "b"))
     records = [{"synthetic_shares": first}, {"synthetic_shares": None}, {"synthetic_shares": second}]
@@ -320,17 +360,16 @@ def test_the_decision_and_its_reason_in_each_mode():
 
     hurt, fine, empty = Harm(40, -0.05, 0.01), Harm(40, 0.02, 0.9), Harm(0, float("nan"), 1.0)
     method, per_class = ShareSelector("method"), ShareSelector("class")
-    assert method._decide(empty, hurt, 3) == (False, "no validation windows: kept all (harm cannot be measured)")
-    assert method._decide(hurt, fine, 3) == (True, "dropped with the method's other synthetic windows: "
+    assert method._decide(empty, hurt) == (False, "no validation windows: kept all (harm cannot be measured)")
+    assert method._decide(hurt, fine) == (True, "dropped with the method's other synthetic windows: "
                                              + hurt.text())
-    assert method._decide(fine, hurt, 3) == (False, "kept: no measured harm, " + fine.text())
+    assert method._decide(fine, hurt) == (False, "kept: no measured harm, " + fine.text())
     one_vs_rest = "p(class) for the class, -p(class) for the others,"
-    drop, reason = per_class._decide(fine, hurt, 3)
+    drop, reason = per_class._decide(fine, hurt)
     assert drop and reason == "dropped: hurt one-vs-rest, " + hurt.text().replace("p(true class)", one_vs_rest)
-    keep, reason = per_class._decide(hurt, fine, 0)
+    keep, reason = per_class._decide(hurt, fine)
     assert not keep and reason == ("kept: no measured harm one-vs-rest, "
-                                   + fine.text().replace("p(true class)", one_vs_rest)
-                                   + " (no validation window of the class: judged on the others' windows)")
+                                   + fine.text().replace("p(true class)", one_vs_rest))
 
 
 def test_the_method_decision_weighs_the_classes_equally():

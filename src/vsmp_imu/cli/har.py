@@ -419,7 +419,7 @@ def _share_notes(summary: list[dict[str, Any]]) -> list[str]:
             lines.append(f"{where}: no synthetic windows mixed (measured harm on the validation subjects) "
                          f"for {', '.join(parts)}")
         if unjudged:
-            lines.append(f"{where}: the validation subjects had no window of {', '.join(unjudged)}")
+            lines.append(f"{where}: not judged, too few validation windows of {', '.join(unjudged)}")
     return lines
 
 

@@ -28,6 +28,7 @@ from vsmp_imu.har.dataset import HarDataset
 from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std, unseen_metrics
 from vsmp_imu.har.noharm import (
     HARM_P,
+    MIN_OWN_VALIDATION,
     ShareSelector,
     check_mode,
     choice_record,
@@ -309,7 +310,8 @@ class Evaluation:
         if unseen is not None:  # absent otherwise: the other protocols' records stay valid
             payload["unseen"] = list(unseen)
         if c.share_selection != "off" and method != "real":  # absent when off: older records stay valid
-            payload["share_selection"] = [c.share_selection, HARM_P]
+            payload["share_selection"] = [c.share_selection, HARM_P] + (
+                [MIN_OWN_VALIDATION] if c.share_selection == "class" else [])
         if c.synthetic_weight is not None and method != "real":  # Real-only has no synthetic window to weigh
             payload["synthetic_weight"] = c.synthetic_weight
         if method in UNSEEN_CAPABLE:  # windows made from motion: another code's or library's record is stale
