@@ -65,7 +65,7 @@ HOLDOUT = "1"  # the HAPT12 fold used by every generation figure
 CORES = 2
 STAGES = ("smp_augment", "procedural_motion", "imu_simulation", "cem", "align_rank", "post_motion", "chain",
           "chain_motion_fit",
-          "chain_memory", "scaling_local", "scaling_ray", "scaling_ray_nice0", "har_rf", "har_dclstm", "cost")
+          "chain_memory", "scaling_local", "scaling_ray", "scaling_ray_nice0", "har_rf", "har_dclstm", "har_guard", "cost")
 # Targets of the issue "Speed, scale and reliability, measured".
 CHAIN_TARGET = 50.0  # synthetic samples/s, whole embedded chain, 2 cores
 MOTION_FIT_CHAIN_TARGET = 40.0  # the same with motion-level simulation-in-the-loop (issue 21)
@@ -719,6 +719,12 @@ def stage_har_rf(quick: bool) -> dict:
     return fig
 
 
+def stage_har_guard(quick: bool) -> dict:
+    import bench_har
+
+    return bench_har.bench_guard(CORES, ("long-tail",) if quick else ("long-tail", "low-resource"))
+
+
 def stage_har_dclstm(quick: bool) -> dict:
     import bench_har
 
@@ -928,6 +934,12 @@ def table_rows(res: dict) -> list[tuple[str, str, str, str, str]]:
         rows.append((f"DeepConvLSTM fold [wall s / epochs, {dcl['epochs']} of cap {dcl['max_epochs']}]",
                      _fmt(dcl["per_epoch_s"], 1),
                      mem(dcl), "", f"{dcl['train_windows_per_s']:.0f} training windows/s"))
+    guard = st.get("har_guard")
+    if guard and "error" not in guard:
+        for protocol, fig in guard["protocols"].items():
+            where = "5 %" if protocol == "low-resource" else protocol
+            rows.append((f"HAPT12 fold, RF, {where}: with the do-no-harm guard / without [x]", _fmt(fig["ratio"]),
+                         "", "", f"{fig['class_s']:.1f} s / {fig['off_s']:.1f} s (Classical Aug's windows)"))
     cost = st.get("cost")
     if cost and "error" not in cost:
         for name, label in (("classical", "Classical Aug"), ("imutube", "IMUTube-style"),

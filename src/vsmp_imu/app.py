@@ -140,8 +140,9 @@ class EvalRequest:
     backbone_params: dict[str, dict[str, Any]] = field(default_factory=dict)
     report_groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
     unseen: tuple[str, ...] = ()  # unseen protocol: classes, group names or ("each",)
-    # do no harm (`vsmp_imu.har.noharm`): off | method | class; off by default because the guard
-    # measured below mixing every synthetic window on HAPT12 (docs/results.md)
+    # do no harm (`vsmp_imu.har.noharm`): off | method | class | amount; the API mixes every
+    # synthetic window unless asked, as the paper does; `evaluate` resolves its own default
+    # (`cli.har.share_default`: class with the forests)
     share_selection: str = "off"
     # None: windows weigh as their backbone's class weight says; S: a class's synthetic windows
     # together S times its real ones (`vsmp_imu.har.weights`; needs --class-weight balanced)

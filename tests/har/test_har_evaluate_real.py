@@ -102,6 +102,7 @@ def test_resume_after_interruption_gives_the_same_results(hapt_run, tmp_path):
         synthetic_weight=DEFAULT_SYNTHETIC_WEIGHT,
         alpha=GenerationSpec().alpha,
         policy=GenerationSpec().policy,
+        share_selection="class",
     )
     dataset = load_dataset("hapt")
 

@@ -139,6 +139,13 @@ def test_an_unknown_mode_is_a_config_error():
     assert "Allowed: off, method, class, amount." in str(err.value)
 
 
+def test_tstr_refuses_a_guard_it_has_no_real_only_model_for():
+    with pytest.raises(ConfigError, match="no real-only model") as err:
+        EvalConfig(dataset="tiny", protocol="tstr", share_selection="class").check()
+    assert err.value.field == "--share-selection"
+    EvalConfig(dataset="tiny", protocol="tstr", share_selection="off").check()
+
+
 def test_amount_keeps_all_of_helpful_windows_and_little_of_half_wrong_ones():
     """With two real windows per class the right synthetic windows help most when all are mixed;
     where the later half of each class's windows carry the wrong class's level, the first
@@ -275,8 +282,20 @@ def test_evaluate_and_generate_default_to_the_settings_that_measured_a_gain():
     for protocol in ("lopo", "low-resource", "long-tail"):
         assert budget_defaults(protocol, None, None) == (spec.alpha, spec.policy)
     assert budget_defaults("unseen", None, None) == (spec.alpha, "tail")
-    # the guard measured below mixing everything (docs/results.md): off unless asked for
-    assert inspect.signature(evaluate_cmd).parameters["share_selection"].default.default == "off"
+    # the per-class guard with the forests where the training subjects keep their labels
+    # (docs/results.md, "The guard judges a class on its own windows"); off under low-resource and
+    # tstr and with a network; the Python API keeps the paper's mixing
+    from vsmp_imu.cli.har import share_default
+
+    assert inspect.signature(evaluate_cmd).parameters["share_selection"].default.default is None
+    for protocol in ("lopo", "long-tail", "unseen"):
+        assert share_default(protocol, ("rf", "rf-seg"), None) == "class"
+        assert share_default(protocol, ("rf", "dclstm"), None) == "off"
+    assert share_default("tstr", ("rf",), None) == "off"
+    assert share_default("low-resource", ("rf",), None) == "off"
+    assert share_default("tstr", ("dclstm",), "method") == "method"
+    with pytest.raises(ConfigError):
+        share_default("lopo", ("rf",), "most")
     assert EvalRequest(dataset="x", output=None).share_selection == "off"
     assert EvalConfig(dataset="x").share_selection == "off"
     assert (EvalConfig(dataset="x").alpha, EvalConfig(dataset="x").policy) == (0.5, "uniform")

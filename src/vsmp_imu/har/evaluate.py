@@ -164,6 +164,9 @@ class EvalConfig:
         if not self.rho > 1 or not math.isfinite(self.rho):  # NaN fails both
             raise ConfigError(f"rho {self.rho:g} out of range", field="--rho", allowed="a finite rho > 1")
         check_mode(self.share_selection)
+        if self.protocol == "tstr" and self.share_selection != "off":
+            raise ConfigError("tstr trains on synthetic windows only: there is no real-only model to weigh "
+                              "them against", field="--share-selection", allowed="off under tstr")
         self._check_synthetic_weight()
         return self
 

@@ -30,6 +30,7 @@ from vsmp_imu.errors import ConfigError, InputFileError
 from vsmp_imu.har.bench_records import BenchTable
 from vsmp_imu.har.curves import CurveFigure, figure_path
 from vsmp_imu.har.metrics import mean_std
+from vsmp_imu.har.noharm import unjudged
 from vsmp_imu.har.records import RecordSet, load_run
 from vsmp_imu.har.study_records import VIEWS, StudyRecord, StudyTable, load_study
 from vsmp_imu.io import read_structured, read_text, write_bytes, write_text
@@ -474,7 +475,7 @@ class TableBuilder:
 
     def _shares(self) -> str:
         """The do-no-harm choice: per method, the synthetic windows kept of those offered, the
-        classes that got none (in how many runs) and those without a validation window."""
+        classes that got none (in how many runs) and those kept unjudged (`noharm.unjudged`)."""
         rows = []
         for budget in self.budgets():
             for method in self.spec.methods:
@@ -485,9 +486,9 @@ class TableBuilder:
                 rows.append(self._lead(budget) + [
                     _method_name(method), f"{100 * kept / offered:.0f} %" if offered else "–",
                     _class_counts(choices, lambda s: s["share"] == 0, len(runs)),
-                    _class_counts(choices, lambda s: s["n_val"] == 0, len(runs))])
+                    _class_counts(choices, unjudged, len(runs))])
         header = self._lead_header() + ["Method", "synthetic windows kept", "classes that got none (runs)",
-                                        "not judged: no validation window (runs)"]
+                                        "not judged: too few validation windows (runs)"]
         return _markdown(header, rows)
 
 
