@@ -98,8 +98,8 @@ def bench_dclstm(fold: str, max_epochs: int, threads: int | None, verbose: bool 
 
 
 def bench_guard(threads: int | None, protocols: tuple[str, ...] = ("long-tail", "low-resource")) -> dict:
-    """What the per-class do-no-harm guard (`--share-selection class`, evaluate's default with
-    the forests) costs: one HAPT12 fold (held-out subject 1, seed 0) with RF and Classical Aug
+    """What the per-class do-no-harm guard (`--share-selection class`, evaluate's default on the
+    long tail with the forests) costs: one HAPT12 fold (held-out subject 1, seed 0) with RF and Classical Aug
     (whose synthetic windows pass through the guard like VSMP-IMU's and cost nothing to make),
     the command line's weights, run without and with the guard in one process; the ratio is
     the guard's price. Low-resource at 5 % (at 1 % no class reaches the guard's floor)."""

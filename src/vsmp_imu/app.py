@@ -142,7 +142,7 @@ class EvalRequest:
     unseen: tuple[str, ...] = ()  # unseen protocol: classes, group names or ("each",)
     # do no harm (`vsmp_imu.har.noharm`): off | method | class | amount; the API mixes every
     # synthetic window unless asked, as the paper does; `evaluate` resolves its own default
-    # (`cli.har.share_default`: class with the forests)
+    # (`cli.har.share_default`: class under lopo, long-tail and unseen with the forests)
     share_selection: str = "off"
     # None: windows weigh as their backbone's class weight says; S: a class's synthetic windows
     # together S times its real ones (`vsmp_imu.har.weights`; needs --class-weight balanced)

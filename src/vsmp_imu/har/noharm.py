@@ -37,9 +37,10 @@ of validation windows can therefore never drop anything (noise is not harm).
 every chosen backbone is a forest (`cli.har.share_default`): on HAPT12 it
 takes the long tail's tail from significantly below Real-only to level with
 it, leaves 1 % untouched (no class holds 10 validation windows) and is level
-at 5 % (off under low-resource: it costs time there for nothing measured). `method` dropped windows
-that helped at 1 % and changed nothing at 5 %, and `amount` was level with
-mixing everything at both (docs/results.md). The Python API (`EvalConfig`)
+at 5 % (so low-resource leaves it off: it costs time there for nothing
+measured). `method` dropped windows that helped at 1 % and changed nothing
+at 5 %, and `amount` was level with mixing everything at both
+(docs/results.md). The Python API (`EvalConfig`)
 mixes everything unless asked, as the paper does.
 
 The held-out subject takes no part: only the fold's fit and validation
@@ -176,16 +177,16 @@ class ShareSelector:
         overall = harm(change[np.arange(len(val)), val.y], val.y)
         out = {}
         for c in (int(c) for c in np.flatnonzero(offered)):
-            own = val.y == c
-            mean = None if not own.any() or not judged[c] else round(float(change[own, c].mean()), 6)
             if not judged[c]:
                 out[c] = ClassShare(1.0, int(offered[c]), int(offered[c]), int(n_own[c]), None,
                                     self._unjudged(int(n_own[c])), judged=False)
                 continue
+            own = val.y == c
+            mean = round(float(change[own, c].mean()), 6) if own.any() else None
             mine = harm(np.where(own, change[:, c], -change[:, c]), own)
             drop, reason = self._decide(overall, mine)
             out[c] = ClassShare(0.0 if drop else 1.0, int(offered[c]), 0 if drop else int(offered[c]),
-                                int(own.sum()), mean, reason, judged=self.mode == "class" or bool(own.any()))
+                                int(n_own[c]), mean, reason, judged=bool(own.any()))
         return out
 
     def _judged(self, offered: np.ndarray, n_own: np.ndarray) -> np.ndarray:
