@@ -246,8 +246,8 @@ def share_default(protocol: str, chosen: tuple[str, ...], share_selection: str |
     subjects keep all their labels (lopo, long-tail, unseen) and every chosen backbone is a
     forest (two extra fits of a forest per run; on HAPT12's long tail it took the tail from
     significantly below Real-only to level, docs/results.md "The guard judges a class on its own
-    windows"); off under low-resource (a no-op at 1 %, level at 5 %, and the 1 and 5 % grid
-    1.14x slower with it), under tstr (no real-only model to weigh against) and where a network
+    windows"); off under low-resource (a no-op at 1 %, level at 5 %, at the price of the extra
+    fits: BENCHMARKS.md), under tstr (no real-only model to weigh against) and where a network
     is chosen (two extra trainings, not measured)."""
     from vsmp_imu.har.backbones import BACKBONES
     from vsmp_imu.har.noharm import check_mode
