@@ -11,7 +11,8 @@ import pytest
 from scipy.stats import wilcoxon
 
 from vsmp_imu.errors import ConfigError, InputFileError
-from vsmp_imu.har.published import Metric, Publication, format_p, paired_test
+from vsmp_imu.har.measures import Metric, format_p, paired_test
+from vsmp_imu.har.published import Publication
 from vsmp_imu.har.records import import_run, load_run
 
 REPO_ROOT = Path(__file__).resolve().parents[2]

@@ -9,7 +9,9 @@ under `unbacked` with the reason and the cost of its run: its block is left
 as written and reported as a warning. A `study` table renders one table of a
 committed `vsmp-imu study` run with the study's own report builder
 (`har.study_records`); a `benchmark` table is the table a benchmark script
-writes from its committed JSON (`har.bench_records`).
+writes from its committed JSON (`har.bench_records`). A table under `targets`
+answers the project's targets row by row from several record sets, with the
+verdict computed (`har.targets`).
 """
 
 from __future__ import annotations
@@ -24,15 +26,24 @@ from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
-from scipy.stats import wilcoxon
 
 from vsmp_imu.errors import ConfigError, InputFileError
 from vsmp_imu.har.bench_records import BenchTable
 from vsmp_imu.har.curves import CurveFigure, figure_path
+from vsmp_imu.har.measures import (
+    Metric,
+    markdown,
+    method_name,
+    paired_test,
+    pct,
+    run_key,
+    run_keys,
+)
 from vsmp_imu.har.metrics import mean_std
 from vsmp_imu.har.noharm import unjudged
 from vsmp_imu.har.records import RecordSet, load_run
 from vsmp_imu.har.study_records import VIEWS, StudyRecord, StudyTable, load_study
+from vsmp_imu.har.targets import TargetsBuilder, TargetTable
 from vsmp_imu.io import read_structured, read_text, write_bytes, write_text
 
 SPEC_FILE = "tables.yaml"
@@ -41,48 +52,10 @@ DOC_GLOBS = ("README.md", "BENCHMARKS.md", "docs/*.md")
 BLOCK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->\n(?P<body>.*?)^<!-- /report -->$",
                    re.DOTALL | re.MULTILINE)
 OPEN_MARK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->$", re.MULTILINE)
-MINUS = "\u2212"
-METHOD_NAMES = {
-    "real": "Real-only",
-    "classical": "Classical Aug",
-    "imugpt": "IMUGPT-2.0-style",
-    "imutube": "IMUTube-style",
-    "vsmp": "VSMP-IMU",
-    "vsmp-motion-fit": "VSMP-IMU + motion fit",
-    "vsmp-no-texture": "VSMP-IMU, no texture",
-    "vsmp+classical": "VSMP-IMU + Classical Aug",
-    "vsmp-class-rank": "VSMP-IMU, per-class rank",
-    "vsmp-rank-only": "VSMP-IMU, no sim-in-the-loop",
-}
-
-
-# The unseen protocol's figures: Macro-F1 over the unseen / seen classes and the share of
-# seen-class test windows predicted as an unseen class (and the reverse).
-UNSEEN_METRICS = {"unseen": "unseen_macro_f1", "seen": "seen_macro_f1",
-                  "seen_as_unseen": "seen_as_unseen", "unseen_as_seen": "unseen_as_seen"}
 # a paired table's baseline that pairs each method with itself (in baseline_records or on baseline_backbone)
 SAME = "same"
 
 
-class Metric(BaseModel):
-    """One row (or column) of figures: `macro_f1`, `head`, `tail`, `group:NAME`, `class:NAME`,
-    or of the unseen protocol `unseen`, `seen`, `seen_as_unseen`, `unseen_as_seen`."""
-
-    model_config = ConfigDict(extra="forbid")
-    label: str
-    metric: str = Field(pattern=r"^(macro_f1|accuracy|head|tail|unseen|seen|seen_as_unseen|unseen_as_seen"
-                                r"|group:.+|class:.+)$")
-
-    def value(self, record: dict) -> float | None:
-        if self.metric in ("macro_f1", "accuracy"):
-            return record.get(self.metric)
-        if self.metric in UNSEEN_METRICS:
-            return record.get(UNSEEN_METRICS[self.metric])
-        if self.metric in ("head", "tail"):
-            return record.get(f"{self.metric}_macro_f1")
-        kind, name = self.metric.split(":", 1)
-        key = "group_macro_f1" if kind == "group" else "per_class_f1"
-        return (record.get(key) or {}).get(name)
 
 
 class TableSpec(BaseModel):
@@ -162,11 +135,12 @@ class Unbacked(BaseModel):
 class Catalogue(BaseModel):
     model_config = ConfigDict(extra="forbid")
     tables: list[TableSpec] = Field(default_factory=list)
+    targets: list[TargetTable] = Field(default_factory=list)  # har.targets
     unbacked: list[Unbacked] = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _unique(self) -> Catalogue:
-        ids = [t.id for t in self.tables] + [u.id for u in self.unbacked]
+        ids = [t.id for t in self.tables] + [t.id for t in self.targets] + [u.id for u in self.unbacked]
         twice = sorted({i for i in ids if ids.count(i) > 1})
         if twice:
             raise ValueError(f"table ids declared twice: {', '.join(twice)}")
@@ -184,64 +158,7 @@ def load_catalogue(path: str | Path) -> Catalogue:
         raise ConfigError(first["msg"], file=path, field=where or None) from exc
 
 
-# -- figures ------------------------------------------------------------------------------
-def _pct(value: float, digits: int) -> str:
-    text = f"{100 * value:.{digits}f}"
-    return text.replace("-", MINUS)
-
-
-def _signed(value: float, digits: int) -> str:
-    text = f"{100 * value:+.{digits}f}"
-    return text.replace("-", MINUS)
-
-
-def format_p(p: float) -> str:
-    """'3e-6' below 0.001, else two significant digits ('0.013', '0.54')."""
-    if not np.isfinite(p):
-        return "n/a"
-    if p < 1e-3:
-        mantissa, exponent = f"{p:.0e}".split("e")
-        return f"{mantissa}e{int(exponent)}"
-    return f"{p:.2g}"
-
-
-@dataclass(frozen=True)
-class Paired:
-    """Method minus baseline over the runs both have (same fold and seed)."""
-
-    mean_diff: float
-    won: int
-    n: int
-    p: float
-
-    def cell(self, digits: int) -> str:
-        return f"{_signed(self.mean_diff, digits)} ({self.won}/{self.n}, p = {format_p(self.p)})"
-
-
-def paired_test(method: Sequence[dict], baseline: Sequence[dict], metric: Metric) -> Paired:
-    """Mean paired difference, runs won and the two-sided Wilcoxon signed-rank p."""
-    base = {_run_key(r): metric.value(r) for r in baseline}
-    pairs = [(metric.value(r), base.get(_run_key(r))) for r in method]
-    diffs = np.array([a - b for a, b in pairs if a is not None and b is not None], dtype=float)
-    if len(diffs) == 0:
-        return Paired(float("nan"), 0, 0, float("nan"))
-    if len(diffs) < 2:  # one run has no test
-        p = float("nan")
-    else:
-        p = float(wilcoxon(diffs).pvalue) if np.any(diffs != 0) else 1.0
-    return Paired(float(diffs.mean()), int(np.sum(diffs > 0)), len(diffs), p)
-
-
 # -- tables -------------------------------------------------------------------------------
-def _markdown(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in rows])
-
-
-def _method_name(method: str) -> str:
-    return METHOD_NAMES.get(method, method)
-
-
 def _budget_name(budget: float | None) -> str:
     return "" if budget is None else f"{budget:g} %"
 
@@ -299,7 +216,7 @@ class TableBuilder:
     def _one_per_run(self, found: list[dict], method: str, set_name: str) -> list[dict]:
         """`found`, after checking that it holds one record per run (fold, seed): records of
         several budgets or backbones would otherwise be paired and averaged as if one."""
-        keys = [_run_key(r) for r in found]
+        keys = [run_key(r) for r in found]
         if len(set(keys)) == len(keys):
             return found
         mixed = [f"{field}s {', '.join(sorted({str(r[field]) for r in found}))}" for field in ("budget", "backbone")
@@ -315,7 +232,7 @@ class TableBuilder:
     def same_runs(self, runs: dict[str, list[dict]], budget: float | None) -> dict[str, list[dict]]:
         """`runs` per method, after checking that every method has the same (fold, seed) runs:
         a table's columns must compare the same runs."""
-        keys = {m: sorted(_run_key(r) for r in rs) for m, rs in runs.items()}
+        keys = {m: sorted(run_key(r) for r in rs) for m, rs in runs.items()}
         first = next(iter(keys.values()))
         uneven = [m for m, k in keys.items() if k != first]
         if uneven:
@@ -350,7 +267,7 @@ class TableBuilder:
                  if any(r.get("unseen_capable") is False for r in self.records.select(method=m))]
         if not floor:
             return ""
-        names = " and ".join(_method_name(m) for m in floor)
+        names = " and ".join(method_name(m) for m in floor)
         whose = "their" if len(floor) > 1 else "its"
         return (f"{names} cannot make windows of a class without real windows: {whose} unseen-class "
                 "figures are the floor (the model never sees those classes). ")
@@ -371,13 +288,13 @@ class TableBuilder:
             runs = self.same_runs({m: self.runs(m, budget) for m in s.methods}, budget)
             for metric in s.metrics:
                 stats = [mean_std([metric.value(r) for r in runs[m]]) for m in s.methods]
-                cells = [f"{_pct(mu, s.digits)} ± {_pct(sd, s.digits)}" if mu is not None else "–"
+                cells = [f"{pct(mu, s.digits)} ± {pct(sd, s.digits)}" if mu is not None else "–"
                          for mu, sd, _ in stats]
                 if s.bold:
                     cells = _bold_best(cells, [mu for mu, _, _ in stats])
                 rows.append(self._lead(budget) + [metric.label] + cells)
-        header = self._lead_header() + [s.row_header] + [_method_name(m) for m in s.methods]
-        return _markdown(header, rows)
+        header = self._lead_header() + [s.row_header] + [method_name(m) for m in s.methods]
+        return markdown(header, rows)
 
     def _paired(self) -> str:
         s = self.spec
@@ -388,9 +305,9 @@ class TableBuilder:
                                  s.baseline_backbone)
                 mine = self.runs(method, budget)
                 if self.baseline_records is not None:  # another set: the runs both have
-                    both = _run_keys(mine) & _run_keys(base)
-                    mine = [r for r in mine if _run_key(r) in both]
-                    base = [r for r in base if _run_key(r) in both]
+                    both = run_keys(mine) & run_keys(base)
+                    mine = [r for r in mine if run_key(r) in both]
+                    base = [r for r in base if run_key(r) in both]
                 runs = self.same_runs({f"baseline {s.baseline}": base, method: mine}, budget)[method]
                 name = self._paired_name(method)
                 rows.append(self._lead(budget) + [name] + self._paired_cells(runs, base))
@@ -400,7 +317,7 @@ class TableBuilder:
                                                [r for r in base if r["seed"] == seed])
                     rows.append(self._lead(budget) + [f"{name}, seed {seed}"] + cells)
         header = self._lead_header() + ["Method"] + [m.label for m in s.metrics]
-        return _markdown(header, rows)
+        return markdown(header, rows)
 
     def _baseline(self, method: str) -> str:
         """The method `method` is paired with: the spec's baseline, or with `same` itself."""
@@ -408,16 +325,16 @@ class TableBuilder:
 
     def _paired_name(self, method: str) -> str:
         s = self.spec
-        baseline = _method_name(self._baseline(method))
+        baseline = method_name(self._baseline(method))
         if s.baseline_backbone is not None:
-            return (f"{_method_name(method)} with `{s.backbone}` vs. {baseline} with `{s.baseline_backbone}`"
+            return (f"{method_name(method)} with `{s.backbone}` vs. {baseline} with `{s.baseline_backbone}`"
                     + (f" of `{self.baseline_records.name}`" if self.baseline_records is not None else ""))
         at = "" if s.baseline_budget is None else f" at {_budget_name(s.baseline_budget)}"
         if self.baseline_records is not None:
-            return f"{_method_name(method)} vs. {baseline} of `{self.baseline_records.name}`{at}"
+            return f"{method_name(method)} vs. {baseline} of `{self.baseline_records.name}`{at}"
         if at:
-            return f"{_method_name(method)} vs. {baseline}{at}"
-        return _method_name(method)
+            return f"{method_name(method)} vs. {baseline}{at}"
+        return method_name(method)
 
     def _paired_cells(self, runs: list[dict], base: list[dict]) -> list[str]:
         return [paired_test(runs, base, m).cell(self.spec.digits) for m in self.spec.metrics]
@@ -429,12 +346,12 @@ class TableBuilder:
             runs = {m: self.runs(m, budget) for m in s.methods}
             for metric in s.metrics or self._every_class():
                 means = [mean_std([metric.value(r) for r in runs[m]])[0] for m in s.methods]
-                cells = ["–" if mu is None else _pct(mu, s.digits) for mu in means]
+                cells = ["–" if mu is None else pct(mu, s.digits) for mu in means]
                 if s.bold:
                     cells = _bold_best(cells, means)
                 rows.append(self._lead(budget) + [metric.label] + cells)
-        header = self._lead_header() + ["Class"] + [_method_name(m) for m in s.methods]
-        return _markdown(header, rows)
+        header = self._lead_header() + ["Class"] + [method_name(m) for m in s.methods]
+        return markdown(header, rows)
 
     def _unseen_each(self) -> str:
         """Leave-one-class-out (`--unseen each`): a row per class left out, each method's figures
@@ -449,11 +366,11 @@ class TableBuilder:
             mine = self.same_runs(mine, None)
             cells = [mean_std([metric.value(r) for r in mine[m]])[0] for m in s.methods for metric in s.metrics]
             means.append(cells)
-            rows.append([cls] + [_pct(v, s.digits) if v is not None else "–" for v in cells])
+            rows.append([cls] + [pct(v, s.digits) if v is not None else "–" for v in cells])
         overall = np.nanmean(np.array(means, dtype=float), axis=0)
-        rows.append([f"mean over the {len(classes)} classes"] + [_pct(v, s.digits) for v in overall])
-        header = ["Class left out"] + [f"{_method_name(m)}: {metric.label}" for m in s.methods for metric in s.metrics]
-        return _markdown(header, rows)
+        rows.append([f"mean over the {len(classes)} classes"] + [pct(v, s.digits) for v in overall])
+        header = ["Class left out"] + [f"{method_name(m)}: {metric.label}" for m in s.methods for metric in s.metrics]
+        return markdown(header, rows)
 
     def _every_class(self) -> list[Metric]:
         return [Metric(label=name, metric=f"class:{name}") for name in self.records.label_names]
@@ -467,11 +384,11 @@ class TableBuilder:
                 asked = np.array([r.get("n_synthetic_requested") or 0 for r in runs], dtype=float)
                 share = got.sum() / asked.sum() if asked.sum() else float("nan")
                 rows.append(self._lead(budget) + [
-                    _method_name(method), f"{got.mean():.0f}", f"{np.median(got):.0f}",
+                    method_name(method), f"{got.mean():.0f}", f"{np.median(got):.0f}",
                     f"{asked.mean():.0f}", f"{100 * share:.0f} %"])
         header = self._lead_header() + ["Method", "Synthetic windows per run (mean)",
                                         "median", "asked for (mean)", "delivered"]
-        return _markdown(header, rows)
+        return markdown(header, rows)
 
     def _shares(self) -> str:
         """The do-no-harm choice: per method, the synthetic windows kept of those offered, the
@@ -484,21 +401,12 @@ class TableBuilder:
                 offered = sum(s["offered"] for c in choices for s in c.values())
                 kept = sum(s["kept"] for c in choices for s in c.values())
                 rows.append(self._lead(budget) + [
-                    _method_name(method), f"{100 * kept / offered:.0f} %" if offered else "–",
+                    method_name(method), f"{100 * kept / offered:.0f} %" if offered else "–",
                     _class_counts(choices, lambda s: s["share"] == 0, len(runs)),
                     _class_counts(choices, unjudged, len(runs))])
         header = self._lead_header() + ["Method", "synthetic windows kept", "classes that got none (runs)",
                                         "not judged: too few validation windows (runs)"]
-        return _markdown(header, rows)
-
-
-def _run_key(record: dict) -> tuple[str, int, tuple[str, ...]]:
-    """What pairs two runs: fold, seed and, under leave-one-class-out, the class left out."""
-    return str(record["fold"]), record["seed"], tuple(record.get("unseen_classes") or ())
-
-
-def _run_keys(records: Sequence[dict]) -> set[tuple[str, int, tuple[str, ...]]]:
-    return {_run_key(r) for r in records}
+        return markdown(header, rows)
 
 
 def _class_counts(choices: Sequence[dict], test, n_runs: int) -> str:
@@ -582,6 +490,9 @@ class Publication:
     def render(self, table_id: str, document: Path | None = None) -> str:
         """A table's Markdown; a curve's link (relative to `document`, default README.md) and
         table of what it plots."""
+        targets = next((t for t in self.catalogue.targets if t.id == table_id), None)
+        if targets is not None:
+            return TargetsBuilder(targets, self._set).render()
         spec = next((t for t in self.catalogue.tables if t.id == table_id), None)
         if spec is None:
             raise ConfigError(f"no table '{table_id}' in {SPEC_FILE}", file=self.results_dir / SPEC_FILE)
@@ -604,14 +515,14 @@ class Publication:
 
     def _curve(self, spec: TableSpec, document: Path) -> str:
         figure = CurveFigure(spec, [self._set(n) for n in (spec.records, *spec.extra_records)],
-                             {m: _method_name(m) for m in spec.methods})
+                             {m: method_name(m) for m in spec.methods})
         self._figures[spec.id] = figure
         image = Path(os.path.relpath(self.root / figure_path(spec.id), document.parent)).as_posix()
         header, rows, used = figure.table()
         sources = "; ".join(f"`results/{r.name}/` from `{r.command}`"
                             + (f" at commit {r.code_commit[:7]}" if r.code_commit else "") for r in used)
         alt = f"{' and '.join(m.label for m in spec.metrics)} against the label budget"
-        return (f"![{alt}]({image})\n\n{_markdown(header, rows)}\n\nMeans (%) over the runs (their number "
+        return (f"![{alt}]({image})\n\n{markdown(header, rows)}\n\nMeans (%) over the runs (their number "
                 f"in brackets), backbone `{spec.backbone}`. Records: {sources}; rebuilt by `vsmp-imu report "
                 "--write`.\n")
 
@@ -638,7 +549,7 @@ class Publication:
     def check(self, write: bool = False) -> Outcome:
         """Compare (or, with `write`, rewrite) every marked block with its records."""
         unbacked = {u.id: u.reason for u in self.catalogue.unbacked}
-        known = {t.id for t in self.catalogue.tables} | set(unbacked)
+        known = {t.id for t in self.catalogue.tables} | {t.id for t in self.catalogue.targets} | set(unbacked)
         outcome, placed = Outcome(), set()
         for path in self.documents():
             text = read_text(path)

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from vsmp_imu.har.backbones import DISPLAY_NAMES
-from vsmp_imu.har.published import Metric, paired_test
+from vsmp_imu.har.measures import Metric, paired_test
 from vsmp_imu.har.synthetic import METHOD_DISPLAY
 from vsmp_imu.io import atomic_path, write_text
 
