@@ -110,3 +110,22 @@ def report_repo(tmp_path):
         return root
 
     return make
+
+
+@pytest.fixture()
+def import_records(tmp_path):
+    """A function importing evaluation records (their classes `labels`) as record set `name` of
+    a repository skeleton's results/, at commit abc1234."""
+
+    def run(root: Path, name: str, records: list[dict], labels: tuple[str, ...]) -> None:
+        import json
+
+        from vsmp_imu.har.records import import_run
+
+        folder = tmp_path / f"run_{name}"
+        folder.mkdir()
+        (folder / "results.json").write_text(json.dumps({"config": {}, "label_names": list(labels),
+                                                         "records": records}))
+        import_run(folder, name, f"vsmp-imu evaluate -o {name}", root / "results", code_commit="abc1234")
+
+    return run

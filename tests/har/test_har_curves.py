@@ -3,14 +3,12 @@ PNG by `vsmp-imu report --write` and checked through the table of what it plots.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
 
 from vsmp_imu.har.curves import figure_path
 from vsmp_imu.har.published import Publication, TableSpec
-from vsmp_imu.har.records import import_run
 
 LABELS = ("WALKING", "SIT_TO_LIE")
 
@@ -21,13 +19,6 @@ def _record(method: str, budget: float, fold: int, f1: float) -> dict:
             "group_macro_f1": {"transitions": f1 - 0.2}, "head_macro_f1": None, "tail_macro_f1": None,
             "per_class_f1": {"WALKING": f1, "SIT_TO_LIE": f1}, "confusion": [[1, 0], [0, 1]],
             "n_synthetic": 0, "n_synthetic_requested": 0, "n_train_real": 10}
-
-
-def _import(tmp_path: Path, root: Path, name: str, records: list[dict]) -> None:
-    run = tmp_path / f"run_{name}"
-    run.mkdir()
-    (run / "results.json").write_text(json.dumps({"config": {}, "label_names": list(LABELS), "records": records}))
-    import_run(run, name, f"vsmp-imu evaluate {name}", root / "results", code_commit="abc1234")
 
 
 CATALOGUE = """
@@ -47,14 +38,14 @@ DOC = "# Results\n\n<!-- report:curve:rf -->\n<!-- /report -->\n"
 
 
 @pytest.fixture()
-def repo(tmp_path: Path, report_repo) -> Path:
+def repo(report_repo, import_records) -> Path:
     root = report_repo(CATALOGUE, {"docs/results.md": DOC, "README.md": DOC})
     low = [_record(m, b, f, 0.5 + 0.1 * (m == "vsmp") + 0.01 * f) for m in ("real", "vsmp") for b in (1.0, 5.0)
            for f in (1, 2)]
     # the curve's 5 % Real-only is also in this set, with other figures: the first set wins
     curve = [_record("real", b, f, 0.9 if b == 5.0 else 0.8) for b in (5.0, 100.0) for f in (1, 2)]
-    _import(tmp_path, root, "low", low)
-    _import(tmp_path, root, "real_curve", curve)
+    import_records(root, "low", low, LABELS)
+    import_records(root, "real_curve", curve, LABELS)
     return root
 
 
@@ -64,8 +55,8 @@ def test_a_curve_takes_each_point_from_the_first_set_that_has_it(repo):
     assert "| 1 % | 51.50 (2) | 61.50 (2) |" in text
     assert "| 5 % | 51.50 (2) | 61.50 (2) |" in text  # from `low`, not real_curve's 90
     assert "| 100 % | 80.00 (2) | – |" in text
-    assert "`results/low/` from `vsmp-imu evaluate low` at commit abc1234" in text
-    assert "`results/real_curve/` from `vsmp-imu evaluate real_curve`" in text
+    assert "`results/low/` from `vsmp-imu evaluate -o low` at commit abc1234" in text
+    assert "`results/real_curve/` from `vsmp-imu evaluate -o real_curve`" in text
 
 
 def test_the_link_is_relative_to_the_document(repo):

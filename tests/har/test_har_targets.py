@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +11,6 @@ from scipy.stats import wilcoxon
 
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.har.published import Publication
-from vsmp_imu.har.records import import_run
 from vsmp_imu.har.targets import TargetRow
 
 LABELS = ("WALKING", "SIT_TO_LIE")
@@ -54,13 +52,6 @@ def _leave_one_out() -> list[dict]:
             + [_record("vsmp", 1, 0, 0.8, "SIT_TO_LIE")])
 
 
-def _import(root: Path, tmp_path: Path, name: str, records: list[dict]) -> None:
-    run = tmp_path / f"run_{name}"
-    run.mkdir()
-    (run / "results.json").write_text(json.dumps({"config": {}, "label_names": list(LABELS), "records": records}))
-    import_run(run, name, f"vsmp-imu evaluate -o {name}", root / "results", code_commit="abc1234def")
-
-
 CATALOGUE = """
 targets:
   - id: targets:demo
@@ -78,10 +69,10 @@ DOC = "# Targets\n\n<!-- report:targets:demo -->\n<!-- /report -->\n"
 
 
 @pytest.fixture()
-def repo(tmp_path: Path, report_repo) -> Path:
+def repo(report_repo, import_records) -> Path:
     root = report_repo(CATALOGUE, {"README.md": DOC})
-    _import(root, tmp_path, "lr", _low_resource())
-    _import(root, tmp_path, "loco", _leave_one_out())
+    import_records(root, "lr", _low_resource(), LABELS)
+    import_records(root, "loco", _leave_one_out(), LABELS)
     return root
 
 
@@ -122,7 +113,7 @@ def test_the_check_finds_a_verdict_typed_by_hand(repo):
     assert Publication(repo).check().differing == ["README.md: table 'targets:demo'"]
 
 
-def test_a_baseline_from_another_record_set_pairs_the_runs_both_have(tmp_path, report_repo):
+def test_a_baseline_from_another_record_set_pairs_the_runs_both_have(report_repo, import_records):
     catalogue = """
 targets:
   - id: targets:other
@@ -131,8 +122,8 @@ targets:
 """
     root = report_repo(catalogue, {"README.md": DOC.replace("demo", "other")})
     records = _low_resource()
-    _import(root, tmp_path, "mine", [r for r in records if r["method"] == "vsmp"])
-    _import(root, tmp_path, "theirs", [r for r in records if r["method"] == "real" and r["seed"] == 0])
+    import_records(root, "mine", [r for r in records if r["method"] == "vsmp"], LABELS)
+    import_records(root, "theirs", [r for r in records if r["method"] == "real" and r["seed"] == 0], LABELS)
     table = Publication(root).render("targets:other")
     assert "(4/4, p = " in table and "`mine` at abc1234 against `theirs` at abc1234" in table
 
