@@ -136,6 +136,23 @@ def test_a_target_without_runs_names_itself(repo):
         Publication(repo).render("targets:demo")
 
 
+def test_a_target_on_a_metric_its_runs_lack_says_so(repo):
+    text = (repo / "results" / "tables.yaml").read_text().replace(
+        '{target: "+6 over Real-only", records: lr, method: vsmp, baseline: real, at_least: 6}',
+        '{target: "+6 over Real-only", records: lr, method: vsmp, baseline: real, at_least: 6, metric: tail}')
+    (repo / "results" / "tables.yaml").write_text(text)
+    with pytest.raises(ConfigError, match="target '\\+6 over Real-only'.*no run pair has the metric 'tail'"):
+        Publication(repo).render("targets:demo")
+
+
+def test_a_verdict_judges_the_figure_it_prints():
+    from vsmp_imu.har.targets import _judge
+
+    assert _judge(3, 0.030000000001) == (True, None)
+    assert _judge(3, 0.0299999) == (True, None)  # printed 3.00
+    assert _judge(3, 0.02994) == (False, 0.01)  # printed 2.99
+
+
 @pytest.mark.parametrize("fields, message", [
     ({}, "one rule"),
     ({"at_least": 3, "not_below": True}, "one rule"),

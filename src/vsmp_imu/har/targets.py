@@ -114,16 +114,16 @@ class TargetsBuilder:
         else:
             value = self._mean_over_left_out(row, runs)
             text = f"{pct(value, 2)} ({len(runs)} runs)"
-        shortfall = row.at_least - 100 * value
-        return text, shortfall <= 0, shortfall if shortfall > 0 else None
+        return (text, *_judge(row.at_least, value))
 
     def _paired(self, row: TargetRow, mine: list[dict], base: list[dict]) -> tuple[str, bool, float | None]:
         test = paired_test(mine, base, row.measure())
+        if test.n == 0:
+            raise self._error(row, f"no run pair has the metric '{row.metric}'")
         text = f"{test.cell(2)} vs. {method_name(row.baseline)}"
         if row.not_below:
             return text, not (test.mean_diff < 0 and test.p < SIGNIFICANCE), None
-        shortfall = row.at_least - 100 * test.mean_diff
-        return text, shortfall <= 0, shortfall if shortfall > 0 else None
+        return (text, *_judge(row.at_least, test.mean_diff))
 
     def _mean_over_left_out(self, row: TargetRow, runs: list[dict]) -> float:
         """The mean over the runs; under leave-one-class-out the mean over the classes left out
@@ -165,3 +165,9 @@ class TargetsBuilder:
         return ConfigError(f"table '{self.spec.id}', target '{row.target}': {message}",
                            field="targets", allowed="a record set, method, backbone and budget with runs")
 
+
+def _judge(at_least: float, value: float) -> tuple[bool, float | None]:
+    """Whether `value` (a fraction) reaches `at_least` points as the table prints it (two
+    decimals), and the points short where it does not."""
+    shortfall = round(at_least - round(100 * value, 2), 2)
+    return shortfall <= 0, shortfall if shortfall > 0 else None
