@@ -117,3 +117,9 @@ def run_key(record: dict) -> tuple[str, int, tuple[str, ...]]:
 
 def run_keys(records: Sequence[dict]) -> set[tuple[str, int, tuple[str, ...]]]:
     return {run_key(r) for r in records}
+
+
+def shared_runs(mine: Sequence[dict], base: Sequence[dict]) -> tuple[list[dict], list[dict]]:
+    """The runs of each side that the other side has too (same fold, seed and class left out)."""
+    both = run_keys(mine) & run_keys(base)
+    return [r for r in mine if run_key(r) in both], [r for r in base if run_key(r) in both]

@@ -37,7 +37,7 @@ from vsmp_imu.har.measures import (
     paired_test,
     pct,
     run_key,
-    run_keys,
+    shared_runs,
 )
 from vsmp_imu.har.metrics import mean_std
 from vsmp_imu.har.noharm import unjudged
@@ -54,8 +54,6 @@ BLOCK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->\n(?P<body>.*?)^<!-- /report
 OPEN_MARK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->$", re.MULTILINE)
 # a paired table's baseline that pairs each method with itself (in baseline_records or on baseline_backbone)
 SAME = "same"
-
-
 
 
 class TableSpec(BaseModel):
@@ -305,9 +303,7 @@ class TableBuilder:
                                  s.baseline_backbone)
                 mine = self.runs(method, budget)
                 if self.baseline_records is not None:  # another set: the runs both have
-                    both = run_keys(mine) & run_keys(base)
-                    mine = [r for r in mine if run_key(r) in both]
-                    base = [r for r in base if run_key(r) in both]
+                    mine, base = shared_runs(mine, base)
                 runs = self.same_runs({f"baseline {s.baseline}": base, method: mine}, budget)[method]
                 name = self._paired_name(method)
                 rows.append(self._lead(budget) + [name] + self._paired_cells(runs, base))

@@ -21,7 +21,15 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from vsmp_imu.errors import ConfigError
-from vsmp_imu.har.measures import Metric, markdown, method_name, paired_test, pct, run_key, run_keys
+from vsmp_imu.har.measures import (
+    Metric,
+    markdown,
+    method_name,
+    paired_test,
+    pct,
+    run_key,
+    shared_runs,
+)
 from vsmp_imu.har.records import RecordSet
 
 SIGNIFICANCE = 0.05  # `not_below`: a loss at this two-sided p counts as significant
@@ -92,11 +100,9 @@ class TargetsBuilder:
             measured, met, short = self._mean(row, mine)
         else:
             base = self._runs(row, row.baseline, row.baseline_records or row.records)
-            both = run_keys(mine) & run_keys(base)
-            if not both:
+            mine, base = shared_runs(mine, base)
+            if not mine:
                 raise self._error(row, f"{method_name(row.method)} and {method_name(row.baseline)} share no run")
-            mine = [r for r in mine if run_key(r) in both]
-            base = [r for r in base if run_key(r) in both]
             measured, met, short = self._paired(row, mine, base)
             if row.baseline_records is not None:
                 sets += f" against {self._set_name(row.baseline_records)}"
