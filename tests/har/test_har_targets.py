@@ -164,3 +164,17 @@ def test_a_verdict_judges_the_figure_it_prints():
 def test_a_target_row_states_one_rule_it_can_judge(fields, message):
     with pytest.raises(ValidationError, match=message):
         TargetRow(target="t", records="r", method="vsmp", **fields)
+
+
+def test_a_target_over_runs_of_several_budgets_names_them(tmp_path, report_repo, import_records):
+    catalogue = """
+targets:
+  - id: targets:mixed
+    rows:
+      - {target: "VSMP-IMU 60", records: both, method: vsmp, at_least: 60}
+"""
+    root = report_repo(catalogue, {"README.md": DOC.replace("demo", "mixed")})
+    records = _low_resource()
+    import_records(root, "both", records + [{**r, "budget": 5.0} for r in records], LABELS)
+    with pytest.raises(ConfigError, match=r"several runs of VSMP-IMU per fold and seed \(budgets 1.0, 5.0\)"):
+        Publication(root).render("targets:mixed")

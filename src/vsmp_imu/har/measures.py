@@ -123,3 +123,13 @@ def shared_runs(mine: Sequence[dict], base: Sequence[dict]) -> tuple[list[dict],
     """The runs of each side that the other side has too (same fold, seed and class left out)."""
     both = run_keys(mine) & run_keys(base)
     return [r for r in mine if run_key(r) in both], [r for r in base if run_key(r) in both]
+
+
+def several_per_run(found: Sequence[dict]) -> str | None:
+    """None where `found` holds one record per run; else what its records mix ('budgets 1.0,
+    5.0'), or '' where they mix nothing a table can name. Records of several budgets or
+    backbones would otherwise be paired and averaged as if one."""
+    if len({run_key(r) for r in found}) == len(found):
+        return None
+    return "; ".join(f"{field}s {', '.join(sorted({str(r[field]) for r in found}))}"
+                     for field in ("budget", "backbone") if len({str(r[field]) for r in found}) > 1)

@@ -37,6 +37,7 @@ from vsmp_imu.har.measures import (
     paired_test,
     pct,
     run_key,
+    several_per_run,
     shared_runs,
 )
 from vsmp_imu.har.metrics import mean_std
@@ -212,17 +213,14 @@ class TableBuilder:
         return self._one_per_run(found, method, records.name)
 
     def _one_per_run(self, found: list[dict], method: str, set_name: str) -> list[dict]:
-        """`found`, after checking that it holds one record per run (fold, seed): records of
-        several budgets or backbones would otherwise be paired and averaged as if one."""
-        keys = [run_key(r) for r in found]
-        if len(set(keys)) == len(keys):
+        """`found`, after checking that it holds one record per run (fold, seed)."""
+        mixed = several_per_run(found)
+        if mixed is None:
             return found
-        mixed = [f"{field}s {', '.join(sorted({str(r[field]) for r in found}))}" for field in ("budget", "backbone")
-                 if len({str(r[field]) for r in found}) > 1]
         raise ConfigError(
             f"table '{self.spec.id}': method '{method}' has several records per fold and seed in record set "
             f"'{set_name}'"
-            + (f" ({'; '.join(mixed)})" if mixed else ""),
+            + (f" ({mixed})" if mixed else ""),
             field="budgets/backbone",
             allowed="name the budgets (`budgets`) and the backbone (`backbone`) the table shows",
         )

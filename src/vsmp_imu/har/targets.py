@@ -27,7 +27,7 @@ from vsmp_imu.har.measures import (
     method_name,
     paired_test,
     pct,
-    run_key,
+    several_per_run,
     shared_runs,
 )
 from vsmp_imu.har.records import RecordSet
@@ -162,9 +162,10 @@ class TargetsBuilder:
             raise self._error(row, f"record set '{records}' has no run of {method_name(method)}"
                               + ("" if row.backbone is None else f" with {row.backbone}")
                               + ("" if row.budget is None else f" at {row.budget:g} %"))
-        if len({run_key(r) for r in found}) != len(found):
+        mixed = several_per_run(found)
+        if mixed is not None:
             raise self._error(row, f"record set '{records}' has several runs of {method_name(method)} per fold "
-                              "and seed: name the backbone and budget")
+                              f"and seed{f' ({mixed})' if mixed else ''}: name the backbone and budget")
         return found
 
     def _error(self, row: TargetRow, message: str) -> ConfigError:
