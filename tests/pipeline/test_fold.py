@@ -493,6 +493,44 @@ def test_window_levels_move_a_transitions_window_means_onto_its_real_ones(hapt12
     assert np.array_equal(off.X, X)
 
 
+def test_posture_levels_move_a_held_postures_window_means_and_leave_a_cyclic_class(hapt12, library):
+    """With `posture_levels` and the library's SMPs as sources, a class whose SMP holds a posture
+    (STANDING) gets its window means mapped as a transition does; a gait (WALKING) keeps its windows,
+    and so do the postures by default."""
+    from types import SimpleNamespace
+
+    from vsmp_imu.pipeline.fold import WindowSet, holds_posture, level_classes, level_windows
+
+    info, windows = hapt12
+    names = info.label_names
+    sources = LibrarySmpSource(library).smps("hapt12", names)
+    postures = {n for n in names if holds_posture(sources[n][0][1])}
+    assert postures == {"SITTING", "STANDING", "LAYING"}
+    events = {n for n, share in zip(names, info.share_vector(), strict=True) if share < 1.0}
+    assert {names[c] for c in level_classes(GenerationSpec(posture_levels=True), info, sources)} == postures | events
+    assert {names[c] for c in level_classes(GenerationSpec(), info, sources)} == events
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    d_rank = train[stat_rank_split(train.y, 0)[1]]
+    stand, walk = names.index("STANDING"), names.index("WALKING")
+    other = windows.where_subjects(["6", "7", "8", "9", "10"])
+    pick = np.isin(other.y, [stand, walk])
+    X, y = other.X[pick].astype(np.float32), other.y[pick]
+    X[..., 1] += 3.0  # "synthetic" windows: other subjects' real ones, tilted on one axis
+
+    def level(spec):
+        ws = WindowSet(X.copy(), y, [SimpleNamespace(locations=["waist"]) for _ in y])
+        return ws, level_windows(spec, info, ws, d_rank, sources)
+
+    ws, summary = level(GenerationSpec(posture_levels=True))
+    assert list(summary["waist"]["classes"]) == ["STANDING"]
+    real = d_rank.X[d_rank.y == stand, :, 1].mean()
+    assert abs(X[y == stand, :, 1].mean() - real) > 1.5
+    assert abs(ws.X[y == stand, :, 1].mean() - real) < 0.3
+    assert np.array_equal(ws.X[y == walk], X[y == walk])
+    ws, summary = level(GenerationSpec())
+    assert summary["waist"]["classes"] == {} and np.array_equal(ws.X, X)
+
+
 def test_a_retimed_transition_leaves_the_mounting_where_it_was(hapt12, library):
     """The nominal mounting comes from the classes that hold a posture or repeat a rhythm: a
     transition's timing (examples/hapt12_timed) changes its own samples only. With fewer than two

@@ -24,7 +24,7 @@ GENERATE_OPTIONS = {
     "refine": "--no-refine", "uncertainty_conditioned": "--no-uncertainty", "sim_in_the_loop": "--no-sim-loop",
     "rank_grounding": "--no-rank", "per_class_rank": "--per-class-rank", "quality_filter": "--no-filter",
     "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm", "refill": "--refill", "library_dirs": "--library",
-    "side_evidence": "--side-evidence", "texture": "--texture", "window_levels": "--window-levels", "level_parts": "--level-parts",
+    "side_evidence": "--side-evidence", "texture": "--texture", "window_levels": "--window-levels", "level_parts": "--level-parts", "posture_levels": "--posture-levels",
     "pooled_calibration": "--pooled-calibration",
     "nominal_unseen_postures": "--nominal-unseen-postures", "k_unseen": "--k-unseen",
     "unseen_intensity": "--unseen-intensity", "seen_intensity": "--seen-intensity", "event_durations": "--event-durations", "cadence": "--cadence",
@@ -36,7 +36,7 @@ GENERATE_OPTIONS = {
 EVALUATE_OPTIONS = {
     "source": "--source", "alpha": "--alpha", "policy": "--policy", "k": "--k", "backend": "--backend",
     "per_class_rank": "--per-class-rank", "motion_fit": "--motion-fit", "gravity_norm": "--gravity-norm",
-    "side_evidence": "--side-evidence", "texture": "--texture", "window_levels": "--window-levels", "level_parts": "--level-parts",
+    "side_evidence": "--side-evidence", "texture": "--texture", "window_levels": "--window-levels", "level_parts": "--level-parts", "posture_levels": "--posture-levels",
     "pooled_calibration": "--pooled-calibration",
     "nominal_unseen_postures": "--nominal-unseen-postures", "k_unseen": "--k-unseen",
     "unseen_intensity": "--unseen-intensity", "seen_intensity": "--seen-intensity", "event_durations": "--event-durations", "cadence": "--cadence",

@@ -194,6 +194,10 @@ WINDOW_LEVELS = typer.Option(True, "--window-levels/--no-window-levels",
 LEVEL_PARTS = typer.Option(1, "--level-parts", min=1, max=16,
                            help="window levels: the window's equal parts whose means follow the real "
                                 "windows', each on its own (1: the whole window's mean; 4: its quarters)")
+POSTURE_LEVELS = typer.Option(False, "--posture-levels/--no-posture-levels",
+                              help="window levels also for the held postures (sitting, standing, lying): "
+                                   "each still window's mean follows the real windows' of its class "
+                                   "(gains on TSTR, not on the long tail)")
 POOLED_CALIBRATION = typer.Option(
     True, "--pooled-calibration/--no-pooled-calibration",
     help="sim-in-the-loop for a class with no real training windows (an unseen class) against the other "

@@ -20,10 +20,12 @@ where the real windows have it (one level leaves the lying pairs told apart by o
 mean the real windows do not differ on, `vsmp-imu data check`). Quarters made the windows of a
 5 % run better alone, those of the full training set worse, and left the mixes level or lower
 (docs/results.md, "Window levels per quarter"), so the default maps the whole window's mean
-(`PARTS`). Classes whose windows are
-whole (steady activities), and classes with fewer real windows (low-resource budgets, unseen
-classes), keep their windows. On by default (`GenerationSpec.window_levels`; the baselines'
-chain does without).
+(`PARTS`). With `GenerationSpec.posture_levels` a held posture's windows are mapped too: a still
+window's mean is where gravity points in the sensor, which sets sitting apart from standing
+(docs/results.md, "Window levels for the postures": TSTR gains, the long tail does not, so it is
+off). Cyclic activities (walking), and classes with fewer real windows (low-resource budgets,
+unseen classes), keep their windows. On by default (`GenerationSpec.window_levels`; the
+baselines' chain does without).
 """
 
 from __future__ import annotations

@@ -354,8 +354,7 @@ def unseen_postures(spec: GenerationSpec, info: DatasetInfo, train: Windows, sou
         return frozenset()
     counts = train.class_counts()
     return frozenset(label for i, label in enumerate(info.label_names)
-                     if counts[i] == 0 and sources.get(label) and isinstance(base := sources[label][0][1], SMP)
-                     and base.temporal_structure.periodicity == "none")
+                     if counts[i] == 0 and sources.get(label) and holds_posture(sources[label][0][1]))
 
 
 def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, seed: int,
@@ -419,6 +418,11 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
             class_windows=class_windows, texture=texture, event_duration_s=event, cadence_hz=rate,
         ))
     return tasks
+
+
+def holds_posture(base) -> bool:
+    """An SMP that holds a posture (sitting, standing, lying): its periodicity is "none"."""
+    return isinstance(base, SMP) and base.temporal_structure.periodicity == "none"
 
 
 def is_discrete(smp: SMP) -> bool:
@@ -675,11 +679,23 @@ def window(info: DatasetInfo, ok: list[SampleResult], grounded: list[dict[str, n
     return WindowSet(np.stack(xs).astype(np.float32), np.array(ys, dtype=np.int64), records)
 
 
-def level_windows(spec: GenerationSpec, info: DatasetInfo, windows: WindowSet, d_rank: Windows) -> dict:
-    """Stage 5b: each event class's windows shifted so that their means follow D_rank's windows of
-    that class (grounding.levels), per location, in place. Returns per location the classes mapped
-    (real windows, mean absolute shift per channel) and those left alone for want of real windows."""
-    events = np.flatnonzero(info.share_vector() < 1.0)
+def level_classes(spec: GenerationSpec, info: DatasetInfo, sources) -> np.ndarray:
+    """The classes window levels map: the events (a class whose windows need only a share of the
+    window) and, with `posture_levels`, the classes whose first SMP holds a posture."""
+    events = set(np.flatnonzero(info.share_vector() < 1.0).tolist())
+    if spec.posture_levels:
+        events |= {i for i, label in enumerate(info.label_names)
+                   if sources.get(label) and holds_posture(sources[label][0][1])}
+    return np.array(sorted(events), dtype=np.int64)
+
+
+def level_windows(spec: GenerationSpec, info: DatasetInfo, windows: WindowSet, d_rank: Windows,
+                  sources=None) -> dict:
+    """Stage 5b: the windows of each class `level_classes` names shifted so that their means follow
+    D_rank's windows of that class (grounding.levels), per location, in place. Returns per location
+    the classes mapped (real windows, mean absolute shift per channel) and those left alone for want
+    of real windows."""
+    events = level_classes(spec, info, sources or {})
     n = len(windows.X)
     if not spec.window_levels or n == 0 or len(events) == 0:
         return {}
@@ -933,7 +949,7 @@ class FoldGenerator:
             ok = [r for r in results if not r.error and r.signals]
             grounded, rank_map = ground(spec, info, ok, setup.d_rank, setup.plan, threads, unseen)  # F_v: all so far
             windows = window(info, ok, grounded, length, hop)
-            levels = level_windows(spec, info, windows, setup.d_rank)
+            levels = level_windows(spec, info, windows, setup.d_rank, sources)
             windows.records += failed_records(info, results)
             keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads)
             keep = choose_timing(info, train, job, windows, keep, events_found, seed, fold, threads)

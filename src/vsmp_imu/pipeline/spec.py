@@ -104,6 +104,10 @@ class GenerationSpec:
     # window's mean; measured in docs/results.md, "Window levels per quarter"); grounding.levels.PARTS,
     # written out so that this module stays free of numpy (tests/grounding/test_levels.py)
     level_parts: int = 1
+    # window levels also for each class whose SMP holds a posture: a still window's mean is where
+    # gravity points in the sensor, which sets sitting apart from standing (measured in
+    # docs/results.md, "Window levels for the postures": TSTR gains, the long tail's tail does not)
+    posture_levels: bool = False
     # one rank map per class where the class has real windows enough (RankGrounder's
     # min_class_samples), the pooled map otherwise (the paper's); measured in docs/results.md
     per_class_rank: bool = True
