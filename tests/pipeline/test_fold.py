@@ -504,7 +504,7 @@ def test_posture_levels_move_a_held_postures_window_means_and_leave_a_cyclic_cla
     info, windows = hapt12
     names = info.label_names
     sources = LibrarySmpSource(library).smps("hapt12", names)
-    postures = {n for n in names if holds_posture(sources[n][0][1])}
+    postures = {n for n in names if holds_posture(sources, n)}
     assert postures == {"SITTING", "STANDING", "LAYING"}
     events = {n for n, share in zip(names, info.share_vector(), strict=True) if share < 1.0}
     assert {names[c] for c in level_classes(GenerationSpec(posture_levels=True), info, sources)} == postures | events

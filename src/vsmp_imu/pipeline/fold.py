@@ -354,7 +354,7 @@ def unseen_postures(spec: GenerationSpec, info: DatasetInfo, train: Windows, sou
         return frozenset()
     counts = train.class_counts()
     return frozenset(label for i, label in enumerate(info.label_names)
-                     if counts[i] == 0 and sources.get(label) and holds_posture(sources[label][0][1]))
+                     if counts[i] == 0 and holds_posture(sources, label))
 
 
 def prepare(spec: GenerationSpec, info: DatasetInfo, train: Windows, sources, seed: int,
@@ -420,9 +420,11 @@ def sample_tasks(spec: GenerationSpec, label: str, label_index: int, bases: list
     return tasks
 
 
-def holds_posture(base) -> bool:
-    """An SMP that holds a posture (sitting, standing, lying): its periodicity is "none"."""
-    return isinstance(base, SMP) and base.temporal_structure.periodicity == "none"
+def holds_posture(sources, label: str) -> bool:
+    """Whether the class's first source is an SMP that holds a posture (sitting, standing, lying):
+    its periodicity is "none"."""
+    return bool(sources.get(label)) and isinstance(base := sources[label][0][1], SMP) \
+        and base.temporal_structure.periodicity == "none"
 
 
 def is_discrete(smp: SMP) -> bool:
@@ -682,11 +684,10 @@ def window(info: DatasetInfo, ok: list[SampleResult], grounded: list[dict[str, n
 def level_classes(spec: GenerationSpec, info: DatasetInfo, sources) -> np.ndarray:
     """The classes window levels map: the events (a class whose windows need only a share of the
     window) and, with `posture_levels`, the classes whose first SMP holds a posture."""
-    events = set(np.flatnonzero(info.share_vector() < 1.0).tolist())
+    classes = set(np.flatnonzero(info.share_vector() < 1.0).tolist())
     if spec.posture_levels:
-        events |= {i for i, label in enumerate(info.label_names)
-                   if sources.get(label) and holds_posture(sources[label][0][1])}
-    return np.array(sorted(events), dtype=np.int64)
+        classes |= {i for i, label in enumerate(info.label_names) if holds_posture(sources, label)}
+    return np.array(sorted(classes), dtype=np.int64)
 
 
 def level_windows(spec: GenerationSpec, info: DatasetInfo, windows: WindowSet, d_rank: Windows,
