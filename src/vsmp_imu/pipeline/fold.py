@@ -696,9 +696,9 @@ def level_windows(spec: GenerationSpec, info: DatasetInfo, windows: WindowSet, d
     D_rank's windows of that class (grounding.levels), per location, in place. Returns per location
     the classes mapped (real windows, mean absolute shift per channel) and those left alone for want
     of real windows."""
-    events = level_classes(spec, info, sources or {})
+    classes = level_classes(spec, info, sources or {})
     n = len(windows.X)
-    if not spec.window_levels or n == 0 or len(events) == 0:
+    if not spec.window_levels or n == 0 or len(classes) == 0:
         return {}
     X, summary = windows.X.astype(np.float64), {}
     for loc in info.locations:
@@ -707,7 +707,7 @@ def level_windows(spec: GenerationSpec, info: DatasetInfo, windows: WindowSet, d
             continue
         cols = channel_index(info, loc)
         part = X[worn]
-        levels = LevelMap(parts=spec.level_parts).fit(part[..., cols], windows.y[worn], d_rank.X[..., cols], d_rank.y, events)
+        levels = LevelMap(parts=spec.level_parts).fit(part[..., cols], windows.y[worn], d_rank.X[..., cols], d_rank.y, classes)
         part[..., cols] = levels.transform(part[..., cols], windows.y[worn])
         X[worn] = part
         names = info.label_names
