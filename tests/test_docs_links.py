@@ -14,16 +14,22 @@ PAGES = sorted([ROOT / "README.md", ROOT / "BENCHMARKS.md", *(ROOT / "docs").glo
 LINK = re.compile(r"\]\(([^)\s]+)\)")
 
 
-def heading_ids(text: str) -> set[str]:
-    """The ids GitHub gives a page's headings: lower case, punctuation dropped, spaces to
-    hyphens, a repeated id suffixed -1, -2, ...; headings inside code fences are not headings."""
-    ids, seen, fenced = set(), {}, False
+def prose_lines(text: str):
+    """The lines of a markdown text outside its code fences."""
+    fenced = False
     for line in text.splitlines():
         if line.lstrip().startswith("```"):
             fenced = not fenced
-            continue
-        match = None if fenced else re.match(r"#{1,6}\s+(.*?)\s*#*\s*$", line)
-        if match:
+        elif not fenced:
+            yield line
+
+
+def heading_ids(text: str) -> set[str]:
+    """The ids GitHub gives a page's headings: lower case, punctuation dropped, spaces to
+    hyphens, a repeated id suffixed -1, -2, ...; headings inside code fences are not headings."""
+    ids, seen = set(), {}
+    for line in prose_lines(text):
+        if match := re.match(r"#{1,6}\s+(.*?)\s*#*\s*$", line):
             base = re.sub(r"[^\w\- ]", "", match.group(1).lower()).replace(" ", "-")
             n = seen.get(base, 0)
             seen[base] = n + 1
@@ -33,13 +39,8 @@ def heading_ids(text: str) -> set[str]:
 
 def page_links(page: Path) -> list[str]:
     """The page's link targets outside code fences, web addresses left out."""
-    links, fenced = [], False
-    for line in page.read_text(encoding="utf-8").splitlines():
-        if line.lstrip().startswith("```"):
-            fenced = not fenced
-        elif not fenced:
-            links += [t for t in LINK.findall(line) if not re.match(r"[a-z]+:", t)]
-    return links
+    return [t for line in prose_lines(page.read_text(encoding="utf-8")) for t in LINK.findall(line)
+            if not re.match(r"[a-z]+:", t)]
 
 
 def test_heading_ids_follow_github():
