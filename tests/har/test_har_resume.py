@@ -48,8 +48,14 @@ def _config(run=RUN_A, n_jobs: int = 1, **kw) -> EvalConfig:
 
 
 def _run(config, dataset, out) -> list[str]:
+    """The run's record lines (a stage line, such as 'synthetic windows', repeats the count)."""
     lines: list[str] = []
-    Evaluation(config, dataset, out).run(lambda d, done, total: lines.append(d))
+
+    def record(description: str, done: int, total: int) -> None:
+        if done > len(lines):
+            lines.append(description)
+
+    Evaluation(config, dataset, out).run(record)
     return lines
 
 

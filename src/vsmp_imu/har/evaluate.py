@@ -67,6 +67,7 @@ from vsmp_imu.har.synthetic import (
 from vsmp_imu.har.weights import check_synthetic_weight, source_weights, takes_sample_weight
 from vsmp_imu.har.windows import Windows, concat_windows, natural_key
 from vsmp_imu.io import dumps_json, remove_stale_temps, write_json
+from vsmp_imu.progress import LOG_INTERVAL_S
 from vsmp_imu.seeding import child_seed, rng_for
 
 RESULT_FIELDS = (
@@ -207,12 +208,40 @@ class EvalResults:
 Progress = Callable[[str, int, int], None]
 
 
-def _run_name(seed: int, fold: str, budget: float | None, method: str, backbone: str,
+def _run_name(seed: int, fold: str, budget: float | None, method: str, backbone: str | None,
               unseen: tuple[str, ...] | None = None) -> str:
-    """'seed 0 fold 3 5% vsmp/dclstm': one record of the evaluation, for progress lines."""
+    """'seed 0 fold 3 5% vsmp/dclstm': one record of the evaluation, for progress lines (without
+    a backbone: the method's windows, shared by its backbones)."""
     share = "" if budget is None else f" {budget:g}%"
     hidden = "" if unseen is None else f" unseen {'+'.join(unseen)}"
-    return f"seed {seed} fold {fold}{share}{hidden} {method}/{backbone}"
+    model = "" if backbone is None else f"/{backbone}"
+    return f"seed {seed} fold {fold}{share}{hidden} {method}{model}"
+
+
+def _stage_teller(progress: Progress | None, run: str, done: int, total: int) -> Callable[[str], None] | None:
+    """tell(stage): a progress line 'RUN: STAGE' while record `done + 1` is under way."""
+    if progress is None:
+        return None
+    return lambda stage: progress(f"{run}: {stage}", done, total)
+
+
+def _watch_epochs(model, tell: Callable[[str], None] | None, stage: str) -> bool:
+    """Let a network that trains for epochs (`on_epoch`) tell them, at most one line per
+    LOG_INTERVAL_S seconds; True when the model has epochs to tell."""
+    if tell is None or not hasattr(model, "on_epoch"):
+        return False
+    last = time.monotonic()
+
+    def on_epoch(row: dict[str, float]) -> None:
+        nonlocal last
+        if time.monotonic() - last < LOG_INTERVAL_S:
+            return
+        last = time.monotonic()
+        score = f", validation Macro-F1 {100 * row['val_macro_f1']:.2f}" if "val_macro_f1" in row else ""
+        tell(f"{stage}, epoch {row['epoch']}/{model.max_epochs}{score}")
+
+    model.on_epoch = on_epoch
+    return True
 
 
 def _slug(text: Any) -> str:
@@ -227,7 +256,10 @@ class Evaluation:
     """Run an `EvalConfig` on a dataset, optionally writing records to `output_dir`.
 
     `run(progress)` returns `EvalResults`; `progress(description, done, total)`
-    is called after every record (the command line draws a progress bar).
+    is called after every record (the command line draws a progress bar), and with the
+    same `done` as a long record's stages begin: its synthetic windows, the choice of each
+    class's synthetic share, a network's training and every LOG_INTERVAL_S seconds its
+    epochs ('seed 0 fold 1 vsmp/dclstm: training, epoch 12/60, validation Macro-F1 71.30').
     """
 
     def __init__(
@@ -412,13 +444,20 @@ class Evaluation:
                                 windows, fold, c.protocol, seed, budget, c.rho, c.val_fraction,
                                 self._unseen_indices(unseen),
                             )
+                        if progress and method != "real":  # a first run generates for minutes
+                            progress(f"{_run_name(seed, fold, budget, method, None, unseen)}: "
+                                     "synthetic windows", done, total)
                         train, n_syn, n_asked = self._training_windows(split, method, seed, budget)
                         for backbone, path in pending:
+                            run = _run_name(seed, fold, budget, method, backbone, unseen)
+                            tell = _stage_teller(progress, run, done, total)
+                            if tell and n_syn and c.share_selection != "off":
+                                tell("choosing each class's synthetic share")
                             mixed, n_mixed, shares = self._select_shares(
-                                split, train, backbone, method, fold, seed, budget
+                                split, train, backbone, method, fold, seed, budget, tell
                             )
                             record = self._fit_one(
-                                split, mixed, n_mixed, backbone, method, fold, seed, budget, groups
+                                split, mixed, n_mixed, backbone, method, fold, seed, budget, groups, tell
                             )
                             record["synthetic_shares"] = shares
                             record["n_synthetic_requested"] = n_asked
@@ -431,7 +470,6 @@ class Evaluation:
                             records.append(record)
                             done += 1
                             if progress:
-                                run = _run_name(seed, fold, budget, method, backbone, unseen)
                                 f1 = 100 * record["macro_f1"]
                                 progress(f"{run}: Macro-F1 {f1:.2f}", done, total)
         results = summarize(records, self.dataset.info.label_names, groups)
@@ -497,7 +535,8 @@ class Evaluation:
             **unseen_metrics(record["confusion"], split.unseen),
         }
     def _select_shares(
-        self, split, train: Windows, backbone: str, method: str, fold: str, seed: int, budget
+        self, split, train: Windows, backbone: str, method: str, fold: str, seed: int, budget,
+        tell: Callable[[str], None] | None = None,
     ) -> tuple[Windows, int, dict[str, dict] | None]:
         """Do no harm: the training windows with each class's chosen share of synthetic windows
         (`noharm`), their synthetic count and the choice per class (None when not chosen)."""
@@ -515,6 +554,7 @@ class Evaluation:
         def fit(windows: Windows):
             model_params, weights = self._weighting(params, windows)
             model = make_backbone(backbone, **model_params)
+            _watch_epochs(model, tell, "choosing each class's synthetic share")
             return model.fit(windows.X, windows.y, val.X if len(val) else None, val.y if len(val) else None,
                              **({} if weights is None else {"sample_weight": weights}))
 
@@ -547,6 +587,7 @@ class Evaluation:
         seed: int,
         budget: float | None,
         groups,
+        tell: Callable[[str], None] | None = None,
     ) -> dict[str, Any]:
         c = self.config
         state = int(
@@ -564,6 +605,8 @@ class Evaluation:
             val = val[:0]
         params, weights = self._weighting(params, train)
         model = make_backbone(backbone, **params)
+        if _watch_epochs(model, tell, "training"):
+            tell("training")
         start = time.perf_counter()
         has_val = len(val) > 0
         model.fit(train.X, train.y, val.X if has_val else None, val.y if has_val else None,

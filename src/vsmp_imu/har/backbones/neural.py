@@ -82,9 +82,13 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
     `max_epochs` epochs and keeps the last weights. After fitting:
     `classes_`, `n_epochs_` (epochs run), `best_epoch_`, `history_`
     (per-epoch training loss and validation Macro-F1).
+
+    `on_epoch`, when set on an instance (not a parameter: it changes no result), is called
+    with each epoch's `history_` row as it ends (an evaluation's progress lines).
     """
 
     uses_validation = True
+    on_epoch = None  # Callable[[dict[str, float]], None] | None
 
     max_epochs: int = 60
     patience: int = 10
@@ -216,6 +220,8 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
                 self.best_epoch_ = epoch
             self.history_.append(record)
             self.n_epochs_ = epoch
+            if self.on_epoch is not None:
+                self.on_epoch(record)
             if self.verbose:
                 import sys
 
