@@ -169,8 +169,9 @@ def paired_evaluation(config, dataset, output_dir):
     from vsmp_imu.har.evaluate import Evaluation
 
     class PairedEvaluation(Evaluation):
-        def _fit_one(self, split, train, n_syn, backbone, method, fold, seed, budget, groups):
-            record = super()._fit_one(split, train, n_syn, backbone, "paired", fold, seed, budget, groups)
+        def _fit_one(self, split, train, n_syn, backbone, method, fold, seed, budget, groups, tell=None):
+            record = super()._fit_one(split, train, n_syn, backbone, "paired", fold, seed, budget, groups,
+                                      tell)
             record["method"] = method
             return record
 
