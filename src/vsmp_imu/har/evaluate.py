@@ -444,9 +444,10 @@ class Evaluation:
                                 windows, fold, c.protocol, seed, budget, c.rho, c.val_fraction,
                                 self._unseen_indices(unseen),
                             )
-                        if progress and method != "real":  # a first run generates for minutes
-                            progress(f"{_run_name(seed, fold, budget, method, None, unseen)}: "
-                                     "synthetic windows", done, total)
+                        tell = _stage_teller(progress, _run_name(seed, fold, budget, method, None, unseen),
+                                             done, total)
+                        if tell and method != "real":  # a first run generates for minutes
+                            tell("synthetic windows")
                         train, n_syn, n_asked = self._training_windows(split, method, seed, budget)
                         for backbone, path in pending:
                             run = _run_name(seed, fold, budget, method, backbone, unseen)
