@@ -52,3 +52,18 @@ def test_a_forest_has_no_training_stage(tiny_dataset):
                         backbone_params={"rf": {"n_estimators": 10, "n_jobs": 1}})
     seen = _lines(config, tiny_dataset)
     assert len(seen) == 1 and ": Macro-F1 " in seen[0][0]
+
+
+def test_an_unseen_group_is_named_by_its_group(tiny_dataset):
+    config = EvalConfig(dataset="tiny", protocol="unseen", unseen=("pair",), methods=("real",), folds=("2",),
+                        report_groups={"pair": ("class_1", "class_2")},
+                        backbone_params={"rf": {"n_estimators": 5, "n_jobs": 1}})
+    text = [d for d, _ in _lines(config, tiny_dataset)]
+    assert text and all(d.startswith("seed 0 fold 2 unseen pair real/rf") for d in text)
+
+
+def test_unseen_label_joins_classes_outside_a_group():
+    groups = {"pair": ("class_1", "class_2")}
+    assert evaluate_module._unseen_label(("class_2", "class_1"), groups) == "pair"
+    assert evaluate_module._unseen_label(("class_1", "class_3"), groups) == "class_1+class_3"
+    assert evaluate_module._unseen_label(None, groups) is None

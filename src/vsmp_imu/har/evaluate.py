@@ -209,13 +209,22 @@ Progress = Callable[[str, int, int], None]
 
 
 def _run_name(seed: int, fold: str, budget: float | None, method: str, backbone: str | None,
-              unseen: tuple[str, ...] | None = None) -> str:
+              unseen: str | None = None) -> str:
     """'seed 0 fold 3 5% vsmp/dclstm': one record of the evaluation, for progress lines (without
-    a backbone: the method's windows, shared by its backbones)."""
+    a backbone: the method's windows, shared by its backbones; `unseen`: `_unseen_label`)."""
     share = "" if budget is None else f" {budget:g}%"
-    hidden = "" if unseen is None else f" unseen {'+'.join(unseen)}"
+    hidden = "" if unseen is None else f" unseen {unseen}"
     model = "" if backbone is None else f"/{backbone}"
     return f"seed {seed} fold {fold}{share}{hidden} {method}{model}"
+
+
+def _unseen_label(unseen: tuple[str, ...] | None, groups: dict[str, tuple[str, ...]]) -> str | None:
+    """The unseen classes as progress lines name them: a report group's name where the set is one
+    ('transitions'), else the classes joined by '+'."""
+    if unseen is None:
+        return None
+    named = [name for name, members in groups.items() if set(members) == set(unseen)]
+    return named[0] if named else "+".join(unseen)
 
 
 def _stage_teller(progress: Progress | None, run: str, done: int, total: int) -> Callable[[str], None] | None:
@@ -419,6 +428,7 @@ class Evaluation:
             for fold in folds:
                 for budget, unseen in cells:
                     split = None
+                    shown = _unseen_label(unseen, groups)
                     for method in c.methods:
                         pending = []
                         for backbone in c.backbones:
@@ -433,7 +443,7 @@ class Evaluation:
                                 records.append(record)
                                 done += 1
                                 if progress:
-                                    run = _run_name(seed, fold, budget, method, backbone, unseen)
+                                    run = _run_name(seed, fold, budget, method, backbone, shown)
                                     progress(f"{run} (cached)", done, total)
                             else:
                                 pending.append((backbone, path))
@@ -444,13 +454,13 @@ class Evaluation:
                                 windows, fold, c.protocol, seed, budget, c.rho, c.val_fraction,
                                 self._unseen_indices(unseen),
                             )
-                        tell = _stage_teller(progress, _run_name(seed, fold, budget, method, None, unseen),
+                        tell = _stage_teller(progress, _run_name(seed, fold, budget, method, None, shown),
                                              done, total)
                         if tell and method != "real":  # a first run generates for minutes
                             tell("synthetic windows")
                         train, n_syn, n_asked = self._training_windows(split, method, seed, budget)
                         for backbone, path in pending:
-                            run = _run_name(seed, fold, budget, method, backbone, unseen)
+                            run = _run_name(seed, fold, budget, method, backbone, shown)
                             tell = _stage_teller(progress, run, done, total)
                             if tell and n_syn and c.share_selection != "off":
                                 tell("choosing each class's synthetic share")
