@@ -207,6 +207,7 @@ def evaluate_cmd(
     _positive(max_epochs, "--max-epochs")
     _positive(patience, "--patience")
     _positive(jobs, "--jobs")
+    _positive(workers, "--workers")
     class_weight, share = weighting(chosen_backbones, class_weight, synthetic_weight)
     request = EvalRequest(
         dataset=dataset, output=output, protocol=protocol,

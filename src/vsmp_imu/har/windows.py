@@ -211,15 +211,15 @@ def window_starts(n_samples: int, size: int, step: int) -> np.ndarray:
 def window_geometry(fs_hz: float, window_s: float, overlap: float) -> tuple[int, int]:
     """(size, step) in samples for a window length in seconds and an overlap fraction."""
     if not window_s > 0:
-        raise ValidationError(f"window length must be positive, got {window_s}", field="window_s")
+        raise ValidationError(f"window length must be positive, got {window_s}", field="--window-s")
     if not 0 <= overlap < 1:
         raise ValidationError(
-            f"overlap must be in [0, 1), got {overlap}", field="overlap", allowed="0 <= overlap < 1"
+            f"overlap must be in [0, 1), got {overlap}", field="--overlap", allowed="0 <= overlap < 1"
         )
     size = int(round(window_s * fs_hz))
     if size < 2:
         raise ValidationError(
-            f"window of {window_s} s at {fs_hz:g} Hz has fewer than 2 samples", field="window_s"
+            f"window of {window_s} s at {fs_hz:g} Hz has fewer than 2 samples", field="--window-s"
         )
     step = max(1, int(round(size * (1.0 - overlap))))
     return size, step
