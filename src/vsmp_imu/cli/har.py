@@ -29,6 +29,7 @@ from vsmp_imu.cli.common import (
     WINDOW_LEVELS,
     K,
     console,
+    console_err,
     executor_options,
     output_dir,
     parse_csv,
@@ -189,6 +190,10 @@ def evaluate_cmd(
              "the validation subjects hold 10 windows of it) | amount (the share of them, 0 to 1, the "
              "validation subjects score best) | off [default: class under lopo, long-tail and unseen "
              "where every chosen backbone is a forest, else off]"),
+    processes: int = typer.Option(
+        1, "--processes", min=1, max=64,
+        help="run the folds in this many evaluate processes side by side, one fold each (each with "
+             "--jobs threads and --workers generation workers); their records merge into the output folder"),
     output: Path = typer.Option(..., "--output", "-o", help="output folder"),
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
@@ -230,6 +235,8 @@ def evaluate_cmd(
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)
     print_warnings(run.dataset.warnings)
+    if processes > 1:
+        _fold_processes(run, spec, request, processes)
     with progress(f"{run.dataset.info.name} {protocol}", console=console, transient=False) as update:
         results, written = evaluate(run, lambda stage, done, total: update(done, total, stage))
     _print_summary(results.summary)
@@ -238,6 +245,29 @@ def evaluate_cmd(
         f"[green]wrote[/] {output / 'results.json'}, {written[0]} and "
         f"{len(written) - 1} confusion matrices"
     )
+
+
+def _fold_processes(run, spec, request, processes: int) -> None:
+    """`--processes N`: every fold in its own process first (`vsmp_imu.har.fanout`); the
+    evaluation that follows finds their records done. A failed fold stops the command (exit 1)."""
+    from vsmp_imu.har.fanout import run_folds
+
+    folds = run.folds(run.dataset.windows(request.window_s, request.overlap))
+    console.print(f"{len(folds)} fold(s) in {min(processes, len(folds))} processes; each fold's progress "
+                  f"in {request.output / '.folds'}/FOLD/log.txt", highlight=False)
+
+    def tell(outcome, finished: int, total: int) -> None:
+        state = f"{outcome.records} record(s)" if outcome.ok else f"[red]failed[/] (exit {outcome.exit_code})"
+        console.print(f"fold {outcome.fold}: {state} {finished}/{total}", highlight=False)
+
+    failed = [o for o in run_folds(spec, request, folds, processes, tell) if not o.ok]
+    if failed:
+        for o in failed:
+            console_err.print(f"fold {o.fold} failed: {o.last_line()} (whole log: {o.log})",
+                              highlight=False, soft_wrap=True)
+        console_err.print("the other folds' records are kept: run the same command again to redo the failed ones",
+                          highlight=False)
+        raise typer.Exit(1)
 
 
 CLASS_WEIGHTS = ("none", "balanced")

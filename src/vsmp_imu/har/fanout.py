@@ -1,0 +1,121 @@
+"""One evaluation's folds in several processes side by side (`evaluate --processes N`).
+
+A small network leaves most of a GPU idle, and a forest's fold uses a few cores: running one
+process per held-out subject is how the long DeepConvLSTM protocols fit into minutes. Each fold
+runs in its own spawned process with the same settings and its own output folder
+(`OUTPUT/.folds/<fold>`, its progress in `log.txt` there); at most `processes` run at once.
+Each finished fold's records are copied into `OUTPUT/records`, where the evaluation over all
+folds then finds them done and only writes the report. A fold that fails leaves the others'
+records in place; rerunning the same command reruns that fold alone.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import shutil
+import sys
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from multiprocessing.connection import wait
+from pathlib import Path
+
+from vsmp_imu.errors import VsmpError
+
+SCRATCH = ".folds"  # below the output folder: one folder per fold's process
+LOG_NAME = "log.txt"
+USER_ERROR, CRASH = 2, 1  # exit codes of a fold's process
+
+
+@dataclass(frozen=True)
+class FoldOutcome:
+    """How one fold's process ended: its exit code (0: done), log and records copied."""
+
+    fold: str
+    exit_code: int
+    log: Path
+    records: int
+
+    @property
+    def ok(self) -> bool:
+        return self.exit_code == 0
+
+    def last_line(self) -> str:
+        lines = self.log.read_text(errors="replace").strip().splitlines() if self.log.is_file() else []
+        return lines[-1] if lines else "(no output)"
+
+
+def fold_folder(output: Path, fold: str) -> Path:
+    return Path(output) / SCRATCH / str(fold)
+
+
+def run_fold(spec, request, log_path: Path) -> None:
+    """A fold's process: the evaluation of `request` (one fold), its progress lines in `log_path`."""
+    from vsmp_imu.app import evaluate, evaluation
+
+    start = time.monotonic()
+    with open(log_path, "a", encoding="utf-8") as log:
+
+        def tell(stage: str, done: int, total: int) -> None:
+            minutes, seconds = divmod(int(time.monotonic() - start), 60)
+            log.write(f"[{minutes}:{seconds:02d}] {stage} {done}/{total}\n")
+            log.flush()
+
+        try:
+            results, _ = evaluate(evaluation(spec, request), tell)
+        except VsmpError as exc:
+            log.write(f"error: {exc.render()}\n")
+            sys.exit(USER_ERROR)
+        except BaseException:  # noqa: BLE001 - a crash must reach the log, not a lost stderr
+            log.write(traceback.format_exc())
+            sys.exit(CRASH)
+        log.write(f"done: {len(results.records)} record(s)\n")
+
+
+def merge_records(source: Path, output: Path) -> int:
+    """Copy a fold folder's record files into `output/records`; the number copied."""
+    records = Path(source) / "records"
+    if not records.is_dir():
+        return 0
+    target = Path(output) / "records"
+    target.mkdir(parents=True, exist_ok=True)
+    copied = 0
+    for path in sorted(records.glob("*.json")):
+        shutil.copy2(path, target / path.name)
+        copied += 1
+    return copied
+
+
+def run_folds(spec, request, folds: list[str], processes: int,
+              on_outcome: Callable[[FoldOutcome, int, int], None] | None = None) -> list[FoldOutcome]:
+    """Run each fold of `request` in its own process, at most `processes` at a time.
+
+    Each process gets `request` with that one fold and its fold folder as output. As a process
+    ends, its records are merged into `request.output` and `on_outcome(outcome, finished,
+    total)` is called. Returns the outcomes in fold order.
+    """
+    context = multiprocessing.get_context("spawn")  # no forked CUDA or thread state
+    waiting = list(folds)
+    running: dict[int, tuple[str, multiprocessing.Process]] = {}
+    outcomes: dict[str, FoldOutcome] = {}
+    while waiting or running:
+        while waiting and len(running) < processes:
+            fold = waiting.pop(0)
+            folder = fold_folder(request.output, fold)
+            folder.mkdir(parents=True, exist_ok=True)
+            child = replace(request, folds=(fold,), output=folder)
+            process = context.Process(target=run_fold, args=(spec, child, folder / LOG_NAME), name=f"fold-{fold}")
+            process.start()
+            running[process.sentinel] = (fold, process)
+        for sentinel in wait(list(running)):
+            fold, process = running.pop(sentinel)
+            process.join()
+            folder = fold_folder(request.output, fold)
+            copied = merge_records(folder, request.output)
+            outcome = FoldOutcome(fold, process.exitcode if process.exitcode is not None else CRASH,
+                                  folder / LOG_NAME, copied)
+            outcomes[fold] = outcome
+            if on_outcome:
+                on_outcome(outcome, len(outcomes), len(folds))
+    return [outcomes[f] for f in folds]

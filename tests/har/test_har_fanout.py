@@ -1,0 +1,78 @@
+"""`evaluate --processes N`: the folds side by side, their records merged, a failed fold kept apart."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+from vsmp_imu.app import EvalRequest
+from vsmp_imu.har.fanout import LOG_NAME, fold_folder, merge_records, run_folds
+from vsmp_imu.pipeline.spec import GenerationSpec
+
+
+def _records(folder) -> dict[str, dict]:
+    """Record files by name, without the one field that is a timing."""
+    out = {}
+    for path in sorted((folder / "records").glob("*.json")):
+        record = json.loads(path.read_text())
+        record.pop("fit_seconds")
+        out[path.name] = record
+    return out
+
+
+def _break(output, fold: str) -> None:
+    """Make a fold's process fail: a file where its records folder goes."""
+    folder = fold_folder(output, fold)
+    folder.mkdir(parents=True)
+    (folder / "records").write_text("not a folder")
+
+
+def test_merge_copies_record_files_only(tmp_path):
+    source = tmp_path / "fold"
+    (source / "records").mkdir(parents=True)
+    (source / "records" / "a.json").write_text("{}")
+    (source / "results.json").write_text("{}")
+    assert merge_records(source, tmp_path / "out") == 1
+    assert [p.name for p in (tmp_path / "out").rglob("*.json")] == ["a.json"]
+    assert merge_records(tmp_path / "nothing", tmp_path / "out") == 0
+
+
+def test_each_fold_runs_in_its_process_and_a_failure_stays_its_own(fixtures_dir, tmp_path):
+    out = tmp_path / "run"
+    request = EvalRequest(dataset=str(fixtures_dir / "generic" / "dataset.yaml"), output=out,
+                          backbone_params={"rf": {"n_estimators": 5, "n_jobs": 1}})
+    _break(out, "p2")
+    seen = []
+    outcomes = run_folds(GenerationSpec(), request, ["p1", "p2"], 2, lambda o, n, total: seen.append((o.fold, n, total)))
+    assert [o.fold for o in outcomes] == ["p1", "p2"]
+    done, failed = outcomes
+    assert done.ok and done.records == 1 and (out / "records" / "lopo_full_real_rf_fold-p1_seed-0.json").is_file()
+    assert done.last_line() == "done: 1 record(s)"
+    assert failed.exit_code == 1 and failed.records == 0
+    assert "Traceback" in (fold_folder(out, "p2") / LOG_NAME).read_text()
+    assert str(fold_folder(out, "p2") / "records") in failed.last_line()  # the error, for the console
+    assert sorted(f for f, _, _ in seen) == ["p1", "p2"] and sorted(n for _, n, _ in seen) == [1, 2]
+    assert all(total == 2 for _, _, total in seen)
+    assert [p.name for p in (out / "records").iterdir()] == ["lopo_full_real_rf_fold-p1_seed-0.json"]
+
+
+@pytest.mark.slow
+def test_the_command_resumes_a_failed_fold_and_writes_the_records_one_process_would(cli, fixtures_dir, tmp_path):
+    dataset = fixtures_dir / "generic" / "dataset.yaml"
+    alone, side = tmp_path / "alone", tmp_path / "side"
+    code, _, _ = cli("evaluate", "--dataset", dataset, "--methods", "real,classical", "-o", alone)
+    assert code == 0
+    _break(side, "p3")
+    code, out, err = cli("evaluate", "--dataset", dataset, "--methods", "real,classical", "--processes", "2",
+                         "-o", side)
+    assert code == 1 and "fold p3 failed" in err and "run the same command again" in err
+    assert not (side / "results.json").exists() and len(_records(side)) == 4
+    (fold_folder(side, "p3") / "records").unlink()
+    code, out, _ = cli("evaluate", "--dataset", dataset, "--methods", "real,classical", "--processes", "2",
+                       "-o", side)
+    assert code == 0 and re.search(r"fold p3: 2 record\(s\) [123]/3", out)
+    assert _records(side) == _records(alone)
+    assert json.loads((side / "results.json").read_text())["summary"] == \
+        json.loads((alone / "results.json").read_text())["summary"]
