@@ -3,7 +3,12 @@
 from __future__ import annotations
 
 import json
+import multiprocessing
+import os
 import re
+import signal
+import threading
+import time
 
 import pytest
 
@@ -27,6 +32,21 @@ def _break(output, fold: str) -> None:
     folder = fold_folder(output, fold)
     folder.mkdir(parents=True)
     (folder / "records").write_text("not a folder")
+
+
+def _slow_fold(spec, request, log_path) -> None:
+    """A fold's process that would take a minute (imported by name in the spawned process)."""
+    time.sleep(60)
+
+
+def test_stopping_the_command_stops_the_folds_processes(fixtures_dir, tmp_path):
+    request = EvalRequest(dataset=str(fixtures_dir / "generic" / "dataset.yaml"), output=tmp_path / "run")
+    threading.Timer(5.0, os.kill, (os.getpid(), signal.SIGINT)).start()  # Ctrl-C while both folds run
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        run_folds(GenerationSpec(), request, ["p1", "p2"], 2, target=_slow_fold)
+    assert time.monotonic() - start < 30
+    assert not multiprocessing.active_children()
 
 
 def test_merge_copies_record_files_only(tmp_path):

@@ -88,7 +88,8 @@ def merge_records(source: Path, output: Path) -> int:
 
 
 def run_folds(spec, request, folds: list[str], processes: int,
-              on_outcome: Callable[[FoldOutcome, int, int], None] | None = None) -> list[FoldOutcome]:
+              on_outcome: Callable[[FoldOutcome, int, int], None] | None = None,
+              target: Callable = run_fold) -> list[FoldOutcome]:
     """Run each fold of `request` in its own process, at most `processes` at a time.
 
     Each process gets `request` with that one fold and its fold folder as output. As a process
@@ -99,13 +100,25 @@ def run_folds(spec, request, folds: list[str], processes: int,
     waiting = list(folds)
     running: dict[int, tuple[str, multiprocessing.Process]] = {}
     outcomes: dict[str, FoldOutcome] = {}
+    try:
+        _drive(context, target, spec, request, waiting, running, outcomes, processes, len(folds), on_outcome)
+    finally:  # stopped (Ctrl-C, SIGTERM): the folds' processes stop too; their finished records stay
+        for _, process in running.values():
+            process.terminate()
+            process.join()
+    return [outcomes[f] for f in folds]
+
+
+def _drive(context, target, spec, request, waiting: list[str], running: dict, outcomes: dict, processes: int,
+           total: int, on_outcome) -> None:
+    """Start folds while fewer than `processes` run; collect each as it ends."""
     while waiting or running:
         while waiting and len(running) < processes:
             fold = waiting.pop(0)
             folder = fold_folder(request.output, fold)
             folder.mkdir(parents=True, exist_ok=True)
             child = replace(request, folds=(fold,), output=folder)
-            process = context.Process(target=run_fold, args=(spec, child, folder / LOG_NAME), name=f"fold-{fold}")
+            process = context.Process(target=target, args=(spec, child, folder / LOG_NAME), name=f"fold-{fold}")
             process.start()
             running[process.sentinel] = (fold, process)
         for sentinel in wait(list(running)):
@@ -117,5 +130,4 @@ def run_folds(spec, request, folds: list[str], processes: int,
                                   folder / LOG_NAME, copied)
             outcomes[fold] = outcome
             if on_outcome:
-                on_outcome(outcome, len(outcomes), len(folds))
-    return [outcomes[f] for f in folds]
+                on_outcome(outcome, len(outcomes), total)
