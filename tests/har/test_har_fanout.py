@@ -49,6 +49,13 @@ def test_stopping_the_command_stops_the_folds_processes(fixtures_dir, tmp_path):
     assert not multiprocessing.active_children()
 
 
+def test_fold_folders_stay_inside_the_output_and_apart(tmp_path):
+    folders = [fold_folder(tmp_path, f) for f in ("3", "..", "a/b", "a-b", "a b")]
+    assert folders[0] == tmp_path / ".folds" / "fold-3"
+    assert len(set(folders)) == len(folders)
+    assert all(f.parent == tmp_path / ".folds" and f.name.startswith("fold-") for f in folders)
+
+
 def test_merge_copies_record_files_only(tmp_path):
     source = tmp_path / "fold"
     (source / "records").mkdir(parents=True)

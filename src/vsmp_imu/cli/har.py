@@ -254,7 +254,7 @@ def _fold_processes(run, spec, request, processes: int) -> None:
 
     folds = run.folds(run.dataset.windows(request.window_s, request.overlap))
     console.print(f"{len(folds)} fold(s) in {min(processes, len(folds))} processes; each fold's progress "
-                  f"in {request.output / '.folds'}/FOLD/log.txt", highlight=False)
+                  f"in {request.output / '.folds'}/fold-FOLD/log.txt", highlight=False)
 
     def tell(outcome, finished: int, total: int) -> None:
         state = f"{outcome.records} record(s)" if outcome.ok else f"[red]failed[/] (exit {outcome.exit_code})"

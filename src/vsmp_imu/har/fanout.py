@@ -3,7 +3,7 @@
 A small network leaves most of a GPU idle, and a forest's fold uses a few cores: running one
 process per held-out subject is how the long DeepConvLSTM protocols fit into minutes. Each fold
 runs in its own spawned process with the same settings and its own output folder
-(`OUTPUT/.folds/<fold>`, its progress in `log.txt` there); at most `processes` run at once.
+(`OUTPUT/.folds/fold-<fold>`, its progress in `log.txt` there); at most `processes` run at once.
 Each finished fold's records are copied into `OUTPUT/records`, where the evaluation over all
 folds then finds them done and only writes the report. A fold that fails leaves the others'
 records in place; rerunning the same command reruns that fold alone.
@@ -11,7 +11,9 @@ records in place; rerunning the same command reruns that fold alone.
 
 from __future__ import annotations
 
+import hashlib
 import multiprocessing
+import re
 import shutil
 import sys
 import time
@@ -47,7 +49,13 @@ class FoldOutcome:
 
 
 def fold_folder(output: Path, fold: str) -> Path:
-    return Path(output) / SCRATCH / str(fold)
+    """`OUTPUT/.folds/fold-<fold>`; a fold id that is not a plain name (a subject column may hold
+    `a/b` or `..`) is cleaned and told apart by a hash of the id."""
+    fold = str(fold)
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "-", fold)
+    if name != fold:
+        name += "-" + hashlib.sha256(fold.encode()).hexdigest()[:8]
+    return Path(output) / SCRATCH / f"fold-{name}"
 
 
 def run_fold(spec, request, log_path: Path) -> None:
