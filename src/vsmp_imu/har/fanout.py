@@ -14,9 +14,7 @@ from __future__ import annotations
 import hashlib
 import multiprocessing
 import re
-import shutil
 import sys
-import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -24,6 +22,7 @@ from multiprocessing.connection import wait
 from pathlib import Path
 
 from vsmp_imu.errors import VsmpError
+from vsmp_imu.io import write_bytes
 
 SCRATCH = ".folds"  # below the output folder: one folder per fold's process
 LOG_NAME = "log.txt"
@@ -59,19 +58,19 @@ def fold_folder(output: Path, fold: str) -> Path:
 
 
 def run_fold(spec, request, log_path: Path) -> None:
-    """A fold's process: the evaluation of `request` (one fold), its progress lines in `log_path`."""
+    """A fold's process: the evaluation of `request` (one fold), its progress lines (those
+    `evaluate` prints when stderr is a file) in `log_path`."""
+    from rich.console import Console
+
     from vsmp_imu.app import evaluate, evaluation
+    from vsmp_imu.progress import progress
 
-    start = time.monotonic()
     with open(log_path, "a", encoding="utf-8") as log:
-
-        def tell(stage: str, done: int, total: int) -> None:
-            minutes, seconds = divmod(int(time.monotonic() - start), 60)
-            log.write(f"[{minutes}:{seconds:02d}] {stage} {done}/{total}\n")
-            log.flush()
-
+        console = Console(file=log, width=200)
         try:
-            results, _ = evaluate(evaluation(spec, request), tell)
+            run = evaluation(spec, request)
+            with progress(f"{run.dataset.info.name} {request.protocol}", console=console) as update:
+                results, _ = evaluate(run, lambda stage, done, total: update(done, total, stage))
         except VsmpError as exc:
             log.write(f"error: {exc.render()}\n")
             sys.exit(USER_ERROR)
@@ -90,7 +89,7 @@ def merge_records(source: Path, output: Path) -> int:
     target.mkdir(parents=True, exist_ok=True)
     copied = 0
     for path in sorted(records.glob("*.json")):
-        shutil.copy2(path, target / path.name)
+        write_bytes(target / path.name, path.read_bytes())  # atomic: a stop never leaves half a record
         copied += 1
     return copied
 
