@@ -105,36 +105,27 @@ def run_folds(spec, request, folds: list[str], processes: int,
     """
     context = multiprocessing.get_context("spawn")  # no forked CUDA or thread state
     waiting = list(folds)
-    running: dict[int, tuple[str, multiprocessing.Process]] = {}
+    running: dict[int, tuple[str, Path, multiprocessing.Process]] = {}  # by the process's sentinel
     outcomes: dict[str, FoldOutcome] = {}
     try:
-        _drive(context, target, spec, request, waiting, running, outcomes, processes, len(folds), on_outcome)
+        while waiting or running:
+            while waiting and len(running) < processes:
+                fold = waiting.pop(0)
+                folder = fold_folder(request.output, fold)
+                folder.mkdir(parents=True, exist_ok=True)
+                child = replace(request, folds=(fold,), output=folder)
+                process = context.Process(target=target, args=(spec, child, folder / LOG_NAME), name=f"fold-{fold}")
+                process.start()
+                running[process.sentinel] = (fold, folder, process)
+            for sentinel in wait(list(running)):
+                fold, folder, process = running.pop(sentinel)
+                process.join()
+                code = process.exitcode if process.exitcode is not None else CRASH
+                outcomes[fold] = FoldOutcome(fold, code, folder / LOG_NAME, merge_records(folder, request.output))
+                if on_outcome:
+                    on_outcome(outcomes[fold], len(outcomes), len(folds))
     finally:  # stopped (Ctrl-C, SIGTERM): the folds' processes stop too; their finished records stay
-        for _, process in running.values():
+        for _, _, process in running.values():
             process.terminate()
             process.join()
     return [outcomes[f] for f in folds]
-
-
-def _drive(context, target, spec, request, waiting: list[str], running: dict, outcomes: dict, processes: int,
-           total: int, on_outcome) -> None:
-    """Start folds while fewer than `processes` run; collect each as it ends."""
-    while waiting or running:
-        while waiting and len(running) < processes:
-            fold = waiting.pop(0)
-            folder = fold_folder(request.output, fold)
-            folder.mkdir(parents=True, exist_ok=True)
-            child = replace(request, folds=(fold,), output=folder)
-            process = context.Process(target=target, args=(spec, child, folder / LOG_NAME), name=f"fold-{fold}")
-            process.start()
-            running[process.sentinel] = (fold, process)
-        for sentinel in wait(list(running)):
-            fold, process = running.pop(sentinel)
-            process.join()
-            folder = fold_folder(request.output, fold)
-            copied = merge_records(folder, request.output)
-            outcome = FoldOutcome(fold, process.exitcode if process.exitcode is not None else CRASH,
-                                  folder / LOG_NAME, copied)
-            outcomes[fold] = outcome
-            if on_outcome:
-                on_outcome(outcome, len(outcomes), total)
