@@ -65,3 +65,25 @@ def test_missing_file_is_exit_2(cli, tmp_path):
     code, _, err = cli("smp", "validate", tmp_path / "nope.json")
     assert code == 2
     assert "file not found" in err
+
+
+@pytest.mark.parametrize("name,text,where", [
+    ("spec.yaml", "name: a\nfs_hz: 50\nfs_hz: 25\n", "key 'fs_hz' appears twice (lines 2 and 3)"),
+    ("spec.yaml", "a:\n  b: 1\n  c: 2\n  b: 3\n", "key 'b' appears twice (lines 2 and 4)"),
+    ("spec.json", '{"a": 1, "b": {"c": 2, "c": 3}}', "key 'c' appears twice"),
+])
+def test_a_key_written_twice_is_refused(tmp_path, name, text, where):
+    """The last of two values would win silently (fs_hz: 50 then 25 halves every duration)."""
+    from vsmp_imu.errors import InputFileError
+
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(InputFileError) as err:
+        read_structured(path)
+    assert where in err.value.render() and name in err.value.render()
+
+
+def test_yaml_merge_keys_and_equal_values_in_lists_still_read(tmp_path):
+    path = tmp_path / "spec.yaml"
+    path.write_text("base: &b {x: 1, y: 2}\nother:\n  <<: *b\n  y: 3\nlist: [a, a]\n")
+    assert read_structured(path) == {"base": {"x": 1, "y": 2}, "other": {"x": 1, "y": 3}, "list": ["a", "a"]}

@@ -200,18 +200,54 @@ def check_nesting(text: str, kind: str, path: Path, limit: int = MAX_NESTING) ->
                              file=path, allowed=f"at most {limit} levels")
 
 
+class _UniqueKeyLoader(YAML_LOADER):  # type: ignore[misc, valid-type]
+    """The safe loader, refusing a mapping that names one key twice (the last would win silently)."""
+
+
+def _unique_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode) -> dict:
+    first: dict = {}
+    for key_node, _ in node.value:
+        if key_node.tag == "tag:yaml.org,2002:merge":
+            continue
+        key = loader.construct_object(key_node, deep=True)
+        line = key_node.start_mark.line + 1
+        if isinstance(key, str | int | float | bool) and key in first:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"key '{key}' appears twice (lines {first[key]} and {line})")
+        if isinstance(key, str | int | float | bool):
+            first[key] = line
+    return loader.construct_mapping(node, deep=True)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _unique_mapping)
+
+
+class DuplicateKeyError(ValueError):
+    """A JSON object that names one key twice."""
+
+
+def _unique_object(pairs: list[tuple[str, Any]]) -> dict:
+    out: dict = {}
+    for key, value in pairs:
+        if key in out:
+            raise DuplicateKeyError(f"key '{key}' appears twice in one object")
+        out[key] = value
+    return out
+
+
 def read_structured(path: str | Path) -> Any:
     """Read a JSON or YAML file (chosen by extension; JSON is valid YAML too), refusing files
-    larger than MAX_STRUCTURED_BYTES or nested deeper than MAX_NESTING before parsing."""
+    larger than MAX_STRUCTURED_BYTES or nested deeper than MAX_NESTING before parsing, and a
+    mapping that names one key twice."""
     path = Path(path)
     text = read_text(path, MAX_STRUCTURED_BYTES)
     kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
     try:
         check_nesting(text, kind, path)
         if kind == "JSON":
-            return json.loads(text)
-        return yaml.load(text, Loader=YAML_LOADER)  # noqa: S506 - a safe loader
-    except (json.JSONDecodeError, yaml.YAMLError) as exc:
+            return json.loads(text, object_pairs_hook=_unique_object)
+        return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a safe loader
+    except (json.JSONDecodeError, DuplicateKeyError, yaml.YAMLError) as exc:
         raise InputFileError(f"not valid {kind}: {exc}", file=path) from exc
     except RecursionError as exc:  # pragma: no cover - check_nesting stops this first
         raise InputFileError(f"the {kind} document nests too deeply", file=path) from exc

@@ -59,7 +59,7 @@ def validation_error(exc: pydantic.ValidationError, file: str | Path | None = No
     errors = exc.errors()
     field = _loc(errors[0]["loc"]) or None
     first, allowed = _first_branch(errors, field)
-    msg = first["msg"]
+    msg = first["msg"].removeprefix("Value error, ")  # a model's own check speaks for itself
     if "input" in first and not isinstance(first["input"], dict | list):
         msg += f" (got {first['input']!r})"
     others = sorted({_loc(e["loc"]) for e in errors[1:]} - {field})

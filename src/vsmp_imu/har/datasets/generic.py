@@ -14,11 +14,11 @@ as if worn on the declared side. See docs/har.md and docs/tutorial.md.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 import pandas as pd
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from vsmp_imu.errors import InputFileError, ValidationError
 from vsmp_imu.har.dataset import (
@@ -43,6 +43,11 @@ from vsmp_imu.units import STANDARD_GRAVITY_M_S2
 from vsmp_imu.validation import validate_model
 
 TABLE_SUFFIXES = (".csv", ".parquet")
+# sampling rates a wearable dataset can have: below 1 Hz a 2 s window holds too few samples,
+# above 10 kHz the value is a typo (an IMU samples at tens to a few thousand Hz)
+MIN_RATE_HZ, MAX_RATE_HZ = 1.0, 10_000.0
+# shares of rows repeating their recording's previous time: noted above the first, refused above the second
+REPEATS_NOTED, REPEATS_REFUSED = 0.01, 0.10
 
 
 class LocationSpec(BaseModel):
@@ -65,6 +70,7 @@ class LocationSpec(BaseModel):
     def _gyro_unit(self) -> LocationSpec:
         if self.gyr is not None and self.gyr_unit is None:
             raise ValueError("gyr_unit is required when gyr columns are given")
+        _once("column", self.acc + (self.gyr or []), "feeds two channels")
         lists = self.axes.values() if isinstance(self.axes, dict) else [self.axes] if self.axes else []
         if any(len(words) != 3 for words in lists):
             raise ValueError("axes are three words: the device x, y and z")
@@ -84,7 +90,7 @@ class GenericSpec(BaseModel):
 
     name: str = Field(min_length=1)
     data: str = Field(min_length=1)
-    fs_hz: float | None = Field(default=None, gt=0, allow_inf_nan=False)
+    fs_hz: float | None = Field(default=None, ge=MIN_RATE_HZ, le=MAX_RATE_HZ)
     time_column: str | None = None
     subject_column: str = "subject"
     label_column: str = "label"
@@ -93,10 +99,17 @@ class GenericSpec(BaseModel):
     unlabelled: list[str] = Field(default_factory=list)
     locations: list[LocationSpec] = Field(min_length=1)
     min_share: float = Field(default=1.0, gt=0, le=1)
-    class_min_share: dict[str, float] = Field(default_factory=dict)
+    class_min_share: dict[str, Annotated[float, Field(gt=0, le=1)]] = Field(default_factory=dict)
     pad_short: bool = False
     groups: dict[str, list[str]] = Field(default_factory=dict)
     description: str = ""
+
+    @field_validator("fs_hz", mode="before")
+    @classmethod
+    def _not_a_flag(cls, value):
+        if isinstance(value, bool):  # YAML's yes/true would read as 1 Hz
+            raise ValueError("expected a rate in Hz, not true or false")
+        return value
 
     @model_validator(mode="after")
     def _rate(self) -> GenericSpec:
@@ -105,7 +118,24 @@ class GenericSpec(BaseModel):
         names = [loc.name for loc in self.locations]
         if len(set(names)) != len(names):
             raise ValueError("each location may appear once")
+        _once("column", [c for loc in self.locations for c in loc.acc + (loc.gyr or [])], "feeds two channels")
+        if self.labels is not None:
+            _once("class", self.labels, "is declared twice in labels")
+            if any(not name.strip() for name in self.labels):
+                raise ValueError("a class name in labels is empty")
+            both = sorted(set(self.labels) & set(self.unlabelled), key=natural_key)
+            if both:
+                raise ValueError(f"{', '.join(both)}: both a class (labels) and no class (unlabelled)")
         return self
+
+
+def _once(what: str, names: list[str], problem: str) -> None:
+    """Refuse a list that holds one name twice."""
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise ValueError(f"{what} '{name}' {problem}")
+        seen.add(name)
 
 
 def _channel_names(spec: GenericSpec) -> list[tuple[str, str, str]]:
@@ -121,6 +151,8 @@ def _channel_names(spec: GenericSpec) -> list[tuple[str, str, str]]:
 
 
 UNIT_OK_G = (0.4, 3.0)  # a class's median |acc| in g, gravity included, when the unit is right
+# a class's median |acc| in g that says gravity is in the values although declared removed
+GRAVITY_FREE_NEAR_1G = (0.9, 1.1)
 
 
 def _unit_hint(g: float, unit: str) -> str:
@@ -149,11 +181,12 @@ def _location_note(loc: LocationSpec) -> str:
     return "; ".join(parts)
 
 
-def _read_table(path: Path) -> pd.DataFrame:
+def _read_table(path: Path, text_columns: list[str]) -> pd.DataFrame:
+    """The table, with `text_columns` (subject, label, session) read as written: '01' is not '1'."""
     try:
         if path.suffix.lower() == ".parquet":
             return pd.read_parquet(path)
-        return pd.read_csv(path)
+        return pd.read_csv(path, dtype=dict.fromkeys(text_columns, str))
     except Exception as exc:  # pandas/pyarrow raise many types for a broken table
         raise InputFileError(f"cannot read table ({type(exc).__name__}: {exc})", file=path) from exc
 
@@ -174,6 +207,7 @@ class GenericDataset(HarDataset):
             raise ValidationError("expected a mapping of dataset settings", file=self.yaml_path)
         self.spec = validate_model(GenericSpec, raw, self.yaml_path)
         self.tables = self._tables()
+        self._time_notes: list[str] = []
         self._frames = {p: self._checked(p) for p in self.tables}
         labels = self._labels()
         channels = _channel_names(self.spec)
@@ -217,7 +251,7 @@ class GenericDataset(HarDataset):
             pad_short=self.spec.pad_short,
             groups={k: tuple(v) for k, v in self.spec.groups.items()},
         )
-        self.warnings = self._axes_warnings() + self._unit_warnings()
+        self.warnings = self._axes_warnings() + self._unit_warnings() + self._time_notes
 
     # -- conventions -----------------------------------------------------------------------
     def _body_axes(self, loc: LocationSpec, placement: str, index: int) -> tuple[str, str, str] | None:
@@ -260,28 +294,50 @@ class GenericDataset(HarDataset):
         ]
 
     def _unit_warnings(self) -> list[str]:
-        """Classes whose median |acc| is far from 1 g although gravity is declared included."""
+        """Classes whose median |acc| is far from 1 g although gravity is declared included (over all
+        files, then file by file for a file that alone is off), or near 1 g although it is not."""
         out = []
         for i, loc in enumerate(self.spec.locations):
-            if not loc.gravity_included:
-                continue
-            by_class: dict[str, list[np.ndarray]] = {}
-            for frame in self._frames.values():
-                acc = acc_to_si(frame[loc.acc].to_numpy(np.float64), loc.acc_unit)
-                norm = np.linalg.norm(acc, axis=1)
-                for label, rows in pd.Series(norm).groupby(frame[self.spec.label_column].astype(str).values):
-                    by_class.setdefault(label, []).append(rows.to_numpy())
-            for label, parts in sorted(by_class.items()):
-                if label in self.spec.unlabelled:
-                    continue
-                g = float(np.median(np.concatenate(parts))) / STANDARD_GRAVITY_M_S2
-                hint = _unit_hint(g, loc.acc_unit)
+            medians = self._median_g(loc)
+            pooled = {label: float(np.median(np.concatenate(list(parts.values()))))
+                      for label, parts in medians.items()}
+            for label, g in sorted(pooled.items()):
+                hint = self._gravity_hint(loc, g)
                 if hint:
-                    out.append(f"{self.yaml_path}: class '{label}' at '{loc.name}' reads a median "
-                               f"acceleration of {g * STANDARD_GRAVITY_M_S2:.3g} m/s² ({g:.3g} g) with "
-                               f"acc_unit {loc.acc_unit} and gravity included (locations[{i}].acc_unit): "
-                               f"{hint}")
+                    out.append(f"{self.yaml_path}: class '{label}' at '{loc.name}' reads a median acceleration "
+                               f"of {g * STANDARD_GRAVITY_M_S2:.3g} m/s² ({g:.3g} g) with acc_unit "
+                               f"{loc.acc_unit} (locations[{i}]): {hint}")
+            for path in self.tables:
+                odd = [(label, float(np.median(parts[path]))) for label, parts in sorted(medians.items())
+                       if path in parts and not self._gravity_hint(loc, pooled[label])]
+                odd = [(label, g) for label, g in odd if self._gravity_hint(loc, g)]
+                if odd:
+                    label, g = odd[0]
+                    out.append(f"{path}: at '{loc.name}' class(es) {', '.join(k for k, _ in odd)} read a median "
+                               f"acceleration unlike the other files' (first: '{label}', {g:.3g} g with acc_unit "
+                               f"{loc.acc_unit}, locations[{i}]): {self._gravity_hint(loc, g)}")
         return out
+
+    def _median_g(self, loc: LocationSpec) -> dict[str, dict[Path, np.ndarray]]:
+        """Per class and file, |acc| in g (as declared) of the labelled rows."""
+        by_class: dict[str, dict[Path, np.ndarray]] = {}
+        for path, frame in self._frames.items():
+            acc = acc_to_si(frame[loc.acc].to_numpy(np.float64), loc.acc_unit)
+            norm = np.linalg.norm(acc, axis=1) / STANDARD_GRAVITY_M_S2
+            for label, rows in pd.Series(norm).groupby(frame[self.spec.label_column].astype(str).values):
+                if label not in self.spec.unlabelled:
+                    by_class.setdefault(label, {})[path] = rows.to_numpy()
+        return by_class
+
+    @staticmethod
+    def _gravity_hint(loc: LocationSpec, g: float) -> str:
+        """What a median |acc| of `g` (in g, as declared) says about the declaration ('' if fine)."""
+        if loc.gravity_included:
+            return _unit_hint(g, loc.acc_unit)
+        if GRAVITY_FREE_NEAR_1G[0] <= g <= GRAVITY_FREE_NEAR_1G[1]:
+            return ("about 1 g although gravity_included is false: the values look like they include gravity "
+                    "(set gravity_included: true).")
+        return ""
 
     # -- reading and checks ----------------------------------------------------------------
     def _tables(self) -> list[Path]:
@@ -303,7 +359,8 @@ class GenericDataset(HarDataset):
 
     def _checked(self, path: Path) -> pd.DataFrame:
         spec = self.spec
-        frame = _read_table(path)
+        ids = [spec.subject_column, spec.label_column] + ([spec.session_column] if spec.session_column else [])
+        frame = _read_table(path, ids)
         needed = [spec.subject_column, spec.label_column]
         needed += [c for c in (spec.session_column, spec.time_column) if c]
         needed += [col for _, col, _ in _channel_names(spec)]
@@ -329,6 +386,9 @@ class GenericDataset(HarDataset):
                     field=col,
                 )
             frame[col] = values
+        self._check_range(path, frame)
+        if spec.time_column:
+            self._check_repeats(path, frame)
         for col in [spec.subject_column, spec.label_column] + (
             [spec.session_column] if spec.session_column else []
         ):
@@ -340,6 +400,35 @@ class GenericDataset(HarDataset):
                     field=col,
                 )
         return frame
+
+    def _check_range(self, path: Path, frame: pd.DataFrame) -> None:
+        """Refuse channel values that no longer fit a float32 once in SI units (the loader's type)."""
+        top = float(np.finfo(np.float32).max)
+        for loc in self.spec.locations:
+            columns = [(c, loc.acc_unit, acc_to_si) for c in loc.acc] + [(c, loc.gyr_unit, gyr_to_si) for c in loc.gyr or []]
+            for col, unit, to_si in columns:
+                with np.errstate(over="ignore"):
+                    bad = np.flatnonzero(~(np.abs(to_si(frame[col].to_numpy(np.float64), unit)) < top))
+                if len(bad):
+                    raise ValidationError(
+                        f"{len(bad)} value(s) too large to be a sensor reading in {unit}, first at data row "
+                        f"{bad[0] + 1}", file=path, field=col)
+
+    def _check_repeats(self, path: Path, frame: pd.DataFrame) -> None:
+        """Rows whose time repeats an earlier row's in their recording are dropped when resampled:
+        a few are noted, many (a rounded time column) refused."""
+        keys = [self.spec.subject_column] + ([self.spec.session_column] if self.spec.session_column else [])
+        repeats = frame.duplicated(keys + [self.spec.time_column]).to_numpy()
+        share = float(repeats.mean()) if len(repeats) else 0.0
+        if share <= REPEATS_NOTED:
+            return
+        where = f"{share:.1%} of the rows repeat an earlier row's time in their recording, first at data row " \
+                f"{np.flatnonzero(repeats)[0] + 1}"
+        if share > REPEATS_REFUSED:
+            raise ValidationError(f"{where}: the times look rounded; only the first of each is kept, so the "
+                                  "rest would be lost (give fs_hz without time_column if the rows are evenly "
+                                  "spaced)", file=path, field=self.spec.time_column)
+        self._time_notes.append(f"{path}: {where} (column '{self.spec.time_column}'); only the first of each is kept.")
 
     def _labels(self) -> tuple[str, ...]:
         spec = self.spec
@@ -356,10 +445,18 @@ class GenericDataset(HarDataset):
                     field="labels",
                     allowed=", ".join(spec.labels),
                 )
-            return tuple(spec.labels)
+            return self._share_classes(tuple(spec.labels))
         if not seen:
             raise ValidationError("no labelled rows", file=self.yaml_path, field="label_column")
-        return tuple(sorted(seen, key=natural_key))
+        return self._share_classes(tuple(sorted(seen, key=natural_key)))
+
+    def _share_classes(self, labels: tuple[str, ...]) -> tuple[str, ...]:
+        """`labels`, once class_min_share names only classes among them."""
+        unknown = sorted(set(self.spec.class_min_share) - set(labels), key=natural_key)
+        if unknown:
+            raise ValidationError(f"unknown class(es) {', '.join(unknown)}", file=self.yaml_path,
+                                  field="class_min_share", allowed=", ".join(labels))
+        return labels
 
     def _rate(self) -> float:
         if self.spec.fs_hz is not None:
@@ -376,7 +473,13 @@ class GenericDataset(HarDataset):
                 file=self.yaml_path,
                 field="time_column",
             )
-        rate = 1.0 / float(np.median(steps))
+        step = float(np.median(steps))
+        rate = 1.0 / step
+        if not MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
+            raise ValidationError(
+                f"the median time step is {step:.6g} s, a rate of {rate:.6g} Hz: are the times in seconds? "
+                "(or give fs_hz)", file=self.yaml_path, field="time_column",
+                allowed=f"times in seconds, a rate of {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz")
         return float(round(rate)) if abs(rate - round(rate)) < 0.01 * rate else round(rate, 3)
 
     # -- recordings ------------------------------------------------------------------------

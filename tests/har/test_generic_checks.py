@@ -1,0 +1,124 @@
+"""The generic format refuses what would silently change the data (a class declared twice, ids
+read as numbers, one column feeding two channels, a key written twice, rounded times) and warns
+where one file or the gravity declaration disagrees with the values."""
+
+from __future__ import annotations
+
+import shutil
+
+import pandas as pd
+import pytest
+
+from vsmp_imu.errors import ValidationError
+from vsmp_imu.har.datasets import load_dataset
+from vsmp_imu.har.datasets.generic import MAX_RATE_HZ, REPEATS_NOTED, REPEATS_REFUSED
+
+
+@pytest.fixture
+def root(tmp_path, fixtures_dir):
+    target = tmp_path / "g"
+    shutil.copytree(fixtures_dir / "generic", target)
+    return target
+
+
+def _edit(root, old: str, new: str):
+    path = root / "dataset.yaml"
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def _refused(path, *words: str) -> str:
+    with pytest.raises(ValidationError) as err:
+        load_dataset(path)
+    text = err.value.render()
+    for word in words:
+        assert word in text, text
+    assert "Value error" not in text
+    return text
+
+
+@pytest.mark.parametrize("old,new,words", [
+    ("labels: [walk, sit]", "labels: [walk, sit, walk]", ("dataset.yaml", "'walk' is declared twice")),
+    ("labels: [walk, sit]", "labels: [walk, sit, ' ']", ("class name in labels is empty",)),
+    ("unlabelled: [none]", "unlabelled: [none, sit]", ("sit: both a class",)),
+    ("gyr: [gx, gy, gz]", "gyr: [gx, gx, gz]", ("locations[0]", "column 'gx' feeds two channels")),
+    ("gyr: [gx, gy, gz]", "gyr: [ax, ay, az]", ("column 'ax' feeds two channels",)),
+    ("fs_hz: 50 ", "fs_hz: 50\nfs_hz: 25 ", ("key 'fs_hz' appears twice (lines 5 and 6)",)),
+    ("fs_hz: 50 ", "fs_hz: true ", ("field 'fs_hz'", "not true or false")),
+    ("fs_hz: 50 ", "fs_hz: 1e12 ", ("field 'fs_hz'", f"{MAX_RATE_HZ:g}")),
+    ("fs_hz: 50 ", "fs_hz: 0.001 ", ("field 'fs_hz'", ">= 1")),
+    ("labels: [walk, sit]", "labels: [walk, sit]\nclass_min_share: {walk: 5.0}",
+     ("class_min_share.walk", "<= 1")),
+    ("labels: [walk, sit]", "labels: [walk, sit]\nclass_min_share: {wlak: 0.5}",
+     ("field 'class_min_share'", "unknown class(es) wlak", "walk, sit")),
+])
+def test_a_spec_that_would_change_the_data_silently_is_refused(root, old, new, words):
+    _refused(_edit(root, old, new), *words)
+
+
+def test_ids_are_read_as_written(root):
+    """'01' and '1' are two people: read as numbers they would merge into one held-out subject."""
+    csv = root / "data" / "p2.csv"
+    frame = pd.read_csv(csv)
+    frame["subject"] = "01"
+    frame.to_csv(csv, index=False)
+    csv = root / "data" / "p1.csv"
+    frame = pd.read_csv(csv)
+    frame["subject"] = "1"
+    frame.to_csv(csv, index=False)
+    assert sorted(load_dataset(root / "dataset.yaml").windows().unique_subjects()) == ["01", "1", "p3"]
+
+
+def test_a_time_column_in_milliseconds_names_the_time_column(root):
+    for csv in (root / "data").glob("*.csv"):
+        frame = pd.read_csv(csv)
+        frame["t"] *= 1000.0
+        frame.to_csv(csv, index=False)
+    _refused(_edit(root, "fs_hz: 50 ", "# no rate "), "field 'time_column'", "median time step is 20 s",
+             "are the times in seconds")
+
+
+def _round_times(root, share: float) -> None:
+    """Give `share` of p1.csv's rows the time of the row before them."""
+    csv = root / "data" / "p1.csv"
+    frame = pd.read_csv(csv)
+    every = int(round(1 / share))
+    frame.loc[frame.index % every == 1, "t"] = frame["t"].shift(1)
+    frame.to_csv(csv, index=False)
+
+
+def test_rounded_times_are_refused_and_a_few_repeats_noted(root):
+    shutil.copy(root / "data" / "p1.csv", root / "p1.csv")
+    _round_times(root, 2 * REPEATS_REFUSED)
+    _refused(root / "dataset.yaml", "p1.csv", "field 't'", "repeat an earlier row's time", "look rounded")
+    shutil.copy(root / "p1.csv", root / "data" / "p1.csv")
+    _round_times(root, 0.5 * (REPEATS_NOTED + REPEATS_REFUSED))
+    ds = load_dataset(root / "dataset.yaml")
+    assert [w for w in ds.warnings if "p1.csv" in w and "only the first of each is kept" in w]
+
+
+def test_a_value_too_large_once_converted_names_the_csv(root):
+    csv = root / "data" / "p2.csv"
+    frame = pd.read_csv(csv)
+    frame.loc[4, "gx"] = 1e300  # deg/s: finite as written, inf in float32 rad/s
+    frame.to_csv(csv, index=False)
+    _refused(root / "dataset.yaml", "p2.csv", "field 'gx'", "too large", "data row 5")
+
+
+def test_one_file_in_another_unit_is_named(root):
+    assert load_dataset(root / "dataset.yaml").warnings == []
+    csv = root / "data" / "p3.csv"
+    frame = pd.read_csv(csv)
+    frame[["ax", "ay", "az"]] *= 9.80665  # m/s² in a dataset declared in g
+    frame.to_csv(csv, index=False)
+    warnings = load_dataset(root / "dataset.yaml").warnings
+    assert len(warnings) == 1 and "p3.csv" in warnings[0] and "look like m/s², not g" in warnings[0]
+
+
+def test_gravity_declared_removed_but_present_is_warned(root):
+    path = _edit(root, "gravity_included: true", "gravity_included: false")
+    warnings = load_dataset(path).warnings
+    assert warnings and all("gravity_included is false" in w for w in warnings)
+    assert {w.split("class '")[1].split("'")[0] for w in warnings} == {"walk", "sit"}
