@@ -100,10 +100,11 @@ def generate_fold(spec: GenerationSpec, request: FoldRequest, plan: FoldPlan | N
     """Algorithm 1 for one held-out subject, written to `request.output` (returns the FoldOutput)."""
     from vsmp_imu.io import remove_stale_temps
     from vsmp_imu.pipeline.fold import FoldGenerator
-    from vsmp_imu.pipeline.output import write_output
+    from vsmp_imu.pipeline.output import claim_output, write_output
 
     plan = plan or plan_fold(spec, request)
     output = request.output
+    claim_output(output, plan.info.name, request.holdout)  # refuses a folder of anything else
     cache = Path(spec.cache_dir) if spec.cache_dir else output / "cache"
     for folder in (output, cache):  # leftovers of a killed run
         remove_stale_temps(folder)

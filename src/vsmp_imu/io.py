@@ -50,6 +50,11 @@ _TEMP_NAME = re.compile(r"^\.(?P<name>.+)\.(?P<host>[A-Za-z0-9_-]*)~(?P<pid>\d+)
 STALE_FOREIGN_TEMP_S = 24 * 3600.0
 
 
+def is_temp_name(name: str) -> bool:
+    """Whether `name` is that of an `atomic_path` temporary."""
+    return _TEMP_NAME.match(name) is not None
+
+
 def _writer_tag() -> str:
     """host~pid of the writing process: tells a dead writer's leftovers from a live one's."""
     host = re.sub(r"[^A-Za-z0-9_-]", "-", socket.gethostname())[:40]

@@ -1,16 +1,20 @@
 """The on-disk cache: evaluations keep their samples there (not in the output folder), under a
-size cap; `vsmp-imu cache info` and `cache clear`."""
+size cap; `vsmp-imu cache info` and `cache clear`, which touch only the project's folders."""
 
 from __future__ import annotations
 
 import os
+import re
+from pathlib import Path
 
 import pytest
 
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.har.cache import (
+    CACHE_FOLDERS,
+    cache_contents,
     cache_dir,
-    cache_usage,
+    cache_folder,
     clear_cache,
     max_cache_bytes,
     prune_cache,
@@ -51,7 +55,7 @@ def test_cache_info_and_clear_commands(cli, tmp_path, monkeypatch):
     monkeypatch.setenv("VSMP_IMU_CACHE", str(tmp_path / "cache"))
     _fill(samples_dir(), [300, 200])
     _fill(cache_dir() / "hapt", [50])
-    assert {u.name: (u.files, u.bytes) for u in cache_usage()}["samples"] == (2, 500)
+    assert {u.name: (u.files, u.bytes) for u in cache_contents().folders}["samples"] == (2, 500)
     code, out, _ = cli("cache", "info")
     assert code == 0 and "samples" in out and "500 B" in out and "hapt" in out
     code, out, _ = cli("cache", "clear", "--only", "samples")
@@ -59,7 +63,9 @@ def test_cache_info_and_clear_commands(cli, tmp_path, monkeypatch):
     assert not samples_dir().exists() and (cache_dir() / "hapt").is_dir()
     code, _, err = cli("cache", "clear", "--only", "nothing")
     assert code == 2 and "--only" in err and "hapt" in err
-    assert clear_cache().files == 1 and cache_usage() == []
+    removed, left = clear_cache()
+    assert [(u.name, u.files, u.bytes) for u in removed] == [("hapt", 1, 50)] and left == []
+    assert cache_contents().folders == []
 
 
 def test_evaluation_caches_samples_outside_the_output_folder(tmp_path):
@@ -69,3 +75,93 @@ def test_evaluation_caches_samples_outside_the_output_folder(tmp_path):
     run = evaluation(GenerationSpec(), EvalRequest(dataset="hapt", output=tmp_path / "out", methods=("real", "vsmp")))
     assert run.config.method_params["vsmp"]["cache_dir"] == str(samples_dir())
     assert not str(samples_dir()).startswith(str(tmp_path / "out"))
+
+
+def _user_folder(root: Path, elsewhere: Path) -> None:
+    """A folder a user might point $VSMP_IMU_CACHE at: the project's folders next to their own."""
+    _fill(root / "samples", [300, 200])
+    _fill(root / "hapt", [50])
+    (root / "my_thesis/chapters").mkdir(parents=True)
+    (root / "my_thesis/chapters/intro.tex").write_text("draft")
+    (root / ".git").mkdir()
+    (root / ".git/HEAD").write_text("ref: refs/heads/main")
+    (root / "notes.txt").write_text("important")
+    _fill(elsewhere, [70])
+    (root / "linked").symlink_to(elsewhere, target_is_directory=True)
+
+
+def test_clear_removes_only_the_project_folders(cli, tmp_path, monkeypatch):
+    root, elsewhere = tmp_path / "cache", tmp_path / "elsewhere"
+    monkeypatch.setenv("VSMP_IMU_CACHE", str(root))
+    _user_folder(root, elsewhere)
+    code, out, _ = cli("cache", "info")
+    assert code == 0 and "not the project's, left alone: .git/, linked (link), my_thesis/, notes.txt" in out
+    assert "Removing any of it is safe" not in out
+    code, out, _ = cli("cache", "clear")
+    assert code == 0
+    assert f"removed 2 files (500 B) from {root / 'samples'}" in out and f"removed 1 files (50 B) from {root / 'hapt'}" in out
+    assert "not the project's, left alone: .git/, linked (link), my_thesis/, notes.txt" in out
+    assert sorted(p.name for p in root.iterdir()) == [".git", "linked", "my_thesis", "notes.txt"]
+    assert (root / "my_thesis/chapters/intro.tex").read_text() == "draft" and (root / ".git/HEAD").exists()
+    assert len(list(elsewhere.iterdir())) == 1
+
+
+@pytest.mark.parametrize("name", ["my_thesis", ".git", "linked", "notes.txt"])
+def test_only_allows_only_the_project_folders(cli, tmp_path, monkeypatch, name):
+    root = tmp_path / "cache"
+    monkeypatch.setenv("VSMP_IMU_CACHE", str(root))
+    _user_folder(root, tmp_path / "elsewhere")
+    code, _, err = cli("cache", "clear", "--only", name)
+    assert code == 2 and f"'{name}'" in err and "Allowed: samples, hapt, vlm." in err
+    assert "my_thesis" not in err.replace(f"'{name}'", "")
+    assert (root / name).exists() and len(list((tmp_path / "elsewhere").iterdir())) == 1
+
+
+def test_a_linked_project_folder_is_left_alone_and_not_counted(cli, tmp_path, monkeypatch):
+    root, theirs = tmp_path / "cache", tmp_path / "theirs"
+    monkeypatch.setenv("VSMP_IMU_CACHE", str(root))
+    _fill(theirs, [100, 100])
+    _fill(root / "hapt", [50])
+    (root / "samples").symlink_to(theirs, target_is_directory=True)
+    assert [u.name for u in cache_contents().folders] == ["hapt"]
+    code, out, _ = cli("cache", "clear", "--only", "samples")
+    assert code == 0 and "nothing to remove" in out and "left alone: samples (link)" in out
+    code, out, _ = cli("cache", "clear")
+    assert code == 0 and "removed 1 files (50 B)" in out and "left alone: samples (link)" in out
+    assert "200 B" not in out and len(list(theirs.iterdir())) == 2 and (root / "samples").is_symlink()
+
+
+def test_a_cache_folder_must_be_listed():
+    with pytest.raises(ValueError, match="CACHE_FOLDERS"):
+        cache_folder("my_new_cache")
+
+
+def test_the_code_makes_only_listed_folders_under_the_cache(tmp_path, monkeypatch):
+    """The code paths that write under the cache (the HAPT loader, the sample cache, the VLM
+    client's default cache), run on an empty root, make only folders of CACHE_FOLDERS."""
+    from vsmp_imu.cli.video import _client
+    from vsmp_imu.har.datasets.hapt import load_hapt_arrays
+    from vsmp_imu.pipeline.sample import SampleTask, cached_synthesize_many
+
+    monkeypatch.setenv("HOME", str(tmp_path))
+    for name in ("VSMP_IMU_CACHE", "XDG_CACHE_HOME"):
+        monkeypatch.delenv(name, raising=False)
+    load_hapt_arrays()
+    task = SampleTask(key="f/WALKING/0000", label="WALKING", label_index=0, source="test", variant=0, smp_json="",
+                      prompt="a person walks", backend="procedural", seed=1, fs_hz=50.0, locations=(),
+                      duration_s=2.0)
+    cached_synthesize_many((task,), str(samples_dir()))
+    _client("http://localhost:1/v1", "m", None, False, 1.0, 0, False)._remember_text_only()
+    assert sorted(p.name for p in cache_dir().iterdir()) == sorted(CACHE_FOLDERS)
+    assert all(any(p.iterdir()) for p in cache_dir().iterdir())
+
+
+def test_only_the_cache_module_places_files_under_the_cache_root():
+    """Code elsewhere reaches the cache through cache_folder() (or samples_dir(), vlm_dir()), so
+    a folder it makes there is one of CACHE_FOLDERS."""
+    src = Path(__file__).resolve().parents[2] / "src" / "vsmp_imu"
+    allowed = {src / "har" / "cache.py", src / "cli" / "cache.py"}
+    pattern = re.compile(r"\bcache_dir\(\)|[\"'](VSMP_IMU_CACHE|XDG_CACHE_HOME|\.cache)[\"']")
+    modules = [p for p in sorted(src.rglob("*.py")) if p not in allowed]
+    assert len(modules) > 50
+    assert [f"{p.relative_to(src)}: {m[0]}" for p in modules for m in pattern.finditer(p.read_text())] == []

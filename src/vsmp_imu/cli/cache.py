@@ -1,13 +1,27 @@
-"""`vsmp-imu cache info | clear`: the on-disk cache (parsed datasets, generated samples)."""
+"""`vsmp-imu cache info | clear`: the project's folders of the on-disk cache (parsed datasets,
+generated samples, VLM answers); anything else under the cache root is left alone."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import typer
 from rich.table import Table
 
 from vsmp_imu.cli.common import console
+from vsmp_imu.har.cache import (
+    CACHE_FOLDERS,
+    MAX_GB_ENV,
+    SAMPLES,
+    cache_contents,
+    cache_dir,
+    clear_cache,
+    max_cache_bytes,
+)
 
-cache_app = typer.Typer(help="The on-disk cache: parsed datasets and generated samples.", no_args_is_help=True)
+FOLDERS = ", ".join(CACHE_FOLDERS)
+
+cache_app = typer.Typer(help="The on-disk cache: parsed datasets, generated samples, VLM answers.", no_args_is_help=True)
 
 
 def _size(n: int) -> str:
@@ -18,34 +32,51 @@ def _size(n: int) -> str:
     return f"{n:.1f} GB"
 
 
+def _entry(path: Path) -> str:
+    """An entry's name, marked '/' for a folder or '(link)' for a link."""
+    if path.is_symlink():
+        return f"{path.name} (link)"
+    return f"{path.name}/" if path.is_dir() else path.name
+
+
+def _left_alone(others: list[Path]) -> None:
+    if others:
+        console.print("not the project's, left alone: " + ", ".join(_entry(p) for p in others),
+                      highlight=False, soft_wrap=True)
+
+
 @cache_app.command("info")
 def info_cmd() -> None:
-    """Where the cache is, what each folder holds, and the size cap of the samples."""
-    from vsmp_imu.har.cache import MAX_GB_ENV, SAMPLES, cache_dir, cache_usage, max_cache_bytes
-
+    """Where the cache is, what each of the project's folders holds, and the size cap of the samples."""
     cap = max_cache_bytes()
-    usage = cache_usage()
-    console.print(f"cache: {cache_dir()}", highlight=False)
+    contents = cache_contents()
+    console.print(f"cache: {cache_dir()}", highlight=False, soft_wrap=True)
     table = Table()
-    for col, justify in (("folder", "left"), ("files", "right"), ("size", "right")):
+    for col, justify in (("folder", "left"), ("files", "right"), ("size", "right"), ("holds", "left")):
         table.add_column(col, justify=justify)
-    for u in usage:
-        table.add_row(u.name, str(u.files), _size(u.bytes))
-    table.add_row("[bold]total[/]", str(sum(u.files for u in usage)), _size(sum(u.bytes for u in usage)))
+    for u in contents.folders:
+        table.add_row(u.name, str(u.files), _size(u.bytes), CACHE_FOLDERS[u.name])
+    folders = contents.folders
+    table.add_row("[bold]total[/]", str(sum(u.files for u in folders)), _size(sum(u.bytes for u in folders)), "")
     console.print(table)
     console.print(f"'{SAMPLES}' is kept under {_size(cap)} (${MAX_GB_ENV}); the least recently used "
-                  "samples go first. Removing any of it is safe: it is recomputed when needed.",
+                  "samples go first. `vsmp-imu cache clear` removes these folders and nothing else.",
                   highlight=False)
+    _left_alone(contents.others)
 
 
-@cache_app.command("clear")
-def clear_cmd(only: str = typer.Option(None, "--only", help="clear only this folder, e.g. samples")) -> None:
-    """Remove the cache (or one of its folders); everything is recomputed when needed."""
-    from vsmp_imu.har.cache import cache_dir, clear_cache
-
-    removed = clear_cache(only=only)
-    console.print(f"removed {removed.files} files ({_size(removed.bytes)}) from {cache_dir()}"
-                  + (f"/{only}" if only else ""), highlight=False)
+@cache_app.command("clear", help=f"Remove the project's cache folders ({FOLDERS}), or one of them; they are "
+                   "remade when needed. Other files and folders under the cache, and links, are left alone.")
+def clear_cmd(only: str = typer.Option(None, "--only", help=f"remove only this folder: {FOLDERS}")) -> None:
+    removed, others = clear_cache(only=only)
+    root = cache_dir()
+    for u in removed:
+        console.print(f"removed {u.files} files ({_size(u.bytes)}) from {root / u.name}", highlight=False,
+                      soft_wrap=True)
+    if not removed:
+        console.print(f"nothing to remove: {root} holds no folder " + (f"'{only}'" if only else "of the project"),
+                      highlight=False, soft_wrap=True)
+    _left_alone(others)
 
 
 def register(app: typer.Typer) -> None:

@@ -37,7 +37,8 @@ SOURCE_HELP = "library | smp:DIR (SMP files) | video:DIR (clips per activity fol
 def generate_cmd(
     dataset: str = typer.Option(..., "--dataset", help="Dataset name (hapt, hapt12, ...) or a dataset YAML"),
     holdout: str = typer.Option(..., "--holdout", help="Held-out subject: none of its data is used"),
-    output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
+    output: Path = typer.Option(..., "-o", "--output", help="Output folder: a new or empty one, or one of an "
+                                "earlier run of this dataset and held-out subject (its outputs are replaced)"),
     source: str = typer.Option("library", "--source", help=SOURCE_HELP),
     k: int = K,
     k_unseen: int = K_UNSEEN,

@@ -7,7 +7,6 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Any
 
@@ -34,11 +33,6 @@ CACHE_OPTION = typer.Option(None, "--cache-dir", help="VLM response cache (defau
                             "$XDG_CACHE_HOME/vsmp-imu/vlm or ~/.cache/vsmp-imu/vlm)")
 
 
-def default_cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "vsmp-imu" / "vlm"
-
-
 def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
     from vsmp_imu.extract.frames import FrameSampler
     from vsmp_imu.extract.frames import preset as get_preset
@@ -57,11 +51,12 @@ def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
 def _client(base_url: str | None, model: str | None, cache_dir: Path | None, no_cache: bool,
             timeout_s: float, max_retries: int, no_response_format: bool):
     from vsmp_imu.extract.client import VLMClient
+    from vsmp_imu.har.cache import vlm_dir
 
     if not base_url or not model:
         raise ConfigError("the VLM needs --vlm-base-url and --vlm-model (the key is read from "
                           "VSMP_VLM_API_KEY or OPENAI_API_KEY)", field="--vlm-base-url")
-    cache = None if no_cache else (cache_dir or default_cache_dir())
+    cache = None if no_cache else (cache_dir or vlm_dir())
     return VLMClient(base_url, model, timeout_s=timeout_s, max_retries=max_retries,
                      cache_dir=cache, use_response_format=not no_response_format)
 

@@ -1,12 +1,14 @@
 """The on-disk cache: parsed datasets (keyed by the source file's hash) and the per-sample
 results of synthetic generation (keyed by each sample's content hash).
 
-Everything lives under `cache_dir()` (`$VSMP_IMU_CACHE`, else `~/.cache/vsmp-imu`), never in
-an evaluation's output folder. The generation samples are kept below a size cap
-(`$VSMP_IMU_CACHE_MAX_GB`, default 10): after an evaluation the least recently used
-samples are removed until the cache fits. `vsmp-imu cache info` and `cache clear` show and
-empty it. Removing cache files is always safe: a missing entry is recomputed, with the same
-result.
+The cache lives under `cache_dir()` (`$VSMP_IMU_CACHE`, else `~/.cache/vsmp-imu`), never in
+an evaluation's output folder, in the folders named in `CACHE_FOLDERS` and nowhere else (the
+VLM answers lie there only at the defaults, see `vlm_dir()`). The
+generation samples are kept below a size cap (`$VSMP_IMU_CACHE_MAX_GB`, default 10): after an
+evaluation the least recently used samples are removed until the cache fits. `vsmp-imu cache
+info` and `cache clear` show and remove these folders; anything else under the root (the user
+may point `$VSMP_IMU_CACHE` at a folder of their own) is not the project's and is left alone,
+and links are never followed.
 """
 
 from __future__ import annotations
@@ -22,10 +24,20 @@ import numpy as np
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.io import atomic_path, file_sha256
 
-__all__ = ["cache_dir", "file_sha256", "load_npz", "save_npz", "samples_dir", "max_cache_bytes",
-           "cache_usage", "prune_cache", "clear_cache"]
+__all__ = ["CACHE_FOLDERS", "cache_dir", "cache_folder", "file_sha256", "load_npz", "save_npz", "samples_dir",
+           "vlm_dir", "max_cache_bytes", "cache_contents", "prune_cache", "clear_cache"]
 
-SAMPLES = "samples"  # the generation samples' folder under cache_dir()
+SAMPLES = "samples"  # samples_dir()
+HAPT_CACHE = "hapt"  # the HAPT loader's parsed arrays (har/datasets/hapt.py)
+VLM = "vlm"  # vlm_dir(), under cache_dir() when neither $XDG_CACHE_HOME nor $VSMP_IMU_CACHE is set
+# Every folder the project makes under cache_dir(), and what it holds: `cache clear` removes
+# these and nothing else. A new cache folder is made with cache_folder(), which refuses a name
+# missing here.
+CACHE_FOLDERS = {
+    SAMPLES: "generated samples of `evaluate` and `demo`; remade, with the same result, when needed",
+    HAPT_CACHE: "the parsed HAPT dataset; parsed again when needed",
+    VLM: "VLM answers of `smp extract` and `video pool`; asked again (new requests) when needed",
+}
 MAX_GB_ENV = "VSMP_IMU_CACHE_MAX_GB"
 DEFAULT_MAX_GB = 10.0
 
@@ -36,9 +48,22 @@ def cache_dir() -> Path:
     return Path(root) if root else Path.home() / ".cache" / "vsmp-imu"
 
 
+def cache_folder(name: str) -> Path:
+    """The project's cache folder `name` under cache_dir(); `name` must be in CACHE_FOLDERS."""
+    if name not in CACHE_FOLDERS:
+        raise ValueError(f"'{name}' is not in CACHE_FOLDERS; list it there to cache under {cache_dir()}")
+    return cache_dir() / name
+
+
 def samples_dir() -> Path:
     """Where evaluations cache their generated samples unless told otherwise."""
-    return cache_dir() / SAMPLES
+    return cache_folder(SAMPLES)
+
+
+def vlm_dir() -> Path:
+    """The default VLM response cache: `$XDG_CACHE_HOME/vsmp-imu/vlm`, else `~/.cache/vsmp-imu/vlm`."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "vsmp-imu" / VLM
 
 
 def max_cache_bytes() -> int:
@@ -63,20 +88,36 @@ class FolderUsage:
     bytes: int
 
 
+@dataclass(frozen=True)
+class CacheContents:
+    folders: list[FolderUsage]  # the project's folders: real folders named in CACHE_FOLDERS
+    others: list[Path]  # every other entry under the root (links included): not the project's
+
+
 def _files(folder: Path) -> list[Path]:
-    return [p for p in folder.rglob("*") if p.is_file()] if folder.is_dir() else []
-
-
-def cache_usage(root: Path | None = None) -> list[FolderUsage]:
-    """Files and bytes of each folder directly under the cache (`root`, default cache_dir())."""
-    root = cache_dir() if root is None else Path(root)
-    if not root.is_dir():
-        return []
+    """The regular files below `folder`; links are neither followed nor counted."""
     out = []
-    for folder in sorted(p for p in root.iterdir() if p.is_dir()):
-        files = _files(folder)
-        out.append(FolderUsage(folder.name, len(files), sum(_size(p) for p in files)))
+    for parent, _, names in os.walk(folder):
+        out += [p for p in (Path(parent) / n for n in names) if p.is_file() and not p.is_symlink()]
     return out
+
+
+def _usage(folder: Path) -> FolderUsage:
+    files = _files(folder)
+    return FolderUsage(folder.name, len(files), sum(_size(p) for p in files))
+
+
+def _is_project_folder(path: Path) -> bool:
+    return path.name in CACHE_FOLDERS and not path.is_symlink() and path.is_dir()
+
+
+def cache_contents(root: Path | None = None) -> CacheContents:
+    """What lies directly under the cache (`root`, default cache_dir()): the project's folders
+    with their files and bytes, and the other entries."""
+    root = cache_dir() if root is None else Path(root)
+    entries = sorted(root.iterdir()) if root.is_dir() else []
+    return CacheContents([_usage(p) for p in entries if _is_project_folder(p)],
+                         [p for p in entries if not _is_project_folder(p)])
 
 
 def _size(path: Path) -> int:
@@ -113,17 +154,26 @@ def prune_cache(folder: Path, max_bytes: int) -> tuple[int, int]:
     return removed, freed
 
 
-def clear_cache(root: Path | None = None, only: str | None = None) -> FolderUsage:
-    """Empty the cache (or only its folder `only`); returns what was removed."""
+def clear_cache(root: Path | None = None, only: str | None = None) -> tuple[list[FolderUsage], list[Path]]:
+    """Remove the project's cache folders (or only the folder `only`, one of CACHE_FOLDERS).
+
+    Returns what was removed, counted before removal (a file that could not be removed is not
+    counted), and the entries left alone: every other entry (with `only`: one named `only`
+    that is not a project folder, e.g. a link). Links are never followed.
+    """
+    if only is not None and only not in CACHE_FOLDERS:
+        raise ConfigError(f"'{only}' is not one of the project's cache folders", field="--only",
+                          allowed=", ".join(CACHE_FOLDERS))
+    contents = cache_contents(root)
     root = cache_dir() if root is None else Path(root)
-    usage = {u.name: u for u in cache_usage(root)}
-    if only is not None and only not in usage:
-        raise ConfigError(f"the cache {root} has no folder '{only}'", field="--only",
-                          allowed=", ".join(usage) or "(the cache is empty)")
-    names = [only] if only is not None else list(usage)
-    for name in names:
-        shutil.rmtree(root / name, ignore_errors=True)
-    return FolderUsage(only or "all", sum(usage[n].files for n in names), sum(usage[n].bytes for n in names))
+    removed = [_remove(root / u.name, u) for u in contents.folders if only in (None, u.name)]
+    return removed, [p for p in contents.others if only in (None, p.name)]
+
+
+def _remove(folder: Path, before: FolderUsage) -> FolderUsage:
+    shutil.rmtree(folder, ignore_errors=True)
+    after = _usage(folder) if folder.is_dir() else FolderUsage(folder.name, 0, 0)
+    return FolderUsage(folder.name, before.files - after.files, before.bytes - after.bytes)
 
 
 def load_npz(path: Path) -> dict[str, np.ndarray] | None:

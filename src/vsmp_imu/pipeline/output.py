@@ -11,6 +11,8 @@ Layout of an output folder:
   prompts.jsonl       sample key -> verbalized prompt
   motions/            the motions (.npz), when kept
   summary.json        per-class counts, filter statistics, tau_cls, config
+  generate.json       the dataset and held-out subject, written before any work
+                      (`vsmp-imu generate` only: `claim_output`)
 """
 
 from __future__ import annotations
@@ -24,11 +26,15 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from vsmp_imu.errors import InputFileError
+from vsmp_imu.errors import ConfigError, InputFileError
 from vsmp_imu.har.windows import Windows
-from vsmp_imu.io import write_bytes, write_json, write_text
+from vsmp_imu.io import is_temp_name, write_bytes, write_json, write_text
 from vsmp_imu.pipeline.fold import FoldOutput
 from vsmp_imu.pipeline.sample import json_default
+
+RUN_FILE = "generate.json"  # the dataset and held-out subject of a `generate` folder (claim_output)
+OUTPUT_FILES = ("synthetic.parquet", "prompts.jsonl", "summary.json")  # and smps/*.json, motions/*.npz
+MAX_SUMMARY_BYTES = 64 * 2**20  # a larger summary.json is not one `generate` wrote
 
 
 def _dumps(value: Any) -> str:
@@ -115,3 +121,52 @@ def write_output(folder: Path, out: FoldOutput, extra_summary: dict[str, Any]) -
                                "smp_id": prov.smp_id}))
     write_text(folder / "prompts.jsonl", "".join(p + "\n" for p in prompts))
     write_json(folder / "summary.json", json.loads(_dumps({**out.summary, **extra_summary})))
+
+
+def claim_output(folder: Path, dataset: str, holdout: str) -> None:
+    """Take `folder` for the `generate` run of `dataset` with `holdout` held out, before any work.
+
+    A new or empty folder is taken, and so is one of an earlier run of the same dataset and
+    held-out subject (a killed run to resume, or a rerun): that run's outputs are removed first,
+    so the folder never mixes two runs; its per-sample cache (`cache/`) stays, for the samples
+    to be reused. A folder that holds anything else is refused (ConfigError).
+    """
+    entries = [p for p in folder.iterdir() if not is_temp_name(p.name)] if folder.is_dir() else []
+    if entries:
+        held = earlier_fold(folder)
+        if held != (dataset, holdout):
+            raise ConfigError(_holds(held, entries, dataset, holdout), file=folder, field="--output",
+                              allowed="a new or empty folder, or the folder of an earlier `vsmp-imu generate` of "
+                                      "the same dataset and held-out subject (rerun: its outputs are replaced); "
+                                      "give another -o, or remove the folder")
+        _remove_outputs(folder)
+    write_json(folder / RUN_FILE, {"command": "vsmp-imu generate", "dataset": dataset, "holdout": holdout})
+
+
+def earlier_fold(folder: Path) -> tuple[str, str] | None:
+    """(dataset, held-out subject) of the `generate` run in `folder`, read from its RUN_FILE (or the
+    summary.json of a run written before RUN_FILE was); None when neither names them."""
+    for name in (RUN_FILE, "summary.json"):
+        try:
+            if (folder / name).stat().st_size > MAX_SUMMARY_BYTES:
+                continue
+            data = json.loads((folder / name).read_text(encoding="utf-8"))
+        except (OSError, ValueError, RecursionError):  # absent, not JSON, or nested too deep
+            continue
+        if isinstance(data, dict) and isinstance(data.get("dataset"), str) and isinstance(data.get("holdout"), str):
+            return data["dataset"], data["holdout"]
+    return None
+
+
+def _holds(held: tuple[str, str] | None, entries: list[Path], dataset: str, holdout: str) -> str:
+    if held is not None:
+        return (f"holds the output of `vsmp-imu generate` for {held[0]} with held-out subject {held[1]}, "
+                f"not {dataset} with {holdout}")
+    names = sorted(p.name for p in entries)
+    shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+    return f"is not empty and holds no earlier `vsmp-imu generate` run ({shown})"
+
+
+def _remove_outputs(folder: Path) -> None:
+    for path in (*(folder / n for n in OUTPUT_FILES), *folder.glob("smps/*.json"), *folder.glob("motions/*.npz")):
+        path.unlink(missing_ok=True)

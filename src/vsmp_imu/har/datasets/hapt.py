@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from vsmp_imu.errors import DependencyError, InputFileError
-from vsmp_imu.har.cache import cache_dir, file_sha256, load_npz, save_npz
+from vsmp_imu.har.cache import HAPT_CACHE, cache_folder, file_sha256, load_npz, save_npz
 from vsmp_imu.har.dataset import (
     DatasetInfo,
     HarDataset,
@@ -124,7 +124,7 @@ def load_hapt_arrays(path: Path | None = None, use_cache: bool = True) -> dict[s
     path = path or hapt_file()
     if not use_cache:
         return _parse(path)
-    cached_at = cache_dir() / "hapt" / f"hapt-v{CACHE_VERSION}-{file_sha256(path)[:16]}.npz"
+    cached_at = cache_folder(HAPT_CACHE) / f"hapt-v{CACHE_VERSION}-{file_sha256(path)[:16]}.npz"
     arrays = load_npz(cached_at)
     if arrays is None or set(arrays) != set(CACHED_ARRAYS):  # absent, truncated or foreign: rebuilt
         arrays = _parse(path)

@@ -1,0 +1,85 @@
+"""`vsmp-imu generate -o DIR` takes a new or empty folder, or one of an earlier run of the same
+dataset and held-out subject (to resume or redo it, its earlier outputs removed first); it
+refuses a folder of anything else, so it never overwrites a user's files nor mixes two folds."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from vsmp_imu.errors import ConfigError
+from vsmp_imu.pipeline.output import RUN_FILE, claim_output
+
+GENERIC = Path(__file__).resolve().parents[1] / "fixtures" / "datasets" / "generic" / "dataset.yaml"
+
+
+def _generate(cli, out: Path, holdout: str):
+    return cli("generate", "--dataset", GENERIC, "--holdout", holdout, "-o", out, "--k", "1", "--alpha", "0.2")
+
+
+def _run_files(out: Path) -> tuple[set[str], set[str], set[str]]:
+    """The samples of synthetic.parquet, and the stems of smps/ and motions/."""
+    samples = {s.replace("/", "__") for s in pq.read_table(out / "synthetic.parquet")["sample"].to_pylist()}
+    return samples, {p.stem for p in (out / "smps").iterdir()}, {p.stem for p in (out / "motions").iterdir()}
+
+
+def test_generate_refuses_a_folder_of_the_users_files(cli, tmp_path):
+    out = tmp_path / "out"
+    (out / "smps").mkdir(parents=True)
+    (out / "summary.json").write_text("my notes")
+    code, _, err = _generate(cli, out, "p1")
+    assert code == 2 and str(out) in err and "--output" in err
+    assert "holds no earlier `vsmp-imu generate` run (smps, summary.json)" in err and "another -o" in err
+    assert (out / "summary.json").read_text() == "my notes" and sorted(p.name for p in out.iterdir()) == [
+        "smps", "summary.json"]
+
+
+def test_generate_refuses_the_folder_of_another_fold_and_redoes_its_own(cli, tmp_path):
+    out = tmp_path / "out"
+    assert _generate(cli, out, "p1")[0] == 0
+    samples, smps, motions = _run_files(out)
+    assert samples and smps == samples and motions == samples
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+
+    code, _, err = _generate(cli, out, "p2")
+    assert code == 2 and str(out) in err
+    assert "holds the output of `vsmp-imu generate` for my_waist_phone with held-out subject p1" in err
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+
+    (out / "smps/holdout-p1__walk__0099.json").write_text("{}")  # an earlier run's samples this run does not make
+    (out / "motions/holdout-p1__walk__0099.npz").write_bytes(b"x")
+    (out / "notes.txt").write_text("mine")
+    assert _generate(cli, out, "p1")[0] == 0
+    assert _run_files(out) == (samples, smps, motions)
+    assert (out / "notes.txt").read_text() == "mine"
+    assert json.loads((out / RUN_FILE).read_text())["holdout"] == "p1"
+
+
+def test_claim_takes_a_new_folder_or_one_of_the_same_fold(tmp_path):
+    claim_output(tmp_path / "new", "d", "p1")
+    assert json.loads((tmp_path / "new" / RUN_FILE).read_text()) == {
+        "command": "vsmp-imu generate", "dataset": "d", "holdout": "p1"}
+    killed = tmp_path / "killed"  # a run killed while writing its first file: only a temporary
+    killed.mkdir()
+    (killed / ".generate.json.host~123.abc.json.tmp").write_text("")
+    claim_output(killed, "d", "p1")
+    older = tmp_path / "older"  # a finished run written before RUN_FILE existed
+    (older / "cache").mkdir(parents=True)
+    (older / "cache" / "abc.parquet").write_text("kept")
+    (older / "summary.json").write_text(json.dumps({"dataset": "d", "holdout": "p1", "tau_cls": 0.5}))
+    (older / "synthetic.parquet").write_text("old")
+    claim_output(older, "d", "p1")
+    assert sorted(p.name for p in older.iterdir()) == ["cache", RUN_FILE]
+    assert (older / "cache" / "abc.parquet").read_text() == "kept"
+
+
+@pytest.mark.parametrize("other", [("d", "p2"), ("e", "p1")])
+def test_claim_refuses_another_fold(tmp_path, other):
+    claim_output(tmp_path, "d", "p1")
+    with pytest.raises(ConfigError) as err:
+        claim_output(tmp_path, *other)
+    assert err.value.field == "--output" and err.value.file == str(tmp_path)
+    assert "for d with held-out subject p1" in err.value.message
