@@ -4,7 +4,8 @@ A record set is a folder `results/NAME/` holding `run.json` (the command that
 produced the records, the code commit, the evaluation's configuration and the
 class names) and `records.jsonl` (one line per (budget, backbone, method,
 fold, seed)). `import_run` writes one from an `evaluate` output folder;
-`load_run` reads it back for `vsmp-imu report`.
+`load_run` reads it back for `vsmp-imu report`. Both check each record on the way in:
+its fields' types and ranges (`EvaluationRecord`) and its classes (`check_classes`).
 """
 
 from __future__ import annotations
@@ -13,11 +14,15 @@ import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
-from vsmp_imu.errors import ConfigError, InputFileError
+import pydantic
+from pydantic import BaseModel, ConfigDict, Field
+
+from vsmp_imu.errors import ConfigError, InputFileError, ValidationError
 from vsmp_imu.har.windows import natural_key
 from vsmp_imu.io import dumps_json, read_text, write_text
+from vsmp_imu.validation import validation_error
 
 RUN_KEYS = ("dataset", "protocol", "budget", "backbone", "method", "fold", "seed")
 SPLIT_KEYS = (
@@ -59,6 +64,139 @@ RUN_FILE = "run.json"
 RECORDS_FILE = "records.jsonl"
 NAME_PATTERN = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
 
+Score = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+Count = Annotated[int, Field(ge=0)]
+SCORE = "a number from 0 to 1"
+SCORE_OR_NULL = f"{SCORE}, or null"
+SCORES = "an object {name: a number from 0 to 1 or null}"
+COUNT_OR_NULL = "an integer >= 0, or null"
+NAMES = "a list of class names, or null"
+
+
+def _field(allowed: str, default: Any = ...) -> Any:
+    return Field(default, description=allowed)
+
+
+class Share(BaseModel):
+    """The do-no-harm choice of one class, as far as the tables read it."""
+
+    model_config = ConfigDict(strict=True, extra="ignore")
+    share: Score
+    offered: Count
+    kept: Count
+    n_val: Count
+    judged: bool | None = None
+
+
+class EvaluationRecord(BaseModel):
+    """The types and ranges of an evaluation record's committed fields (JSON types, no
+    conversion); a field's description is what it allows. Other fields are not checked."""
+
+    model_config = ConfigDict(strict=True, extra="ignore")
+    dataset: str = _field("a string")
+    protocol: str = _field("a string")
+    backbone: str = _field("a string")
+    method: str = _field("a string")
+    fold: str = _field("a string (the held-out subject)")
+    seed: Count = _field("an integer >= 0")
+    budget: Annotated[float, Field(gt=0, le=100)] | None = _field("a percentage in (0, 100], or null", None)
+    macro_f1: Score = _field(SCORE)
+    accuracy: Score | None = _field(SCORE_OR_NULL, None)
+    group_macro_f1: dict[str, Score | None] | None = _field(SCORES, None)
+    head_macro_f1: Score | None = _field(SCORE_OR_NULL, None)
+    tail_macro_f1: Score | None = _field(SCORE_OR_NULL, None)
+    per_class_f1: dict[str, Score | None] | None = _field(SCORES, None)
+    confusion: list[list[Count]] | None = _field("rows of integers >= 0, one row and column per class", None)
+    head_classes: list[str] | None = _field(NAMES, None)
+    tail_classes: list[str] | None = _field(NAMES, None)
+    n_train_real: Count | None = _field(COUNT_OR_NULL, None)
+    n_synthetic: Count | None = _field(COUNT_OR_NULL, None)
+    n_synthetic_requested: Count | None = _field(COUNT_OR_NULL, None)
+    n_val: Count | None = _field(COUNT_OR_NULL, None)
+    n_test: Count | None = _field(COUNT_OR_NULL, None)
+    synthetic_shares: dict[str, Share] | None = _field(
+        "an object of class: {share (0 to 1), offered, kept, n_val (integers >= 0)}, or null", None)
+    epochs: Count | None = _field(COUNT_OR_NULL, None)
+    best_epoch: Count | None = _field(COUNT_OR_NULL, None)
+    unseen_classes: list[str] | None = _field(NAMES, None)
+    unseen_capable: bool | None = _field("true, false or null", None)
+    n_synthetic_unseen: Count | None = _field(COUNT_OR_NULL, None)
+    unseen_macro_f1: Score | None = _field(SCORE_OR_NULL, None)
+    seen_macro_f1: Score | None = _field(SCORE_OR_NULL, None)
+    seen_as_unseen: Score | None = _field(SCORE_OR_NULL, None)
+    unseen_as_seen: Score | None = _field(SCORE_OR_NULL, None)
+
+
+@dataclass(frozen=True)
+class Origin:
+    """Where a record was read: its file and, in a file of several records, which one."""
+
+    file: Path
+    where: str = ""  # "record 3" (results.json), "line 3" (records.jsonl); "" for a file of one
+
+    def __str__(self) -> str:
+        return f"{self.file} {self.where}".strip()
+
+    def error(self, message: str, field: str | None, allowed: str | None = None) -> ValidationError:
+        text = f"{self.where}: {message}" if self.where else message
+        return ValidationError(text, file=self.file, field=field, allowed=allowed)
+
+
+def check_record(record: Any, origin: Origin) -> dict[str, Any]:
+    """`record` itself where its committed fields have their types and ranges
+    (`EvaluationRecord`); else a ValidationError naming its origin and the field."""
+    if not isinstance(record, dict):
+        raise origin.error(f"an evaluation record is an object, not {_json_kind(record)}", None)
+    try:
+        EvaluationRecord.model_validate(record)
+    except pydantic.ValidationError as exc:
+        found = validation_error(exc)
+        top = re.split(r"[.\[]", found.field or "", maxsplit=1)[0]
+        spec = EvaluationRecord.model_fields.get(top)
+        raise origin.error(found.message, found.field, spec.description if spec else None) from exc
+    return record
+
+
+def _json_kind(value: Any) -> str:
+    kinds = {dict: "an object", list: "a list", str: "a string", bool: "true or false", type(None): "null"}
+    return kinds.get(type(value), "a number")
+
+
+def check_classes(record: dict[str, Any], names: tuple[str, ...], origin: Origin, given: bool = False) -> None:
+    """`record`'s confusion matrix is square with a row per class of `names` and its per-class
+    F1 names those classes (where it has them); else a ValidationError, or where `names`
+    came from --labels (`given`) a ConfigError about that option."""
+    problem = _class_problem(record, names)
+    if problem is None:
+        return
+    field, found, why = problem
+    if given:
+        raise ConfigError(f"{len(names)} classes given; {origin} has {found}", field="--labels")
+    raise origin.error(f"{found}{why}", field)
+
+
+def _class_problem(record: dict[str, Any], names: tuple[str, ...]) -> tuple[str, str, str] | None:
+    """The field that does not fit the classes `names` (none known: a confusion matrix that is
+    not square), what it holds and why that does not fit."""
+    confusion, named = record.get("confusion"), record.get("per_class_f1")
+    n = len(names)
+    classes = f"the run's {n} classes ({', '.join(names)})"
+    if confusion is not None:
+        size = n or len(confusion)
+        if len(confusion) != size or any(len(row) != size for row in confusion):
+            why = f"; {classes} need {n}x{n}" if names else "; it must be square"
+            return "confusion", f"a {_shape(confusion)} confusion matrix", why
+    if names and named is not None and set(named) != set(names):
+        return "per_class_f1", f"per-class F1 of {', '.join(sorted(named)) or 'no class'}", f", not of {classes}"
+    return None
+
+
+def _shape(confusion: list[list[int]]) -> str:
+    widths = sorted({len(row) for row in confusion})
+    if len(widths) > 1:
+        return f"ragged ({len(confusion)} rows of {widths[0]} to {widths[-1]} counts)"
+    return f"{len(confusion)}x{widths[0] if widths else 0}"
+
 
 @dataclass(frozen=True)
 class RecordSet:
@@ -94,11 +232,7 @@ def _sort_key(r: dict[str, Any]) -> tuple:
 
 
 def compact(record: dict[str, Any]) -> dict[str, Any]:
-    """The committed fields of one evaluation record."""
-    missing = [k for k in ("dataset", "protocol", "backbone", "method", "fold", "seed", "macro_f1")
-               if k not in record]
-    if missing:
-        raise InputFileError(f"an evaluation record lacks {', '.join(missing)}")
+    """The committed fields of one evaluation record (one `check_record` passed)."""
     keys = RECORD_KEYS + (UNSEEN_KEYS if record.get("unseen_classes") is not None else ())
     return {k: record.get(k) for k in keys}
 
@@ -111,45 +245,57 @@ def _read_json(path: Path) -> Any:
 
 
 def read_evaluation(run_dir: str | Path, every_record: bool = False
-                    ) -> tuple[dict[str, Any], tuple[str, ...], list[dict]]:
+                    ) -> tuple[dict[str, Any], tuple[str, ...], list[tuple[dict, Origin]]]:
     """Configuration, class names and records of an `evaluate` output folder: its
     `results.json`, or (for a run still going) the class names of none and the files
     in `records/`. `results.json` holds the last invocation's records only; where
     `records/` holds more (several invocations into one folder, e.g. one per
-    `--only-seeds`), `every_record` takes them all and otherwise it is a ConfigError."""
+    `--only-seeds`), `every_record` takes them all and otherwise it is a ConfigError.
+    Each record comes with its origin, checked by `check_record`."""
     run_dir = Path(run_dir)
     results = run_dir / "results.json"
-    files = sorted((run_dir / "records").glob("*.json")) if (run_dir / "records").is_dir() else []
+    folder = run_dir / "records"
+    files = [(_read_json(f), Origin(f)) for f in sorted(folder.glob("*.json"))] if folder.is_dir() else []
     if results.exists():
         data = _read_json(results)
         if not isinstance(data, dict) or "records" not in data:
             raise InputFileError("not an evaluation result (no 'records')", file=results)
-        records = data["records"]
-        extra = _extra_records(records, [_read_json(f) for f in files])
+        records = _listed(data["records"], results)
+        extra = _extra_records(records, files)
         if extra and not every_record:
             raise ConfigError(
-                f"{results} holds {len(records)} records and {run_dir / 'records'} {len(extra)} more (earlier "
+                f"{results} holds {len(records)} records and {folder} {len(extra)} more (earlier "
                 "runs into this folder, e.g. one per --only-seeds): --every-record imports them all",
                 field="--every-record")
-        return data.get("config", {}), tuple(data.get("label_names", ())), records + extra
+        config, names = data.get("config", {}), tuple(data.get("label_names", ()))
+        return config, names, [(check_record(r, o), o) for r, o in records + extra]
     if not files:
         raise InputFileError(
             "no results.json and no records/*.json: not an `vsmp-imu evaluate` output folder",
             file=run_dir,
         )
-    records = [_read_json(f) for f in files]
     # one folder is one dataset: record files written before records said their order follow it too
-    orders = {tuple(r["label_names"]) for r in records if isinstance(r, dict) and r.get("label_names")}
-    return {}, orders.pop() if len(orders) == 1 else (), records
+    orders = {tuple(r["label_names"]) for r, _ in files if isinstance(r, dict) and r.get("label_names")}
+    return {}, orders.pop() if len(orders) == 1 else (), [(check_record(r, o), o) for r, o in files]
 
 
-def _extra_records(records: list[dict], files: list[Any]) -> list[dict]:
+def _listed(records: Any, results: Path) -> list[tuple[Any, Origin]]:
+    """The records of results.json, numbered from 1; a ValidationError where `records` is
+    not a non-empty list."""
+    if not isinstance(records, list) or not records:
+        got = "an empty list" if records == [] else _json_kind(records)
+        raise ValidationError(f"is {got}", file=results, field="records", allowed="a list of evaluation records")
+    return [(r, Origin(results, f"record {i}")) for i, r in enumerate(records, start=1)]
+
+
+def _extra_records(records: list[tuple[Any, Origin]], files: list[tuple[Any, Origin]]
+                   ) -> list[tuple[Any, Origin]]:
     """The record files whose run (RUN_KEYS and the unseen classes) `records` lacks."""
     def key(r: dict) -> tuple:
         return (*(str(r.get(k)) for k in RUN_KEYS), tuple(r.get("unseen_classes") or ()))
 
-    known = {key(r) for r in records if isinstance(r, dict)}
-    return [r for r in files if isinstance(r, dict) and key(r) not in known]
+    known = {key(r) for r, _ in records if isinstance(r, dict)}
+    return [(r, o) for r, o in files if isinstance(r, dict) and key(r) not in known]
 
 
 def import_run(
@@ -169,9 +315,11 @@ def import_run(
     check_name(name)
     if not command.strip():
         raise ConfigError("the command that produced the records is required", field="--command")
-    config, label_names, records = read_evaluation(run_dir, every_record)
-    rows = sorted((compact(r) for r in records), key=_sort_key)
-    label_names = _class_order(label_names, tuple(labels), rows)
+    config, found, records = read_evaluation(run_dir, every_record)
+    label_names = _class_order(found, tuple(labels))
+    for record, origin in records:
+        check_classes(record, label_names, origin, given=not found)
+    rows = sorted((compact(r) for r, _ in records), key=_sort_key)
     folder = Path(results_dir) / name
     meta = {"name": name, "command": command.strip(), "code_commit": code_commit,
             "config": config, "label_names": list(label_names), "n_records": len(rows),
@@ -182,25 +330,16 @@ def import_run(
     return folder
 
 
-def _class_order(found: tuple[str, ...], given: tuple[str, ...], rows: list[dict]) -> tuple[str, ...]:
-    """The confusion matrices' class order: the run's own, else `given` (which must name the
-    records' classes, as many as the matrices have); a ConfigError when neither says it."""
+def _class_order(found: tuple[str, ...], given: tuple[str, ...]) -> tuple[str, ...]:
+    """The confusion matrices' class order: the run's own, else `given`; a ConfigError when
+    neither says it or they differ."""
     if found and given and found != given:
         raise ConfigError(f"the run says its classes are {', '.join(found)}", field="--labels")
-    order = found or given
-    if not rows:
-        return order
-    if not order:
+    if not (found or given):
         raise ConfigError("these record files do not say the order of their confusion matrices' classes; "
                           "give it (the dataset's class order, as `vsmp-imu dataset info` lists it)",
                           field="--labels")
-    for row in rows:
-        named = set(row.get("per_class_f1") or order)
-        size = len(row.get("confusion") or order)
-        if named != set(order) or size != len(order):
-            raise ConfigError(f"{len(order)} classes given; the records have {size} "
-                              f"({', '.join(sorted(named))})", field="--labels")
-    return order
+    return found or given
 
 
 def require_files(results_dir: str | Path, name: str, files: tuple[str, ...], how: str) -> list[Path]:
@@ -217,29 +356,40 @@ def require_files(results_dir: str | Path, name: str, files: tuple[str, ...], ho
 
 
 def load_run(results_dir: str | Path, name: str) -> RecordSet:
-    """Read `results_dir/NAME/`; a missing or malformed file is an `InputFileError`."""
+    """Read `results_dir/NAME/`; a missing or malformed file is an `InputFileError`, a record
+    with a field of the wrong type or range or not fitting the classes a `ValidationError`."""
     meta_path, records_path = require_files(results_dir, name, (RUN_FILE, RECORDS_FILE),
                                             f"RUN_DIR --name {name} --command ...")
     meta = _read_json(meta_path)
     if not isinstance(meta, dict) or not isinstance(meta.get("command"), str):
         raise InputFileError("needs an object with a 'command' string", file=meta_path)
-    records = []
-    for i, line in enumerate(read_text(records_path).splitlines(), start=1):
-        if not line.strip():
-            continue
-        try:
-            record = json.loads(line)
-        except json.JSONDecodeError as exc:
-            raise InputFileError(f"line {i} is not valid JSON: {exc}", file=records_path) from exc
-        if not isinstance(record, dict) or "macro_f1" not in record:
-            raise InputFileError(f"line {i} is not an evaluation record", file=records_path)
-        records.append(record)
+    label_names = tuple(meta.get("label_names") or ())
+    records = _read_lines(records_path, label_names)
     return RecordSet(
         name=name,
         command=meta["command"],
         code_commit=meta.get("code_commit"),
         note=meta.get("note"),
         config=meta.get("config") or {},
-        label_names=tuple(meta.get("label_names") or ()),
+        label_names=label_names,
         records=tuple(records),
     )
+
+
+def _read_lines(path: Path, label_names: tuple[str, ...]) -> list[dict[str, Any]]:
+    """The records of a records.jsonl, each checked (`check_record`, `check_classes`); an
+    error naming the line of the first bad one, or where the file holds none."""
+    records = []
+    for i, line in enumerate(read_text(path).splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            data = json.loads(line)
+        except json.JSONDecodeError as exc:
+            raise InputFileError(f"line {i} is not valid JSON: {exc}", file=path) from exc
+        origin = Origin(path, f"line {i}")
+        records.append(check_record(data, origin))
+        check_classes(data, label_names, origin)
+    if not records:
+        raise InputFileError("holds no record", file=path)
+    return records
