@@ -49,6 +49,7 @@ class FoldPlan:
 def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
     """Load the dataset, drop the held-out subject and work out the budget and the sources."""
     from vsmp_imu.har.datasets import load_dataset
+    from vsmp_imu.har.holdout import require_holdout, require_windows
     from vsmp_imu.har.synthetic import ALPHA_RANGE, synthetic_budget
     from vsmp_imu.pipeline.method import make_smp_source
     from vsmp_imu.smp.library import ActivityLibrary
@@ -58,10 +59,9 @@ def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
                           allowed=f"{ALPHA_RANGE[0]}..{ALPHA_RANGE[1]}")
     ds = load_dataset(request.dataset, request.data_dir)
     windows = ds.windows(request.window_s, request.overlap)
+    require_windows(ds, windows, request.window_s)
+    require_holdout(ds, windows, request.holdout, request.window_s)
     subjects = windows.unique_subjects()
-    if request.holdout not in subjects:
-        raise ConfigError(f"subject '{request.holdout}' is not in {ds.info.name}", field="--holdout",
-                          allowed=", ".join(subjects))
     train = windows.where_subjects([request.holdout], keep=False)
     budget = synthetic_budget(train.class_counts(), spec.alpha, spec.policy)
     library = ActivityLibrary.load([Path(d) for d in spec.library_dirs])
