@@ -1,9 +1,10 @@
-"""`generate` and `evaluate` on datasets at the edge of what a fold can use: one subject, a
-subject whose recording is shorter than a window, no window at all. Each exits 2 naming the
-option or file; none ends in a traceback."""
+"""`generate` and `evaluate` on datasets at the edge of what a fold can use: one subject, one
+class, a subject whose recording is shorter than a window, no window at all. Each either works
+or exits 2 naming the option or file; none ends in a traceback."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pandas as pd
@@ -58,3 +59,13 @@ def test_a_dataset_without_a_window_is_refused_with_its_longest_recording(cli, t
     code, _, err = _generate(cli, path, "p1", tmp_path / "gen")
     assert code == 2 and str(path) in err and "gives no labelled window of 2 s" in err
     assert "0.08 s (400 samples at 5000 Hz)" in err and "fs_hz" in err
+
+
+def test_one_class_generates_and_evaluate_asks_for_two(cli, tmp_path):
+    path = _dataset(tmp_path / "ds", labels=("walk",))
+    code, out, err = _generate(cli, path, "p1", tmp_path / "gen")
+    assert code == 0, err
+    summary = json.loads((tmp_path / "gen" / "summary.json").read_text())
+    assert list(summary["per_class"]) == ["walk"] and summary["per_class"]["walk"]["selected"] > 0
+    code, _, err = cli("evaluate", "--dataset", path, "--methods", "real", "-o", tmp_path / "ev")
+    assert code == 2 and "field 'labels'" in err and "1 class(es) (walk)" in err and "at least 2 classes" in err
