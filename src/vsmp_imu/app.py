@@ -61,6 +61,7 @@ def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
     windows = ds.windows(request.window_s, request.overlap)
     require_windows(ds, windows, request.window_s)
     require_holdout(ds, windows, request.holdout, request.window_s)
+    check_level_parts(spec, windows.X.shape[1], request.window_s, ds.info.fs_hz)
     subjects = windows.unique_subjects()
     train = windows.where_subjects([request.holdout], keep=False)
     budget = synthetic_budget(train.class_counts(), spec.alpha, spec.policy)
@@ -68,6 +69,13 @@ def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
     with naming_dataset(request.dataset):
         sources = make_smp_source(spec.source, library).smps(ds.info.name, ds.info.label_names)
     return FoldPlan(ds.info, train, subjects, budget, sources, library, list(ds.warnings))
+
+
+def check_level_parts(spec: GenerationSpec, size: int, window_s: float, fs_hz: float) -> None:
+    """Window levels per part need a sample in every part of a window of `size` samples."""
+    if spec.window_levels and spec.level_parts > size:
+        raise ConfigError(f"{spec.level_parts} parts of a window of {window_s:g} s at {fs_hz:g} Hz ({size} samples) "
+                          "leave some part without a sample", field="--level-parts", allowed=f"1..{size}")
 
 
 @contextmanager
@@ -168,7 +176,8 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
         spec = replace(spec, cache_dir=str(samples_dir()))
     params = method_params(request.methods, spec)
     ds = load_dataset(request.dataset, request.data_dir)
-    window_geometry(ds.info.fs_hz, request.window_s, request.overlap)  # range checks before any work
+    size, _ = window_geometry(ds.info.fs_hz, request.window_s, request.overlap)  # range checks before any work
+    check_level_parts(spec, size, request.window_s, ds.info.fs_hz)
     check_sources(spec, request.methods, ds, request.dataset)
     config = EvalConfig(
         dataset=ds.info.name, protocol=request.protocol, budgets=request.budgets, backbones=request.backbones,

@@ -1,5 +1,6 @@
-"""`generate` and `evaluate` on datasets at the edge of what a fold can use: one subject, one
-class, a subject whose recording is shorter than a window, no window at all. Each either works
+"""`generate`, `evaluate` and `data check` on datasets at the edge of what a fold can use: one
+subject, one class, a subject whose recording is shorter than a window, no window at all, and
+sampling rates too low for some stages. Each either works, with the skipped stages saying why,
 or exits 2 naming the option or file; none ends in a traceback."""
 
 from __future__ import annotations
@@ -69,3 +70,27 @@ def test_one_class_generates_and_evaluate_asks_for_two(cli, tmp_path):
     assert list(summary["per_class"]) == ["walk"] and summary["per_class"]["walk"]["selected"] > 0
     code, _, err = cli("evaluate", "--dataset", path, "--methods", "real", "-o", tmp_path / "ev")
     assert code == 2 and "field 'labels'" in err and "1 class(es) (walk)" in err and "at least 2 classes" in err
+
+
+def test_at_one_hz_the_stages_that_need_more_are_skipped_with_the_reason(cli, tmp_path):
+    """2 s at 1 Hz: windows of 2 samples, the fewest a window may have. Cadence (6 Hz), texture
+    (8 Hz) and the check's pairs of classes (4 samples a window) are skipped and say why."""
+    path = _dataset(tmp_path / "ds", fs_hz=1)
+    code, out, err = _generate(cli, path, "p1", tmp_path / "gen")
+    assert code == 0, err
+    summary = json.loads((tmp_path / "gen" / "summary.json").read_text())
+    assert "needs 6 Hz" in summary["cadence"]["walk"]["reason"] and "cadence walk: the SMP's tempo" in out
+    assert "needs 8 Hz" in summary["texture"]["waist"]["reason"]
+    code, out, err = cli("data", "check", path, "--samples", "1", "-o", tmp_path / "chk")
+    assert code == 0, err
+    check = json.loads((tmp_path / "chk" / "check.json").read_text())
+    assert check["pairs"] == [] and "needs 4 samples" in check["pairs_skipped"] and "not compared" in out
+    # window levels per part need a sample in each part
+    code, _, err = _generate(cli, path, "p1", tmp_path / "parts", "--level-parts", "4")
+    assert code == 2 and "'--level-parts'" in err and "(2 samples)" in err and "Allowed: 1..2." in err
+    code, _, err = cli("evaluate", "--dataset", path, "--methods", "real,vsmp", "--level-parts", "4", "-o",
+                       tmp_path / "ev")
+    assert code == 2 and "'--level-parts'" in err and not (tmp_path / "ev").exists()
+    # below 2 samples a window the rate is refused
+    code, _, err = _generate(cli, _dataset(tmp_path / "half", fs_hz=0.5), "p1", tmp_path / "half_gen")
+    assert code == 2 and "0.5 Hz" in err and "fewer than 2 samples" in err
