@@ -49,6 +49,7 @@ class FoldPlan:
 def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
     """Load the dataset, drop the held-out subject and work out the budget and the sources."""
     from vsmp_imu.har.datasets import load_dataset
+    from vsmp_imu.har.holdout import require_holdout, require_windows
     from vsmp_imu.har.synthetic import ALPHA_RANGE, synthetic_budget
     from vsmp_imu.pipeline.method import make_smp_source
     from vsmp_imu.smp.library import ActivityLibrary
@@ -58,16 +59,23 @@ def plan_fold(spec: GenerationSpec, request: FoldRequest) -> FoldPlan:
                           allowed=f"{ALPHA_RANGE[0]}..{ALPHA_RANGE[1]}")
     ds = load_dataset(request.dataset, request.data_dir)
     windows = ds.windows(request.window_s, request.overlap)
+    require_windows(ds, windows, request.window_s)
+    require_holdout(ds, windows, request.holdout, request.window_s)
+    check_level_parts(spec, windows.X.shape[1], request.window_s, ds.info.fs_hz)
     subjects = windows.unique_subjects()
-    if request.holdout not in subjects:
-        raise ConfigError(f"subject '{request.holdout}' is not in {ds.info.name}", field="--holdout",
-                          allowed=", ".join(subjects))
     train = windows.where_subjects([request.holdout], keep=False)
     budget = synthetic_budget(train.class_counts(), spec.alpha, spec.policy)
     library = ActivityLibrary.load([Path(d) for d in spec.library_dirs])
     with naming_dataset(request.dataset):
         sources = make_smp_source(spec.source, library).smps(ds.info.name, ds.info.label_names)
     return FoldPlan(ds.info, train, subjects, budget, sources, library, list(ds.warnings))
+
+
+def check_level_parts(spec: GenerationSpec, size: int, window_s: float, fs_hz: float) -> None:
+    """Window levels per part need a sample in every part of a window of `size` samples."""
+    if spec.window_levels and spec.level_parts > size:
+        raise ConfigError(f"{spec.level_parts} parts of a window of {window_s:g} s at {fs_hz:g} Hz ({size} samples) "
+                          "leave some part without a sample", field="--level-parts", allowed=f"1..{size}")
 
 
 @contextmanager
@@ -169,7 +177,8 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
         spec = replace(spec, cache_dir=str(samples_dir()))
     params = method_params(request.methods, spec)
     ds = load_dataset(request.dataset, request.data_dir)
-    window_geometry(ds.info.fs_hz, request.window_s, request.overlap)  # range checks before any work
+    size, _ = window_geometry(ds.info.fs_hz, request.window_s, request.overlap)  # range checks before any work
+    check_level_parts(spec, size, request.window_s, ds.info.fs_hz)
     check_sources(spec, request.methods, ds, request.dataset)
     config = EvalConfig(
         dataset=ds.info.name, protocol=request.protocol, budgets=request.budgets, backbones=request.backbones,

@@ -42,6 +42,13 @@ def test_validator_learns_and_embeds():
     assert np.array_equal(proba, again)
 
 
+def test_a_validator_that_saw_one_class_is_certain_of_it():
+    """sklearn's MLP gives two columns for one class; the validator gives that class probability 1."""
+    X, y = _data(np.random.default_rng(0))
+    proba = HarValidator(seed=1).fit(X[y == 1], y[y == 1], n_classes=3).predict_proba(X)
+    assert proba.shape == (len(X), 3) and (proba[:, 1] == 1).all() and (proba.sum(axis=1) == 1).all()
+
+
 def test_class_verdicts_apply_both_conditions():
     proba = np.array([[0.9, 0.1], [0.55, 0.45], [0.2, 0.8]])
     verdicts = class_verdicts(proba, np.array([0, 0, 0]), tau=0.6)

@@ -47,6 +47,15 @@ def test_a_class_needs_enough_windows():
     assert found["q10_hz"] <= found["median_hz"] <= found["q90_hz"]
 
 
+def test_a_rate_too_low_for_the_step_band_keeps_the_smps_tempo():
+    """Step rates reach 3 Hz: below 6 Hz the spectrum stops short of that (or of 1 Hz)."""
+    acc = np.random.default_rng(0).normal(9.81, 1.0, (20, 12, 3))
+    assert len(cadence.class_cadence(acc, cadence.MIN_RATE_HZ)[0]) == 20
+    for fs_hz in (5.9, 1.0):
+        values, reason = cadence.class_cadence(acc, fs_hz)
+        assert len(values) == 0 and f"{fs_hz:g} Hz cannot resolve" in reason and "needs 6 Hz" in reason
+
+
 def test_the_scale_times_a_cycle_to_the_target_and_is_clipped():
     # a 1.2 s two-step cycle steps at 1.67 /s; at 2 /s it must last 1.0 s
     assert cadence.scale_for(2.0, 2, 1.2) == pytest.approx(1.0 / 1.2)

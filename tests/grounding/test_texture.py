@@ -85,6 +85,16 @@ def test_same_generator_same_bytes_and_unfitted_or_unfilterable_left_alone(rng):
     assert bands(20.0)[1][1] == pytest.approx(9.0)  # the HF band stops below the Nyquist rate
 
 
+def test_nothing_fitted_says_why(rng):
+    """No room for the band below 8 Hz (its top stays under 0.45 x the rate), windows too short to
+    filter, or none: no ratio, and the summary says which."""
+    labels = np.zeros(30, int)
+    assert "that needs 8 Hz" in TextureModel(7.9).fit(rng.normal(size=(30, 40, 2)), labels).as_dict(["a"])["reason"]
+    assert "reason" not in TextureModel(8.0).fit(rng.normal(size=(30, 40, 2)), labels).as_dict(["a"])
+    assert "too short" in TextureModel(FS).fit(rng.normal(size=(30, 10, 2)), labels).as_dict(["a"])["reason"]
+    assert TextureModel(FS).fit(np.zeros((0, 100, 2)), labels[:0]).as_dict(["a"])["reason"] == "no real windows"
+
+
 def test_channel_and_shape_errors_name_the_field(rng):
     model = TextureModel(FS).fit(_sines(40, 200, 1.0, 0.5, rng), np.zeros(40, int))
     with pytest.raises(ValidationError, match="channels"):

@@ -289,6 +289,16 @@ def test_pairs_are_checked_within_each_location():
     assert all(p.cue == "a q1" and p.flags for p in found)
 
 
+def test_the_pair_check_needs_a_sample_in_every_quarter():
+    from vsmp_imu.pipeline.check import QUARTERS, compare_pair, pairs_skipped
+
+    assert pairs_skipped(QUARTERS) is None and "needs 4 samples" in pairs_skipped(QUARTERS - 1)
+    rng = np.random.default_rng(3)
+    real, syn = ((rng.normal(size=(20, QUARTERS, 2)), rng.normal(size=(20, QUARTERS, 2))) for _ in range(2))
+    found = compare_pair("waist", "x", "y", real, syn, ("a", "b"))
+    assert found is not None and np.isfinite([found.real_auc, found.synthetic_auc, found.real_best_separation]).all()
+
+
 def test_flagged_pairs_are_plotted_and_none_means_no_plot(tmp_path):
     from vsmp_imu.pipeline.check import DataCheck, check_pairs
 

@@ -274,14 +274,23 @@ def row_data_dir_with_hapt(i: Inputs) -> Row:
     return Row(["dataset", "info", "hapt", "--data-dir", i.tmp], "--data-dir", "ships with the package")
 
 
-def row_single_subject_evaluate(i: Inputs) -> Row:
+def _single_subject(i: Inputs) -> Path:
     (i.tmp / "data").mkdir()
     rows = [f"p1,{label},1.0,0.1,0.2" for label in ("walk", "sit") for _ in range(300)]
     (i.tmp / "data" / "p1.csv").write_text("\n".join(["subject,label,ax,ay,az", *rows]) + "\n")
     yaml = i.tmp / "one.yaml"
     yaml.write_text("name: one\ndata: data\nfs_hz: 50\nlocations:\n  - {name: waist, acc: [ax, ay, az], acc_unit: g}\n")
-    return Row(["evaluate", "-d", yaml, "-o", i.tmp / "run"], "one.yaml", "at least 2 subjects",
+    return yaml
+
+
+def row_single_subject_evaluate(i: Inputs) -> Row:
+    return Row(["evaluate", "-d", _single_subject(i), "-o", i.tmp / "run"], "one.yaml", "at least 2 subjects",
                absent=(i.tmp / "run" / "results.json",))
+
+
+def row_single_subject_generate(i: Inputs) -> Row:
+    return Row(["generate", "--dataset", _single_subject(i), "--holdout", "p1", "-o", i.tmp / "gen"], "--holdout",
+               "leaves no real training windows", absent=(i.tmp / "gen" / "synthetic.parquet",))
 
 
 def row_api_key_not_ascii(i: Inputs) -> Row:

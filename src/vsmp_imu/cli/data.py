@@ -76,7 +76,8 @@ def check_cmd(
                                        "samples": samples, "warnings": list(ds.warnings) + unlinked,
                                        "mountings": [asdict(m) for m in check.mountings_],
                                        "classes": check.to_json(),
-                                       "pairs": [asdict(p) for p in check.pairs_]})
+                                       "pairs": [asdict(p) for p in check.pairs_],
+                                       "pairs_skipped": check.pairs_skipped_})
     check.plot(output / "check.png", ds.info.fs_hz)
     pairs_png = check.plot_pairs(output / "check_pairs.png")
     places = sorted({r.location for r in results})
@@ -107,6 +108,8 @@ def check_cmd(
     for r in results:
         for flag in r.flags:
             console.print(f"[yellow]{r.label}[/] ({r.location}, {r.source}): {flag}", highlight=False)
+    if check.pairs_skipped_:
+        console.print(f"pairs of classes: not compared ({check.pairs_skipped_})", highlight=False)
     for p in check.pairs_:
         for flag in p.flags:
             console.print(f"[yellow]{p.first} vs {p.second}[/] ({p.location}): {flag}", highlight=False)

@@ -139,6 +139,8 @@ def _print_summary(summary: dict) -> None:
             ratios = ", ".join(f"{k:.2f}" for k in tex["pooled"])
             console.print(f"movement texture at {name}: 3-12 Hz / 0.3-3 Hz ratio per channel {ratios} (all "
                           f"classes), a class's own for {len(tex['classes'])} classes", highlight=False)
+        elif tex.get("reason"):
+            console.print(f"movement texture at {name}: none ({tex['reason']})", highlight=False)
     for name, levels in summary.get("window_levels", {}).items():
         mapped = ", ".join(f"{c} ({v['real_windows']})" for c, v in levels["classes"].items()) or "none"
         few = ", ".join(f"{c} ({k})" for c, k in levels["too_few"].items())

@@ -55,7 +55,10 @@ class HarValidator:
     def predict_proba_features(self, feats: np.ndarray) -> np.ndarray:
         proba = self.model_.predict_proba(self.scaler_.transform(feats))
         out = np.zeros((len(proba), self.n_classes_))
-        out[:, self.model_.classes_] = proba
+        if len(self.model_.classes_) == 1:  # sklearn gives two columns here; the one class it knows is certain
+            out[:, self.model_.classes_[0]] = 1.0
+        else:
+            out[:, self.model_.classes_] = proba
         return out
 
     def embed(self, X: np.ndarray) -> np.ndarray:

@@ -12,7 +12,8 @@ A sample of a gait class (an SMP with periodicity "cyclic" whose procedural reci
 `locomotion` is not "none") with at least `MIN_WINDOWS` real training windows draws one real
 window's step rate, and its motion is planned a second time with every duration scaled so that
 its cycle (two steps when the recipe's cycle alternates the legs) lasts that long; the factor is
-clipped to `SCALE_BOUNDS`. A class without evidence keeps the SMP's tempo. On by default
+clipped to `SCALE_BOUNDS`. A class without evidence keeps the SMP's tempo, and so does every
+class of a dataset sampled below `MIN_RATE_HZ` (its spectrum stops short of the band). On by default
 (`GenerationSpec.cadence`; the baselines' chain keeps the SMPs' tempo).
 """
 
@@ -30,6 +31,7 @@ BAND_HZ = (1.0, 3.0)  # step rates of walking and stairs (running steps faster; 
 N_FFT = 1024  # zero-padded length of the spectrum (0.05 Hz bins at 50 Hz)
 MIN_WINDOWS = floors.CADENCE.floor  # real windows a class needs before its cadence is used
 SCALE_BOUNDS = (0.6, 1.6)  # the factor a sample's durations may be scaled by
+MIN_RATE_HZ = 2 * BAND_HZ[1]  # the lowest sampling rate whose spectrum reaches the band's top (Nyquist)
 
 
 def step_rates(acc: np.ndarray, fs_hz: float) -> np.ndarray:
@@ -56,9 +58,12 @@ def reading_location(names: list[str] | tuple[str, ...]) -> str:
 
 
 def class_cadence(acc: np.ndarray, fs_hz: float) -> tuple[np.ndarray, str]:
-    """A class's real step rates (empty when it has too few windows), and why."""
+    """A class's real step rates (empty when it has too few windows or the rate is too low), and why."""
     if len(acc) < MIN_WINDOWS:
         return np.zeros(0), f"{len(acc)} real window(s), fewer than {MIN_WINDOWS}"
+    if fs_hz < MIN_RATE_HZ:
+        return np.zeros(0), (f"a sampling rate of {fs_hz:g} Hz cannot resolve step rates up to {BAND_HZ[1]:g} Hz: "
+                             f"that needs {MIN_RATE_HZ:g} Hz")
     return step_rates(acc, fs_hz), f"{len(acc)} real windows"
 
 

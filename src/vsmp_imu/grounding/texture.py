@@ -16,6 +16,9 @@ the pooled one (a class with few real windows, or none: the unseen protocol).
 short of kappa times its local LF amplitude (1 s envelopes): the texture
 follows the motion (none in a still posture), and a signal that already has
 enough (the accelerometer of a gait with heel strikes) gets nothing.
+
+Below 8 Hz no HF band fits under the Nyquist rate: nothing is fitted or added, and the
+summary's `reason` says so (as it does for windows too short to filter, or none).
 """
 
 from __future__ import annotations
@@ -61,6 +64,18 @@ def _min_length(fs_hz: float) -> int:
     return 3 * (2 * len(_sos(LF_BAND_HZ, fs_hz)) + 1) + 1
 
 
+def unfitted(n_windows: int, length: int, fs_hz: float) -> str | None:
+    """Why no ratio can be fitted on `n_windows` windows of `length` samples at `fs_hz` (None: it can)."""
+    if bands(fs_hz) is None:
+        return (f"a sampling rate of {fs_hz:g} Hz leaves no room for the {HF_BAND_HZ[0]:g}-{HF_BAND_HZ[1]:g} Hz "
+                f"band: that needs {HF_BAND_HZ[0] * 1.2 / NYQUIST_SHARE:g} Hz")
+    if length < _min_length(fs_hz):
+        return f"windows of {length} samples are too short to filter: that needs {_min_length(fs_hz)}"
+    if n_windows == 0:
+        return "no real windows"
+    return None
+
+
 @dataclass
 class TextureModel:
     """Per-channel HF/LF ratios from real windows, and the texture they ask for (see module doc)."""
@@ -69,6 +84,7 @@ class TextureModel:
     min_class_windows: int = floors.TEXTURE.floor
     pooled_: np.ndarray | None = None  # (C,) kappa of all windows
     per_class_: dict[int, np.ndarray] = field(default_factory=dict)
+    reason_: str | None = None  # why nothing was fitted
 
     def fit(self, windows: np.ndarray, labels: np.ndarray) -> TextureModel:
         """kappa from real windows (N, T, C) and their labels; nothing is fitted (`mapping` says
@@ -76,9 +92,10 @@ class TextureModel:
         windows = np.asarray(windows, dtype=np.float64)
         if windows.ndim != 3:
             raise ValidationError(f"expected windows (N, T, C), got shape {windows.shape}", field="windows")
-        edges = bands(self.fs_hz)
-        if edges is None or windows.shape[1] < _min_length(self.fs_hz) or len(windows) == 0:
+        self.reason_ = unfitted(len(windows), windows.shape[1], self.fs_hz)
+        if self.reason_:
             return self
+        edges = bands(self.fs_hz)
         lf = _band(windows, edges[0], self.fs_hz, axis=1)
         hf = _band(windows, edges[1], self.fs_hz, axis=1)
         lf_energy, hf_energy = (lf ** 2).sum(axis=1), (hf ** 2).sum(axis=1)  # (N, C)
@@ -106,8 +123,9 @@ class TextureModel:
 
     def as_dict(self, label_names: list[str]) -> dict:
         """The fitted ratios, for a generation summary."""
-        return {"pooled": None if self.pooled_ is None else np.round(self.pooled_, 4).tolist(),
-                "classes": {label_names[c]: np.round(k, 4).tolist() for c, k in sorted(self.per_class_.items())}}
+        out = {"pooled": None if self.pooled_ is None else np.round(self.pooled_, 4).tolist(),
+               "classes": {label_names[c]: np.round(k, 4).tolist() for c, k in sorted(self.per_class_.items())}}
+        return out | ({"reason": self.reason_} if self.reason_ else {})
 
 
 def add_texture(signal: np.ndarray, kappa, fs_hz: float, rng: np.random.Generator) -> np.ndarray:

@@ -43,6 +43,7 @@ from vsmp_imu.har.protocols import (
     DEFAULT_VAL_FRACTION,
     check_protocol,
     parse_budgets,
+    require_two_classes,
     require_two_subjects,
     resolve_unseen,
     split_fold,
@@ -311,6 +312,7 @@ class Evaluation:
     def folds(self, windows: Windows) -> list[str]:
         available = windows.unique_subjects()
         require_two_subjects(available, self.dataset)
+        require_two_classes(windows, self.dataset)
         if self.config.folds is None:
             return available
         wanted = [str(f) for f in self.config.folds]

@@ -40,6 +40,17 @@ def require_two_subjects(subjects: list[str], dataset) -> None:
             allowed="a dataset with at least 2 subjects")
 
 
+def require_two_classes(windows: Windows, dataset) -> None:
+    """A classifier needs windows of at least two classes to tell apart."""
+    names = [n for n, c in zip(windows.label_names, windows.class_counts(), strict=True) if c > 0]
+    if len(names) < 2:
+        raise ValidationError(
+            f"dataset '{dataset.info.name}' has labelled windows of {len(names)} class(es) "
+            f"({', '.join(names) or 'none'}); a classifier needs at least 2 classes to tell apart",
+            file=getattr(dataset, "yaml_path", None), field="labels",
+            allowed="a dataset with windows of at least 2 classes")
+
+
 @dataclass
 class FoldSplit:
     """The windows of one fold: `fit` (trains the model), `val` (early stopping and

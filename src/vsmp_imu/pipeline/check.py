@@ -68,7 +68,8 @@ quarter of the window, its window mean and standard deviation) is scored by
 the AUC of the pair on the real and on the simulated windows; the pair is
 flagged when a cue separates the simulated windows by `MIN_OVERSHARP_GAP`
 more than the real ones (|AUC - 0.5|), or the two sides separate clearly
-(beyond `MIN_REVERSED`) in opposite directions.
+(beyond `MIN_REVERSED`) in opposite directions. Windows of fewer than `QUARTERS` samples
+have no quarters: the pairs are then not compared, and `pairs_skipped_` says why.
 """
 
 from __future__ import annotations
@@ -471,6 +472,13 @@ def compare_pair(location: str, first: str, second: str, real: tuple[np.ndarray,
     return out
 
 
+def pairs_skipped(size: int) -> str | None:
+    """Why the pair check cannot run on windows of `size` samples (None: it can)."""
+    if size < QUARTERS:
+        return f"a window of {size} samples has no {QUARTERS} quarters to compare: that needs {QUARTERS} samples"
+    return None
+
+
 def check_pairs(windows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]],
                 channels: dict[str, tuple[str, ...]]) -> list[PairCheck]:
     """`compare_pair` for every two classes at each location (`windows`: (label, location) ->
@@ -581,6 +589,7 @@ class DataCheck:
     mountings_: list[MountingCheck] = field(default_factory=list)
     windows_: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     pairs_: list[PairCheck] = field(default_factory=list)
+    pairs_skipped_: str | None = None  # why no pair was compared (windows too short)
     _channels: dict[str, tuple[str, ...]] = field(default_factory=dict, repr=False)
 
     def run(self, dataset: HarDataset, sources: dict[str, list]) -> list[ClassCheck]:
@@ -629,7 +638,8 @@ class DataCheck:
             self.results_.append(compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s,
                                          side_free=side_free[label], executions=timings.get((label, place))))
         self._channels = {loc.name: tuple(loc.channels) for loc in info.locations}
-        self.pairs_ = check_pairs(self.windows_, self._channels)
+        self.pairs_skipped_ = pairs_skipped(size)
+        self.pairs_ = [] if self.pairs_skipped_ else check_pairs(self.windows_, self._channels)
         return self.results_
 
     def _mounting(self, loc: SensorLocation, declared: dict, singles: set[str]) -> MountingCheck:
