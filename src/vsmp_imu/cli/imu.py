@@ -14,6 +14,8 @@ imu_app = typer.Typer(help="Virtual IMUs: simulate accelerometer and gyroscope r
 
 
 MIN_SMOOTHING_HZ = 0.1  # below this the smoothing spline's system is near singular
+# the simulator's settings by the options that set them
+_OPTIONS = {"fs_hz": "--fs", "smoothing_hz": "--smoothing-hz", "trim_s": "--trim-s"}
 
 
 @imu_app.command("simulate")
@@ -54,9 +56,12 @@ def simulate_cmd(
         rec = sim.simulate(motion, placements[0]) if len(placements) == 1 else \
             sim.simulate_many(motion, placements)
     except ValidationError as exc:
-        if exc.file or exc.field != "motion":
+        if exc.file:
             raise
-        raise ValidationError(exc.message, file=motion_file, field=exc.field) from exc  # name the file
+        if exc.field in _OPTIONS:  # e.g. a motion shorter than the --trim-s margins
+            raise ConfigError(exc.message, file=motion_file, field=_OPTIONS[exc.field],
+                              allowed=exc.allowed) from exc
+        raise exc.in_file(motion_file) from exc
     rec.meta["motion_file"] = str(motion_file)
     rec.save_csv(output)
     console.print(f"[green]wrote[/] {output}: {rec.n_samples} samples at {rec.fs_hz:g} Hz, "

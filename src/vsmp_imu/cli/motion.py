@@ -107,7 +107,7 @@ def render_cmd(
         raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
 
     motion = _load_motion(motion_file)
-    with console.status("[bold]rendering[/]..."):
+    with console.status("[bold]rendering[/]..."), naming(motion_file):
         render_gif(motion, output, yaw_deg=view)
         if keyframes is not None:
             render_keyframes(motion, keyframes, n=n, yaw_deg=view)
@@ -118,14 +118,19 @@ def render_cmd(
 def bvh_cmd(
     motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
     output: Path = typer.Option(..., "-o", "--output", help="BVH file to write"),
-    scale: float = typer.Option(1.0, "--scale", help="unit scale (1 = metres, 100 = centimetres)"),
+    scale: float = typer.Option(1.0, "--scale", help="unit scale, 0.01..1000 (1 = metres, 100 = centimetres)"),
 ) -> None:
     """Export a motion as BVH (opens in Blender)."""
     output_file(output)
-    from vsmp_imu.motion.bvh import write_bvh
+    from vsmp_imu.motion.bvh import check_scale, write_bvh
 
+    try:
+        check_scale(scale)
+    except ValidationError as exc:
+        raise ConfigError(exc.message, field="--scale", allowed=exc.allowed) from None
     motion = _load_motion(motion_file)
-    write_bvh(motion, output, scale=scale)
+    with naming(motion_file):
+        write_bvh(motion, output, scale=scale)
     console.print(f"[green]wrote[/] {output}: {motion.n_joints} joints, {motion.n_frames} frames")
 
 
@@ -136,13 +141,20 @@ def info_cmd(motion_file: Path = typer.Argument(..., help="motion file (.npz)"))
     table = Table(title=str(motion_file), show_header=False)
     table.add_row("frames", f"{motion.n_frames} at {motion.fps:g} fps ({motion.duration_s:.2f} s)")
     table.add_row("joints", f"{motion.n_joints}: {', '.join(motion.joint_names)}")
-    table.add_row("body height", f"{motion.body_height_m():.3f} m")
+    table.add_row("body height", _height_text(motion))
     for key in ("backend", "seed", "activity", "activity_label", "smp_id", "prompt"):
         if motion.meta.get(key) is not None:
             table.add_row(key, str(motion.meta[key]))
     if "controls" in motion.meta:
         table.add_row("controls", json.dumps(motion.meta["controls"], sort_keys=True))
     console.print(table)
+
+
+def _height_text(motion) -> str:
+    try:
+        return f"{motion.body_height_m():.3f} m"
+    except ValidationError:
+        return "n/a (not an SMPL-22 skeleton)"
 
 
 @motion_app.command("resample")
@@ -153,7 +165,13 @@ def resample_cmd(
 ) -> None:
     """Write the motion at another frame rate."""
     output_file(output)
-    motion = _load_motion(motion_file).resample(fps)
+    source = _load_motion(motion_file)
+    try:
+        motion = source.resample(fps)
+    except ValidationError as exc:
+        if exc.field != "fps":
+            raise exc.in_file(motion_file) from exc
+        raise ConfigError(exc.message, file=motion_file, field="--fps", allowed=exc.allowed) from exc
     motion.save(output)
     console.print(f"[green]wrote[/] {output}: {motion.n_frames} frames at {motion.fps:g} fps")
 

@@ -76,7 +76,7 @@ class Placement:
 def _height_scale(motion: Motion) -> float:
     try:
         return motion.body_height_m() / DEFAULT_HEIGHT_M
-    except ValueError:  # not an SMPL-22 joint set: keep the nominal offsets
+    except ValidationError:  # not an SMPL-22 joint set: keep the nominal offsets
         return 1.0
 
 

@@ -27,6 +27,7 @@ from vsmp_imu.motion.motion import Motion
 EULER_ORDER = "ZXY"  # channel order Zrotation Xrotation Yrotation (intrinsic)
 END_SITE_FRACTION = 0.4  # End Site length / the leaf's own bone length
 END_SITE_MIN_M = 0.05
+MIN_SCALE, MAX_SCALE = 0.01, 1000.0  # below, 6 decimals lose the bones; 1000 gives millimetres
 
 
 def _offsets(motion: Motion) -> np.ndarray:
@@ -57,8 +58,15 @@ def _end_site(motion: Motion, j: int, offsets: np.ndarray) -> np.ndarray:
     return direction * length
 
 
+def check_scale(scale: float) -> None:
+    if not MIN_SCALE <= scale <= MAX_SCALE:  # NaN fails too
+        raise ValidationError(f"{scale:g} is not a usable unit scale", field="scale",
+                              allowed=f"{MIN_SCALE:g}..{MAX_SCALE:g} (1 = metres, 100 = centimetres)")
+
+
 def bvh_text(motion: Motion, scale: float = 1.0) -> str:
     """The BVH file content of a motion."""
+    check_scale(scale)
     if not motion.is_finite():
         raise ValidationError("the motion has non-finite positions or rotations", field="positions")
     children: dict[int, list[int]] = {j: [] for j in range(motion.n_joints)}
@@ -99,6 +107,8 @@ def bvh_text(motion: Motion, scale: float = 1.0) -> str:
     eulers = np.stack([local[j].as_euler(EULER_ORDER, degrees=True) for j in order], axis=1)
     root_pos = motion.positions[:, roots[0]] * scale
     frames = np.concatenate([root_pos, eulers.reshape(motion.n_frames, -1)], axis=1)
+    if not (np.isfinite(offsets).all() and np.isfinite(frames).all()):  # e.g. an overflow
+        raise ValidationError("the BVH values would not be finite", field="positions")
     lines.append("MOTION")
     lines.append(f"Frames: {motion.n_frames}")
     lines.append(f"Frame Time: {1.0 / motion.fps:.8f}")

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from vsmp_imu.errors import ValidationError
+
 SMPL22_JOINTS: tuple[str, ...] = (
     "pelvis",
     "left_hip",
@@ -114,6 +116,10 @@ class Skeleton:
 
 
 def _chain_length(positions: np.ndarray, names: tuple[str, ...]) -> float:
+    missing = [n for n in _HEIGHT_CHAIN if n not in names]
+    if missing:
+        raise ValidationError(f"the body height needs the SMPL-22 ankle-to-head joints; missing "
+                              f"{', '.join(missing)}", field="joint_names")
     idx = [names.index(n) for n in _HEIGHT_CHAIN]
     seg = positions[..., idx[1:], :] - positions[..., idx[:-1], :]
     return float(np.linalg.norm(seg, axis=-1).sum(axis=-1).mean())
