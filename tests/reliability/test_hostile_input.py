@@ -98,6 +98,21 @@ def row_deep_json_smp_source(i: Inputs) -> Row:
                 "-o", out], "walk.json", "more than 100 deep", absent=(out / "synthetic.parquet",))
 
 
+def row_yaml_alias_bomb_smp(i: Inputs) -> Row:
+    """One primitive with 5000 body parts, then 20 000 aliases of it: 10**8 strings from 130 KB."""
+    prims = "\n".join(["  - *p"] * 20_000)
+    path = i.tmp / "aliases.yaml"
+    path.write_text(f"activity_label: x\nprimitive_sequence: [p]\nmotion_primitives:\n  - &p\n    name: p\n"
+                    f"    order_index: 0\n    body_parts: [{', '.join(['head'] * 5000)}]\n{prims}\n")
+    return Row(["smp", "validate", path], "aliases.yaml", "expand the document by more than 1,000,000 nodes")
+
+
+def row_long_integer_smp(i: Inputs) -> Row:
+    path = _smp_file(i, "long_int.json", lambda d: d["temporal_structure"].update(repetition_count=123456789))
+    path.write_text(path.read_text().replace("123456789", "9" * 5000))  # json.dumps refuses to write it
+    return Row(["smp", "validate", path], "long_int.json", "an integer has more than 4300 digits")
+
+
 def row_huge_smp_file(i: Inputs) -> Row:
     path = i.tmp / "huge.json"
     with open(path, "wb") as fh:  # sparse: 17 MiB of NUL bytes on disk in no time

@@ -159,6 +159,15 @@ def test_key_value_text_is_read():
     assert smp.activity_label == "walking" and smp.execution_attributes.tempo == "fast"
 
 
+def test_key_value_text_whose_aliases_explode_is_not_read():
+    """Nine levels of nine aliases once made a 600-byte answer take 40 s and 1.3 GB."""
+    levels = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
+    levels += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 9)]
+    text = "\n".join(["primitive_sequence: [step]", *levels, "activity_label: *a8"]) + "\n"
+    result = parse_response(text)
+    assert result.smp is None and "no JSON object" in result.report.reason
+
+
 @pytest.mark.parametrize("text,reason", [
     ("", "empty"),
     ("   \n", "empty"),

@@ -38,10 +38,9 @@ from typing import Any
 
 import json_repair
 import pydantic
-import yaml
 from rapidfuzz import fuzz, process
 
-from vsmp_imu.io import YAML_LOADER
+from vsmp_imu.io import load_yaml
 from vsmp_imu.smp._text import NUMBER_WORDS, norm_key, norm_name
 from vsmp_imu.smp.schema import (
     INVARIANT_FIELDS,
@@ -445,7 +444,7 @@ def _yaml_loads(text: str) -> Any:
     if "{" in text or len(text) > MAX_YAML_CHARS:
         return None
     try:
-        return yaml.load(text, Loader=YAML_LOADER)  # noqa: S506 - a safe loader
+        return load_yaml(text)  # the safe loader, with the alias budget of every YAML we read
     except Exception:  # noqa: BLE001 - any YAML failure means "not key-value text"
         return None
 
