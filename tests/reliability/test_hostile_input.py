@@ -205,6 +205,14 @@ def row_repetitions_too_long_to_draw(i: Inputs) -> Row:
     return Row(["motion", "synth", path, "--seed", "0", "-o", out], "long.json", "at most 600 s", absent=(out,))
 
 
+def row_intervene_duration_past_600_s(i: Inputs) -> Row:
+    out = i.tmp / "iv.json"
+    path = _smp_file(i, "abs.json", lambda d: d.update(
+        primitive_durations={"type": "absolute", "values": [600] * len(d["primitive_sequence"])}))
+    return Row(["smp", "intervene", path, "--attribute", "duration", "--level", "4", "-o", out], "level",
+               "a factor from 1.67e-09 to 1 for this SMP", absent=(out,))
+
+
 def _unknown_activity(d: dict) -> None:
     d["activity_label"] = "qqqq zzzz"
     d["primitive_sequence"][0] = d["motion_primitives"][0]["name"] = "teleport"
