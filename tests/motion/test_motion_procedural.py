@@ -123,6 +123,7 @@ def test_unmatched_primitive_lists_the_recipe_primitives(backend, library):
     smp = library.get("jumping_jacks").smp
     data = smp.model_dump(mode="json")
     data["primitive_sequence"] = ["stand", "somersault", "jump_close"]
+    data["motion_primitives"][1]["name"] = "somersault"  # the sequence names a primitive of the SMP
     data["primitive_durations"]["values"] = [0.1, 0.45, 0.45]
     with pytest.raises(ValidationError) as info:
         ProceduralBackend(library, compile_mode="recipe").generate(SMP.model_validate(data), seed=0)

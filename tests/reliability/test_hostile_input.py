@@ -213,6 +213,20 @@ def row_intervene_duration_past_600_s(i: Inputs) -> Row:
                "a factor from 1.67e-09 to 1 for this SMP", absent=(out,))
 
 
+def row_sequence_name_blank_synth(i: Inputs) -> Row:
+    out = i.tmp / "m.npz"
+    path = _smp_file(i, "blank.json", lambda d: d.update(primitive_sequence=[""] * len(d["primitive_sequence"])))
+    return Row(["motion", "synth", path, "--seed", "0", "-o", out], "primitive_sequence[0]", "must not be empty",
+               absent=(out,))
+
+
+def row_sequence_name_unknown_synth(i: Inputs) -> Row:
+    out = i.tmp / "m.npz"
+    path = _smp_file(i, "fly.json", lambda d: d["primitive_sequence"].__setitem__(1, "fly"))
+    return Row(["motion", "synth", path, "--seed", "0", "-o", out], "fly.json",
+               "item 1 'fly' is the name of no motion primitive", absent=(out,))
+
+
 def _unknown_activity(d: dict) -> None:
     d["activity_label"] = "qqqq zzzz"
     d["primitive_sequence"][0] = d["motion_primitives"][0]["name"] = "teleport"

@@ -153,6 +153,18 @@ def test_sequence_rebuilt_from_primitives_in_order_index_order():
     assert result.report.missing_mandatory == ["primitive_sequence"]
 
 
+def test_a_sequence_name_no_primitive_has_gets_a_bare_primitive():
+    """The schema refuses a sequence name that no primitive has; repair adds the primitive."""
+    text = json.dumps({"activity_label": "x", "motion_primitives": [{"name": "a", "order_index": 0},
+                                                                   {"name": "b", "order_index": 1}],
+                       "primitive_sequence": ["a", "B", "c", "", "repeat"]})
+    result = parse_response(text)
+    assert result.smp.primitive_sequence == ["a", "B", "c", "repeat"]
+    assert [(p.name, p.order_index) for p in result.smp.motion_primitives] == [("a", 0), ("b", 1), ("c", 2)]
+    assert "added a primitive for 'c' at 'primitive_sequence[2]': no motion primitive had that name" \
+        in result.report.repairs
+
+
 def test_key_value_text_is_read():
     text = "activity_label: walking\nprimitive_sequence: [step left, step right]\ntempo: fast\n"
     smp = parse_response(text).smp

@@ -73,7 +73,7 @@ from vsmp_imu.motion.tracks import (
 )
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp.library import ActivityMatchError
-from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, UNKNOWN
+from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, STRUCTURAL_NAMES, UNKNOWN
 
 BACKEND_NAME = "procedural"
 ROTATION_DOF_NAMES = tuple(DOF_NAMES[c] for c in ROTATION_COLUMNS)  # the DOFs in degrees
@@ -83,7 +83,7 @@ COMPILE_MODES = ("recipe", "fallback", "always")
 TEMPO_RATIO = 1.5  # slow = 1.5x, fast = 1/1.5x the medium duration
 AMPLITUDE_SLOPE = 0.4  # factor 0.6 / 1.0 / 1.4 at small / medium / large
 PRIMITIVE_MATCH_MIN = 80.0  # rapidfuzz WRatio for an SMP primitive name to match a recipe primitive
-STRUCTURAL_PRIMITIVES = ("repeat", "repetition", "repeat cycle", "loop", "repeat sequence")
+STRUCTURAL_PRIMITIVES = STRUCTURAL_NAMES  # sequence words that name no movement
 MIN_SEGMENT_S = 0.05
 FADE_MIN_CYCLES = 0.15  # smallest wave fade when something precedes or follows the cycle block
 
