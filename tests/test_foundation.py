@@ -87,3 +87,65 @@ def test_yaml_merge_keys_and_equal_values_in_lists_still_read(tmp_path):
     path = tmp_path / "spec.yaml"
     path.write_text("base: &b {x: 1, y: 2}\nother:\n  <<: *b\n  y: 3\nlist: [a, a]\n")
     assert read_structured(path) == {"base": {"x": 1, "y": 2}, "other": {"x": 1, "y": 3}, "list": ["a", "a"]}
+
+
+def _laughs(levels: int) -> str:
+    """Each level lists the one before nine times: 9**levels strings from a few hundred bytes."""
+    lines = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
+    lines += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, levels)]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("text,says", [
+    (_laughs(10), "expand the document by more than 1,000,000 nodes"),
+    ("p: &p [" + ", ".join(["x"] * 5000) + "]\nrefs: [" + ", ".join(["*p"] * 300) + "]\n",
+     "expand the document by more than 1,000,000 nodes"),
+    ("a: &a [1, *a]\n", "nest the document more than 100 deep"),  # an alias inside what it names
+    ("".join(f"a{i}: &a{i} [[*a{i - 1}]]\n" if i else "a0: &a0 [x]\n" for i in range(60)),
+     "nest the document more than 100 deep"),
+], ids=["billion-laughs", "one-list-many-times", "self-reference", "alias-chain"])
+def test_yaml_aliases_are_refused_before_they_expand(tmp_path, text, says):
+    """A few hundred bytes of aliases once stood for 10**8 strings and took every byte of memory."""
+    from vsmp_imu.errors import InputFileError
+
+    path = tmp_path / "smp.yaml"
+    path.write_text(text)
+    with pytest.raises(InputFileError) as err:
+        read_structured(path)
+    assert says in err.value.render() and "smp.yaml" in err.value.render()
+
+
+def test_the_alias_budget_counts_every_node_an_alias_adds():
+    from vsmp_imu.io import AliasExpansionError, load_yaml
+
+    text = "a: &a [1, 2, 3]\nb: [*a, *a]\n"  # each *a adds the list and its three items
+    assert load_yaml(text, limit=8) == {"a": [1, 2, 3], "b": [[1, 2, 3], [1, 2, 3]]}
+    with pytest.raises(AliasExpansionError):
+        load_yaml(text, limit=7)
+
+
+def test_the_largest_aliased_file_we_read_is_far_inside_the_budget():
+    from pathlib import Path
+
+    import yaml
+
+    from vsmp_imu.io import MAX_ALIAS_NODES, YAML_LOADER, _expansion
+
+    tables = Path(__file__).resolve().parents[1] / "results" / "tables.yaml"
+    expanded, written = _expansion(yaml.compose(tables.read_text(), Loader=YAML_LOADER), 100)
+    assert 0 < expanded - written < MAX_ALIAS_NODES / 100
+    assert read_structured(tables)["tables"]
+
+
+@pytest.mark.parametrize("name,text", [
+    ("smp.json", '{"repetition_count": ' + "9" * 5000 + "}"),
+    ("smp.yaml", "repetition_count: " + "9" * 5000 + "\n"),
+])
+def test_an_integer_too_long_for_python_is_invalid_input(tmp_path, name, text):
+    from vsmp_imu.errors import InputFileError
+
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(InputFileError) as err:
+        read_structured(path)
+    assert f"{name}: not valid {name[4:].upper()}: an integer has more than 4300 digits" in err.value.render()

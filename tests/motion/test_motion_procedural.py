@@ -84,6 +84,19 @@ def test_natural_duration_and_fill(backend, library):
         backend.generate(curl, seed=0, duration_s=natural.duration_s * 0.5)
 
 
+def test_a_motion_too_long_names_the_field_at_fault(backend, library):
+    """600 s absolute durations with the library's 8 repetitions once blamed the count."""
+    jj = library.get("jumping_jacks").smp
+    absolute = _with(jj, primitive_durations={"type": "absolute", "values": [600, 600, 600]})
+    with pytest.raises(ValidationError) as info:
+        backend.generate(absolute, seed=0)
+    assert info.value.field == "primitive_durations.values" and "one repetition 18" in info.value.message
+    with pytest.raises(ValidationError) as info:
+        backend.generate(_with(jj, temporal_structure__repetition_count=1000), seed=0)
+    assert info.value.field == "temporal_structure.repetition_count"
+    assert "(here at most 5" in info.value.allowed
+
+
 @pytest.mark.parametrize("bad", [0.0, -1.0, float("nan")])
 def test_bad_duration(backend, library, bad):
     with pytest.raises(ValidationError, match="duration_s"):
@@ -110,6 +123,7 @@ def test_unmatched_primitive_lists_the_recipe_primitives(backend, library):
     smp = library.get("jumping_jacks").smp
     data = smp.model_dump(mode="json")
     data["primitive_sequence"] = ["stand", "somersault", "jump_close"]
+    data["motion_primitives"][1]["name"] = "somersault"  # the sequence names a primitive of the SMP
     data["primitive_durations"]["values"] = [0.1, 0.45, 0.45]
     with pytest.raises(ValidationError) as info:
         ProceduralBackend(library, compile_mode="recipe").generate(SMP.model_validate(data), seed=0)

@@ -98,6 +98,21 @@ def row_deep_json_smp_source(i: Inputs) -> Row:
                 "-o", out], "walk.json", "more than 100 deep", absent=(out / "synthetic.parquet",))
 
 
+def row_yaml_alias_bomb_smp(i: Inputs) -> Row:
+    """One primitive with 5000 body parts, then 20 000 aliases of it: 10**8 strings from 130 KB."""
+    prims = "\n".join(["  - *p"] * 20_000)
+    path = i.tmp / "aliases.yaml"
+    path.write_text(f"activity_label: x\nprimitive_sequence: [p]\nmotion_primitives:\n  - &p\n    name: p\n"
+                    f"    order_index: 0\n    body_parts: [{', '.join(['head'] * 5000)}]\n{prims}\n")
+    return Row(["smp", "validate", path], "aliases.yaml", "expand the document by more than 1,000,000 nodes")
+
+
+def row_long_integer_smp(i: Inputs) -> Row:
+    path = _smp_file(i, "long_int.json", lambda d: d["temporal_structure"].update(repetition_count=123456789))
+    path.write_text(path.read_text().replace("123456789", "9" * 5000))  # json.dumps refuses to write it
+    return Row(["smp", "validate", path], "long_int.json", "an integer has more than 4300 digits")
+
+
 def row_huge_smp_file(i: Inputs) -> Row:
     path = i.tmp / "huge.json"
     with open(path, "wb") as fh:  # sparse: 17 MiB of NUL bytes on disk in no time
@@ -188,6 +203,28 @@ def row_repetitions_too_long_to_draw(i: Inputs) -> Row:
     out = i.tmp / "m.npz"
     path = _smp_file(i, "long.json", lambda d: d["temporal_structure"].update(repetition_count=1000))
     return Row(["motion", "synth", path, "--seed", "0", "-o", out], "long.json", "at most 600 s", absent=(out,))
+
+
+def row_intervene_duration_past_600_s(i: Inputs) -> Row:
+    out = i.tmp / "iv.json"
+    path = _smp_file(i, "abs.json", lambda d: d.update(
+        primitive_durations={"type": "absolute", "values": [600] * len(d["primitive_sequence"])}))
+    return Row(["smp", "intervene", path, "--attribute", "duration", "--level", "4", "-o", out], "level",
+               "a factor from 1.67e-09 to 1 for this SMP", absent=(out,))
+
+
+def row_sequence_name_blank_synth(i: Inputs) -> Row:
+    out = i.tmp / "m.npz"
+    path = _smp_file(i, "blank.json", lambda d: d.update(primitive_sequence=[""] * len(d["primitive_sequence"])))
+    return Row(["motion", "synth", path, "--seed", "0", "-o", out], "primitive_sequence[0]", "must not be empty",
+               absent=(out,))
+
+
+def row_sequence_name_unknown_synth(i: Inputs) -> Row:
+    out = i.tmp / "m.npz"
+    path = _smp_file(i, "fly.json", lambda d: d["primitive_sequence"].__setitem__(1, "fly"))
+    return Row(["motion", "synth", path, "--seed", "0", "-o", out], "fly.json",
+               "item 1 'fly' is the name of no motion primitive", absent=(out,))
 
 
 def _unknown_activity(d: dict) -> None:

@@ -180,3 +180,22 @@ def test_identity_and_schema():
     with pytest.raises(ValueError, match="must not be empty"):
         make_smp(smp, activity_label="   ")
     assert make_smp(smp, activity_label="  walk ").activity_label == "walk"
+
+
+def test_primitive_sequence_names_a_primitive_or_a_structural_word():
+    """An empty or unknown name was accepted, and synthesis then made some other motion."""
+    from vsmp_imu.errors import ValidationError
+    from vsmp_imu.smp.io import smp_from_dict
+
+    data = simple_smp().model_dump(mode="json")
+    with pytest.raises(ValidationError) as err:
+        smp_from_dict({**data, "primitive_sequence": ["raise_arms", " ", "lower_arms"]}, "s.json")
+    assert err.value.field == "primitive_sequence[1]" and "must not be empty" in err.value.message
+    with pytest.raises(ValidationError) as err:
+        smp_from_dict({**data, "primitive_sequence": ["raise_arms", "fly", "lower_arms"]}, "s.json")
+    assert err.value.field == "primitive_sequence" and "item 1 'fly' is the name of no motion primitive" \
+        in err.value.message
+    assert err.value.allowed.startswith("a name from motion_primitives (raise_arms, circle_arms, lower_arms)")
+    loose = ["Raise Arms", "circle-arms", "lower_arms", "Repeat"]  # case, '-', '_' aside; a structural word
+    smp = smp_from_dict({**data, "primitive_sequence": loose, "primitive_durations": {"values": []}})
+    assert smp.primitive_sequence == loose

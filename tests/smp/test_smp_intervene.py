@@ -95,3 +95,32 @@ def test_invalid_attribute_or_level_lists_allowed_values(attribute, level, allow
     with pytest.raises(ValidationError) as err:
         intervene(simple_smp(), attribute, level)
     assert allowed in err.value.render()
+
+
+def test_a_factor_past_600_s_is_refused_naming_the_factors_this_smp_allows():
+    long = simple_smp(**{"primitive_durations.type": "absolute", "primitive_durations.values": [600, 160, 600]})
+    with pytest.raises(ValidationError) as err:
+        intervene(long, "duration", 4)  # circle_arms 160 s -> 640 s
+    assert err.value.field == "level"
+    assert "factor 4 makes 'circle_arms' last 640 s" in err.value.message
+    assert err.value.allowed.startswith("a factor from 6.25e-09 to 3.75 for this SMP ('circle_arms' is 160 s")
+    assert intervene(long, "duration", 3.75).primitive_durations.values == [600, 600, 600]
+
+
+def test_a_smaller_duration_factor_never_lengthens_the_phase():
+    """A factor below ~1e-6 once wrote 0, which reads as unknown: the phase took the mean share."""
+    s = simple_smp()
+    factors = [1.25, 1.0, 0.5, 0.01, 1e-4, 1e-5, 2e-6]
+    shares = [intervene(s, "duration", f).relative_durations()[1] for f in factors]
+    assert shares == sorted(shares, reverse=True) and shares[-1] < 1e-5
+    with pytest.raises(ValidationError) as err:
+        intervene(s, "duration", 1e-9)
+    assert "below the smallest duration written (1e-06)" in err.value.message
+    assert err.value.allowed.startswith("a factor from 2e-06 to 4 for this SMP ('circle_arms' is 0.5;")
+
+
+def test_a_zero_duration_is_filled_like_an_unknown_one():
+    """0 reads as unknown; scaling it would leave every factor with the same (mean) share."""
+    s = simple_smp(**{"primitive_durations.values": [0.3, 0, 0.2]})
+    shares = [intervene(s, "duration", f).relative_durations()[1] for f in (0.75, 1.0, 1.25)]
+    assert shares[0] < shares[1] < shares[2]

@@ -153,10 +153,31 @@ def test_sequence_rebuilt_from_primitives_in_order_index_order():
     assert result.report.missing_mandatory == ["primitive_sequence"]
 
 
+def test_a_sequence_name_no_primitive_has_gets_a_bare_primitive():
+    """The schema refuses a sequence name that no primitive has; repair adds the primitive."""
+    text = json.dumps({"activity_label": "x", "motion_primitives": [{"name": "a", "order_index": 0},
+                                                                   {"name": "b", "order_index": 1}],
+                       "primitive_sequence": ["a", "B", "c", "", "repeat"]})
+    result = parse_response(text)
+    assert result.smp.primitive_sequence == ["a", "B", "c", "repeat"]
+    assert [(p.name, p.order_index) for p in result.smp.motion_primitives] == [("a", 0), ("b", 1), ("c", 2)]
+    assert "added a primitive for 'c' at 'primitive_sequence[2]': no motion primitive had that name" \
+        in result.report.repairs
+
+
 def test_key_value_text_is_read():
     text = "activity_label: walking\nprimitive_sequence: [step left, step right]\ntempo: fast\n"
     smp = parse_response(text).smp
     assert smp.activity_label == "walking" and smp.execution_attributes.tempo == "fast"
+
+
+def test_key_value_text_whose_aliases_explode_is_not_read():
+    """Nine levels of nine aliases once made a 600-byte answer take 40 s and 1.3 GB."""
+    levels = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
+    levels += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 9)]
+    text = "\n".join(["primitive_sequence: [step]", *levels, "activity_label: *a8"]) + "\n"
+    result = parse_response(text)
+    assert result.smp is None and "no JSON object" in result.report.reason
 
 
 @pytest.mark.parametrize("text,reason", [

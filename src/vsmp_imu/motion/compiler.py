@@ -50,9 +50,9 @@ from vsmp_imu.motion.lexicon import Reading, read_primitive
 from vsmp_imu.motion.recipe import Recipe, parse_recipe
 from vsmp_imu.smp._text import norm_name
 from vsmp_imu.smp.bodyparts import normalize_body_part, side_of
-from vsmp_imu.smp.schema import SMP, UNKNOWN
+from vsmp_imu.smp.schema import SMP, STRUCTURAL_NAMES, UNKNOWN
 
-STRUCTURAL = ("repeat", "repetition", "repeat cycle", "loop", "repeat sequence")
+STRUCTURAL = STRUCTURAL_NAMES  # sequence words that name no movement
 SEAT_WORDS = ("chair", "seat", "bench", "sofa", "couch", "stool", "wheelchair", "car seat", "saddle", "bicycle",
               "bike", "desk")
 HOLD_S, STATIC_HOLD_S, RETURN_S = 0.5, 3.0, 0.9

@@ -73,7 +73,7 @@ from vsmp_imu.motion.tracks import (
 )
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp.library import ActivityMatchError
-from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, UNKNOWN
+from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, STRUCTURAL_NAMES, UNKNOWN
 
 BACKEND_NAME = "procedural"
 ROTATION_DOF_NAMES = tuple(DOF_NAMES[c] for c in ROTATION_COLUMNS)  # the DOFs in degrees
@@ -83,7 +83,7 @@ COMPILE_MODES = ("recipe", "fallback", "always")
 TEMPO_RATIO = 1.5  # slow = 1.5x, fast = 1/1.5x the medium duration
 AMPLITUDE_SLOPE = 0.4  # factor 0.6 / 1.0 / 1.4 at small / medium / large
 PRIMITIVE_MATCH_MIN = 80.0  # rapidfuzz WRatio for an SMP primitive name to match a recipe primitive
-STRUCTURAL_PRIMITIVES = ("repeat", "repetition", "repeat cycle", "loop", "repeat sequence")
+STRUCTURAL_PRIMITIVES = STRUCTURAL_NAMES  # sequence words that name no movement
 MIN_SEGMENT_S = 0.05
 FADE_MIN_CYCLES = 0.15  # smallest wave fade when something precedes or follows the cycle block
 
@@ -541,6 +541,27 @@ def _split(matched: list[tuple[int, str, str]], cycle: list[str]) -> tuple[list[
     return list(range(first)), list(range(first, last + 1)), list(range(last + 1, len(matched)))
 
 
+def _check_motion_length(name: str, count: int, counted: bool, lead_in_s: float, cycle_s: float,
+                         uses_absolute: bool) -> None:
+    """Refuse, before a single frame is drawn, a motion longer than MAX_MOTION_S, naming the
+    field at fault: absolute durations when one repetition is already too long or the count is
+    the recipe's, else the SMP's repetition count."""
+    needed = lead_in_s + count * cycle_s
+    if needed <= MAX_MOTION_S:
+        return
+    if uses_absolute and (not counted or lead_in_s + cycle_s > MAX_MOTION_S):
+        one = f", one repetition {lead_in_s + cycle_s:.0f} s" if count > 1 else ""
+        raise ValidationError(
+            f"the absolute durations make {count} repetition(s) of '{name}' last {needed:.0f} s at this "
+            f"tempo{one}", field="primitive_durations.values",
+            allowed=f"seconds (at medium tempo) whose motion lasts at most {MAX_MOTION_S:g} s")
+    most = int((MAX_MOTION_S - lead_in_s) // cycle_s)
+    raise ValidationError(
+        f"{count} repetition(s) of '{name}' at this tempo need {needed:.0f} s of motion",
+        field="temporal_structure.repetition_count",
+        allowed=f"a count whose motion lasts at most {MAX_MOTION_S:g} s (here at most {most})")
+
+
 def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | None,
           duration_scale: float = 1.0) -> Plan:
     rng = rng_for(seed, BACKEND_NAME, entry.name, "timing")
@@ -578,12 +599,8 @@ def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | N
         n_cycles = max(1, math.ceil((total - rest - lead_in_s) / max(cycle_s, 1e-6) + 1e-9))
     else:
         n_cycles = count
-        needed = lead_in_s + count * cycle_s
-        if needed > MAX_MOTION_S:  # checked before a single frame is drawn
-            raise ValidationError(
-                f"{count} repetition(s) of '{entry.name}' at this tempo need {needed:.0f} s of motion",
-                field="temporal_structure.repetition_count",
-                allowed=f"a count whose motion lasts at most {MAX_MOTION_S:g} s")
+        uses_absolute = absolute and any(raw[pos] for pos, _, _ in matched)
+        _check_motion_length(entry.name, count, counted, lead_in_s, cycle_s, uses_absolute)
     segments: list[Segment] = []
     t = rest
     for i in lead_in:

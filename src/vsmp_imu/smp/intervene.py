@@ -14,20 +14,32 @@ Exactly one attribute changes; everything else in the SMP stays as it was.
 Duration: the central primitive's value in `primitive_durations.values` is
 multiplied by the factor and the other values keep theirs (no
 renormalization), so the backend can lengthen or shorten only that phase. When
-the durations are incomplete they are first filled with
+the durations are incomplete (a value unknown or 0) they are first filled with
 `SMP.relative_durations()` (type `relative`), the same way for every factor, so
-the 1.00 condition differs from the others only in that one value. The
-primitives themselves (names, order, nominal `relative_duration`) are invariant
-and stay as they are.
+the 1.00 condition differs from the others only in that one value. A factor
+that would scale the value below MIN_SCALED_DURATION (written as 0, which reads
+as unknown) or above the schema's 600 is refused, naming the factors this SMP
+allows. The primitives themselves (names, order, nominal `relative_duration`)
+are invariant and stay as they are.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from typing import Any
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.smp._text import norm_name
-from vsmp_imu.smp.schema import AMPLITUDE_LEVELS, SMP, SYMMETRIES, TEMPO_LEVELS, UNKNOWN
+from vsmp_imu.smp.schema import (
+    AMPLITUDE_LEVELS,
+    MAX_PRIMITIVE_DURATION,
+    SMP,
+    SYMMETRIES,
+    TEMPO_LEVELS,
+    UNKNOWN,
+)
+from vsmp_imu.validation import validate_model
 
 # Paper, "End-to-End SMP Controllability Protocol": the levels of each control.
 INTERVENTION_LEVELS: dict[str, tuple[Any, ...]] = {
@@ -39,6 +51,9 @@ INTERVENTION_LEVELS: dict[str, tuple[Any, ...]] = {
 }
 ATTRIBUTES = tuple(INTERVENTION_LEVELS)
 MAX_DURATION_FACTOR = 4.0
+# Scaled durations are written with 6 decimals; a smaller value would be written as 0 and read
+# as unknown (filled with the mean), so a tiny factor would lengthen the phase.
+MIN_SCALED_DURATION = 1e-6
 MAX_REPETITIONS = 1000
 # A primitive whose name is made only of these words is a rest/preparation phase.
 REST_WORDS = {"stand", "standing", "rest", "resting", "idle", "pause", "neutral", "start",
@@ -131,16 +146,51 @@ def intervene(smp: SMP, attribute: str, level: Any, central_primitive: str | Non
             raise ValidationError(f"invalid duration level {level!r}", field="level",
                                   allowed=_allowed(attribute))
         _scale_central(smp, d, factor, central_primitive)
-    return SMP.model_validate(d)
+    return validate_model(SMP, d)
 
 
 def _scale_central(smp: SMP, d: dict[str, Any], factor: float, central: str | None) -> None:
     c = central_primitive_index(smp, central)
-    dur = smp.primitive_durations
-    if dur.values and all(v != UNKNOWN for v in dur.values):
-        values = [float(v) for v in dur.values]
-        kind = dur.type if dur.type != UNKNOWN else "relative"
-    else:
-        values, kind = [round(v, 6) for v in smp.relative_durations()], "relative"
+    values, kind = _complete_durations(smp)
+    _check_factor(factor, values[c], kind, smp.primitive_sequence[c])
     values[c] = round(values[c] * factor, 6)
     d["primitive_durations"] = {"type": kind, "values": values}
+
+
+def _complete_durations(smp: SMP) -> tuple[list[float], str]:
+    """The SMP's duration values and type, filled as relative shares when any is unknown or 0."""
+    dur = smp.primitive_durations
+    if dur.values and all(v != UNKNOWN and float(v) > 0 for v in dur.values):
+        return [float(v) for v in dur.values], dur.type if dur.type != UNKNOWN else "relative"
+    return [round(v, 6) for v in smp.relative_durations()], "relative"
+
+
+def _check_factor(factor: float, value: float, kind: str, name: str) -> None:
+    """Refuse a factor that scales `value` out of MIN_SCALED_DURATION..MAX_PRIMITIVE_DURATION."""
+    scaled = value * factor
+    if MIN_SCALED_DURATION <= scaled <= MAX_PRIMITIVE_DURATION:
+        return
+    unit = " s" if kind == "absolute" else ""
+    if scaled > MAX_PRIMITIVE_DURATION:
+        problem = f"makes '{name}' last {scaled:g}{unit}, more than a primitive may ({MAX_PRIMITIVE_DURATION:g})"
+    else:
+        problem = f"shrinks '{name}' to {scaled:.3g}{unit}, below the smallest duration written ({MIN_SCALED_DURATION:g})"
+    raise ValidationError(f"duration factor {factor:g} {problem}", field="level",
+                          allowed=_factor_range(value, unit, name))
+
+
+def _factor_range(value: float, unit: str, name: str) -> str:
+    """The factors that keep `value` within bounds, rounded inwards to 3 significant digits."""
+    if value <= 0:
+        return f"none for this SMP ('{name}' is 0)"
+    low = _round_to_3(MIN_SCALED_DURATION / value, math.ceil)
+    high = _round_to_3(min(MAX_DURATION_FACTOR, MAX_PRIMITIVE_DURATION / value), math.floor)
+    if low > high:
+        return f"none for this SMP ('{name}' is {value:g}{unit})"
+    return (f"a factor from {low:g} to {high:g} for this SMP ('{name}' is {value:g}{unit}; "
+            f"a scaled duration is {MIN_SCALED_DURATION:g}..{MAX_PRIMITIVE_DURATION:g})")
+
+
+def _round_to_3(x: float, direction: Callable[[float], int]) -> float:
+    scale = 10.0 ** (2 - math.floor(math.log10(x)))
+    return direction(x * scale) / scale

@@ -24,8 +24,8 @@ a reason, and reports what it did:
    schema default).
 4. Mandatory fields: `activity_label`, and the primitives, given as
    `motion_primitives` or `primitive_sequence` (either one is rebuilt from
-   the other). A response without a label or without any primitive is
-   rejected.
+   the other; a sequence name that no primitive has gets a bare primitive).
+   A response without a label or without any primitive is rejected.
 """
 
 from __future__ import annotations
@@ -38,15 +38,15 @@ from typing import Any
 
 import json_repair
 import pydantic
-import yaml
 from rapidfuzz import fuzz, process
 
-from vsmp_imu.io import YAML_LOADER
+from vsmp_imu.io import load_yaml
 from vsmp_imu.smp._text import NUMBER_WORDS, norm_key, norm_name
 from vsmp_imu.smp.schema import (
     INVARIANT_FIELDS,
     SCHEMA_VERSION,
     SMP,
+    STRUCTURAL_NAMES,
     UNCERTAINTY_FIELDS,
     UNKNOWN,
     VARIANT_FIELDS,
@@ -445,7 +445,7 @@ def _yaml_loads(text: str) -> Any:
     if "{" in text or len(text) > MAX_YAML_CHARS:
         return None
     try:
-        return yaml.load(text, Loader=YAML_LOADER)  # noqa: S506 - a safe loader
+        return load_yaml(text)  # the safe loader, with the alias budget of every YAML we read
     except Exception:  # noqa: BLE001 - any YAML failure means "not key-value text"
         return None
 
@@ -906,7 +906,19 @@ def _primitives(data: dict, ctx: _Ctx) -> tuple[list[dict], list[str]]:
         ordered = sorted(range(len(prims)), key=lambda j: (prims[j]["order_index"], j))
         seq = [prims[j]["name"] for j in ordered]
         ctx.repair("rebuilt 'primitive_sequence' from 'motion_primitives'")
+    _add_missing_primitives(prims, seq, ctx)
     return prims, seq
+
+
+def _add_missing_primitives(prims: list[dict], seq: list[str], ctx: _Ctx) -> None:
+    """A sequence name that no primitive has (the schema refuses it) gets a bare primitive."""
+    known = {norm_name(p["name"]) for p in prims}
+    for i, name in enumerate(seq):
+        if norm_name(name) not in known and norm_name(name) not in STRUCTURAL_NAMES:
+            known.add(norm_name(name))
+            prims.append({"name": name, "order_index": i})
+            ctx.repair(f"added a primitive for '{name}' at 'primitive_sequence[{i}]': "
+                       "no motion primitive had that name")
 
 
 def _durations(data: dict, seq: list[str], ctx: _Ctx) -> dict[str, Any]:

@@ -18,14 +18,19 @@ import json
 from typing import Annotated, Any, Literal, get_args
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     ConfigDict,
     Field,
     StrictBool,
     StrictInt,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
+from pydantic_core import PydanticCustomError
+
+from vsmp_imu.smp._text import norm_name
 
 SCHEMA_VERSION = "1.0"
 
@@ -101,6 +106,10 @@ UNCERTAINTY_FIELDS = (
     "object_contact",
 )
 
+# Words a primitive_sequence may hold without a motion primitive of that name: they mark the
+# cycle's repetition, and the motion backends skip them (normalized, see norm_name).
+STRUCTURAL_NAMES = ("repeat", "repetition", "repeat cycle", "loop", "repeat sequence")
+
 # Nominal travelled extent (metres) of the displacement categories; used to
 # turn a category into a number before a bounded +-25 % perturbation.
 DISPLACEMENT_EXTENT_M = {"stationary": 0.0, "small": 1.0, "large": 4.0}
@@ -119,6 +128,15 @@ class MotionPrimitive(_Strict):
     body_parts: list[str] = Field(default_factory=list)
     relative_duration: Duration | Unknown = UNKNOWN
     contact: list[str] = Field(default_factory=list)
+
+
+def _not_blank(name: str) -> str:
+    if not name.strip():
+        raise PydanticCustomError("blank_name", "must not be empty")
+    return name
+
+
+SequenceName = Annotated[str, AfterValidator(_not_blank)]
 
 
 class PrimitiveDurations(_Strict):
@@ -192,7 +210,7 @@ class SMP(_Strict):
     schema_version: str = SCHEMA_VERSION
     activity_label: str = Field(min_length=1)
     motion_primitives: list[MotionPrimitive] = Field(min_length=1)
-    primitive_sequence: list[str] = Field(min_length=1)
+    primitive_sequence: list[SequenceName] = Field(min_length=1)
     primitive_durations: PrimitiveDurations = Field(default_factory=PrimitiveDurations)
     body_parts: BodyParts = Field(default_factory=BodyParts)
     temporal_structure: TemporalStructure = Field(default_factory=TemporalStructure)
@@ -208,6 +226,21 @@ class SMP(_Strict):
         if not value:
             raise ValueError("must not be empty")
         return value
+
+    @field_validator("primitive_sequence")
+    @classmethod
+    def _names_a_primitive(cls, sequence: list[str], info: ValidationInfo) -> list[str]:
+        """Each name is a motion primitive's (case, spaces, '_' and '-' aside) or structural."""
+        primitives = info.data.get("motion_primitives")
+        if primitives is None:  # invalid itself: that error is reported
+            return sequence
+        known = {norm_name(p.name) for p in primitives}
+        for i, name in enumerate(sequence):
+            if norm_name(name) not in known and norm_name(name) not in STRUCTURAL_NAMES:
+                raise PydanticCustomError(
+                    "unknown_primitive", "item {index} '{name}' is the name of no motion primitive",
+                    {"index": i, "name": name, "expected": _sequence_names(primitives)})
+        return sequence
 
     @model_validator(mode="after")
     def _check_lengths(self) -> SMP:
@@ -271,6 +304,11 @@ class SMP(_Strict):
         filled = [v if v is not None and v > 0 else fill for v in raw]
         total = sum(filled)
         return [v / total for v in filled]
+
+
+def _sequence_names(primitives: list[MotionPrimitive]) -> str:
+    names = ", ".join(dict.fromkeys(p.name for p in primitives))
+    return f"a name from motion_primitives ({names}) or a structural word ({', '.join(STRUCTURAL_NAMES)})"
 
 
 def ordinal_level(value: str | float, levels: tuple[str, str, str]) -> float | None:
