@@ -179,7 +179,7 @@ def case_motion_nan(tmp_path, library, motion):
                               motion.parents, dict(motion.meta))
     broken.positions[10, 3] = np.nan
     path = broken.save(tmp_path / "motion.npz")
-    return ["imu", "simulate", path, "-o", tmp_path / "x.csv"], path.name, "non-finite"
+    return ["imu", "simulate", path, "-o", tmp_path / "x.csv"], path.name, "a coordinate of nan at frame 10, joint 3"
 
 
 def case_imu_csv_text(tmp_path, library, motion):
@@ -223,5 +223,5 @@ def test_the_console_script_exits_2_with_one_paragraph(tmp_path):
     bad.write_bytes(b"not a motion")
     done = run_cli("imu", "simulate", bad, "-o", tmp_path / "x.csv", timeout=120)
     assert done.returncode == 2
-    assert "motion.npz" in done.stderr and "cannot read motion" in " ".join(done.stderr.split())
+    assert "motion.npz" in done.stderr and "not a motion file" in " ".join(done.stderr.split())
     assert "Traceback" not in done.stderr + done.stdout
