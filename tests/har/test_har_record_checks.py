@@ -34,7 +34,14 @@ def _results_json(tmp_path: Path, records, label_names=None) -> Path:
     return run
 
 
-DELETE = object()
+class _Delete:
+    """The marker for a field to delete (a stable repr: xdist's workers collect the same ids)."""
+
+    def __repr__(self) -> str:
+        return "deleted"
+
+
+DELETE = _Delete()
 
 
 def _changed(path: str, value) -> list[dict]:
