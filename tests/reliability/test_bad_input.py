@@ -69,6 +69,20 @@ def case_video_extract(tmp_path, library, motion):
             clip.name, "empty")
 
 
+def case_pose_max_fps_nan(tmp_path, library, motion):
+    return (["video", "pose", tmp_path / "clip.mp4", "-o", tmp_path / "m.npz", "--max-fps", "nan"],
+            "--max-fps", "a finite number > 0")
+
+
+def case_pool_max_fps_zero(tmp_path, library, motion):
+    return ["video", "pool", tmp_path, "-o", tmp_path / "pool.json", "--max-fps", "0"], "--max-fps", "> 0"
+
+
+def case_extract_max_fps_negative(tmp_path, library, motion):
+    return (["smp", "extract", tmp_path / "clip.mp4", "--label", "walking", "--extractor", "pose",
+             "-o", tmp_path / "s.json", "--max-fps", "-5"], "--max-fps", "> 0")
+
+
 def case_smp_value(tmp_path, library, motion):
     path = _smp_with(library, tmp_path, lambda d: d["execution_attributes"].update(tempo="warp"))
     return ["smp", "validate", path], path.name, "execution_attributes.tempo"

@@ -141,6 +141,13 @@ def row_frame_size(i: Inputs) -> Row:
                absent=(i.tmp / "frames",))
 
 
+def row_video_fifo(i: Inputs) -> Row:
+    """OpenCV waits for a writer for ever when it opens a FIFO, deaf to SIGTERM."""
+    fifo = i.tmp / "clip.avi"
+    os.mkfifo(fifo)
+    return Row(["video", "info", fifo], "clip.avi", "expected a video file, found a FIFO")
+
+
 # -- SMP numbers: validate, augment and synth agree ---------------------------------------------
 def _huge_count(d: dict) -> None:
     d["temporal_structure"]["repetition_count"] = 10**30

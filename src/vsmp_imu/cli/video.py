@@ -54,6 +54,12 @@ def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
     return sampler
 
 
+def _max_fps(value: float) -> None:
+    from vsmp_imu.extract.landmarks import check_max_fps
+
+    check_max_fps(value, "--max-fps")
+
+
 def _client(base_url: str | None, model: str | None, cache_dir: Path | None, no_cache: bool,
             timeout_s: float, max_retries: int, no_response_format: bool):
     from vsmp_imu.extract.client import VLMClient
@@ -115,7 +121,7 @@ def extract_cmd(
     max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM query"),
     fuse_threshold: float = typer.Option(0.35, "--fuse-threshold",
                                          help="fused: measurements below this uncertainty override"),
-    max_fps: float = typer.Option(30.0, "--max-fps", help="pose: frames per second processed at most"),
+    max_fps: float = typer.Option(30.0, "--max-fps", help="pose: frames per second processed at most (> 0)"),
     motion_out: Path | None = typer.Option(None, "--motion-out", help="pose/fused: also write the "
                                            "clip's pose motion (.npz)"),
     library: list[Path] = LIBRARY_OPTION,
@@ -123,6 +129,7 @@ def extract_cmd(
     """Extract the SMP of a video clip with a VLM, from body pose, or both (fused)."""
     output_file(output)
     output_file(motion_out, "--motion-out")
+    _max_fps(max_fps)
     if extractor not in EXTRACTORS:
         raise ConfigError(f"unknown extractor '{extractor}'", field="--extractor",
                           allowed=", ".join(EXTRACTORS))
@@ -254,7 +261,7 @@ def frames_cmd(
 def pose_cmd(
     video: Path = typer.Argument(..., help="Video clip"),
     output: Path = typer.Option(..., "-o", "--output", help="Motion file to write (.npz)"),
-    max_fps: float = typer.Option(30.0, "--max-fps", help="Frames per second processed at most"),
+    max_fps: float = typer.Option(30.0, "--max-fps", help="Frames per second processed at most (> 0)"),
     window: str = typer.Option("all", "--window", help="all: the whole clip; longest: the longest "
                                "run of one tracked person"),
     height_m: float = typer.Option(DEFAULT_HEIGHT_M, "--height-m", help="Body height of the skeleton"),
@@ -267,6 +274,7 @@ def pose_cmd(
 
     if window not in ("all", "longest"):
         raise ConfigError(f"unknown window '{window}'", field="--window", allowed="all, longest")
+    _max_fps(max_fps)
     with progress("pose frames", None) as update:
         track = MediaPipePoseEstimator(max_fps=max_fps).estimate(video, update)
     if window == "longest":
@@ -294,7 +302,7 @@ def pool_cmd(
     no_cache: bool = typer.Option(False, "--no-cache", help="Do not read or write the VLM cache"),
     timeout_s: float = typer.Option(120.0, "--timeout-s", help="VLM request timeout (s)"),
     max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM request"),
-    max_fps: float = typer.Option(15.0, "--max-fps", help="pose: frames per second processed at most"),
+    max_fps: float = typer.Option(15.0, "--max-fps", help="pose: frames per second processed at most (> 0)"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Filter a pool of candidate source clips; write the shared manifest."""
@@ -303,6 +311,7 @@ def pool_cmd(
 
     if checker not in CHECKERS:
         raise ConfigError(f"unknown checker '{checker}'", field="--checker", allowed=", ".join(CHECKERS))
+    _max_fps(max_fps)
     if checker == "vlm":
         client = _client(base_url, model, cache_dir, no_cache, timeout_s, max_retries, True)
         chk: Any = VLMClipChecker(client, _sampler(n_frames, None))
