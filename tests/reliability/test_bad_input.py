@@ -215,6 +215,26 @@ def case_imu_csv_time(tmp_path, library, motion):
     return ["imu", "plot", path, "-o", tmp_path / "x.png"], path.name, "no 'time_s' column"
 
 
+def case_imu_csv_many_columns(tmp_path, library, motion):
+    path = tmp_path / "imu.csv"  # 3000 columns once meant a figure 3000 panels tall
+    columns = [f"c{k}" for k in range(3000)]
+    rows = [",".join(["time_s", *columns])] + [",".join([f"{t / 50:.2f}"] + ["0"] * 3000) for t in range(5)]
+    path.write_text("\n".join(rows) + "\n")
+    return ["imu", "plot", path, "-o", tmp_path / "x.png"], path.name, "3000 panels to draw"
+
+
+def case_imu_plot_suffix(tmp_path, library, motion):
+    path = tmp_path / "imu.csv"
+    path.write_text("time_s,acc_x\n0,1\n0.02,2\n")
+    return ["imu", "plot", path, "-o", tmp_path / "x.txt"], "--output", "'.txt' is not an image format"
+
+
+def case_imu_simulate_plot_suffix(tmp_path, library, motion):
+    path = motion.save(tmp_path / "walk.npz")  # the CSV was written before the plot failed
+    return (["imu", "simulate", path, "-o", tmp_path / "x.csv", "--plot", tmp_path / "x.txt"], "--plot",
+            "Allowed: .png, .svg, .pdf")
+
+
 CASES = {name[5:]: fn for name, fn in dict(globals()).items() if name.startswith("case_")}
 
 

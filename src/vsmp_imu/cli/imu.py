@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, output_file, parse_csv
+from vsmp_imu.cli.common import console, naming, output_file, parse_csv
 
 imu_app = typer.Typer(help="Virtual IMUs: simulate accelerometer and gyroscope readings from a "
                       "motion, plot them, list the sensor locations.", no_args_is_help=True)
@@ -34,6 +34,8 @@ def simulate_cmd(
     """Simulate virtual IMU readings (m/s², rad/s) from a motion file."""
     output_file(output)
     output_file(plot, "--plot")
+    if plot is not None:
+        _image_file(plot, "--plot")
     from vsmp_imu.errors import ConfigError, ValidationError
     from vsmp_imu.imu import ImuSimulator, get_placement
     from vsmp_imu.imu.kinematics import PLACEMENT_CUTOFF
@@ -76,14 +78,31 @@ def plot_cmd(
 ) -> None:
     """Plot accelerometer and gyroscope panels of one or more IMU CSV files."""
     output_file(output)
-    from vsmp_imu.imu import read_imu_csv
+    _image_file(output, "--output")
     from vsmp_imu.imu.plot import plot_imu
 
-    recs = [read_imu_csv(f) for f in files]
+    recs = [_plottable(f) for f in files]
     labels = [f.stem for f in files] if len(files) > 1 else None
     plot_imu(recs if len(recs) > 1 else recs[0], output, title=title or ", ".join(f.name for f in files),
              labels=labels)
     console.print(f"[green]wrote[/] {output}")
+
+
+def _image_file(path: Path, option: str) -> None:
+    from vsmp_imu.imu.plot import check_image_path
+
+    check_image_path(path, option)
+
+
+def _plottable(file: Path):
+    """The recording of an IMU CSV whose figure has a bounded number of panels."""
+    from vsmp_imu.imu import read_imu_csv
+    from vsmp_imu.imu.plot import check_plottable
+
+    rec = read_imu_csv(file)
+    with naming(file):
+        check_plottable(rec)
+    return rec
 
 
 @imu_app.command("locations")

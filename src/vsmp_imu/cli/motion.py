@@ -98,7 +98,13 @@ def render_cmd(
     """Draw the skeleton animation as a GIF (and a keyframe strip)."""
     output_file(output)
     output_file(keyframes, "--keyframes")
-    from vsmp_imu.motion.render import check_render_options, render_gif, render_keyframes
+    from vsmp_imu.motion.render import (
+        MAX_GIF_FRAMES,
+        check_render_options,
+        gif_step,
+        render_gif,
+        render_keyframes,
+    )
 
     try:
         check_render_options(n, view)
@@ -112,6 +118,11 @@ def render_cmd(
         if keyframes is not None:
             render_keyframes(motion, keyframes, n=n, yaw_deg=view)
     console.print(f"[green]wrote[/] {output}" + (f" and {keyframes}" if keyframes else ""))
+    step, capped = gif_step(motion)
+    if capped:
+        console.print(f"[yellow]note:[/] the GIF shows {len(range(0, motion.n_frames, step))} of the "
+                      f"{motion.n_frames} frames (one in {step}, {motion.fps / step:.3g} fps): a GIF holds at "
+                      f"most {MAX_GIF_FRAMES} frames", highlight=False)
 
 
 @motion_app.command("bvh")
