@@ -251,6 +251,43 @@ def test_bad_input_exits_2_naming_file_and_problem(name, capsys, tmp_path, libra
     assert written == [] and leftovers(tmp_path) == []
 
 
+SAME_FILE = [  # (argv with M: a motion, S: an SMP, R: a raw answer, C: an IMU CSV, V: a clip; the clash)
+    (["imu", "simulate", "M", "-o", "M"], "the input motion and --output"),
+    (["imu", "simulate", "M", "-o", "both.png", "--plot", "both.png"], "--output and --plot"),
+    (["imu", "plot", "C", "-o", "C"], "an input CSV and --output"),
+    (["motion", "render", "M", "-o", "r.gif", "--keyframes", "sub/../r.gif"], "--output and --keyframes"),
+    (["motion", "bvh", "M", "-o", "link.npz"], "the input motion and --output"),
+    (["motion", "resample", "M", "--fps", "60", "-o", "M"], "the input motion and --output"),
+    (["motion", "synth", "S", "--seed", "0", "-o", "S"], "the input SMP and --output"),
+    (["smp", "augment", "S", "-k", "3", "-o", "S"], "the input SMP and --output"),
+    (["smp", "augment", "walking", "-k", "3", "-o", "v.jsonl", "--provenance", "v.jsonl"], "--output and --provenance"),
+    (["smp", "refine", "S", "-o", "S"], "the input SMP and --output"),
+    (["smp", "intervene", "S", "--attribute", "tempo", "--level", "fast", "-o", "S"], "the input SMP and --output"),
+    (["smp", "repair", "R", "-o", "out.json", "--report", "R"], "the raw response and --report"),
+    (["smp", "aggregate", "R", "R", "R", "-o", "R"], "a raw response and --output"),
+    (["video", "pose", "V", "-o", "V"], "the video and --output"),
+    (["smp", "extract", "V", "--label", "walking", "--extractor", "pose", "-o", "s.json", "--motion-out",
+      "s.report.json"], "the report next to --output and --motion-out"),
+]
+
+
+@pytest.mark.parametrize("argv, clash", SAME_FILE, ids=[" ".join(a[:2]) + f" {c}" for a, c in SAME_FILE])
+def test_an_output_that_is_an_input_or_another_output_is_refused(capsys, tmp_path, monkeypatch, library,
+                                                                  good_motion, argv, clash):
+    monkeypatch.chdir(tmp_path)
+    good_motion.save(tmp_path / "M")
+    Path("link.npz").symlink_to("M")
+    (tmp_path / "sub").mkdir()
+    Path("S").write_text(json.dumps(library.get("walking").smp.model_dump(mode="json")))
+    Path("R").write_text("no JSON here")
+    Path("C").write_text("time_s,acc_x\n0,1\n0.02,2\n")
+    Path("V").write_bytes(b"\x00" * 64)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()}
+    code, text = run_main(capsys, *argv)
+    assert code == 2 and f"{clash} name the same file" in text, text
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before  # nothing written
+
+
 def test_the_console_script_exits_2_with_one_paragraph(tmp_path):
     """The installed `vsmp-imu` script, as a user runs it."""
     bad = tmp_path / "motion.npz"

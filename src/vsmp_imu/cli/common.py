@@ -112,6 +112,37 @@ def _is_dir(path: Path, option: str) -> bool:
                           allowed="a folder you may enter and write to") from exc
 
 
+# -- inputs and outputs of one command: never the same file ---------------------------------
+def distinct_files(outputs: dict[str, Path | None],
+                   inputs: dict[str, Path | str | list[Path] | None] | None = None) -> None:
+    """Refuse an output that is one of the command's inputs or another of its outputs, whatever
+    the spelling (links and '..' resolved). Keys name the options or inputs; an input that is
+    not an existing file (an activity name) has nothing to lose; None is skipped."""
+    seen: dict[object, str] = {}
+    for label, value in (inputs or {}).items():
+        for path in value if isinstance(value, list) else [value]:
+            if path is not None and os.path.isfile(path):
+                seen.setdefault(_file_key(Path(path)), label)
+    for option, path in outputs.items():
+        if path is None:
+            continue
+        first = seen.setdefault(_file_key(path), option)
+        if first != option:
+            raise ConfigError(f"{first} and {option} name the same file", file=path, field=option,
+                              allowed="a file of its own for each output, never one of the inputs")
+
+
+def _file_key(path: Path) -> object:
+    """What makes two paths one file: device and inode when it exists, else its resolved path."""
+    with contextlib.suppress(OSError):
+        info = path.stat()
+        return info.st_dev, info.st_ino
+    try:
+        return str(path.resolve())
+    except (OSError, RuntimeError):  # a symlink loop
+        return str(path.absolute())
+
+
 # -- untrusted text: printed with its control characters escaped ----------------------------
 _CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
 

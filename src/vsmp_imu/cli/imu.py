@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, naming, output_file, parse_csv
+from vsmp_imu.cli.common import console, distinct_files, naming, output_file, parse_csv
 
 imu_app = typer.Typer(help="Virtual IMUs: simulate accelerometer and gyroscope readings from a "
                       "motion, plot them, list the sensor locations.", no_args_is_help=True)
@@ -34,6 +34,7 @@ def simulate_cmd(
     """Simulate virtual IMU readings (m/s², rad/s) from a motion file."""
     output_file(output)
     output_file(plot, "--plot")
+    distinct_files({"--output": output, "--plot": plot}, {"the input motion": motion_file})
     if plot is not None:
         _image_file(plot, "--plot")
     from vsmp_imu.errors import ConfigError, ValidationError
@@ -78,6 +79,7 @@ def plot_cmd(
 ) -> None:
     """Plot accelerometer and gyroscope panels of one or more IMU CSV files."""
     output_file(output)
+    distinct_files({"--output": output}, {"an input CSV": files})
     _image_file(output, "--output")
     from vsmp_imu.imu.plot import plot_imu
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, library_dirs, naming, output_file
+from vsmp_imu.cli.common import console, distinct_files, library_dirs, naming, output_file
 from vsmp_imu.errors import ConfigError, ValidationError
 
 motion_app = typer.Typer(help="Motions: synthesize from an SMP or a prompt (procedural or HY-Motion), "
@@ -65,6 +65,7 @@ def synth_cmd(
 ) -> None:
     """Generate one motion and write it as .npz."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input SMP": _smp_file(smp)})
     from vsmp_imu.motion import get_backend
 
     if smp is None and prompt is None:
@@ -98,6 +99,7 @@ def render_cmd(
     """Draw the skeleton animation as a GIF (and a keyframe strip)."""
     output_file(output)
     output_file(keyframes, "--keyframes")
+    distinct_files({"--output": output, "--keyframes": keyframes}, {"the input motion": motion_file})
     from vsmp_imu.motion.render import (
         MAX_GIF_FRAMES,
         check_render_options,
@@ -133,6 +135,7 @@ def bvh_cmd(
 ) -> None:
     """Export a motion as BVH (opens in Blender)."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input motion": motion_file})
     from vsmp_imu.motion.bvh import write_bvh
 
     motion = _load_motion(motion_file)
@@ -164,6 +167,7 @@ def resample_cmd(
 ) -> None:
     """Write the motion at another frame rate."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input motion": motion_file})
     motion = _load_motion(motion_file).resample(fps)
     motion.save(output)
     console.print(f"[green]wrote[/] {output}: {motion.n_frames} frames at {motion.fps:g} fps")

@@ -14,7 +14,7 @@ from rich import box
 from rich.table import Table
 from rich.text import Text
 
-from vsmp_imu.cli.common import console, library_dirs, output_file, safe_text
+from vsmp_imu.cli.common import console, distinct_files, library_dirs, output_file, safe_text
 from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError, VsmpError
 from vsmp_imu.io import write_json, write_text
 from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
@@ -153,6 +153,7 @@ def repair_cmd(
     """Parse and repair one raw response; exit 2 with the reason when it is rejected."""
     output_file(output)
     output_file(report_file, "--report")
+    distinct_files({"--output": output, "--report": report_file}, {"the raw response": raw})
     result = parse_response(_read_raw(raw))
     _print_repair(str(raw), result.report)
     if report_file is not None:
@@ -175,6 +176,7 @@ def aggregate_cmd(
     """Repair each response, aggregate them, then refine (the paper's extraction tail)."""
     output_file(output)
     output_file(report_file, "--report")
+    distinct_files({"--output": output, "--report": report_file}, {"a raw response": raws})
     results = [parse_response(_read_raw(p)) for p in raws]
     for path, res in zip(raws, results, strict=True):
         _print_repair(str(path), res.report)
@@ -207,6 +209,7 @@ def refine_cmd(
 ) -> None:
     """Run the four consistency checks and print every correction."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input SMP": Path(file)})
     result = Refiner(_library(library)).refine(_smp_arg(file, library))
     _print_refine(result)
     if output is not None:
@@ -228,6 +231,7 @@ def augment_cmd(
     """Draw K constrained variants; the same seed gives the same bytes."""
     output_file(output)
     output_file(provenance, "--provenance")
+    distinct_files({"--output": output, "--provenance": provenance}, {"the input SMP": Path(file)})
     smp = _smp_arg(file, library)
     augmenter = SMPAugmenter(uncertainty_conditioned=not no_uncertainty)
     variants = augmenter.augment(smp, k, seed)
@@ -250,6 +254,7 @@ def intervene_cmd(
 ) -> None:
     """Change exactly one attribute (controllability interventions)."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input SMP": Path(file)})
     smp = _smp_arg(file, library)
     _write_or_print(intervene(smp, attribute, level, _central_primitive(smp, library)), output)
 

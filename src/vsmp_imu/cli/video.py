@@ -14,7 +14,14 @@ from typing import Any
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, console_err, library_dirs, output_dir, output_file
+from vsmp_imu.cli.common import (
+    console,
+    console_err,
+    distinct_files,
+    library_dirs,
+    output_dir,
+    output_file,
+)
 from vsmp_imu.cli.smp import smp_app
 from vsmp_imu.errors import ConfigError, ExtractionError
 from vsmp_imu.io import write_json, write_text
@@ -129,6 +136,9 @@ def extract_cmd(
     """Extract the SMP of a video clip with a VLM, from body pose, or both (fused)."""
     output_file(output)
     output_file(motion_out, "--motion-out")
+    report_next_to = side_paths(output)[1] if output is not None else None
+    distinct_files({"--output": output, "the report next to --output": report_next_to, "--motion-out": motion_out},
+                   {"the video": video})
     _max_fps(max_fps)
     if extractor not in EXTRACTORS:
         raise ConfigError(f"unknown extractor '{extractor}'", field="--extractor",
@@ -268,6 +278,7 @@ def pose_cmd(
 ) -> None:
     """MediaPipe pose -> SMPL-22 motion (.npz), gaps marked in its meta."""
     output_file(output)
+    distinct_files({"--output": output}, {"the video": video})
     from vsmp_imu.extract.landmarks import MediaPipePoseEstimator
     from vsmp_imu.extract.posemeasure import longest_run
     from vsmp_imu.extract.retarget import track_to_motion
