@@ -171,6 +171,22 @@ def test_generate_numbers_out_of_range(capsys, tmp_path, small_dataset, option, 
     assert not (tmp_path / "out" / "synthetic.parquet").exists()
 
 
+@pytest.mark.parametrize("argv, option, allowed", [
+    (["motion", "synth", "walking", "--seed", "0", "--duration-s", "nan"], "--duration-s", "0.1..600, not nan"),
+    (["motion", "synth", "walking", "--seed", "0", "--duration-s", "-inf"], "--duration-s", "0.1..600, not -inf"),
+    (["motion", "synth", "walking", "--seed", "0", "--fps", "nan"], "--fps", "1..1000, not nan"),
+    (["motion", "synth", "walking", "--seed", "0", "--fps", "5000"], "--fps", "1..1000, not 5000"),
+    (["motion", "resample", "M", "--fps", "inf"], "--fps", "1..1000, not inf"),
+    (["imu", "simulate", "M", "--smoothing-hz", "nan"], "--smoothing-hz", "0..1000, not nan"),
+    (["evaluate", "--dataset", "hapt", "--window-s", "nan"], "--window-s", "0.5..30, not nan"),
+    (["demo", "--budget", "nan"], "--budget", "0.1..100, not nan"),
+])
+def test_a_number_option_that_is_nan_or_inf_is_called_not_finite(capsys, tmp_path, argv, option, allowed):
+    code, text = run_main(capsys, *argv, "-o", tmp_path / "out")
+    text = " ".join(text.replace("│", " ").split())
+    assert code == 2 and f"Invalid value for '{option}': must be a finite number in {allowed}" in text, text
+
+
 def case_imu_number(tmp_path, library, motion):
     path = motion.save(tmp_path / "walk.npz")
     return ["imu", "simulate", path, "--fs", "-5", "-o", tmp_path / "x.csv"], "--fs", "1..10000 Hz"

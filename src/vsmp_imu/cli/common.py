@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +29,18 @@ def parse_csv(value: str, allowed: tuple[str, ...] | None = None, option: str = 
         if bad:
             raise ConfigError(f"unknown value(s) {', '.join(bad)}", field=option, allowed=", ".join(allowed))
     return items
+
+
+def finite_range(lo: float, hi: float) -> Callable[[float | None], float | None]:
+    """The callback of a float option in lo..hi: NaN and inf are refused as not finite (typer's
+    own min/max check calls NaN larger than the maximum)."""
+
+    def check(value: float | None) -> float | None:
+        if value is not None and not (math.isfinite(value) and lo <= value <= hi):
+            raise typer.BadParameter(f"must be a finite number in {lo:g}..{hi:g}, not {value:g}")
+        return value
+
+    return check
 
 
 def library_dirs(library: list[Path] | None) -> list[Path]:

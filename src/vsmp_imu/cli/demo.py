@@ -7,14 +7,15 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, output_dir, parse_csv
+from vsmp_imu.cli.common import console, finite_range, output_dir, parse_csv
 from vsmp_imu.progress import progress
 
 
 def demo_cmd(
     output: Path = typer.Option(Path("demo_out"), "-o", "--output", help="Output folder"),
     folds: str = typer.Option("1,2,3", "--folds", help="Held-out subjects (HAPT has 1..30)"),
-    budget: float = typer.Option(1.0, "--budget", min=0.1, max=100.0, help="Label budget in percent"),
+    budget: float = typer.Option(1.0, "--budget", callback=finite_range(0.1, 100.0),
+                                 help="Label budget in percent, 0.1..100"),
     workers: int = typer.Option(2, "--workers", min=1, max=64, help="Generation workers"),
 ) -> None:
     """HAPT12, library SMPs, procedural backend, low-resource LOPO, two forests with balanced class

@@ -31,6 +31,7 @@ from vsmp_imu.cli.common import (
     console,
     console_err,
     executor_options,
+    finite_range,
     output_dir,
     parse_csv,
     print_warnings,
@@ -131,7 +132,8 @@ def evaluate_cmd(
         help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform) "
              "[default: uniform for tstr, tail for unseen, else scarcity]"),
     rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
-    window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0, help="window length in seconds"),
+    window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
+                                   help="window length in seconds, 0.5..30"),
     overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
     max_epochs: int = typer.Option(None, "--max-epochs", max=100000, help="neural backbones: epoch limit"),
@@ -494,7 +496,8 @@ def list_cmd() -> None:
 def info_cmd(
     name: str = typer.Argument(..., help="dataset name or dataset .yaml file"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
-    window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0),
+    window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
+                                   help="window length in seconds, 0.5..30"),
     overlap: float = typer.Option(0.5, "--overlap"),
     measure: str = typer.Option(
         None, "--measure", help="a static class: print its mean acceleration per channel"

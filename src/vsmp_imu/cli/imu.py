@@ -7,7 +7,14 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, distinct_files, naming, output_file, parse_csv
+from vsmp_imu.cli.common import (
+    console,
+    distinct_files,
+    finite_range,
+    naming,
+    output_file,
+    parse_csv,
+)
 
 imu_app = typer.Typer(help="Virtual IMUs: simulate accelerometer and gyroscope readings from a "
                       "motion, plot them, list the sensor locations.", no_args_is_help=True)
@@ -25,7 +32,7 @@ def simulate_cmd(
     fs: float = typer.Option(50.0, "--fs", help="output rate (Hz), 1..10000"),
     no_noise: bool = typer.Option(False, "--no-noise", help="exact kinematics: no white noise, no bias drift"),
     seed: int = typer.Option(0, "--seed", help="noise seed"),
-    smoothing_hz: float = typer.Option(None, "--smoothing-hz", min=0.0, max=1000.0,
+    smoothing_hz: float = typer.Option(None, "--smoothing-hz", callback=finite_range(0.0, 1000.0),
                                        help="cutoff of the smoothing splines of positions and rotations "
                                             "(Hz; default: the placement's, 8, feet 15; 0 = interpolate)"),
     trim_s: float = typer.Option(0.2, "--trim-s", help="margin dropped at each end (s)"),

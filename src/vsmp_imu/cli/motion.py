@@ -8,7 +8,14 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, distinct_files, library_dirs, naming, output_file
+from vsmp_imu.cli.common import (
+    console,
+    distinct_files,
+    finite_range,
+    library_dirs,
+    naming,
+    output_file,
+)
 from vsmp_imu.errors import ConfigError, ValidationError
 
 motion_app = typer.Typer(help="Motions: synthesize from an SMP or a prompt (procedural or HY-Motion), "
@@ -55,12 +62,13 @@ def synth_cmd(
     smp: str = typer.Argument(None, help="SMP file (.json/.yaml) or activity name; optional with --prompt"),
     seed: int = typer.Option(..., "--seed", help="generation seed (same seed, same bytes)"),
     output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
-    duration_s: float = typer.Option(None, "--duration-s", min=0.1, max=600.0,
+    duration_s: float = typer.Option(None, "--duration-s", callback=finite_range(0.1, 600.0),
                                     help="duration in seconds, 0.1..600 (default: natural)"),
     backend: str = typer.Option("procedural", "--backend", help="procedural | compiled | hymotion"),
     prompt: str = typer.Option(None, "--prompt", help="free-text prompt instead of (or overriding) the SMP"),
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder (repeatable)"),
-    fps: float = typer.Option(30.0, "--fps", min=1.0, max=1000.0, help="frame rate of the procedural backend"),
+    fps: float = typer.Option(30.0, "--fps", callback=finite_range(1.0, 1000.0),
+                              help="frame rate of the procedural backend, 1..1000"),
     model_path: str = typer.Option(None, "--model-path", help="HY-Motion checkpoint folder"),
 ) -> None:
     """Generate one motion and write it as .npz."""
@@ -162,7 +170,7 @@ def info_cmd(motion_file: Path = typer.Argument(..., help="motion file (.npz)"))
 @motion_app.command("resample")
 def resample_cmd(
     motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
-    fps: float = typer.Option(..., "--fps", min=1.0, max=1000.0, help="new frame rate"),
+    fps: float = typer.Option(..., "--fps", callback=finite_range(1.0, 1000.0), help="new frame rate, 1..1000"),
     output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
 ) -> None:
     """Write the motion at another frame rate."""
