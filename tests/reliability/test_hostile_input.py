@@ -419,6 +419,40 @@ def test_a_label_that_looks_like_console_markup_is_printed_not_parsed(tmp_path):
     assert "[/oops] [bold]walking" in " ".join(done.stdout.split())
 
 
+def test_file_names_and_labels_that_look_like_markup_are_printed_as_written(tmp_path):
+    """'[red]x.json' was shown as 'x.json', and a label's '[bold]' styled the terminal."""
+    smp = ActivityLibrary.load().get("walking").smp.model_dump(mode="json")
+    smp["activity_label"] = "[bold red]walking[/] [link=http://x]a[/link]"
+    path = tmp_path / "[red]x.json"
+    path.write_text(json.dumps(smp))
+    written = tmp_path / "[green]z.json"
+    wide = {"COLUMNS": "1000"}  # no wrapping inside the long temporary paths
+    for argv, expected in ((["smp", "validate", path], f"valid {path}: '{smp['activity_label']}'"),
+                           (["smp", "library", "show", "walking", "-o", written], f"wrote {written}"),
+                           (["motion", "synth", path, "--seed", "0", "-o", written.with_suffix(".npz")],
+                            f"wrote {written.with_suffix('.npz')}: [bold_red]walking[/]_[link=http://x]a[/link],")):
+        done, _ = run_row(Row(argv, "", "", env=wide))
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert expected in done.stdout, done.stdout
+
+
+def test_control_characters_are_escaped_before_a_line_is_wrapped():
+    """Escaped after layout, '\\u202e' is six characters where one was measured: the line
+    overflowed its width and rich cropped words ('backend' lost its middle)."""
+    import io
+
+    from vsmp_imu.cli.common import _console, safe_text
+
+    out = _console()
+    out.file = io.StringIO()
+    out.width = 40
+    text = "wrote m.npz: \u202eskcaj_gnipmuj\x00_x, 1092 frames at 30 fps (36.37 s), backend procedural, seed 0"
+    out.print(f"[green]wrote[/]{text[5:]}", highlight=False)
+    printed = out.file.getvalue()
+    assert " ".join(printed.split()) == " ".join(safe_text(text).split())
+    assert max(len(line) for line in printed.splitlines()) <= 40
+
+
 @pytest.mark.parametrize("text", [
     "- " * DEEP + "x",  # block lists in one line
     "".join(f"{' ' * i}k{i}:\n" for i in range(150)) + " " * 150 + "v",  # block mappings by indent

@@ -13,7 +13,9 @@ from typing import Any
 import typer
 from rich.console import Console, ConsoleOptions, RenderableType, RenderResult
 from rich.errors import MarkupError
+from rich.markup import escape
 from rich.segment import Segment
+from rich.text import Text
 
 from vsmp_imu.errors import ConfigError, VsmpError
 from vsmp_imu.pipeline.spec import INTENSITY, GenerationSpec
@@ -167,9 +169,16 @@ def safe_text(text: object) -> str:
     return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), str(text))
 
 
+def shown(text: object) -> str:
+    """User text (a file name, a label) to put in a console message that has markup: printed
+    as written ('[red]x.json' stays '[red]x.json'), its control characters escaped."""
+    return escape(safe_text(text))
+
+
 class _Escaped:
     """A renderable whose text segments are escaped; rich's own styles and cursor controls
-    (separate segments) pass unchanged."""
+    (separate segments) pass unchanged. The net under `_Console.render_str`, for Text objects
+    made from user text: escaping after layout widens a line past its wrap."""
 
     def __init__(self, renderable: RenderableType) -> None:
         self.renderable = renderable
@@ -194,13 +203,18 @@ class _EscapeHook:
 
 
 class _Console(Console):
-    """A label such as '[/x]' inside a message is text, not broken markup: printed plainly."""
+    """A label such as '[/x]' inside a message is text, not broken markup: printed plainly.
+    Strings (messages, table cells) have their control characters escaped before they are
+    laid out, so lines wrap at their printed width."""
 
     def print(self, *objects: Any, **kwargs: Any) -> None:
         try:
             super().print(*objects, **kwargs)
         except MarkupError:
             super().print(*objects, **{**kwargs, "markup": False})
+
+    def render_str(self, text: str, **kwargs: Any) -> Text:
+        return super().render_str(safe_text(text), **kwargs)
 
 
 def _console(stderr: bool = False) -> Console:
@@ -215,10 +229,8 @@ console_err = _console(stderr=True)
 
 def print_warnings(lines: list[str]) -> None:
     """Print each warning (e.g. a dataset's undeclared axes) as one paragraph on stderr."""
-    from rich.markup import escape
-
     for line in lines:
-        console_err.print(f"[bold yellow]warning:[/] {escape(safe_text(line))}", highlight=False, soft_wrap=True)
+        console_err.print(f"[bold yellow]warning:[/] {shown(line)}", highlight=False, soft_wrap=True)
 
 # Grounding options shared by `generate` and `evaluate` (one definition, one help text).
 PER_CLASS_RANK = typer.Option(True, "--per-class-rank/--pooled-rank",

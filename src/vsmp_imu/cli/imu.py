@@ -14,6 +14,7 @@ from vsmp_imu.cli.common import (
     naming,
     output_file,
     parse_csv,
+    shown,
 )
 
 imu_app = typer.Typer(help="Virtual IMUs: simulate accelerometer and gyroscope readings from a "
@@ -69,13 +70,13 @@ def simulate_cmd(
         raise ValidationError(exc.message, file=motion_file, field=exc.field) from exc  # name the file
     rec.meta["motion_file"] = str(motion_file)
     rec.save_csv(output)
-    console.print(f"[green]wrote[/] {output}: {rec.n_samples} samples at {rec.fs_hz:g} Hz, "
+    console.print(f"[green]wrote[/] {shown(output)}: {rec.n_samples} samples at {rec.fs_hz:g} Hz, "
                   f"{len(rec.channel_names)} channels ({', '.join(p.name for p in placements)})")
     if plot is not None:
         from vsmp_imu.imu.plot import plot_imu
 
         plot_imu(rec, plot, title=f"{motion_file.name}: {', '.join(p.name for p in placements)}")
-        console.print(f"[green]wrote[/] {plot}")
+        console.print(f"[green]wrote[/] {shown(plot)}")
 
 
 @imu_app.command("plot")
@@ -94,7 +95,7 @@ def plot_cmd(
     labels = [f.stem for f in files] if len(files) > 1 else None
     plot_imu(recs if len(recs) > 1 else recs[0], output, title=title or ", ".join(f.name for f in files),
              labels=labels)
-    console.print(f"[green]wrote[/] {output}")
+    console.print(f"[green]wrote[/] {shown(output)}")
 
 
 def _image_file(path: Path, option: str) -> None:

@@ -15,6 +15,7 @@ from vsmp_imu.cli.common import (
     library_dirs,
     naming,
     output_file,
+    shown,
 )
 from vsmp_imu.errors import ConfigError, ValidationError
 
@@ -91,7 +92,7 @@ def synth_cmd(
     with console.status(f"[bold]synthesizing[/] with {engine.name} (seed {seed})..."), naming(smp_file):
         motion = engine.generate(source, seed=seed, duration_s=duration_s)
     motion.save(output)
-    console.print(f"[green]wrote[/] {output}: {motion.meta.get('activity', '?')}, "
+    console.print(f"[green]wrote[/] {shown(output)}: {shown(motion.meta.get('activity', '?'))}, "
                   f"{motion.n_frames} frames at {motion.fps:g} fps ({motion.duration_s:.2f} s), "
                   f"backend {motion.meta.get('backend')}, seed {seed}")
 
@@ -127,7 +128,7 @@ def render_cmd(
         render_gif(motion, output, yaw_deg=view)
         if keyframes is not None:
             render_keyframes(motion, keyframes, n=n, yaw_deg=view)
-    console.print(f"[green]wrote[/] {output}" + (f" and {keyframes}" if keyframes else ""))
+    console.print(f"[green]wrote[/] {shown(output)}" + (f" and {shown(keyframes)}" if keyframes else ""))
     step, capped = gif_step(motion)
     if capped:
         console.print(f"[yellow]note:[/] the GIF shows {len(range(0, motion.n_frames, step))} of the "
@@ -148,22 +149,22 @@ def bvh_cmd(
 
     motion = _load_motion(motion_file)
     write_bvh(motion, output, scale=scale)
-    console.print(f"[green]wrote[/] {output}: {motion.n_joints} joints, {motion.n_frames} frames")
+    console.print(f"[green]wrote[/] {shown(output)}: {motion.n_joints} joints, {motion.n_frames} frames")
 
 
 @motion_app.command("info")
 def info_cmd(motion_file: Path = typer.Argument(..., help="motion file (.npz)")) -> None:
     """Show a motion's size, body and provenance."""
     motion = _load_motion(motion_file)
-    table = Table(title=str(motion_file), show_header=False)
+    table = Table(title=shown(motion_file), show_header=False)
     table.add_row("frames", f"{motion.n_frames} at {motion.fps:g} fps ({motion.duration_s:.2f} s)")
-    table.add_row("joints", f"{motion.n_joints}: {', '.join(motion.joint_names)}")
+    table.add_row("joints", f"{motion.n_joints}: {shown(', '.join(motion.joint_names))}")
     table.add_row("body height", f"{motion.body_height_m():.3f} m")
     for key in ("backend", "seed", "activity", "activity_label", "smp_id", "prompt"):
         if motion.meta.get(key) is not None:
-            table.add_row(key, str(motion.meta[key]))
+            table.add_row(key, shown(motion.meta[key]))
     if "controls" in motion.meta:
-        table.add_row("controls", json.dumps(motion.meta["controls"], sort_keys=True))
+        table.add_row("controls", shown(json.dumps(motion.meta["controls"], sort_keys=True)))
     console.print(table)
 
 
@@ -178,7 +179,7 @@ def resample_cmd(
     distinct_files({"--output": output}, {"the input motion": motion_file})
     motion = _load_motion(motion_file).resample(fps)
     motion.save(output)
-    console.print(f"[green]wrote[/] {output}: {motion.n_frames} frames at {motion.fps:g} fps")
+    console.print(f"[green]wrote[/] {shown(output)}: {motion.n_frames} frames at {motion.fps:g} fps")
 
 
 def register(app: typer.Typer) -> None:

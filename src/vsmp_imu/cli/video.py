@@ -21,6 +21,7 @@ from vsmp_imu.cli.common import (
     library_dirs,
     output_dir,
     output_file,
+    shown,
 )
 from vsmp_imu.cli.smp import smp_app
 from vsmp_imu.errors import ConfigError, ExtractionError
@@ -184,7 +185,7 @@ def extract_cmd(
             raise ExtractionError(f"clip discarded: {result.reason}", file=video)
         smp = result.smp
         if smp is None:
-            console_err.print(f"VLM discarded the clip ({result.reason}); fusing pose with the "
+            console_err.print(f"VLM discarded the clip ({shown(result.reason)}); fusing pose with the "
                               "library SMP instead", highlight=False)
     if extractor in ("pose", "fused"):
         from vsmp_imu.extract.landmarks import MediaPipePoseEstimator
@@ -203,14 +204,14 @@ def extract_cmd(
         _print_pose(extraction)
         if motion_out is not None and extraction.motion is not None:
             extraction.motion.save(motion_out)
-            console.print(f"wrote {motion_out}", highlight=False)
+            console.print(f"wrote {shown(motion_out)}", highlight=False)
     assert smp is not None
     from vsmp_imu.smp import save_smp
 
     report["smp"] = smp.model_dump(mode="json")
     save_smp(smp, output)
     write_json(report_path, report)
-    console.print(f"wrote {output} and {report_path.name}", highlight=False)
+    console.print(f"wrote {shown(output)} and {shown(report_path.name)}", highlight=False)
 
 
 def _print_pose(extraction: Any) -> None:
@@ -225,11 +226,11 @@ def _print_pose(extraction: Any) -> None:
         table.add_column(col, overflow="fold")
     actions = {c.field: c.action for c in extraction.changes}
     for name, meas in m.fields.items():
-        table.add_row(name, json.dumps(meas.value), f"{meas.uncertainty:.2f}",
-                      actions.get(name, ""), meas.note)
+        table.add_row(shown(name), shown(json.dumps(meas.value)), f"{meas.uncertainty:.2f}",
+                      shown(actions.get(name, "")), shown(meas.note))
     console.print(table)
     for w in extraction.warnings:
-        console_err.print(f"[yellow]warning:[/] {w}", highlight=False)
+        console_err.print(f"[yellow]warning:[/] {shown(w)}", highlight=False)
 
 
 # -- video commands -------------------------------------------------------------------------
@@ -239,11 +240,11 @@ def info_cmd(video: Path = typer.Argument(..., help="Video clip")) -> None:
     from vsmp_imu.extract.frames import probe
 
     info = probe(video)
-    table = Table(title=str(video))
+    table = Table(title=shown(video))
     table.add_column("property")
     table.add_column("value")
     for key, value in info.to_dict().items():
-        table.add_row(key, str(value))
+        table.add_row(key, shown(value))
     console.print(table)
 
 
@@ -261,10 +262,10 @@ def frames_cmd(
 
     sampled = _sampler(n, preset, size_px).sample(video)
     write_frames(sampled, output)
-    console.print(f"wrote {sampled.n_frames} frames and contact_sheet.png to {output} "
+    console.print(f"wrote {sampled.n_frames} frames and contact_sheet.png to {shown(output)} "
                   f"({sampled.duration_s:.2f} s clip at {sampled.fps:.3f} fps)", highlight=False)
     for w in sampled.warnings:
-        console_err.print(f"[yellow]warning:[/] {w}", highlight=False)
+        console_err.print(f"[yellow]warning:[/] {shown(w)}", highlight=False)
 
 
 @video_app.command("pose")
@@ -296,7 +297,7 @@ def pose_cmd(
     if motion is None:
         raise ExtractionError("no person detected in the clip", file=video)
     motion.save(output)
-    console.print(f"wrote {output}: {motion.n_frames} frames at {motion.fps:g} fps, person in "
+    console.print(f"wrote {shown(output)}: {motion.n_frames} frames at {motion.fps:g} fps, person in "
                   f"{motion.meta['detected_fraction']:.0%} of them", highlight=False)
 
 
@@ -339,9 +340,10 @@ def pool_cmd(
     for col in ("activity", "clip", "decision", "confidence", "reason"):
         table.add_column(col, overflow="fold")
     for c in data["clips"]:
-        table.add_row(c["activity"], c["path"], c["decision"], f"{c['confidence']:.2f}", c["reason"])
+        table.add_row(shown(c["activity"]), shown(c["path"]), c["decision"], f"{c['confidence']:.2f}",
+                      shown(c["reason"]))
     console.print(table)
-    console.print(f"wrote {output}", highlight=False)
+    console.print(f"wrote {shown(output)}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:
