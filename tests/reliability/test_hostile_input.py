@@ -502,6 +502,27 @@ def test_a_file_system_refusal_during_a_command_is_exit_2_naming_the_path(tmp_pa
         main(["smp", "library", "show", "walking", "-o", str(tmp_path / "w.json")])
 
 
+def test_a_stopped_command_says_resume_only_when_it_resumes(tmp_path, monkeypatch, capsys):
+    """After SIGTERM, `motion render` or `imu plot` once said its samples and folds were kept."""
+    import signal
+
+    import vsmp_imu.cli.smp as smp_cli
+    from vsmp_imu.cli import Interrupted, main, stop_message
+
+    def stopped(smp, path):
+        raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(smp_cli, "save_smp", stopped)
+    with pytest.raises(SystemExit) as exit_:
+        main(["smp", "library", "show", "walking", "-o", str(tmp_path / "w.json")])
+    text = " ".join(capsys.readouterr().err.split())
+    assert exit_.value.code == 143 and text == "stopped by SIGTERM."
+    assert stop_message(signal.SIGINT, ["motion", "render", "m.npz", "-o", "m.gif"]) == "[bold yellow]stopped[/] by SIGINT."
+    assert "folds are kept; run the same command again to resume" in stop_message(signal.SIGTERM, ["evaluate", "-d", "x"])
+    assert "resume" in stop_message(signal.SIGTERM, ["study", "ablation", "-o", "x"])
+    assert "resume" not in stop_message(signal.SIGTERM, ["study", "case", "-o", "x"])
+
+
 def test_an_activity_the_library_lacks_is_compiled_from_the_users_smp(tmp_path):
     """An unknown label with a primitive no recipe has is never swapped for a library activity:
     `motion synth` compiles the user's own SMP (with recipes only it is an error naming the
