@@ -46,7 +46,8 @@ def progress(description: str, total: int | None = None, *, console: Console | N
 
 @contextmanager
 def _bar(description: str, total: int | None, console: Console, transient: bool) -> Iterator[Update]:
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+    # markup=False: a description may hold a clip's or a model's name
+    columns = (TextColumn("{task.description}", markup=False), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                TimeRemainingColumn())
     with Progress(*columns, console=console, transient=transient) as bar:
         task = bar.add_task(description, total=total)
@@ -61,7 +62,7 @@ def _bar(description: str, total: int | None, console: Console, transient: bool)
 def _lines(description: str, total: int | None, console: Console, interval_s: float) -> Update:
     start = time.monotonic()
     state: dict = {"total": total, "stage": None, "done": None, "printed": -math.inf}
-    console.print(f"[{clock(0)}] {description}", highlight=False, soft_wrap=True)
+    console.print(f"[{clock(0)}] {description}", markup=False, highlight=False, soft_wrap=True)
 
     def update(done: int, total_now: int | None = None, stage: str | None = None) -> None:
         state["total"] = total_now or state["total"]
@@ -73,7 +74,7 @@ def _lines(description: str, total: int | None, console: Console, interval_s: fl
         state["stage"], state["done"], state["printed"] = stage, done, now
         count = f"{done}/{state['total']}" if state["total"] else str(done)
         name = f"{description}: {stage}" if stage else description
-        console.print(f"[{clock(now - start)}] {name} {count}", highlight=False, soft_wrap=True)
+        console.print(f"[{clock(now - start)}] {name} {count}", markup=False, highlight=False, soft_wrap=True)
 
     return update
 

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
+import threading
 
 import numpy as np
 import pytest
@@ -118,6 +121,32 @@ def test_missing_file_and_directory(tmp_path):
         FrameSampler().sample(tmp_path)
 
 
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_a_fifo_is_refused_before_opencv_opens_it(tmp_path):
+    """OpenCV would block for ever opening a FIFO that no one writes to (and ignore SIGTERM)."""
+    fifo = tmp_path / "clip.avi"
+    os.mkfifo(fifo)
+    link = tmp_path / "link.avi"
+    link.symlink_to(fifo)
+    done = threading.Event()
+    threading.Thread(target=_unblock_readers, args=(fifo, done), daemon=True).start()
+    try:
+        for path in (fifo, link):
+            with pytest.raises(InputFileError, match="found a FIFO") as err:
+                probe(path)
+            assert str(path) in err.value.render()
+    finally:
+        done.set()
+
+
+def _unblock_readers(fifo, done: threading.Event) -> None:
+    """After 10 s, keep opening the FIFO's write end: a regression fails instead of hanging."""
+    done.wait(10.0)
+    while not done.wait(0.2):
+        with contextlib.suppress(OSError):  # no reader waiting
+            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+
+
 def test_content_hash_follows_the_bytes(videos, tmp_path):
     a = FrameSampler(n_frames=2).sample(videos["counter"]).clip_hash
     copy = tmp_path / "copy.avi"
@@ -160,6 +189,9 @@ def test_cli_video_frames_and_info(cli, videos, tmp_path):
     assert sheet.shape == (2 * 192, 3 * 192, 3)
     meta = json.loads((tmp_path / "f" / "frames.json").read_text())
     assert meta["indices"] == uniform_indices(40, 6).tolist()
+    code, out, err = cli("video", "frames", videos["counter"], "--n", "2", "-o", tmp_path / "f")
+    assert code == 0, err  # a rerun into the folder: no frame of the earlier run is left over
+    assert sorted(p.name for p in (tmp_path / "f").glob("frame_*.png")) == ["frame_000.png", "frame_001.png"]
     code, out, err = cli("video", "info", videos["truncated"])
     assert code == 0 and "decoded" in out
     code, out, err = cli("video", "frames", tmp_path / "missing.mp4", "-o", tmp_path / "g")

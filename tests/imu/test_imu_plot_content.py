@@ -7,9 +7,16 @@ import numpy as np
 import pytest
 from matplotlib.colors import to_rgba
 
-from vsmp_imu.errors import ValidationError
+from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.imu.channels import CHANNELS, prefixed
-from vsmp_imu.imu.plot import AXIS_COLORS, LINE_STYLES, imu_figure
+from vsmp_imu.imu.plot import (
+    AXIS_COLORS,
+    LINE_STYLES,
+    MAX_PANELS,
+    check_image_path,
+    imu_figure,
+    plot_imu,
+)
 from vsmp_imu.imu.recording import ImuRecording
 
 FS = 25.0
@@ -130,3 +137,23 @@ def test_bad_input_names_the_field(kwargs, field, message):
     with pytest.raises(ValidationError) as err:
         imu_figure(data, **kwargs)
     assert err.value.field == field and err.value.message == message
+
+
+def test_more_panels_than_a_figure_holds_are_refused_before_drawing():
+    from vsmp_imu.imu.placement import PLACEMENTS
+
+    names = [f"c{k}" for k in range(MAX_PANELS + 1)]
+    with pytest.raises(ValidationError, match=f"{MAX_PANELS + 1} panels to draw") as err:
+        imu_figure(_signal(c=len(names)), channel_names=names, fs_hz=FS)
+    assert err.value.field == "channels" and "c0, c1, c2" in err.value.message
+    every = [n for loc in PLACEMENTS for n in prefixed(loc)]  # every location: 32 panels, drawn
+    assert len(imu_figure(_signal(n=4, c=len(every)), channel_names=every, fs_hz=FS).axes) == 2 * len(PLACEMENTS)
+
+
+def test_an_image_suffix_matplotlib_cannot_write_is_refused_before_drawing(tmp_path):
+    for name in ("a.png", "a.PDF", "a.svg", "a"):
+        check_image_path(tmp_path / name)
+    with pytest.raises(ConfigError, match="'.txt' is not an image format") as err:
+        plot_imu(_signal(), tmp_path / "a.txt", fs_hz=FS)
+    assert err.value.field == "path" and ".png" in err.value.allowed
+    assert list(tmp_path.iterdir()) == []

@@ -51,6 +51,31 @@ def test_render_gif_and_keyframes(tmp_path, walk):
     assert {p.name for p in tmp_path.iterdir()} == {"walk.gif", "walk.png"}  # no temporary left
 
 
+def test_a_long_motion_is_shown_by_at_most_max_gif_frames_in_real_time(walk):
+    from vsmp_imu.motion.render import MAX_GIF_FRAMES, gif_step
+
+    repeat = 301  # 10 min at 30 fps
+    long = Motion(np.tile(walk.positions, (repeat, 1, 1)), np.tile(walk.rotations, (repeat, 1, 1)), walk.fps,
+                  walk.joint_names, walk.parents, dict(walk.meta))
+    step, capped = gif_step(long)
+    shown = len(range(0, long.n_frames, step))
+    assert capped and MAX_GIF_FRAMES - 10 < shown <= MAX_GIF_FRAMES
+    assert shown * step / long.fps == pytest.approx(long.duration_s, abs=step / long.fps)
+    assert gif_step(walk) == (2, False)  # 30 fps: every other frame, 15 fps
+
+
+def test_cli_render_says_when_the_gif_is_capped(cli, tmp_path, walk, monkeypatch):
+    from vsmp_imu.motion import render
+
+    monkeypatch.setattr(render, "MAX_GIF_FRAMES", 10)
+    path = walk.save(tmp_path / "walk.npz")
+    code, out, err = cli("motion", "render", path, "-o", tmp_path / "w.gif")
+    assert code == 0, err
+    with Image.open(tmp_path / "w.gif") as im:  # 61 frames, one in ceil(61 / 10) = 7 shown
+        assert im.n_frames == 9 and im.info["duration"] == pytest.approx(1000 * 7 / walk.fps, abs=10)
+    assert "shows 9 of the 61 frames (one in 7" in " ".join(out.split())
+
+
 def test_cli_synth_info_render_bvh_resample(cli, tmp_path):
     out = tmp_path / "curl.npz"
     code, stdout, _ = cli("motion", "synth", "two_arm_curl", "--seed", "2", "-o", out)

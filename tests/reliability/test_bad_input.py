@@ -69,6 +69,20 @@ def case_video_extract(tmp_path, library, motion):
             clip.name, "empty")
 
 
+def case_pose_max_fps_nan(tmp_path, library, motion):
+    return (["video", "pose", tmp_path / "clip.mp4", "-o", tmp_path / "m.npz", "--max-fps", "nan"],
+            "--max-fps", "a finite number > 0")
+
+
+def case_pool_max_fps_zero(tmp_path, library, motion):
+    return ["video", "pool", tmp_path, "-o", tmp_path / "pool.json", "--max-fps", "0"], "--max-fps", "> 0"
+
+
+def case_extract_max_fps_negative(tmp_path, library, motion):
+    return (["smp", "extract", tmp_path / "clip.mp4", "--label", "walking", "--extractor", "pose",
+             "-o", tmp_path / "s.json", "--max-fps", "-5"], "--max-fps", "> 0")
+
+
 def case_smp_value(tmp_path, library, motion):
     path = _smp_with(library, tmp_path, lambda d: d["execution_attributes"].update(tempo="warp"))
     return ["smp", "validate", path], path.name, "execution_attributes.tempo"
@@ -157,6 +171,22 @@ def test_generate_numbers_out_of_range(capsys, tmp_path, small_dataset, option, 
     assert not (tmp_path / "out" / "synthetic.parquet").exists()
 
 
+@pytest.mark.parametrize("argv, option, allowed", [
+    (["motion", "synth", "walking", "--seed", "0", "--duration-s", "nan"], "--duration-s", "0.1..600, not nan"),
+    (["motion", "synth", "walking", "--seed", "0", "--duration-s", "-inf"], "--duration-s", "0.1..600, not -inf"),
+    (["motion", "synth", "walking", "--seed", "0", "--fps", "nan"], "--fps", "1..1000, not nan"),
+    (["motion", "synth", "walking", "--seed", "0", "--fps", "5000"], "--fps", "1..1000, not 5000"),
+    (["motion", "resample", "M", "--fps", "inf"], "--fps", "1..1000, not inf"),
+    (["imu", "simulate", "M", "--smoothing-hz", "nan"], "--smoothing-hz", "0..1000, not nan"),
+    (["evaluate", "--dataset", "hapt", "--window-s", "nan"], "--window-s", "0.5..30, not nan"),
+    (["demo", "--budget", "nan"], "--budget", "0.1..100, not nan"),
+])
+def test_a_number_option_that_is_nan_or_inf_is_called_not_finite(capsys, tmp_path, argv, option, allowed):
+    code, text = run_main(capsys, *argv, "-o", tmp_path / "out")
+    text = " ".join(text.replace("│", " ").split())
+    assert code == 2 and f"Invalid value for '{option}': must be a finite number in {allowed}" in text, text
+
+
 def case_imu_number(tmp_path, library, motion):
     path = motion.save(tmp_path / "walk.npz")
     return ["imu", "simulate", path, "--fs", "-5", "-o", tmp_path / "x.csv"], "--fs", "1..10000 Hz"
@@ -201,6 +231,26 @@ def case_imu_csv_time(tmp_path, library, motion):
     return ["imu", "plot", path, "-o", tmp_path / "x.png"], path.name, "no 'time_s' column"
 
 
+def case_imu_csv_many_columns(tmp_path, library, motion):
+    path = tmp_path / "imu.csv"  # 3000 columns once meant a figure 3000 panels tall
+    columns = [f"c{k}" for k in range(3000)]
+    rows = [",".join(["time_s", *columns])] + [",".join([f"{t / 50:.2f}"] + ["0"] * 3000) for t in range(5)]
+    path.write_text("\n".join(rows) + "\n")
+    return ["imu", "plot", path, "-o", tmp_path / "x.png"], path.name, "3000 panels to draw"
+
+
+def case_imu_plot_suffix(tmp_path, library, motion):
+    path = tmp_path / "imu.csv"
+    path.write_text("time_s,acc_x\n0,1\n0.02,2\n")
+    return ["imu", "plot", path, "-o", tmp_path / "x.txt"], "--output", "'.txt' is not an image format"
+
+
+def case_imu_simulate_plot_suffix(tmp_path, library, motion):
+    path = motion.save(tmp_path / "walk.npz")  # the CSV was written before the plot failed
+    return (["imu", "simulate", path, "-o", tmp_path / "x.csv", "--plot", tmp_path / "x.txt"], "--plot",
+            "Allowed: .png, .svg, .pdf")
+
+
 CASES = {name[5:]: fn for name, fn in dict(globals()).items() if name.startswith("case_")}
 
 
@@ -215,6 +265,43 @@ def test_bad_input_exits_2_naming_file_and_problem(name, capsys, tmp_path, libra
     written = [p for p in tmp_path.rglob("*") if p.is_file() and p.suffix in (".csv", ".png", ".parquet")
                and p.name not in {"p1.csv", "imu.csv"}]
     assert written == [] and leftovers(tmp_path) == []
+
+
+SAME_FILE = [  # (argv with M: a motion, S: an SMP, R: a raw answer, C: an IMU CSV, V: a clip; the clash)
+    (["imu", "simulate", "M", "-o", "M"], "the input motion and --output"),
+    (["imu", "simulate", "M", "-o", "both.png", "--plot", "both.png"], "--output and --plot"),
+    (["imu", "plot", "C", "-o", "C"], "an input CSV and --output"),
+    (["motion", "render", "M", "-o", "r.gif", "--keyframes", "sub/../r.gif"], "--output and --keyframes"),
+    (["motion", "bvh", "M", "-o", "link.npz"], "the input motion and --output"),
+    (["motion", "resample", "M", "--fps", "60", "-o", "M"], "the input motion and --output"),
+    (["motion", "synth", "S", "--seed", "0", "-o", "S"], "the input SMP and --output"),
+    (["smp", "augment", "S", "-k", "3", "-o", "S"], "the input SMP and --output"),
+    (["smp", "augment", "walking", "-k", "3", "-o", "v.jsonl", "--provenance", "v.jsonl"], "--output and --provenance"),
+    (["smp", "refine", "S", "-o", "S"], "the input SMP and --output"),
+    (["smp", "intervene", "S", "--attribute", "tempo", "--level", "fast", "-o", "S"], "the input SMP and --output"),
+    (["smp", "repair", "R", "-o", "out.json", "--report", "R"], "the raw response and --report"),
+    (["smp", "aggregate", "R", "R", "R", "-o", "R"], "a raw response and --output"),
+    (["video", "pose", "V", "-o", "V"], "the video and --output"),
+    (["smp", "extract", "V", "--label", "walking", "--extractor", "pose", "-o", "s.json", "--motion-out",
+      "s.report.json"], "the report next to --output and --motion-out"),
+]
+
+
+@pytest.mark.parametrize("argv, clash", SAME_FILE, ids=[" ".join(a[:2]) + f" {c}" for a, c in SAME_FILE])
+def test_an_output_that_is_an_input_or_another_output_is_refused(capsys, tmp_path, monkeypatch, library,
+                                                                  good_motion, argv, clash):
+    monkeypatch.chdir(tmp_path)
+    good_motion.save(tmp_path / "M")
+    Path("link.npz").symlink_to("M")
+    (tmp_path / "sub").mkdir()
+    Path("S").write_text(json.dumps(library.get("walking").smp.model_dump(mode="json")))
+    Path("R").write_text("no JSON here")
+    Path("C").write_text("time_s,acc_x\n0,1\n0.02,2\n")
+    Path("V").write_bytes(b"\x00" * 64)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()}
+    code, text = run_main(capsys, *argv)
+    assert code == 2 and f"{clash} name the same file" in text, text
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before  # nothing written
 
 
 def test_the_console_script_exits_2_with_one_paragraph(tmp_path):

@@ -156,6 +156,13 @@ def row_frame_size(i: Inputs) -> Row:
                absent=(i.tmp / "frames",))
 
 
+def row_video_fifo(i: Inputs) -> Row:
+    """OpenCV waits for a writer for ever when it opens a FIFO, deaf to SIGTERM."""
+    fifo = i.tmp / "clip.avi"
+    os.mkfifo(fifo)
+    return Row(["video", "info", fifo], "clip.avi", "expected a video file, found a FIFO")
+
+
 # -- SMP numbers: validate, augment and synth agree ---------------------------------------------
 def _huge_count(d: dict) -> None:
     d["temporal_structure"]["repetition_count"] = 10**30
@@ -458,6 +465,40 @@ def test_a_label_that_looks_like_console_markup_is_printed_not_parsed(tmp_path):
     assert "[/oops] [bold]walking" in " ".join(done.stdout.split())
 
 
+def test_file_names_and_labels_that_look_like_markup_are_printed_as_written(tmp_path):
+    """'[red]x.json' was shown as 'x.json', and a label's '[bold]' styled the terminal."""
+    smp = ActivityLibrary.load().get("walking").smp.model_dump(mode="json")
+    smp["activity_label"] = "[bold red]walking[/] [link=http://x]a[/link]"
+    path = tmp_path / "[red]x.json"
+    path.write_text(json.dumps(smp))
+    written = tmp_path / "[green]z.json"
+    wide = {"COLUMNS": "1000"}  # no wrapping inside the long temporary paths
+    for argv, expected in ((["smp", "validate", path], f"valid {path}: '{smp['activity_label']}'"),
+                           (["smp", "library", "show", "walking", "-o", written], f"wrote {written}"),
+                           (["motion", "synth", path, "--seed", "0", "-o", written.with_suffix(".npz")],
+                            f"wrote {written.with_suffix('.npz')}: [bold_red]walking[/]_[link=http://x]a[/link],")):
+        done, _ = run_row(Row(argv, "", "", env=wide))
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert expected in done.stdout, done.stdout
+
+
+def test_control_characters_are_escaped_before_a_line_is_wrapped():
+    """Escaped after layout, '\\u202e' is six characters where one was measured: the line
+    overflowed its width and rich cropped words ('backend' lost its middle)."""
+    import io
+
+    from vsmp_imu.cli.common import _console, safe_text
+
+    out = _console()
+    out.file = io.StringIO()
+    out.width = 40
+    text = "wrote m.npz: \u202eskcaj_gnipmuj\x00_x, 1092 frames at 30 fps (36.37 s), backend procedural, seed 0"
+    out.print(f"[green]wrote[/]{text[5:]}", highlight=False)
+    printed = out.file.getvalue()
+    assert " ".join(printed.split()) == " ".join(safe_text(text).split())
+    assert max(len(line) for line in printed.splitlines()) <= 40
+
+
 @pytest.mark.parametrize("text", [
     "- " * DEEP + "x",  # block lists in one line
     "".join(f"{' ' * i}k{i}:\n" for i in range(150)) + " " * 150 + "v",  # block mappings by indent
@@ -505,6 +546,27 @@ def test_a_file_system_refusal_during_a_command_is_exit_2_naming_the_path(tmp_pa
     monkeypatch.setattr(smp_cli, "save_smp", reset)
     with pytest.raises(ConnectionResetError):
         main(["smp", "library", "show", "walking", "-o", str(tmp_path / "w.json")])
+
+
+def test_a_stopped_command_says_resume_only_when_it_resumes(tmp_path, monkeypatch, capsys):
+    """After SIGTERM, `motion render` or `imu plot` once said its samples and folds were kept."""
+    import signal
+
+    import vsmp_imu.cli.smp as smp_cli
+    from vsmp_imu.cli import Interrupted, main, stop_message
+
+    def stopped(smp, path):
+        raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(smp_cli, "save_smp", stopped)
+    with pytest.raises(SystemExit) as exit_:
+        main(["smp", "library", "show", "walking", "-o", str(tmp_path / "w.json")])
+    text = " ".join(capsys.readouterr().err.split())
+    assert exit_.value.code == 143 and text == "stopped by SIGTERM."
+    assert stop_message(signal.SIGINT, ["motion", "render", "m.npz", "-o", "m.gif"]) == "[bold yellow]stopped[/] by SIGINT."
+    assert "folds are kept; run the same command again to resume" in stop_message(signal.SIGTERM, ["evaluate", "-d", "x"])
+    assert "resume" in stop_message(signal.SIGTERM, ["study", "ablation", "-o", "x"])
+    assert "resume" not in stop_message(signal.SIGTERM, ["study", "case", "-o", "x"])
 
 
 def test_an_activity_the_library_lacks_is_compiled_from_the_users_smp(tmp_path):

@@ -37,6 +37,18 @@ def _say(text: str) -> None:
     console_err.print(f"[bold red]error:[/] {escape(safe_text(text))}", highlight=False, soft_wrap=True)
 
 
+# What a stopped command keeps for its next run; the others have nothing to resume.
+_RESUME = "run the same command again to resume"
+KEPT_ON_STOP = {
+    "evaluate": f"finished samples and folds are kept; {_RESUME}",
+    "generate": f"finished samples are kept; {_RESUME}",
+    "study ablation": f"finished samples and records are kept; {_RESUME}",
+    "study granularity": f"finished samples and records are kept; {_RESUME}",
+    "study realism": "finished samples are cached; the same command run again reuses them",
+    "demo": "finished samples are cached; the same command run again reuses them",
+}
+
+
 class Interrupted(BaseException):
     """Ctrl-C (SIGINT) or SIGTERM: unwinds the run like an error, so that atomic writes drop
     their temporaries and the pool stops its workers; finished work stays for a resume."""
@@ -57,6 +69,15 @@ def _handle_stop_signals() -> dict[int, object]:
     return {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
 
 
+def stop_message(signum: int, argv: list[str]) -> str:
+    """What to say when `vsmp-imu ARGV` is stopped by `signum`: a resume hint only for the
+    commands that resume."""
+    words = [a for a in argv[:2] if not a.startswith("-")]
+    command = " ".join(words) if words[:1] == ["study"] else " ".join(words[:1])
+    kept = KEPT_ON_STOP.get(command)
+    return f"[bold yellow]stopped[/] by {signal.Signals(signum).name}" + (f": {kept}." if kept else ".")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point: user mistakes exit 2 with a one-paragraph message; Ctrl-C
     and SIGTERM stop cleanly with 128 + the signal number."""
@@ -64,9 +85,8 @@ def main(argv: list[str] | None = None) -> None:
     try:
         app(args=argv, standalone_mode=True)
     except Interrupted as exc:
-        name = signal.Signals(exc.signum).name
-        console_err.print(f"[bold yellow]stopped[/] by {name}: finished samples and folds are kept; run the "
-                          "same command again to resume.", highlight=False, soft_wrap=True)
+        console_err.print(stop_message(exc.signum, sys.argv[1:] if argv is None else argv), highlight=False,
+                          soft_wrap=True)
         sys.exit(128 + exc.signum)
     except VsmpError as exc:
         _say(exc.render())

@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import typer
 from rich.console import Console, ConsoleOptions, RenderableType, RenderResult
 from rich.errors import MarkupError
+from rich.markup import escape
 from rich.segment import Segment
+from rich.text import Text
 
 from vsmp_imu.errors import ConfigError, VsmpError
 from vsmp_imu.pipeline.spec import INTENSITY, GenerationSpec
@@ -28,6 +31,18 @@ def parse_csv(value: str, allowed: tuple[str, ...] | None = None, option: str = 
         if bad:
             raise ConfigError(f"unknown value(s) {', '.join(bad)}", field=option, allowed=", ".join(allowed))
     return items
+
+
+def finite_range(lo: float, hi: float) -> Callable[[float | None], float | None]:
+    """The callback of a float option in lo..hi: NaN and inf are refused as not finite (typer's
+    own min/max check calls NaN larger than the maximum)."""
+
+    def check(value: float | None) -> float | None:
+        if value is not None and not (math.isfinite(value) and lo <= value <= hi):
+            raise typer.BadParameter(f"must be a finite number in {lo:g}..{hi:g}, not {value:g}")
+        return value
+
+    return check
 
 
 def library_dirs(library: list[Path] | None) -> list[Path]:
@@ -112,6 +127,37 @@ def _is_dir(path: Path, option: str) -> bool:
                           allowed="a folder you may enter and write to") from exc
 
 
+# -- inputs and outputs of one command: never the same file ---------------------------------
+def distinct_files(outputs: dict[str, Path | None],
+                   inputs: dict[str, Path | str | list[Path] | None] | None = None) -> None:
+    """Refuse an output that is one of the command's inputs or another of its outputs, whatever
+    the spelling (links and '..' resolved). Keys name the options or inputs; an input that is
+    not an existing file (an activity name) has nothing to lose; None is skipped."""
+    seen: dict[object, str] = {}
+    for label, value in (inputs or {}).items():
+        for path in value if isinstance(value, list) else [value]:
+            if path is not None and os.path.isfile(path):
+                seen.setdefault(_file_key(Path(path)), label)
+    for option, path in outputs.items():
+        if path is None:
+            continue
+        first = seen.setdefault(_file_key(path), option)
+        if first != option:
+            raise ConfigError(f"{first} and {option} name the same file", file=path, field=option,
+                              allowed="a file of its own for each output, never one of the inputs")
+
+
+def _file_key(path: Path) -> object:
+    """What makes two paths one file: device and inode when it exists, else its resolved path."""
+    with contextlib.suppress(OSError):
+        info = path.stat()
+        return info.st_dev, info.st_ino
+    try:
+        return str(path.resolve())
+    except (OSError, RuntimeError):  # a symlink loop
+        return str(path.absolute())
+
+
 # -- untrusted text: printed with its control characters escaped ----------------------------
 _CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
 
@@ -123,9 +169,16 @@ def safe_text(text: object) -> str:
     return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), str(text))
 
 
+def shown(text: object) -> str:
+    """User text (a file name, a label) to put in a console message that has markup: printed
+    as written ('[red]x.json' stays '[red]x.json'), its control characters escaped."""
+    return escape(safe_text(text))
+
+
 class _Escaped:
     """A renderable whose text segments are escaped; rich's own styles and cursor controls
-    (separate segments) pass unchanged."""
+    (separate segments) pass unchanged. The net under `_Console.render_str`, for Text objects
+    made from user text: escaping after layout widens a line past its wrap."""
 
     def __init__(self, renderable: RenderableType) -> None:
         self.renderable = renderable
@@ -150,13 +203,18 @@ class _EscapeHook:
 
 
 class _Console(Console):
-    """A label such as '[/x]' inside a message is text, not broken markup: printed plainly."""
+    """A label such as '[/x]' inside a message is text, not broken markup: printed plainly.
+    Strings (messages, table cells) have their control characters escaped before they are
+    laid out, so lines wrap at their printed width."""
 
     def print(self, *objects: Any, **kwargs: Any) -> None:
         try:
             super().print(*objects, **kwargs)
         except MarkupError:
             super().print(*objects, **{**kwargs, "markup": False})
+
+    def render_str(self, text: str, **kwargs: Any) -> Text:
+        return super().render_str(safe_text(text), **kwargs)
 
 
 def _console(stderr: bool = False) -> Console:
@@ -171,10 +229,8 @@ console_err = _console(stderr=True)
 
 def print_warnings(lines: list[str]) -> None:
     """Print each warning (e.g. a dataset's undeclared axes) as one paragraph on stderr."""
-    from rich.markup import escape
-
     for line in lines:
-        console_err.print(f"[bold yellow]warning:[/] {escape(safe_text(line))}", highlight=False, soft_wrap=True)
+        console_err.print(f"[bold yellow]warning:[/] {shown(line)}", highlight=False, soft_wrap=True)
 
 # Grounding options shared by `generate` and `evaluate` (one definition, one help text).
 PER_CLASS_RANK = typer.Option(True, "--per-class-rank/--pooled-rank",

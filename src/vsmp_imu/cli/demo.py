@@ -7,14 +7,15 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, output_dir, parse_csv
+from vsmp_imu.cli.common import console, finite_range, output_dir, parse_csv, shown
 from vsmp_imu.progress import progress
 
 
 def demo_cmd(
     output: Path = typer.Option(Path("demo_out"), "-o", "--output", help="Output folder"),
     folds: str = typer.Option("1,2,3", "--folds", help="Held-out subjects (HAPT has 1..30)"),
-    budget: float = typer.Option(1.0, "--budget", min=0.1, max=100.0, help="Label budget in percent"),
+    budget: float = typer.Option(1.0, "--budget", callback=finite_range(0.1, 100.0),
+                                 help="Label budget in percent, 0.1..100"),
     workers: int = typer.Option(2, "--workers", min=1, max=64, help="Generation workers"),
 ) -> None:
     """HAPT12, library SMPs, procedural backend, low-resource LOPO, two forests with balanced class
@@ -26,7 +27,7 @@ def demo_cmd(
 
     cfg = DemoConfig(folds=tuple(parse_csv(folds, option="--folds")), budget_percent=budget, workers=workers)
     console.print(f"VSMP-IMU demo: {cfg.dataset}, held-out subjects {', '.join(cfg.folds)}, "
-                  f"{cfg.budget_percent:g} % labels, writing {output}/", highlight=False)
+                  f"{cfg.budget_percent:g} % labels, writing {shown(output)}/", highlight=False)
     with progress("evaluation", console=console, transient=False) as update:
         result = run_demo(output, cfg, lambda stage, done, total: update(done, total, stage))
     names = {"real": "Real-only", "classical": "Classical Aug.", "vsmp": "VSMP-IMU"}
@@ -39,7 +40,7 @@ def demo_cmd(
             table.add_row(names.get(r["method"], r["method"]), f"{r['macro_f1']:.2f} ± {r['macro_f1_std']:.2f}",
                           f"{r.get('activities', float('nan')):.2f}", f"{r.get('transitions', float('nan')):.2f}")
         console.print(table)
-    console.print(f"report: {output / 'report.md'} ({result['elapsed_s'] / 60:.1f} min)", highlight=False)
+    console.print(f"report: {shown(output / 'report.md')} ({result['elapsed_s'] / 60:.1f} min)", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

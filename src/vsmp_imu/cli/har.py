@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Any
 
 import typer
-from rich.markup import escape
 from rich.table import Table
 
 from vsmp_imu.cli.common import (
@@ -31,9 +30,11 @@ from vsmp_imu.cli.common import (
     console,
     console_err,
     executor_options,
+    finite_range,
     output_dir,
     parse_csv,
     print_warnings,
+    shown,
 )
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.progress import progress
@@ -131,7 +132,8 @@ def evaluate_cmd(
         help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform) "
              "[default: uniform for tstr, tail for unseen, else scarcity]"),
     rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
-    window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0, help="window length in seconds"),
+    window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
+                                   help="window length in seconds, 0.5..30"),
     overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
     max_epochs: int = typer.Option(None, "--max-epochs", max=100000, help="neural backbones: epoch limit"),
@@ -242,7 +244,7 @@ def evaluate_cmd(
     _print_summary(results.summary)
     _print_paired(results.to_json())
     console.print(
-        f"[green]wrote[/] {output / 'results.json'}, {written[0]} and "
+        f"[green]wrote[/] {shown(output / 'results.json')}, {shown(written[0])} and "
         f"{len(written) - 1} confusion matrices"
     )
 
@@ -254,16 +256,16 @@ def _fold_processes(run, spec, request, processes: int) -> None:
 
     folds = run.folds(run.dataset.windows(request.window_s, request.overlap))
     console.print(f"{len(folds)} fold(s) in {min(processes, len(folds))} processes; each fold's progress "
-                  f"in {request.output / '.folds'}/fold-FOLD/log.txt", highlight=False)
+                  f"in {shown(request.output / '.folds')}/fold-FOLD/log.txt", highlight=False)
 
     def tell(outcome, finished: int, total: int) -> None:
         state = f"{outcome.records} record(s)" if outcome.ok else f"[red]failed[/] (exit {outcome.exit_code})"
-        console.print(f"fold {outcome.fold}: {state} {finished}/{total}", highlight=False)
+        console.print(f"fold {shown(outcome.fold)}: {state} {finished}/{total}", highlight=False)
 
     failed = [o for o in run_folds(spec, request, folds, processes, tell) if not o.ok]
     if failed:
         for o in failed:
-            console_err.print(f"fold {o.fold} failed: {o.last_line()} (whole log: {o.log})",
+            console_err.print(f"fold {shown(o.fold)} failed: {shown(o.last_line())} (whole log: {shown(o.log)})",
                               highlight=False, soft_wrap=True)
         console_err.print("the other folds' records are kept: run the same command again to redo the failed ones",
                           highlight=False)
@@ -372,7 +374,7 @@ def _shortfalls(summary: list[dict[str, Any]]) -> list[str]:
 
 def _unseen_title(row: dict[str, Any]) -> str:
     names = row["unseen_classes"]
-    return names[0] if len(names) == 1 else f"{len(names)} classes ({', '.join(names)})"
+    return shown(names[0] if len(names) == 1 else f"{len(names)} classes ({', '.join(names)})")
 
 
 def _print_unseen(summary: list[dict[str, Any]]) -> None:
@@ -403,7 +405,7 @@ def _print_unseen(summary: list[dict[str, Any]]) -> None:
                   "uns.→seen: the reverse; * cannot make windows of a class without real windows "
                   "(the floor).", highlight=False)
     for line in _shortfalls(summary):
-        console.print(f"[yellow]note:[/] {line}", highlight=False)
+        console.print(f"[yellow]note:[/] {shown(line)}", highlight=False)
 
 
 def _mean_unseen_f1(summary: list[dict[str, Any]]) -> dict[tuple[str, str], float | None]:
@@ -438,7 +440,7 @@ def _print_summary(summary: list[dict[str, Any]]) -> None:
         )
     console.print(table)
     for line in _shortfalls(summary) + _share_notes(summary):
-        console.print(f"[yellow]note:[/] {line}", highlight=False)
+        console.print(f"[yellow]note:[/] {shown(line)}", highlight=False)
 
 
 def _print_paired(results: dict[str, Any]) -> None:
@@ -494,7 +496,8 @@ def list_cmd() -> None:
 def info_cmd(
     name: str = typer.Argument(..., help="dataset name or dataset .yaml file"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
-    window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0),
+    window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
+                                   help="window length in seconds, 0.5..30"),
     overlap: float = typer.Option(0.5, "--overlap"),
     measure: str = typer.Option(
         None, "--measure", help="a static class: print its mean acceleration per channel"
@@ -516,36 +519,36 @@ def info_cmd(
     if as_json:
         typer.echo(json.dumps(info, indent=2))
         return
-    console.print(f"[bold]{info['name']}[/] — {info['description']}")
-    console.print(f"source: {info['source']}")
+    console.print(f"[bold]{shown(info['name'])}[/] — {shown(info['description'])}")
+    console.print(f"source: {shown(info['source'])}")
     console.print(
         f"rate {info['fs_hz']:g} Hz, {len(info['subjects'])} subjects "
-        f"({', '.join(info['subjects'])}), {info['n_recordings']} recordings"
+        f"({shown(', '.join(info['subjects']))}), {info['n_recordings']} recordings"
     )
-    console.print(f"channels: {', '.join(info['channel_names'])}")
+    console.print(f"channels: {shown(', '.join(info['channel_names']))}")
     for loc in info["locations"]:
         axes = ", ".join(loc["axes"]) if loc["axes"] else "not declared"
         console.print(
-            f"  [bold]{loc['name']}[/]: axes (x, y, z) = {axes} "
-            f"{escape('[' + loc['axes_source'] + ']')}, "
+            f"  [bold]{shown(loc['name'])}[/]: axes (x, y, z) = {shown(axes)} "
+            f"{shown('[' + loc['axes_source'] + ']')}, "
             f"gravity {'included' if loc['gravity_included'] else 'removed'}, "
-            f"source units {loc['acc_unit']}, {loc['gyr_unit'] or 'no gyroscope'}"
-            + (f" — {loc['note']}" if loc["note"] else "")
+            f"source units {shown(loc['acc_unit'])}, {shown(loc['gyr_unit'] or 'no gyroscope')}"
+            + (f" — {shown(loc['note'])}" if loc["note"] else "")
         )
     table = Table(title=f"{info['n_windows']} windows of {window_s:g} s, overlap {overlap:g}")
     table.add_column("class")
     table.add_column("windows", justify="right")
     for label, count in info["windows_per_class"].items():
-        table.add_row(label, str(count))
+        table.add_row(shown(label), str(count))
     console.print(table)
     for group, members in info["groups"].items():
-        console.print(f"group {group}: {', '.join(members)}")
+        console.print(f"group {shown(group)}: {shown(', '.join(members))}")
     if info.get("measured_mean_acc"):
         m = info["measured_mean_acc"]
         values = ", ".join(f"{k} {v:+.2f}" for k, v in m.items() if k != "class")
-        console.print(f"mean acceleration of '{m['class']}' windows (m/s²): {values}")
+        console.print(f"mean acceleration of '{shown(m['class'])}' windows (m/s²): {shown(values)}")
     for line in info["skipped"]:
-        console.print(f"[yellow]skipped[/] {line}")
+        console.print(f"[yellow]skipped[/] {shown(line)}")
 
 
 def register(app: typer.Typer) -> None:

@@ -7,7 +7,15 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, output_file, parse_csv
+from vsmp_imu.cli.common import (
+    console,
+    distinct_files,
+    finite_range,
+    naming,
+    output_file,
+    parse_csv,
+    shown,
+)
 
 imu_app = typer.Typer(help="Virtual IMUs: simulate accelerometer and gyroscope readings from a "
                       "motion, plot them, list the sensor locations.", no_args_is_help=True)
@@ -27,7 +35,7 @@ def simulate_cmd(
     fs: float = typer.Option(50.0, "--fs", help="output rate (Hz), 1..10000"),
     no_noise: bool = typer.Option(False, "--no-noise", help="exact kinematics: no white noise, no bias drift"),
     seed: int = typer.Option(0, "--seed", help="noise seed"),
-    smoothing_hz: float = typer.Option(None, "--smoothing-hz", min=0.0, max=1000.0,
+    smoothing_hz: float = typer.Option(None, "--smoothing-hz", callback=finite_range(0.0, 1000.0),
                                        help="cutoff of the smoothing splines of positions and rotations "
                                             "(Hz; default: the placement's, 8, feet 15; 0 = interpolate)"),
     trim_s: float = typer.Option(0.2, "--trim-s", help="margin dropped at each end (s)"),
@@ -36,6 +44,9 @@ def simulate_cmd(
     """Simulate virtual IMU readings (m/s², rad/s) from a motion file."""
     output_file(output)
     output_file(plot, "--plot")
+    distinct_files({"--output": output, "--plot": plot}, {"the input motion": motion_file})
+    if plot is not None:
+        _image_file(plot, "--plot")
     from vsmp_imu.errors import ConfigError, ValidationError
     from vsmp_imu.imu import ImuSimulator, get_placement
     from vsmp_imu.imu.kinematics import PLACEMENT_CUTOFF
@@ -64,13 +75,13 @@ def simulate_cmd(
         raise exc.in_file(motion_file) from exc
     rec.meta["motion_file"] = str(motion_file)
     rec.save_csv(output)
-    console.print(f"[green]wrote[/] {output}: {rec.n_samples} samples at {rec.fs_hz:g} Hz, "
+    console.print(f"[green]wrote[/] {shown(output)}: {rec.n_samples} samples at {rec.fs_hz:g} Hz, "
                   f"{len(rec.channel_names)} channels ({', '.join(p.name for p in placements)})")
     if plot is not None:
         from vsmp_imu.imu.plot import plot_imu
 
         plot_imu(rec, plot, title=f"{motion_file.name}: {', '.join(p.name for p in placements)}")
-        console.print(f"[green]wrote[/] {plot}")
+        console.print(f"[green]wrote[/] {shown(plot)}")
 
 
 @imu_app.command("plot")
@@ -81,14 +92,32 @@ def plot_cmd(
 ) -> None:
     """Plot accelerometer and gyroscope panels of one or more IMU CSV files."""
     output_file(output)
-    from vsmp_imu.imu import read_imu_csv
+    distinct_files({"--output": output}, {"an input CSV": files})
+    _image_file(output, "--output")
     from vsmp_imu.imu.plot import plot_imu
 
-    recs = [read_imu_csv(f) for f in files]
+    recs = [_plottable(f) for f in files]
     labels = [f.stem for f in files] if len(files) > 1 else None
     plot_imu(recs if len(recs) > 1 else recs[0], output, title=title or ", ".join(f.name for f in files),
              labels=labels)
-    console.print(f"[green]wrote[/] {output}")
+    console.print(f"[green]wrote[/] {shown(output)}")
+
+
+def _image_file(path: Path, option: str) -> None:
+    from vsmp_imu.imu.plot import check_image_path
+
+    check_image_path(path, option)
+
+
+def _plottable(file: Path):
+    """The recording of an IMU CSV whose figure has a bounded number of panels."""
+    from vsmp_imu.imu import read_imu_csv
+    from vsmp_imu.imu.plot import check_plottable
+
+    rec = read_imu_csv(file)
+    with naming(file):
+        check_plottable(rec)
+    return rec
 
 
 @imu_app.command("locations")

@@ -8,7 +8,15 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, library_dirs, naming, output_file
+from vsmp_imu.cli.common import (
+    console,
+    distinct_files,
+    finite_range,
+    library_dirs,
+    naming,
+    output_file,
+    shown,
+)
 from vsmp_imu.errors import ConfigError, ValidationError
 
 motion_app = typer.Typer(help="Motions: synthesize from an SMP or a prompt (procedural or HY-Motion), "
@@ -55,16 +63,18 @@ def synth_cmd(
     smp: str = typer.Argument(None, help="SMP file (.json/.yaml) or activity name; optional with --prompt"),
     seed: int = typer.Option(..., "--seed", help="generation seed (same seed, same bytes)"),
     output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
-    duration_s: float = typer.Option(None, "--duration-s", min=0.1, max=600.0,
+    duration_s: float = typer.Option(None, "--duration-s", callback=finite_range(0.1, 600.0),
                                     help="duration in seconds, 0.1..600 (default: natural)"),
     backend: str = typer.Option("procedural", "--backend", help="procedural | compiled | hymotion"),
     prompt: str = typer.Option(None, "--prompt", help="free-text prompt instead of (or overriding) the SMP"),
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder (repeatable)"),
-    fps: float = typer.Option(30.0, "--fps", min=1.0, max=1000.0, help="frame rate of the procedural backend"),
+    fps: float = typer.Option(30.0, "--fps", callback=finite_range(1.0, 1000.0),
+                              help="frame rate of the procedural backend, 1..1000"),
     model_path: str = typer.Option(None, "--model-path", help="HY-Motion checkpoint folder"),
 ) -> None:
     """Generate one motion and write it as .npz."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input SMP": _smp_file(smp)})
     from vsmp_imu.motion import get_backend
 
     if smp is None and prompt is None:
@@ -82,7 +92,7 @@ def synth_cmd(
     with console.status(f"[bold]synthesizing[/] with {engine.name} (seed {seed})..."), naming(smp_file):
         motion = engine.generate(source, seed=seed, duration_s=duration_s)
     motion.save(output)
-    console.print(f"[green]wrote[/] {output}: {motion.meta.get('activity', '?')}, "
+    console.print(f"[green]wrote[/] {shown(output)}: {shown(motion.meta.get('activity', '?'))}, "
                   f"{motion.n_frames} frames at {motion.fps:g} fps ({motion.duration_s:.2f} s), "
                   f"backend {motion.meta.get('backend')}, seed {seed}")
 
@@ -98,7 +108,14 @@ def render_cmd(
     """Draw the skeleton animation as a GIF (and a keyframe strip)."""
     output_file(output)
     output_file(keyframes, "--keyframes")
-    from vsmp_imu.motion.render import check_render_options, render_gif, render_keyframes
+    distinct_files({"--output": output, "--keyframes": keyframes}, {"the input motion": motion_file})
+    from vsmp_imu.motion.render import (
+        MAX_GIF_FRAMES,
+        check_render_options,
+        gif_step,
+        render_gif,
+        render_keyframes,
+    )
 
     try:
         check_render_options(n, view)
@@ -111,7 +128,12 @@ def render_cmd(
         render_gif(motion, output, yaw_deg=view)
         if keyframes is not None:
             render_keyframes(motion, keyframes, n=n, yaw_deg=view)
-    console.print(f"[green]wrote[/] {output}" + (f" and {keyframes}" if keyframes else ""))
+    console.print(f"[green]wrote[/] {shown(output)}" + (f" and {shown(keyframes)}" if keyframes else ""))
+    step, capped = gif_step(motion)
+    if capped:
+        console.print(f"[yellow]note:[/] the GIF shows {len(range(0, motion.n_frames, step))} of the "
+                      f"{motion.n_frames} frames (one in {step}, {motion.fps / step:.3g} fps): a GIF holds at "
+                      f"most {MAX_GIF_FRAMES} frames", highlight=False)
 
 
 @motion_app.command("bvh")
@@ -122,6 +144,7 @@ def bvh_cmd(
 ) -> None:
     """Export a motion as BVH (opens in Blender)."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input motion": motion_file})
     from vsmp_imu.motion.bvh import check_scale, write_bvh
 
     try:
@@ -131,22 +154,22 @@ def bvh_cmd(
     motion = _load_motion(motion_file)
     with naming(motion_file):
         write_bvh(motion, output, scale=scale)
-    console.print(f"[green]wrote[/] {output}: {motion.n_joints} joints, {motion.n_frames} frames")
+    console.print(f"[green]wrote[/] {shown(output)}: {motion.n_joints} joints, {motion.n_frames} frames")
 
 
 @motion_app.command("info")
 def info_cmd(motion_file: Path = typer.Argument(..., help="motion file (.npz)")) -> None:
     """Show a motion's size, body and provenance."""
     motion = _load_motion(motion_file)
-    table = Table(title=str(motion_file), show_header=False)
+    table = Table(title=shown(motion_file), show_header=False)
     table.add_row("frames", f"{motion.n_frames} at {motion.fps:g} fps ({motion.duration_s:.2f} s)")
-    table.add_row("joints", f"{motion.n_joints}: {', '.join(motion.joint_names)}")
+    table.add_row("joints", f"{motion.n_joints}: {shown(', '.join(motion.joint_names))}")
     table.add_row("body height", _height_text(motion))
     for key in ("backend", "seed", "activity", "activity_label", "smp_id", "prompt"):
         if motion.meta.get(key) is not None:
-            table.add_row(key, str(motion.meta[key]))
+            table.add_row(key, shown(motion.meta[key]))
     if "controls" in motion.meta:
-        table.add_row("controls", json.dumps(motion.meta["controls"], sort_keys=True))
+        table.add_row("controls", shown(json.dumps(motion.meta["controls"], sort_keys=True)))
     console.print(table)
 
 
@@ -160,11 +183,12 @@ def _height_text(motion) -> str:
 @motion_app.command("resample")
 def resample_cmd(
     motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
-    fps: float = typer.Option(..., "--fps", min=1.0, max=1000.0, help="new frame rate"),
+    fps: float = typer.Option(..., "--fps", callback=finite_range(1.0, 1000.0), help="new frame rate, 1..1000"),
     output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
 ) -> None:
     """Write the motion at another frame rate."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input motion": motion_file})
     source = _load_motion(motion_file)
     try:
         motion = source.resample(fps)
@@ -173,7 +197,7 @@ def resample_cmd(
             raise exc.in_file(motion_file) from exc
         raise ConfigError(exc.message, file=motion_file, field="--fps", allowed=exc.allowed) from exc
     motion.save(output)
-    console.print(f"[green]wrote[/] {output}: {motion.n_frames} frames at {motion.fps:g} fps")
+    console.print(f"[green]wrote[/] {shown(output)}: {motion.n_frames} frames at {motion.fps:g} fps")
 
 
 def register(app: typer.Typer) -> None:

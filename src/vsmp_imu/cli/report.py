@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, console_err, parse_csv
+from vsmp_imu.cli.common import console, console_err, parse_csv, shown
 
 report_app = typer.Typer(
     help="Rebuild the measured tables of README.md and docs/ from the records in results/ "
@@ -43,7 +43,7 @@ def report_cmd(
         console_err.print(f"warning: {line}", markup=False, highlight=False, soft_wrap=True)
     if write:
         for path in outcome.written:
-            console.print(f"rewrote {path}", highlight=False)
+            console.print(f"rewrote {shown(path)}", highlight=False)
         console.print(f"{outcome.checked} tables from records, {len(outcome.written)} files rewritten",
                       highlight=False)
         return
@@ -96,7 +96,7 @@ def import_cmd(
     else:
         folder = import_run(run_dir, name, command, root / "results", commit or _head_commit(), note,
                             tuple(parse_csv(labels, option="--labels")) if labels else (), every_record)
-    console.print(f"wrote {folder}/", highlight=False)
+    console.print(f"wrote {shown(folder)}/", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -14,7 +14,7 @@ from rich import box
 from rich.table import Table
 from rich.text import Text
 
-from vsmp_imu.cli.common import console, library_dirs, output_file, safe_text
+from vsmp_imu.cli.common import console, distinct_files, library_dirs, output_file, safe_text, shown
 from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError, VsmpError
 from vsmp_imu.io import write_json, write_text
 from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
@@ -63,7 +63,7 @@ def _read_raw(path: Path) -> bytes:
 def _print_repair(name: str, report: RepairReport) -> None:
     status = "[red]rejected[/]" if report.rejected else (
         "[yellow]repaired[/]" if report.repaired else "[green]valid[/]")
-    console.print(f"{status} {name}: malformed_json={report.malformed_json}, "
+    console.print(f"{status} {shown(name)}: malformed_json={report.malformed_json}, "
                   f"json_found={report.json_found}, {len(report.repairs)} repair(s), "
                   f"{len(report.invalid_values)} invalid value(s)", highlight=False)
     if report.missing_mandatory:
@@ -75,7 +75,7 @@ def _print_repair(name: str, report: RepairReport) -> None:
 
 
 def _print_refine(result: RefineResult) -> None:
-    where = f"library entry '{result.entry}'" if result.entry else "no library entry"
+    where = f"library entry '{shown(result.entry)}'" if result.entry else "no library entry"
     console.print(f"refinement ({where}): {len(result.corrections)} correction(s)", highlight=False)
     for c in result.corrections:
         console.print(f"  - [{c.check}] {c.action} {c.field}: {c.before!r} -> {c.after!r}",
@@ -87,7 +87,7 @@ def _write_or_print(smp: SMP, output: Path | None) -> None:
         typer.echo(json.dumps(smp.model_dump(mode="json"), indent=2, sort_keys=True))
     else:
         save_smp(smp, output)
-        console.print(f"wrote {output}", highlight=False)
+        console.print(f"wrote {shown(output)}", highlight=False)
 
 
 @smp_app.command("schema")
@@ -100,8 +100,8 @@ def schema_cmd() -> None:
 def validate_cmd(file: Path = typer.Argument(..., help="SMP file (.json, .yaml)")) -> None:
     """Check an SMP file; exit 0 when valid, 2 with a field-level message when not."""
     smp = load_smp(file)
-    console.print(f"[green]valid[/] {file}: '{smp.activity_label}', "
-                  f"{len(smp.primitive_sequence)} primitives, id {smp.smp_id}")
+    console.print(f"[green]valid[/] {shown(file)}: '{shown(smp.activity_label)}', "
+                  f"{len(smp.primitive_sequence)} primitives, id {shown(smp.smp_id)}")
 
 
 @library_app.command("list")
@@ -126,10 +126,10 @@ def library_list_cmd(
     table.add_column("primitives, then dataset labels", overflow="fold", ratio=1)
     for entry in lib:
         datasets = "; ".join(f"{label} ({ds})" for ds, label in sorted(entry.datasets.items()))
-        cell = Text(" > ".join(entry.smp.primitive_sequence))
+        cell = Text(safe_text(" > ".join(entry.smp.primitive_sequence)))
         if datasets:
-            cell.append("\n" + datasets, style="dim")
-        table.add_row(entry.name, "yes" if entry.smp.temporal_structure.is_repetitive else "no", cell)
+            cell.append("\n" + safe_text(datasets), style="dim")
+        table.add_row(shown(entry.name), "yes" if entry.smp.temporal_structure.is_repetitive else "no", cell)
     console.print(table)
 
 
@@ -153,6 +153,7 @@ def repair_cmd(
     """Parse and repair one raw response; exit 2 with the reason when it is rejected."""
     output_file(output)
     output_file(report_file, "--report")
+    distinct_files({"--output": output, "--report": report_file}, {"the raw response": raw})
     result = parse_response(_read_raw(raw))
     _print_repair(str(raw), result.report)
     if report_file is not None:
@@ -175,6 +176,7 @@ def aggregate_cmd(
     """Repair each response, aggregate them, then refine (the paper's extraction tail)."""
     output_file(output)
     output_file(report_file, "--report")
+    distinct_files({"--output": output, "--report": report_file}, {"a raw response": raws})
     results = [parse_response(_read_raw(p)) for p in raws]
     for path, res in zip(raws, results, strict=True):
         _print_repair(str(path), res.report)
@@ -207,6 +209,7 @@ def refine_cmd(
 ) -> None:
     """Run the four consistency checks and print every correction."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input SMP": Path(file)})
     result = Refiner(_library(library)).refine(_smp_arg(file, library))
     _print_refine(result)
     if output is not None:
@@ -228,6 +231,7 @@ def augment_cmd(
     """Draw K constrained variants; the same seed gives the same bytes."""
     output_file(output)
     output_file(provenance, "--provenance")
+    distinct_files({"--output": output, "--provenance": provenance}, {"the input SMP": Path(file)})
     smp = _smp_arg(file, library)
     augmenter = SMPAugmenter(uncertainty_conditioned=not no_uncertainty)
     variants = augmenter.augment(smp, k, seed)
@@ -235,7 +239,7 @@ def augment_cmd(
     if provenance is not None:
         write_text(provenance, "".join(json.dumps(c, sort_keys=True, separators=(",", ":")) + "\n"
                                        for c in augmenter.changes_))
-    console.print(f"wrote {len(variants)} variant(s) of '{smp.activity_label}' to {output}",
+    console.print(f"wrote {len(variants)} variant(s) of '{shown(smp.activity_label)}' to {shown(output)}",
                   highlight=False)
 
 
@@ -250,6 +254,7 @@ def intervene_cmd(
 ) -> None:
     """Change exactly one attribute (controllability interventions)."""
     output_file(output)
+    distinct_files({"--output": output}, {"the input SMP": Path(file)})
     smp = _smp_arg(file, library)
     _write_or_print(intervene(smp, attribute, level, _central_primitive(smp, library)), output)
 

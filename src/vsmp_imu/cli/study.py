@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, library_dirs, output_dir, parse_csv
+from vsmp_imu.cli.common import console, library_dirs, output_dir, parse_csv, shown
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.progress import progress
 
@@ -75,8 +75,8 @@ def control_cmd(
             text = ", ".join(f"{k} MAPE {v['mape']:.1%}" for k, v in cp.items())
         else:
             text = ", ".join(f"{k} rho {v['rho_per_set']:.2f}" for k, v in cp.items())
-        console.print(f"{attribute}: {text}", highlight=False)
-    console.print(f"wrote {paths['report']} ({len(results.cases)} motions, {results.elapsed_s:.1f} s)",
+        console.print(f"{attribute}: {shown(text)}", highlight=False)
+    console.print(f"wrote {shown(paths['report'])} ({len(results.cases)} motions, {results.elapsed_s:.1f} s)",
                   highlight=False)
 
 
@@ -107,7 +107,7 @@ def audit_cmd(
                   f"{refined['activity_label']['value']:.1%}, primitive sequence "
                   f"{refined['primitive_sequence']['value']:.1%}, residual error "
                   f"{f['residual_error']:.1%}", highlight=False)
-    console.print(f"wrote {paths['report']}", highlight=False)
+    console.print(f"wrote {shown(paths['report'])}", highlight=False)
 
 
 @study_app.command("case")
@@ -133,8 +133,8 @@ def case_cmd(
                        location=location).run()
     paths = write_case_outputs(result, output)
     for k, var in enumerate(result.variants, start=1):
-        console.print(f"variant {k}: {var.variant.title}", highlight=False)
-    console.print(f"wrote {paths['figure']}", highlight=False)
+        console.print(f"variant {k}: {shown(var.variant.title)}", highlight=False)
+    console.print(f"wrote {shown(paths['figure'])}", highlight=False)
 
 
 # -- ablations, granularity, realism -------------------------------------------------------------
@@ -234,8 +234,8 @@ def ablation_cmd(
         rows = part["rows"].values() if isinstance(part.get("rows"), dict) else part.get("rows", [])
         text = ", ".join(f"{'alpha ' + format(r['alpha'], 'g') if 'alpha' in r else r['method']} "
                          f"{100 * r['macro_f1_mean']:.2f}" for r in rows if r.get("macro_f1_mean") is not None)
-        console.print(f"{name}: {text}", highlight=False)
-    console.print(f"wrote {paths['report']} ({results.elapsed_s / 60:.1f} min)", highlight=False)
+        console.print(f"{shown(name)}: {shown(text)}", highlight=False)
+    console.print(f"wrote {shown(paths['report'])} ({results.elapsed_s / 60:.1f} min)", highlight=False)
 
 
 @study_app.command("granularity")
@@ -287,11 +287,11 @@ def granularity_cmd(
         results = study.run(output, progress=update)
     paths = write_granularity_outputs(results, output)
     for m, reason in results.skipped.items():
-        console.print(f"skipped {m}: {reason}", highlight=False)
+        console.print(f"skipped {shown(m)}: {shown(reason)}", highlight=False)
     for row in results.groups:
         if row["macro_f1_mean"] is not None:
-            console.print(f"{row['method']} / {row['group']}: {100 * row['macro_f1_mean']:.2f}", highlight=False)
-    console.print(f"wrote {paths['report']}", highlight=False)
+            console.print(f"{shown(row['method'])} / {shown(row['group'])}: {100 * row['macro_f1_mean']:.2f}", highlight=False)
+    console.print(f"wrote {shown(paths['report'])}", highlight=False)
 
 
 @study_app.command("realism")
@@ -352,12 +352,12 @@ def realism_cmd(
         results = study.run(output, progress=update)
     paths = write_realism_outputs(results, output)
     for m, reason in results.skipped.items():
-        console.print(f"skipped {m}: {reason}", highlight=False)
+        console.print(f"skipped {shown(m)}: {shown(reason)}", highlight=False)
     for row in results.methods:
         d, auc = row["mean_distance"], row["c2st_mean_auc"]
-        console.print(f"{row['method']}: mean centroid distance {'n/a' if d is None else f'{d:.3f}'}, "
+        console.print(f"{shown(row['method'])}: mean centroid distance {'n/a' if d is None else f'{d:.3f}'}, "
                       f"two-sample AUC {'n/a' if auc is None else f'{auc:.2f}'}", highlight=False)
-    console.print(f"wrote {paths['report']}", highlight=False)
+    console.print(f"wrote {shown(paths['report'])}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -13,7 +13,15 @@ from typing import Any
 import typer
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, console_err, library_dirs, output_dir, output_file
+from vsmp_imu.cli.common import (
+    console,
+    console_err,
+    distinct_files,
+    library_dirs,
+    output_dir,
+    output_file,
+    shown,
+)
 from vsmp_imu.cli.smp import smp_app
 from vsmp_imu.errors import ConfigError, ExtractionError
 from vsmp_imu.io import write_json, write_text
@@ -46,6 +54,12 @@ def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
         option = {"n_frames": "--n", "size_px": "--size"}.get(exc.field or "", exc.field)
         raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
     return sampler
+
+
+def _max_fps(value: float) -> None:
+    from vsmp_imu.extract.landmarks import check_max_fps
+
+    check_max_fps(value, "--max-fps")
 
 
 def _client(base_url: str | None, model: str | None, cache_dir: Path | None, no_cache: bool,
@@ -110,7 +124,7 @@ def extract_cmd(
     max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM query"),
     fuse_threshold: float = typer.Option(0.35, "--fuse-threshold",
                                          help="fused: measurements below this uncertainty override"),
-    max_fps: float = typer.Option(30.0, "--max-fps", help="pose: frames per second processed at most"),
+    max_fps: float = typer.Option(30.0, "--max-fps", help="pose: frames per second processed at most (> 0)"),
     motion_out: Path | None = typer.Option(None, "--motion-out", help="pose/fused: also write the "
                                            "clip's pose motion (.npz)"),
     library: list[Path] = LIBRARY_OPTION,
@@ -118,6 +132,10 @@ def extract_cmd(
     """Extract the SMP of a video clip with a VLM, from body pose, or both (fused)."""
     output_file(output)
     output_file(motion_out, "--motion-out")
+    report_next_to = side_paths(output)[1] if output is not None else None
+    distinct_files({"--output": output, "the report next to --output": report_next_to, "--motion-out": motion_out},
+                   {"the video": video})
+    _max_fps(max_fps)
     if extractor not in EXTRACTORS:
         raise ConfigError(f"unknown extractor '{extractor}'", field="--extractor",
                           allowed=", ".join(EXTRACTORS))
@@ -162,7 +180,7 @@ def extract_cmd(
             raise ExtractionError(f"clip discarded: {result.reason}", file=video)
         smp = result.smp
         if smp is None:
-            console_err.print(f"VLM discarded the clip ({result.reason}); fusing pose with the "
+            console_err.print(f"VLM discarded the clip ({shown(result.reason)}); fusing pose with the "
                               "library SMP instead", highlight=False)
     if extractor in ("pose", "fused"):
         from vsmp_imu.extract.landmarks import MediaPipePoseEstimator
@@ -181,14 +199,14 @@ def extract_cmd(
         _print_pose(extraction)
         if motion_out is not None and extraction.motion is not None:
             extraction.motion.save(motion_out)
-            console.print(f"wrote {motion_out}", highlight=False)
+            console.print(f"wrote {shown(motion_out)}", highlight=False)
     assert smp is not None
     from vsmp_imu.smp import save_smp
 
     report["smp"] = smp.model_dump(mode="json")
     save_smp(smp, output)
     write_json(report_path, report)
-    console.print(f"wrote {output} and {report_path.name}", highlight=False)
+    console.print(f"wrote {shown(output)} and {shown(report_path.name)}", highlight=False)
 
 
 def _print_pose(extraction: Any) -> None:
@@ -203,11 +221,11 @@ def _print_pose(extraction: Any) -> None:
         table.add_column(col, overflow="fold")
     actions = {c.field: c.action for c in extraction.changes}
     for name, meas in m.fields.items():
-        table.add_row(name, json.dumps(meas.value), f"{meas.uncertainty:.2f}",
-                      actions.get(name, ""), meas.note)
+        table.add_row(shown(name), shown(json.dumps(meas.value)), f"{meas.uncertainty:.2f}",
+                      shown(actions.get(name, "")), shown(meas.note))
     console.print(table)
     for w in extraction.warnings:
-        console_err.print(f"[yellow]warning:[/] {w}", highlight=False)
+        console_err.print(f"[yellow]warning:[/] {shown(w)}", highlight=False)
 
 
 # -- video commands -------------------------------------------------------------------------
@@ -217,11 +235,11 @@ def info_cmd(video: Path = typer.Argument(..., help="Video clip")) -> None:
     from vsmp_imu.extract.frames import probe
 
     info = probe(video)
-    table = Table(title=str(video))
+    table = Table(title=shown(video))
     table.add_column("property")
     table.add_column("value")
     for key, value in info.to_dict().items():
-        table.add_row(key, str(value))
+        table.add_row(key, shown(value))
     console.print(table)
 
 
@@ -239,29 +257,31 @@ def frames_cmd(
 
     sampled = _sampler(n, preset, size_px).sample(video)
     write_frames(sampled, output)
-    console.print(f"wrote {sampled.n_frames} frames and contact_sheet.png to {output} "
+    console.print(f"wrote {sampled.n_frames} frames and contact_sheet.png to {shown(output)} "
                   f"({sampled.duration_s:.2f} s clip at {sampled.fps:.3f} fps)", highlight=False)
     for w in sampled.warnings:
-        console_err.print(f"[yellow]warning:[/] {w}", highlight=False)
+        console_err.print(f"[yellow]warning:[/] {shown(w)}", highlight=False)
 
 
 @video_app.command("pose")
 def pose_cmd(
     video: Path = typer.Argument(..., help="Video clip"),
     output: Path = typer.Option(..., "-o", "--output", help="Motion file to write (.npz)"),
-    max_fps: float = typer.Option(30.0, "--max-fps", help="Frames per second processed at most"),
+    max_fps: float = typer.Option(30.0, "--max-fps", help="Frames per second processed at most (> 0)"),
     window: str = typer.Option("all", "--window", help="all: the whole clip; longest: the longest "
                                "run of one tracked person"),
     height_m: float = typer.Option(DEFAULT_HEIGHT_M, "--height-m", help="Body height of the skeleton"),
 ) -> None:
     """MediaPipe pose -> SMPL-22 motion (.npz), gaps marked in its meta."""
     output_file(output)
+    distinct_files({"--output": output}, {"the video": video})
     from vsmp_imu.extract.landmarks import MediaPipePoseEstimator
     from vsmp_imu.extract.posemeasure import longest_run
     from vsmp_imu.extract.retarget import track_to_motion
 
     if window not in ("all", "longest"):
         raise ConfigError(f"unknown window '{window}'", field="--window", allowed="all, longest")
+    _max_fps(max_fps)
     with progress("pose frames", None) as update:
         track = MediaPipePoseEstimator(max_fps=max_fps).estimate(video, update)
     if window == "longest":
@@ -272,7 +292,7 @@ def pose_cmd(
     if motion is None:
         raise ExtractionError("no person detected in the clip", file=video)
     motion.save(output)
-    console.print(f"wrote {output}: {motion.n_frames} frames at {motion.fps:g} fps, person in "
+    console.print(f"wrote {shown(output)}: {motion.n_frames} frames at {motion.fps:g} fps, person in "
                   f"{motion.meta['detected_fraction']:.0%} of them", highlight=False)
 
 
@@ -289,7 +309,7 @@ def pool_cmd(
     no_cache: bool = typer.Option(False, "--no-cache", help="Do not read or write the VLM cache"),
     timeout_s: float = typer.Option(120.0, "--timeout-s", help="VLM request timeout (s)"),
     max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM request"),
-    max_fps: float = typer.Option(15.0, "--max-fps", help="pose: frames per second processed at most"),
+    max_fps: float = typer.Option(15.0, "--max-fps", help="pose: frames per second processed at most (> 0)"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Filter a pool of candidate source clips; write the shared manifest."""
@@ -298,6 +318,7 @@ def pool_cmd(
 
     if checker not in CHECKERS:
         raise ConfigError(f"unknown checker '{checker}'", field="--checker", allowed=", ".join(CHECKERS))
+    _max_fps(max_fps)
     if checker == "vlm":
         client = _client(base_url, model, cache_dir, no_cache, timeout_s, max_retries, True)
         chk: Any = VLMClipChecker(client, _sampler(n_frames, None))
@@ -314,9 +335,10 @@ def pool_cmd(
     for col in ("activity", "clip", "decision", "confidence", "reason"):
         table.add_column(col, overflow="fold")
     for c in data["clips"]:
-        table.add_row(c["activity"], c["path"], c["decision"], f"{c['confidence']:.2f}", c["reason"])
+        table.add_row(shown(c["activity"]), shown(c["path"]), c["decision"], f"{c['confidence']:.2f}",
+                      shown(c["reason"]))
     console.print(table)
-    console.print(f"wrote {output}", highlight=False)
+    console.print(f"wrote {shown(output)}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

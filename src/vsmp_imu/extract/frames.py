@@ -16,6 +16,8 @@ timestamps when the header's frame rate is missing or absurd.
 from __future__ import annotations
 
 import math
+import re
+import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -144,12 +146,31 @@ class SampledFrames:
                 "warnings": list(self.warnings)}
 
 
+def _file_kind(mode: int) -> str | None:
+    """What a non-regular file is (None for a regular file)."""
+    kinds = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+             (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+             (stat.S_ISBLK, "a block device"))
+    return next((name for test, name in kinds if test(mode)), None)
+
+
+def check_video_path(path: Path) -> None:
+    """A video must be a regular file: OpenCV waits for ever opening a FIFO no one writes to,
+    deaf to Ctrl-C and SIGTERM."""
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise InputFileError("video file not found", file=path) from None
+    except OSError as exc:
+        raise InputFileError(f"cannot look at the video ({exc.strerror})", file=path) from None
+    kind = _file_kind(mode)
+    if kind is not None:
+        raise InputFileError(f"expected a video file, found {kind}", file=path)
+
+
 def _open(path: Path) -> Any:
     cv2 = require_cv2()
-    if not path.exists():
-        raise InputFileError("video file not found", file=path)
-    if path.is_dir():
-        raise InputFileError("expected a video file, found a directory", file=path)
+    check_video_path(path)
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
         cap.release()
@@ -372,8 +393,15 @@ def encode_jpeg(image: np.ndarray, quality: int = 90) -> bytes:
     return buf.tobytes()
 
 
+FRAME_NAME = re.compile(r"frame_(?:\d{3}|[1-9]\d{3,})\.png")  # the names write_frames gives frames
+
+
 def write_frames(sampled: SampledFrames, out_dir: str | Path, columns: int | None = None) -> list[Path]:
-    """Write `frame_000.png` ..., `contact_sheet.png` and `frames.json` into `out_dir`."""
+    """Write `frame_000.png` ..., `contact_sheet.png` and `frames.json` into `out_dir`.
+
+    Frame PNGs of an earlier run there that this one does not write are removed, so the folder
+    holds exactly the frames `frames.json` lists; other files are left alone.
+    """
     from vsmp_imu.io import write_bytes, write_json
 
     out = Path(out_dir)
@@ -383,8 +411,15 @@ def write_frames(sampled: SampledFrames, out_dir: str | Path, columns: int | Non
     written = []
     for k, frame in enumerate(sampled.frames):
         written.append(write_bytes(out / f"frame_{k:03d}.png", encode_png(frame)))
+    _remove_stale_frames(out, {p.name for p in written})
     labels = [f"#{int(i)} {t:.2f}s" for i, t in zip(sampled.indices, sampled.times_s, strict=True)]
     sheet = contact_sheet(sampled.frames, columns=columns, labels=labels)
     written.append(write_bytes(out / "contact_sheet.png", encode_png(sheet)))
     written.append(write_json(out / "frames.json", sampled.to_dict()))
     return written
+
+
+def _remove_stale_frames(out: Path, kept: set[str]) -> None:
+    for path in out.iterdir():
+        if FRAME_NAME.fullmatch(path.name) and path.name not in kept and path.is_file():
+            path.unlink()

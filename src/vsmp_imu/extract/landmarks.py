@@ -114,6 +114,13 @@ class PoseTrack:
                 "frame_size": list(self.frame_size), "source": self.source}
 
 
+def check_max_fps(max_fps: float | None, field: str = "max_fps") -> None:
+    """A frame-rate cap is a finite number > 0 (None: every frame)."""
+    if max_fps is not None and not (math.isfinite(max_fps) and max_fps > 0):
+        raise ConfigError(f"{max_fps:g} frames per second cannot be a cap", field=field,
+                          allowed="a finite number > 0 (frames per second)")
+
+
 @dataclass(eq=False, repr=False)
 class MediaPipePoseEstimator:
     """Run MediaPipe Pose over a clip's frames.
@@ -148,6 +155,7 @@ class MediaPipePoseEstimator:
                               "need a download)", field="model_complexity", allowed="1")
         if self.max_frames is not None and self.max_frames < 2:
             raise ConfigError("max_frames must be at least 2", field="max_frames")
+        check_max_fps(self.max_fps)
         cv2 = require_cv2()
         mp = require_mediapipe()
         path = Path(video)
@@ -156,7 +164,7 @@ class MediaPipePoseEstimator:
             header_count, fps, width, height = _header(cap)
             if fps <= 0:
                 fps = 30.0  # no frame rate in the header: assume 30 (reported in source)
-            stride = 1 if not self.max_fps else max(1, math.ceil(fps / self.max_fps - 1e-9))
+            stride = 1 if self.max_fps is None else max(1, math.ceil(fps / self.max_fps - 1e-9))
             first = int(round(self.start_s * fps))
             total = header_count or None
             planned = None

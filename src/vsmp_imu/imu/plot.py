@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from vsmp_imu.errors import ValidationError  # noqa: E402
+from vsmp_imu.errors import ConfigError, ValidationError  # noqa: E402
 from vsmp_imu.imu.channels import CHANNELS, split_channel  # noqa: E402
 from vsmp_imu.imu.recording import ImuRecording  # noqa: E402
 from vsmp_imu.io import atomic_path  # noqa: E402
@@ -27,6 +27,17 @@ from vsmp_imu.io import atomic_path  # noqa: E402
 AXIS_COLORS = {"x": "tab:red", "y": "tab:green", "z": "tab:blue"}
 LINE_STYLES = ("-", "--", ":", "-.")
 SENSORS = {"acc": ("accelerometer", "m/s²"), "gyr": ("gyroscope", "rad/s")}
+# 16 sensor locations x (acc, gyr) = 32 panels; a figure of many more is metres tall
+MAX_PANELS = 40
+IMAGE_SUFFIXES = (".png", ".svg", ".pdf", ".jpg", ".jpeg", ".webp", ".tif", ".tiff", ".eps", ".ps")
+
+
+def check_image_path(path: str | Path, field: str = "path") -> None:
+    """The file's suffix names an image format the plot can be written in (no suffix: PNG)."""
+    suffix = Path(path).suffix.lower()
+    if suffix and suffix not in IMAGE_SUFFIXES:
+        raise ConfigError(f"'{suffix}' is not an image format a plot is written in", file=path,
+                          field=field, allowed=", ".join(IMAGE_SUFFIXES))
 
 
 @dataclass
@@ -75,6 +86,21 @@ def _panels(series: list[_Series]) -> list[tuple[str, str]]:
     return list(seen)
 
 
+def _check_panels(panels: list[tuple[str, str]]) -> None:
+    if len(panels) > MAX_PANELS:
+        others = [kind for _, kind in panels if kind not in SENSORS]
+        named = f" ({len(others)} of them for columns that are not acc_/gyr_ channels: " \
+                f"{', '.join(others[:3])}, ...)" if others else ""
+        raise ValidationError(f"{len(panels)} panels to draw, one per location and sensor{named}",
+                              field="channels", allowed=f"at most {MAX_PANELS} panels (channels named "
+                              "like waist_acc_x .. waist_gyr_z)")
+
+
+def check_plottable(recording: ImuRecording) -> None:
+    """Refuse a recording whose figure would have more than MAX_PANELS panels."""
+    _check_panels(_panels([_one(recording, "", None, None, 0.0)]))
+
+
 def _draw_panel(ax, series: list[_Series], location: str, kind: str) -> None:
     for k, s in enumerate(series):
         for i, name in enumerate(s.names):
@@ -99,6 +125,7 @@ def imu_figure(data, *, title: str | None = None, labels: Sequence[str] | None =
     """The figure (caller closes it); see `plot_imu`."""
     series = _series(data, labels, channel_names, fs_hz, start_s)
     panels = _panels(series)
+    _check_panels(panels)
     fig, axes = plt.subplots(len(panels), 1, figsize=(10, 0.6 + 2.2 * len(panels)), sharex=True,
                              squeeze=False, layout="constrained")
     for ax, (location, kind) in zip(axes[:, 0], panels, strict=True):
@@ -122,6 +149,7 @@ def plot_imu(data, path: str | Path, *, title: str | None = None, labels: Sequen
     list of them (overlay; `labels` names each one).
     """
     path = Path(path)
+    check_image_path(path)
     fig = imu_figure(data, title=title, labels=labels, channel_names=channel_names, fs_hz=fs_hz,
                      start_s=start_s)
     try:

@@ -7,6 +7,7 @@ axes and a floor grid. Left limbs are blue, right limbs red, the trunk dark.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,9 @@ CAMERA_YAW_DEG = -45.0  # camera azimuth from the front (+Z) toward the body's l
 CAMERA_ELEVATION_DEG = 15.0
 LEFT_COLOR, RIGHT_COLOR, CENTER_COLOR = "#1f5fbf", "#c8342b", "#333333"
 GIF_MAX_FPS = 15.0
+# 20 s at 15 fps; a longer motion is shown by fewer frames per second, still in real time
+# (matplotlib draws each frame, and Pillow holds them all in memory until the GIF is written)
+MAX_GIF_FRAMES = 300
 MAX_KEYFRAMES = 60  # a strip of 60 panels is already 13 200 px wide
 
 
@@ -135,9 +139,19 @@ def _check(motion: Motion) -> None:
         raise ValidationError("the motion has non-finite positions or rotations", field="positions")
 
 
+def gif_step(motion: Motion, fps: float | None = None) -> tuple[int, bool]:
+    """(every how many frames the GIF shows one, whether MAX_GIF_FRAMES rather than the frame
+    rate set it). The GIF plays at motion.fps / step: as long as the motion."""
+    out_fps = min(motion.fps, GIF_MAX_FPS) if fps is None else float(fps)
+    by_rate = max(1, int(round(motion.fps / out_fps)))
+    by_count = math.ceil(motion.n_frames / MAX_GIF_FRAMES)
+    return max(by_rate, by_count), by_count > by_rate
+
+
 def render_gif(motion: Motion, path: str | Path, fps: float | None = None, size_px: int = 360,
                yaw_deg: float | None = None) -> Path:
-    """Write the skeleton animation as a GIF (written atomically).
+    """Write the skeleton animation as a GIF (written atomically): at most GIF_MAX_FPS frames
+    per second and MAX_GIF_FRAMES frames in all, evenly spaced (`gif_step`).
 
     `yaw_deg`: camera azimuth from the body's front toward its left
     (default CAMERA_YAW_DEG; -90 = seen from the right side).
@@ -150,8 +164,7 @@ def render_gif(motion: Motion, path: str | Path, fps: float | None = None, size_
 
     _check(motion)
     check_render_options(yaw_deg=yaw_deg)
-    out_fps = min(motion.fps, GIF_MAX_FPS) if fps is None else float(fps)
-    step = max(1, int(round(motion.fps / out_fps)))
+    step, _ = gif_step(motion, fps)
     frames = list(range(0, motion.n_frames, step))
     fig, ax = plt.subplots(figsize=(size_px / 100, size_px / 100), dpi=100)
     try:
