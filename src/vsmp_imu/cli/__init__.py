@@ -9,10 +9,9 @@ import sys
 import threading
 
 import typer
-from rich.markup import escape
 
 from vsmp_imu.cli import cache, data, demo, generate, har, imu, motion, report, smp, study, video
-from vsmp_imu.cli.common import console_err, safe_text
+from vsmp_imu.cli.common import console_err, shown
 from vsmp_imu.errors import VsmpError
 
 app = typer.Typer(
@@ -34,7 +33,7 @@ FILE_SYSTEM_ERRNOS = (errno.EACCES, errno.EPERM, errno.EISDIR, errno.ENOTDIR, er
 
 
 def _say(text: str) -> None:
-    console_err.print(f"[bold red]error:[/] {escape(safe_text(text))}", highlight=False, soft_wrap=True)
+    console_err.print(f"[bold red]error:[/] {shown(text)}", highlight=False, soft_wrap=True)
 
 
 # What a stopped command keeps for its next run; the others have nothing to resume.
