@@ -57,9 +57,13 @@ def test_a_subject_without_a_window_is_in_the_dataset_and_says_so(cli, tmp_path)
 
 def test_a_dataset_without_a_window_is_refused_with_its_longest_recording(cli, tmp_path):
     path = _dataset(tmp_path / "ds", fs_hz=5000)  # 400 rows: 0.08 s at the declared rate
-    code, _, err = _generate(cli, path, "p1", tmp_path / "gen")
-    assert code == 2 and str(path) in err and "gives no labelled window of 2 s" in err
-    assert "0.08 s (400 samples at 5000 Hz)" in err and "fs_hz" in err
+    runs = {"generate": ["generate", "--dataset", path, "--holdout", "p1", "-o", tmp_path / "gen"],
+            "evaluate": ["evaluate", "--dataset", path, "--methods", "real", "-o", tmp_path / "ev"],
+            "data check": ["data", "check", path, "-o", tmp_path / "chk"]}
+    for name, argv in runs.items():
+        code, _, err = cli(*argv)
+        assert code == 2 and str(path) in err and "gives no labelled window of 2 s" in err, name
+        assert "0.08 s (400 samples at 5000 Hz)" in err and "fs_hz" in err, name
 
 
 def test_one_class_generates_and_evaluate_asks_for_two(cli, tmp_path):

@@ -25,6 +25,7 @@ from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.backbones import BACKBONES, make_backbone
 from vsmp_imu.har.backbones import RUN_PARAMS as BACKBONE_RUN_PARAMS
 from vsmp_imu.har.dataset import HarDataset
+from vsmp_imu.har.holdout import require_windows
 from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std, unseen_metrics
 from vsmp_imu.har.noharm import (
     HARM_P,
@@ -409,11 +410,7 @@ class Evaluation:
     def run(self, progress: Progress | None = None) -> EvalResults:
         c = self.config
         windows = self.dataset.windows(c.window_s, c.overlap)
-        if len(windows) == 0:
-            raise ConfigError(
-                f"dataset '{c.dataset}' gives no labelled windows of {c.window_s:g} s",
-                field="--window-s",
-            )
+        require_windows(self.dataset, windows, c.window_s)
         groups = self._groups()
         folds = self.folds(windows)
         if self.output_dir is not None:

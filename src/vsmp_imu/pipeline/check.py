@@ -85,6 +85,7 @@ from vsmp_imu.grounding.levels import part_means
 from vsmp_imu.grounding.mounting import mounting_classes
 from vsmp_imu.grounding.stats import sim_loss, summarize_windows
 from vsmp_imu.har.dataset import HarDataset, SensorLocation
+from vsmp_imu.har.holdout import require_windows
 from vsmp_imu.har.windows import window_geometry, window_starts
 from vsmp_imu.imu import simulate_kinematics
 from vsmp_imu.io import atomic_path
@@ -597,6 +598,7 @@ class DataCheck:
         size, step = window_geometry(info.fs_hz, self.window_s, self.overlap)
         shares = info.share_vector()
         real = dataset.windows(self.window_s, self.overlap)
+        require_windows(dataset, real, self.window_s)
         backend = backend_for(self.backend, tuple(self.library_dirs))
         declared: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
         executions: dict[tuple[str, str], tuple[list, list]] = {}  # single executions: (real, simulated)
