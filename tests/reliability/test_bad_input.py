@@ -156,7 +156,7 @@ def case_config_yaml_syntax(tmp_path, library, motion):
     ("--alpha", "5", "0.1..2"),
     ("--alpha", "nan", "0.1..2"),
     ("--workers", "0", "greater than or equal to 1"),
-    ("--overlap", "0.99", "less than or equal to 0.95"),
+    ("--overlap", "0.99", "0..0.95, not 0.99"),
     ("--holdout", "99", "1, 2, 3"),
     ("--executor", "spark", "local, ray"),
 ])
@@ -180,6 +180,11 @@ def test_generate_numbers_out_of_range(capsys, tmp_path, small_dataset, option, 
     (["imu", "simulate", "M", "--smoothing-hz", "nan"], "--smoothing-hz", "0..1000, not nan"),
     (["evaluate", "--dataset", "hapt", "--window-s", "nan"], "--window-s", "0.5..30, not nan"),
     (["demo", "--budget", "nan"], "--budget", "0.1..100, not nan"),
+    (["generate", "--dataset", "hapt", "--holdout", "1", "--window-s", "nan"], "--window-s", "0.5..30, not nan"),
+    (["generate", "--dataset", "hapt", "--holdout", "1", "--overlap", "inf"], "--overlap", "0..0.95, not inf"),
+    (["generate", "--dataset", "hapt", "--holdout", "1", "--gpus-per-task", "nan"], "--gpus-per-task",
+     "0..8, not nan"),
+    (["data", "check", "hapt", "--window-s", "nan"], "--window-s", "0.5..30, not nan"),
 ])
 def test_a_number_option_that_is_nan_or_inf_is_called_not_finite(capsys, tmp_path, argv, option, allowed):
     code, text = run_main(capsys, *argv, "-o", tmp_path / "out")

@@ -10,7 +10,7 @@ import typer
 from rich import box
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, library_dirs, output_dir, print_warnings
+from vsmp_imu.cli.common import console, finite_range, library_dirs, output_dir, print_warnings
 
 data_app = typer.Typer(help="Your own data: check it against the activity files before an evaluation.",
                        no_args_is_help=True)
@@ -47,7 +47,8 @@ def check_cmd(
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder (repeatable)"),
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     samples: int = typer.Option(3, "--samples", min=1, max=50, help="simulated executions per class"),
-    window_s: float = typer.Option(2.0, "--window-s", min=0.5, max=30.0, help="window length in seconds"),
+    window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
+                                   help="window length in seconds"),
     overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
     output: Path = typer.Option(..., "--output", "-o", help="folder for check.json and check.png"),
     mounting: bool = typer.Option(True, "--mounting/--no-mounting",
