@@ -35,17 +35,35 @@ def _break(output, fold: str) -> None:
 
 
 def _slow_fold(spec, request, log_path) -> None:
-    """A fold's process that would take a minute (imported by name in the spawned process)."""
+    """A fold's process that would take a minute (imported by name in the spawned process); it
+    says in its log that it runs."""
+    log_path.write_text("running")
     time.sleep(60)
+
+
+def _interrupt_once_running(logs, done: threading.Event) -> None:
+    """Ctrl-C to this process once every fold's process runs (however long a loaded machine takes
+    to spawn them), unless `run_folds` has already returned."""
+    deadline = time.monotonic() + 60
+    while not done.is_set() and time.monotonic() < deadline and not all(p.exists() for p in logs):
+        time.sleep(0.05)
+    if not done.is_set():
+        os.kill(os.getpid(), signal.SIGINT)
 
 
 def test_stopping_the_command_stops_the_folds_processes(fixtures_dir, tmp_path):
     request = EvalRequest(dataset=str(fixtures_dir / "generic" / "dataset.yaml"), output=tmp_path / "run")
-    threading.Timer(5.0, os.kill, (os.getpid(), signal.SIGINT)).start()  # Ctrl-C while both folds run
-    start = time.monotonic()
-    with pytest.raises(KeyboardInterrupt):
-        run_folds(GenerationSpec(), request, ["p1", "p2"], 2, target=_slow_fold)
-    assert time.monotonic() - start < 30
+    logs = [fold_folder(request.output, fold) / LOG_NAME for fold in ("p1", "p2")]
+    done = threading.Event()
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # as the command line has it
+    threading.Thread(target=_interrupt_once_running, args=(logs, done), daemon=True).start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run_folds(GenerationSpec(), request, ["p1", "p2"], 2, target=_slow_fold)
+    finally:
+        done.set()
+        signal.signal(signal.SIGINT, previous)
+    assert all(p.read_text() == "running" for p in logs)
     assert not multiprocessing.active_children()
 
 
