@@ -301,21 +301,23 @@ class GenericDataset(HarDataset):
             medians = self._median_g(loc)
             pooled = {label: float(np.median(np.concatenate(list(parts.values()))))
                       for label, parts in medians.items()}
+            fine = []  # the classes that read right over all files
             for label, g in sorted(pooled.items()):
                 hint = self._gravity_hint(loc, g)
-                if hint:
-                    out.append(f"{self.yaml_path}: class '{label}' at '{loc.name}' reads a median acceleration "
-                               f"of {g * STANDARD_GRAVITY_M_S2:.3g} m/s² ({g:.3g} g) with acc_unit "
-                               f"{loc.acc_unit} (locations[{i}]): {hint}")
+                if not hint:
+                    fine.append(label)
+                    continue
+                out.append(f"{self.yaml_path}: class '{label}' at '{loc.name}' reads a median acceleration "
+                           f"of {g * STANDARD_GRAVITY_M_S2:.3g} m/s² ({g:.3g} g) with acc_unit "
+                           f"{loc.acc_unit} (locations[{i}]): {hint}")
             for path in self.tables:
-                odd = [(label, float(np.median(parts[path]))) for label, parts in sorted(medians.items())
-                       if path in parts and not self._gravity_hint(loc, pooled[label])]
-                odd = [(label, g) for label, g in odd if self._gravity_hint(loc, g)]
+                odd = [(label, g, hint) for label in fine if path in medians[label]
+                       for g in [float(np.median(medians[label][path]))] if (hint := self._gravity_hint(loc, g))]
                 if odd:
-                    label, g = odd[0]
-                    out.append(f"{path}: at '{loc.name}' class(es) {', '.join(k for k, _ in odd)} read a median "
+                    label, g, hint = odd[0]
+                    out.append(f"{path}: at '{loc.name}' class(es) {', '.join(k for k, _, _ in odd)} read a median "
                                f"acceleration unlike the other files' (first: '{label}', {g:.3g} g with acc_unit "
-                               f"{loc.acc_unit}, locations[{i}]): {self._gravity_hint(loc, g)}")
+                               f"{loc.acc_unit}, locations[{i}]): {hint}")
         return out
 
     def _median_g(self, loc: LocationSpec) -> dict[str, dict[Path, np.ndarray]]:
