@@ -165,3 +165,25 @@ def test_only_the_cache_module_places_files_under_the_cache_root():
     modules = [p for p in sorted(src.rglob("*.py")) if p not in allowed]
     assert len(modules) > 50
     assert [f"{p.relative_to(src)}: {m[0]}" for p in modules for m in pattern.finditer(p.read_text())] == []
+
+
+def test_clear_keeps_the_vlm_answers_unless_asked(cli, tmp_path, monkeypatch):
+    """VLM answers are paid requests whose answers may not come back the same: a plain `cache
+    clear` keeps them and says so; `--all` or `--only vlm` removes them."""
+    root = tmp_path / "cache"
+    monkeypatch.setenv("VSMP_IMU_CACHE", str(root))
+    _fill(root / "samples", [300])
+    _fill(root / "vlm", [40, 60])
+    code, out, _ = cli("cache", "clear")
+    assert code == 0 and f"removed 1 files (300 B) from {root / 'samples'}" in out
+    assert f"kept 2 files (100 B) in {root / 'vlm'}" in out and "--all or --only vlm removes them" in out
+    assert len(list((root / "vlm").iterdir())) == 2
+    code, out, _ = cli("cache", "clear")
+    assert code == 0 and "nothing to remove" not in out and "kept 2 files" in out
+    code, _, err = cli("cache", "clear", "--all", "--only", "vlm")
+    assert code == 2 and "--all" in err and (root / "vlm").is_dir()
+    code, out, _ = cli("cache", "clear", "--all")
+    assert code == 0 and "removed 2 files (100 B)" in out and "kept" not in out
+    assert cache_contents().folders == []
+    _fill(root / "vlm", [10])
+    assert [u.name for u in clear_cache(only="vlm")[0]] == ["vlm"]

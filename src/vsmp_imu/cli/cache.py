@@ -9,8 +9,10 @@ import typer
 from rich.table import Table
 
 from vsmp_imu.cli.common import console
+from vsmp_imu.errors import ConfigError
 from vsmp_imu.har.cache import (
     CACHE_FOLDERS,
+    KEPT_UNLESS_ASKED,
     MAX_GB_ENV,
     SAMPLES,
     cache_contents,
@@ -20,6 +22,7 @@ from vsmp_imu.har.cache import (
 )
 
 FOLDERS = ", ".join(CACHE_FOLDERS)
+KEPT = ", ".join(KEPT_UNLESS_ASKED)
 
 cache_app = typer.Typer(help="The on-disk cache: parsed datasets, generated samples, VLM answers.", no_args_is_help=True)
 
@@ -60,21 +63,32 @@ def info_cmd() -> None:
     table.add_row("[bold]total[/]", str(sum(u.files for u in folders)), _size(sum(u.bytes for u in folders)), "")
     console.print(table)
     console.print(f"'{SAMPLES}' is kept under {_size(cap)} (${MAX_GB_ENV}); the least recently used "
-                  "samples go first. `vsmp-imu cache clear` removes these folders and nothing else.",
+                  f"samples go first. `vsmp-imu cache clear` removes these folders but {KEPT} (`--all`: these too) "
+                  "and nothing else.",
                   highlight=False)
     _left_alone(contents.others)
 
 
-@cache_app.command("clear", help=f"Remove the project's cache folders ({FOLDERS}), or one of them; they are "
-                   "remade when needed. Other files and folders under the cache, and links, are left alone.")
-def clear_cmd(only: str = typer.Option(None, "--only", help=f"remove only this folder: {FOLDERS}")) -> None:
-    removed, others = clear_cache(only=only)
+@cache_app.command("clear", help=f"Remove the project's cache folders ({FOLDERS}) but {KEPT} (paid VLM "
+                   f"answers: --all removes them too), or one of them; they are remade when needed. Other "
+                   "files and folders under the cache, and links, are left alone.")
+def clear_cmd(only: str = typer.Option(None, "--only", help=f"remove only this folder: {FOLDERS}"),
+              everything: bool = typer.Option(False, "--all", help=f"remove {KEPT} too")) -> None:
+    if only is not None and everything:
+        raise ConfigError("--only and --all ask for different things", field="--all",
+                          allowed="one of them, or neither")
+    kept = [] if only or everything else [u for u in cache_contents().folders if u.name in KEPT_UNLESS_ASKED]
+    removed, others = clear_cache(only=only, everything=everything)
     root = cache_dir()
     for u in removed:
         console.print(f"removed {u.files} files ({_size(u.bytes)}) from {root / u.name}", highlight=False,
                       soft_wrap=True)
-    if not removed:
+    if not removed and not kept:
         console.print(f"nothing to remove: {root} holds no folder " + (f"'{only}'" if only else "of the project"),
+                      highlight=False, soft_wrap=True)
+    for u in kept:
+        console.print(f"kept {u.files} files ({_size(u.bytes)}) in {root / u.name}: "
+                      f"{CACHE_FOLDERS[u.name]}; --all or --only {u.name} removes them",
                       highlight=False, soft_wrap=True)
     _left_alone(others)
 

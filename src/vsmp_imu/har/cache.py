@@ -24,7 +24,7 @@ import numpy as np
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.io import atomic_path, file_sha256
 
-__all__ = ["CACHE_FOLDERS", "cache_dir", "cache_folder", "file_sha256", "load_npz", "save_npz", "samples_dir",
+__all__ = ["CACHE_FOLDERS", "KEPT_UNLESS_ASKED", "cache_dir", "cache_folder", "file_sha256", "load_npz", "save_npz", "samples_dir",
            "vlm_dir", "max_cache_bytes", "cache_contents", "prune_cache", "clear_cache"]
 
 SAMPLES = "samples"  # samples_dir()
@@ -38,6 +38,9 @@ CACHE_FOLDERS = {
     HAPT_CACHE: "the parsed HAPT dataset; parsed again when needed",
     VLM: "VLM answers of `smp extract` and `video pool`; asked again (new requests) when needed",
 }
+# Folders a plain `cache clear` keeps: VLM answers are paid requests whose answers may not come
+# back the same; `cache clear --all` or `--only vlm` removes them.
+KEPT_UNLESS_ASKED = (VLM,)
 MAX_GB_ENV = "VSMP_IMU_CACHE_MAX_GB"
 DEFAULT_MAX_GB = 10.0
 
@@ -154,8 +157,10 @@ def prune_cache(folder: Path, max_bytes: int) -> tuple[int, int]:
     return removed, freed
 
 
-def clear_cache(root: Path | None = None, only: str | None = None) -> tuple[list[FolderUsage], list[Path]]:
-    """Remove the project's cache folders (or only the folder `only`, one of CACHE_FOLDERS).
+def clear_cache(root: Path | None = None, only: str | None = None,
+                everything: bool = False) -> tuple[list[FolderUsage], list[Path]]:
+    """Remove the project's cache folders but those in KEPT_UNLESS_ASKED (all of them with
+    `everything`; only the folder `only`, one of CACHE_FOLDERS, when given).
 
     Returns what was removed, counted before removal (a file that could not be removed is not
     counted), and the entries left alone: every other entry (with `only`: one named `only`
@@ -166,7 +171,9 @@ def clear_cache(root: Path | None = None, only: str | None = None) -> tuple[list
                           allowed=", ".join(CACHE_FOLDERS))
     contents = cache_contents(root)
     root = cache_dir() if root is None else Path(root)
-    removed = [_remove(root / u.name, u) for u in contents.folders if only in (None, u.name)]
+    chosen = [u for u in contents.folders if u.name == only or
+              (only is None and (everything or u.name not in KEPT_UNLESS_ASKED))]
+    removed = [_remove(root / u.name, u) for u in chosen]
     return removed, [p for p in contents.others if only in (None, p.name)]
 
 
