@@ -213,7 +213,8 @@ def case_motion_nan(tmp_path, library, motion):
     broken = motion.__class__(motion.positions.copy(), motion.rotations, motion.fps, motion.joint_names,
                               motion.parents, dict(motion.meta))
     broken.positions[10, 3] = np.nan
-    path = broken.save(tmp_path / "motion.npz")
+    path = tmp_path / "motion.npz"
+    path.write_bytes(broken.to_npz_bytes())  # save() refuses it
     return ["imu", "simulate", path, "-o", tmp_path / "x.csv"], path.name, "a coordinate of nan at frame 10, joint 3"
 
 
@@ -307,6 +308,45 @@ def test_an_output_that_is_an_input_or_another_output_is_refused(capsys, tmp_pat
     code, text = run_main(capsys, *argv)
     assert code == 2 and f"{clash} name the same file" in text, text
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before  # nothing written
+
+
+def test_a_pool_manifest_never_replaces_a_clip_of_the_pool(capsys, tmp_path):
+    clip = tmp_path / "pool" / "walking" / "a.mp4"
+    clip.parent.mkdir(parents=True)
+    clip.write_bytes(b"\x00" * 64)
+    code, text = run_main(capsys, "video", "pool", tmp_path / "pool", "-o", clip)
+    assert code == 2 and "a clip of POOL and --output name the same file" in text, text
+    assert clip.read_bytes() == b"\x00" * 64
+
+
+def test_a_clip_longer_than_a_motion_is_refused_before_tracking(capsys, tmp_path):
+    """601 frames at 1 fps: `video pose` (and `smp extract --motion-out`) refuse it from the
+    header, before MediaPipe sees a frame, instead of writing a motion `Motion.load` refuses."""
+    cv2 = pytest.importorskip("cv2")
+    clip = tmp_path / "long.avi"
+    writer = cv2.VideoWriter(str(clip), cv2.VideoWriter_fourcc(*"MJPG"), 1.0, (16, 16))
+    for _ in range(601):
+        writer.write(np.zeros((16, 16, 3), np.uint8))
+    writer.release()
+    code, text = run_main(capsys, "video", "pose", clip, "-o", tmp_path / "m.npz")
+    assert code == 2 and "long.avi: the clip lasts 601 s" in text and "at most 600 s" in text, text
+    code, text = run_main(capsys, "smp", "extract", clip, "--label", "walking", "--extractor", "pose",
+                          "-o", tmp_path / "s.json", "--motion-out", tmp_path / "m.npz")
+    assert code == 2 and "the clip lasts 601 s" in text, text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["long.avi"]
+
+
+def test_a_motion_load_would_refuse_is_not_saved(tmp_path, good_motion):
+    from dataclasses import replace
+
+    from vsmp_imu.errors import ValidationError
+
+    positions = good_motion.positions.copy()
+    positions[3, 2, 0] = np.nan
+    with pytest.raises(ValidationError) as err:
+        replace(good_motion, positions=positions).save(tmp_path / "bad.npz")
+    assert "bad.npz" in str(err.value) and err.value.field == "positions"
+    assert not (tmp_path / "bad.npz").exists()
 
 
 def test_the_console_script_exits_2_with_one_paragraph(tmp_path):

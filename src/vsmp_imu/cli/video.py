@@ -23,7 +23,7 @@ from vsmp_imu.cli.common import (
     shown,
 )
 from vsmp_imu.cli.smp import smp_app
-from vsmp_imu.errors import ConfigError, ExtractionError
+from vsmp_imu.errors import ConfigError, ExtractionError, InputFileError
 from vsmp_imu.io import write_json, write_text
 from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M
 from vsmp_imu.progress import progress
@@ -60,6 +60,18 @@ def _max_fps(value: float) -> None:
     from vsmp_imu.extract.landmarks import check_max_fps
 
     check_max_fps(value, "--max-fps")
+
+
+def _short_enough(video: Path) -> None:
+    """Refuse, before any frame is tracked, a clip longer than a motion may last."""
+    from vsmp_imu.extract.frames import header_duration_s
+    from vsmp_imu.motion.motion import MAX_DURATION_S
+
+    seconds = header_duration_s(video)
+    if seconds is not None and seconds > MAX_DURATION_S:
+        raise InputFileError(f"the clip lasts {seconds:.0f} s, longer than a motion may last", file=video,
+                             allowed=f"a clip of at most {MAX_DURATION_S:g} s (cut a part first, e.g. "
+                             f"`ffmpeg -ss START -t {MAX_DURATION_S:g} -i IN OUT`)")
 
 
 def _client(base_url: str | None, model: str | None, cache_dir: Path | None, no_cache: bool,
@@ -144,6 +156,8 @@ def extract_cmd(
     if output is None and not dry_run:
         raise ConfigError("name the SMP file to write with -o", field="--output")
     lib = _library(library)
+    if motion_out is not None:
+        _short_enough(video)
     use_vlm = extractor == "vlm" or (extractor == "fused" and base_url is not None)
     vlm = None
     if use_vlm:
@@ -282,6 +296,7 @@ def pose_cmd(
     if window not in ("all", "longest"):
         raise ConfigError(f"unknown window '{window}'", field="--window", allowed="all, longest")
     _max_fps(max_fps)
+    _short_enough(video)
     with progress("pose frames", None) as update:
         track = MediaPipePoseEstimator(max_fps=max_fps).estimate(video, update)
     if window == "longest":
@@ -314,11 +329,12 @@ def pool_cmd(
 ) -> None:
     """Filter a pool of candidate source clips; write the shared manifest."""
     output_file(output)
-    from vsmp_imu.extract.pool import PoseClipChecker, SourcePoolFilter, VLMClipChecker
+    from vsmp_imu.extract.pool import PoseClipChecker, SourcePoolFilter, VLMClipChecker, pool_clips
 
     if checker not in CHECKERS:
         raise ConfigError(f"unknown checker '{checker}'", field="--checker", allowed=", ".join(CHECKERS))
     _max_fps(max_fps)
+    distinct_files({"--output": output}, {"a clip of POOL": [clip for _, clip in pool_clips(pool_dir)]})
     if checker == "vlm":
         client = _client(base_url, model, cache_dir, no_cache, timeout_s, max_retries, True)
         chk: Any = VLMClipChecker(client, _sampler(n_frames, None))

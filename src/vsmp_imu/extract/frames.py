@@ -190,6 +190,17 @@ def _header(cap: Any) -> tuple[int, float, int, int]:
     return count_i, fps_f, width, height
 
 
+def header_duration_s(video: str | Path) -> float | None:
+    """How long the clip's header says it lasts (None when it gives no frame count or rate);
+    nothing is decoded."""
+    cap = _open(Path(video))
+    try:
+        count, fps, _, _ = _header(cap)
+    finally:
+        cap.release()
+    return count / fps if count and fps else None
+
+
 def uniform_indices(n_total: int, n_frames: int) -> np.ndarray:
     """`n_frames` indices spread uniformly over 0..n_total-1 (repeats when n_total < n_frames)."""
     if n_total < 1 or n_frames < 1:

@@ -187,7 +187,11 @@ class Motion:
         return buf.getvalue()
 
     def save(self, path: str | Path) -> Path:
-        """Write a .npz atomically."""
+        """Write a .npz atomically; a motion `load` would refuse is refused here, naming the file."""
+        try:
+            self.check_values()
+        except ValidationError as exc:
+            raise exc.in_file(path) from exc
         return write_bytes(path, self.to_npz_bytes())
 
     @classmethod
