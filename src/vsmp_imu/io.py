@@ -17,7 +17,7 @@ from typing import Any
 
 import yaml
 
-from vsmp_imu.errors import InputFileError
+from vsmp_imu.errors import ConfigError, InputFileError
 
 
 @contextlib.contextmanager
@@ -105,6 +105,26 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+IMAGE_SUFFIXES = (".png", ".svg", ".pdf", ".jpg", ".jpeg", ".webp", ".tif", ".tiff", ".eps", ".ps")
+
+
+def check_image_path(path: str | Path, field: str = "path") -> None:
+    """The file's suffix names an image format a figure is written in (no suffix: PNG)."""
+    suffix = Path(path).suffix.lower()
+    if suffix and suffix not in IMAGE_SUFFIXES:
+        raise ConfigError(f"'{suffix}' is not an image format a figure is written in", file=path,
+                          field=field, allowed=", ".join(IMAGE_SUFFIXES))
+
+
+def write_figure(fig: Any, path: str | Path, **savefig: Any) -> Path:
+    """Write a matplotlib figure atomically in the format its suffix names (none: PNG)."""
+    path = Path(path)
+    check_image_path(path)
+    with atomic_path(path, suffix=path.suffix or ".png") as tmp:
+        fig.savefig(tmp, format=path.suffix.lower().lstrip(".") or "png", **savefig)
+    return path
 
 
 def file_sha256(path: str | Path, chunk: int = 1 << 20) -> str:

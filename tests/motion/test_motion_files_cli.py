@@ -92,6 +92,24 @@ def test_cli_synth_info_render_bvh_resample(cli, tmp_path):
     assert code == 0 and Motion.load(tmp_path / "c60.npz").fps == 60.0
 
 
+def test_cli_render_writes_the_formats_its_file_names_say(cli, tmp_path, library):
+    """The keyframe strip is written in the format its suffix names; the animation is a GIF and
+    its name must say so; a suffix neither can be written in is refused before drawing."""
+    from vsmp_imu.motion.procedural import ProceduralBackend
+
+    path = ProceduralBackend(library).generate(library.get("walking").smp, 0, 2.0).save(tmp_path / "c.npz")
+    code, _, err = cli("motion", "render", path, "-o", tmp_path / "c.gif", "--keyframes", tmp_path / "k.svg",
+                       "--n", "2")
+    assert code == 0, err
+    assert (tmp_path / "k.svg").read_text().lstrip().startswith("<?xml") and "<svg" in (tmp_path / "k.svg").read_text()
+    assert (tmp_path / "c.gif").read_bytes()[:4] == b"GIF8"
+    code, _, err = cli("motion", "render", path, "-o", tmp_path / "d.gif", "--keyframes", tmp_path / "k.txt")
+    assert code == 2 and "field '--keyframes'" in err and "'.txt' is not an image format" in err
+    code, _, err = cli("motion", "render", path, "-o", tmp_path / "d.png")
+    assert code == 2 and "field '--output'" in err and "ending in .gif" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.gif", "c.npz", "k.svg"]
+
+
 def test_cli_synth_from_file_prompt_and_duration(cli, tmp_path, library):
     from vsmp_imu.smp import save_smp
 

@@ -18,6 +18,7 @@ from vsmp_imu.cli.common import (
     shown,
 )
 from vsmp_imu.errors import ConfigError, ValidationError
+from vsmp_imu.io import check_image_path
 
 motion_app = typer.Typer(help="Motions: synthesize from an SMP or a prompt (procedural or HY-Motion), "
                          "render, export to BVH, inspect, resample.", no_args_is_help=True)
@@ -100,14 +101,20 @@ def synth_cmd(
 @motion_app.command("render")
 def render_cmd(
     motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
-    output: Path = typer.Option(..., "-o", "--output", help="animated GIF to write"),
-    keyframes: Path = typer.Option(None, "--keyframes", help="also write a keyframe strip (.png)"),
+    output: Path = typer.Option(..., "-o", "--output", help="animated GIF to write (.gif)"),
+    keyframes: Path = typer.Option(None, "--keyframes", help="also write a keyframe strip (.png, .svg, "
+                                   ".pdf, ...: the format its suffix names)"),
     n: int = typer.Option(6, "--n", help="number of keyframes, 1..60"),
     view: float = typer.Option(None, "--view", help="camera azimuth in degrees (-90: right side)"),
 ) -> None:
     """Draw the skeleton animation as a GIF (and a keyframe strip)."""
     output_file(output)
     output_file(keyframes, "--keyframes")
+    if output.suffix.lower() != ".gif":
+        raise ConfigError("the animation is written as a GIF", file=output, field="--output",
+                          allowed="a file name ending in .gif")
+    if keyframes is not None:
+        check_image_path(keyframes, "--keyframes")
     distinct_files({"--output": output, "--keyframes": keyframes}, {"the input motion": motion_file})
     from vsmp_imu.motion.render import (
         MAX_GIF_FRAMES,

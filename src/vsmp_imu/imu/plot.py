@@ -19,27 +19,16 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from vsmp_imu.errors import ConfigError, ValidationError  # noqa: E402
+from vsmp_imu.errors import ValidationError  # noqa: E402
 from vsmp_imu.imu.channels import CHANNELS, split_channel  # noqa: E402
 from vsmp_imu.imu.recording import ImuRecording  # noqa: E402
-from vsmp_imu.io import atomic_path  # noqa: E402
+from vsmp_imu.io import IMAGE_SUFFIXES, check_image_path, write_figure  # noqa: E402,F401
 
 AXIS_COLORS = {"x": "tab:red", "y": "tab:green", "z": "tab:blue"}
 LINE_STYLES = ("-", "--", ":", "-.")
 SENSORS = {"acc": ("accelerometer", "m/s²"), "gyr": ("gyroscope", "rad/s")}
 # 16 sensor locations x (acc, gyr) = 32 panels; a figure of many more is metres tall
 MAX_PANELS = 40
-IMAGE_SUFFIXES = (".png", ".svg", ".pdf", ".jpg", ".jpeg", ".webp", ".tif", ".tiff", ".eps", ".ps")
-
-
-def check_image_path(path: str | Path, field: str = "path") -> None:
-    """The file's suffix names an image format the plot can be written in (no suffix: PNG)."""
-    suffix = Path(path).suffix.lower()
-    if suffix and suffix not in IMAGE_SUFFIXES:
-        raise ConfigError(f"'{suffix}' is not an image format a plot is written in", file=path,
-                          field=field, allowed=", ".join(IMAGE_SUFFIXES))
-
-
 @dataclass
 class _Series:
     label: str
@@ -153,8 +142,6 @@ def plot_imu(data, path: str | Path, *, title: str | None = None, labels: Sequen
     fig = imu_figure(data, title=title, labels=labels, channel_names=channel_names, fs_hz=fs_hz,
                      start_s=start_s)
     try:
-        with atomic_path(path, suffix=path.suffix or ".png") as tmp:
-            fig.savefig(tmp, dpi=110, format=(path.suffix.lstrip(".") or "png"))
+        return write_figure(fig, path, dpi=110)
     finally:
         plt.close(fig)
-    return path

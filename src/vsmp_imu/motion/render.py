@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from vsmp_imu.errors import ValidationError
-from vsmp_imu.io import atomic_path
+from vsmp_imu.io import atomic_path, check_image_path, write_figure
 from vsmp_imu.motion.motion import Motion
 
 CAMERA_YAW_DEG = -45.0  # camera azimuth from the front (+Z) toward the body's left (+X)
@@ -205,8 +205,9 @@ def keyframe_indices(motion: Motion, n: int = 6) -> np.ndarray:
 
 def render_keyframes(motion: Motion, path: str | Path, n: int = 6, panel_px: int = 220,
                      yaw_deg: float | None = None) -> Path:
-    """Write a strip of `n` keyframes (`keyframe_indices`: different poses, in time order) as a
-    PNG (written atomically). A motion with fewer distinct poses gives fewer panels."""
+    """Write a strip of `n` keyframes (`keyframe_indices`: different poses, in time order) as an
+    image in the format its suffix names (PNG, SVG, PDF, ...; written atomically). A motion with
+    fewer distinct poses gives fewer panels."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -214,6 +215,7 @@ def render_keyframes(motion: Motion, path: str | Path, n: int = 6, panel_px: int
 
     _check(motion)
     check_render_options(n, yaw_deg)
+    check_image_path(path)
     frames = keyframe_indices(motion, n)
     n = len(frames)
     fig, axes = plt.subplots(1, n, figsize=(n * panel_px / 100, 1.25 * panel_px / 100), dpi=100)
@@ -224,8 +226,6 @@ def render_keyframes(motion: Motion, path: str | Path, n: int = 6, panel_px: int
             scene.draw(int(frame), f"{frame / motion.fps:.2f} s")
         fig.suptitle(_title(motion, int(frames[-1])).rsplit(" | frame", 1)[0], fontsize=10)
         fig.subplots_adjust(left=0.01, right=0.99, bottom=0.02, top=0.84, wspace=0.05)
-        with atomic_path(path, suffix=".png") as tmp:
-            fig.savefig(tmp, format="png")
+        return write_figure(fig, path)
     finally:
         plt.close(fig)
-    return Path(path)

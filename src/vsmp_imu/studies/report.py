@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from vsmp_imu.io import atomic_path, dumps_json, write_json, write_text
+from vsmp_imu.io import atomic_path, dumps_json, write_figure, write_json, write_text
 
 NA = "n/a"
 
@@ -58,13 +58,10 @@ def save_figure(fig: Any, path: str | Path, dpi: int = 200) -> Path:
     """Save a matplotlib figure atomically (format from the suffix) and close it."""
     import matplotlib.pyplot as plt
 
-    path = Path(path)
     try:
-        with atomic_path(path, suffix=path.suffix) as tmp:
-            fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", dpi=dpi, bbox_inches="tight")
+        return write_figure(fig, path, dpi=dpi, bbox_inches="tight")
     finally:
         plt.close(fig)
-    return path
 
 
 def _missing(value: Any) -> bool:
