@@ -90,3 +90,16 @@ def test_executor_logs_its_progress_to_a_file(capsys):
     assert lines[0] == "[0:00] samples" and lines[-1].endswith("samples 3/3")
     assert LocalExecutor(1, show_progress=False).map(abs, [-1]) == [1]
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("terminal", [False, True])
+def test_a_name_from_a_file_cannot_drive_the_terminal(terminal):
+    """A clip's or a model's name in the description or a stage is printed with its control
+    characters escaped, on a live bar as in log lines."""
+    console, buf = _console(terminal=terminal)
+    with progress("pose \x1b]0;owned\x07frames", 2, console=console, transient=False) as update:
+        update(1, stage="walking/\x1b[2Jclip\u202e.mp4")
+        update(2, stage="walking/\x1b[2Jclip\u202e.mp4")
+    text = buf.getvalue()
+    assert "\x1b]0;" not in text and "\x1b[2J" not in text and "\u202e" not in text and "\x07" not in text
+    assert "\\x1b]0;owned\\x07frames" in text and "\\x1b[2Jclip\\u202e.mp4" in text

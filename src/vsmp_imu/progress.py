@@ -23,6 +23,8 @@ from rich.progress import (
     TimeRemainingColumn,
 )
 
+from vsmp_imu.terminal import safe_text
+
 # update(done, total=None, stage=None): `total` None keeps the last known total
 Update = Callable[..., None]
 
@@ -33,8 +35,11 @@ LOG_INTERVAL_S = 30.0
 def progress(description: str, total: int | None = None, *, console: Console | None = None,
              disable: bool = False, transient: bool = True,
              interval_s: float = LOG_INTERVAL_S) -> Iterator[Update]:
-    """Yield an `update(done, total=None, stage=None)` callback for work named `description`."""
+    """Yield an `update(done, total=None, stage=None)` callback for work named `description`;
+    the description and stages (a clip's or a model's name) are printed with their control
+    characters escaped."""
     console = console or Console(stderr=True)
+    description = safe_text(description)
     if disable:
         yield lambda *_, **__: None
     elif console.is_terminal:
@@ -54,7 +59,7 @@ def _bar(description: str, total: int | None, console: Console, transient: bool)
 
         def update(done: int, total_now: int | None = None, stage: str | None = None) -> None:
             bar.update(task, completed=done, total=total_now,  # None keeps the total
-                       description=f"{description}: {stage}" if stage else description)
+                       description=f"{description}: {safe_text(stage)}" if stage else description)
 
         yield update
 
@@ -73,7 +78,7 @@ def _lines(description: str, total: int | None, console: Console, interval_s: fl
             return
         state["stage"], state["done"], state["printed"] = stage, done, now
         count = f"{done}/{state['total']}" if state["total"] else str(done)
-        name = f"{description}: {stage}" if stage else description
+        name = f"{description}: {safe_text(stage)}" if stage else description
         console.print(f"[{clock(now - start)}] {name} {count}", markup=False, highlight=False, soft_wrap=True)
 
     return update

@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import re
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ from rich.text import Text
 
 from vsmp_imu.errors import ConfigError, VsmpError
 from vsmp_imu.pipeline.spec import INTENSITY, GenerationSpec
+from vsmp_imu.terminal import safe_text
 
 
 def parse_csv(value: str, allowed: tuple[str, ...] | None = None, option: str = "") -> list[str]:
@@ -159,16 +159,6 @@ def _file_key(path: Path) -> object:
 
 
 # -- untrusted text: printed with its control characters escaped ----------------------------
-_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
-
-
-def safe_text(text: object) -> str:
-    """`text` with terminal control characters (ANSI/OSC escapes, bidi overrides, NUL, ...)
-    shown as \\xNN / \\uNNNN: text from files, labels or model answers cannot drive the terminal.
-    Newlines and tabs stay."""
-    return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), str(text))
-
-
 def shown(text: object) -> str:
     """User text (a file name, a label) to put in a console message that has markup: printed
     as written ('[red]x.json' stays '[red]x.json'), its control characters escaped."""
