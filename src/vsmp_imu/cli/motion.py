@@ -110,12 +110,12 @@ def render_cmd(
     """Draw the skeleton animation as a GIF (and a keyframe strip)."""
     output_file(output)
     output_file(keyframes, "--keyframes")
+    distinct_files({"--output": output, "--keyframes": keyframes}, {"the input motion": motion_file})
     if output.suffix.lower() != ".gif":
         raise ConfigError("the animation is written as a GIF", file=output, field="--output",
                           allowed="a file name ending in .gif")
     if keyframes is not None:
         check_image_path(keyframes, "--keyframes")
-    distinct_files({"--output": output, "--keyframes": keyframes}, {"the input motion": motion_file})
     from vsmp_imu.motion.render import (
         MAX_GIF_FRAMES,
         check_render_options,
