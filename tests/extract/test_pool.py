@@ -6,7 +6,7 @@ import json
 import shutil
 
 import pytest
-from vlm_server import error, ok
+from vlm_server import Reply, error, ok
 
 from vsmp_imu.errors import InputFileError
 from vsmp_imu.extract.calibrate import motion_track
@@ -45,6 +45,11 @@ def test_parse_check_answer():
     assert parse_check_answer('{"answer": true, "confidence": "0.7"}')[:2] == (True, 0.7)
     assert parse_check_answer("yes!")[0] is None
     assert parse_check_answer('{"answer": "maybe", "confidence": 0.5}')[0] is None
+    # a confidence that is neither a fraction nor a percentage is no confidence (it was clamped to 1)
+    for text in ('{"answer": "yes", "confidence": 150}', '{"answer": "yes", "confidence": -0.2}'):
+        answer, conf, reason = parse_check_answer(text)
+        assert (answer, conf) == (True, 0.0) and "neither a fraction 0..1 nor a percentage" in reason
+    assert parse_check_answer('{"answer": "yes", "confidence": 100}')[1] == 1.0
 
 
 def test_pool_listing(pool, tmp_path):
@@ -83,6 +88,32 @@ def test_vlm_checker_manifest(pool, chat_server, tmp_path):
     question = server.requests[0]["body"]["messages"][0]["content"][0]["text"]
     assert 'activity "jumping jacks" as its dominant action' in question
     assert "response_format" not in server.requests[0]["body"]
+
+
+def test_the_same_clip_twice_counts_once_and_an_out_of_range_confidence_is_rejected(
+        tmp_path, videos, chat_server, cli):
+    root = tmp_path / "POOL"
+    for rel, source in (("jumping_jacks/j.avi", "short"), ("sitting/s.avi", "counter"),
+                        ("walking/a.avi", "counter"), ("walking/b.avi", "counter")):
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(videos[source], root / rel)
+    yes_150 = Reply(200, '{"answer": "yes", "confidence": 150, "reason": "sure"}')
+    out = tmp_path / "manifest.json"
+    with chat_server([yes_150, ok("check_yes.json"), ok("check_yes.json")]) as server:
+        code, stdout, err = cli("video", "pool", root, "--checker", "vlm", "--vlm-base-url", server.url,
+                                "--vlm-model", "m", "--n-frames", "2", "--no-cache", "-o", out)
+        assert code == 0, err
+        assert len(server.requests) == 3  # walking/b, a copy of walking/a, is not asked about
+    data = json.loads(out.read_text())
+    assert data["counts"] == {"clips": 4, "retained": 0, "rejected": 4} and "0 of 4 retained" in stdout
+    by = {c["path"]: c for c in data["clips"]}
+    assert by["jumping_jacks/j.avi"]["confidence"] == 0.0
+    assert "confidence 150 is neither a fraction" in by["jumping_jacks/j.avi"]["reason"]
+    assert by["walking/b.avi"]["reason"] == "duplicate of walking/a.avi (the same bytes)"
+    assert by["walking/b.avi"]["details"] == {"duplicate_of": "walking/a.avi"}
+    assert by["walking/a.avi"]["reason"].startswith("the same clip is also retained as sitting (sitting/s.avi)")
+    assert by["sitting/s.avi"]["details"]["also_retained_as"] == ["walking/a.avi"]
+    assert retained_clips(data) == []
 
 
 def test_vlm_checker_request_failure_is_a_rejection(pool, chat_server, tmp_path):
@@ -137,7 +168,9 @@ def test_cli_video_pool_vlm(pool, chat_server, tmp_path, cli):
                                    "--cache-dir", tmp_path / "c", "-o", out)
     assert code == 0, stderr
     data = json.loads(out.read_text())
-    assert data["counts"] == {"clips": 5, "retained": 4, "rejected": 1}
-    assert "4 of 5 retained" in stdout
+    # walking/a and jumping_jacks/d, the same bytes, are both "yes": ambiguous, neither is retained
+    assert data["counts"] == {"clips": 5, "retained": 2, "rejected": 3}
+    assert "2 of 5 retained" in stdout
+    assert data["activities"]["walking"]["retained"] == ["walking/b.avi", "walking/c.avi"]
     code, _, err = cli("video", "pool", pool, "--checker", "clip", "-o", out)
     assert code == 2 and "pose, vlm" in err

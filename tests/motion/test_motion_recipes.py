@@ -114,6 +114,16 @@ def test_jumping_jacks_keeps_its_smp(library):
     (lambda r: r["cycle"]["wave"].__setitem__("root_dy", [[0.5, 0.0]]), "procedural.cycle.wave",
      "at least 2"),
     (lambda r: r.__setitem__("turns", {"turn_steps": [8, 4]}), "procedural.turns", "fewest steps first"),
+    # every number is finite and within its bound, and the field named is the number's own
+    (lambda r: r["cycle"]["wave"]["knee_flex"].__setitem__(0, [float("nan"), 22]),
+     "procedural.cycle.wave.knee_flex[0][0]", "finite"),
+    (lambda r: r["cycle"]["wave"]["knee_flex"].__setitem__(0, [0.0, float("inf")]),
+     "procedural.cycle.wave.knee_flex[0][1]", "within ±360 degrees"),
+    (lambda r: r["primitives"]["jump_open"].__setitem__("keys", [[1.0, {"elbow_flex": -400}]]),
+     "procedural.primitives.jump_open.keys[0].pose.elbow_flex", "within ±360 degrees"),
+    (lambda r: r.__setitem__("base_pose", {"like": "standing", "root_dz": 11}),
+     "procedural.base_pose.root_dz", "within ±10 m"),
+    (lambda r: r["cycle"].__setitem__("count", 10**9), "procedural.cycle.count", "<= 1000"),
 ])
 def test_recipe_errors_name_file_and_field(library, edit, field, words):
     data = _jj_recipe(library)

@@ -239,6 +239,46 @@ def _unknown_activity(d: dict) -> None:
     d["primitive_sequence"][0] = d["motion_primitives"][0]["name"] = "teleport"
 
 
+# -- procedural recipes: every number is checked where the activity file is read ---------------
+def _recipe_row(i: Inputs, change: Callable[[dict], None]) -> Row:
+    """`motion synth` of a copy of jumping_jacks whose recipe `change` edits."""
+    import yaml
+
+    data = yaml.safe_load(ActivityLibrary.load().get("jumping_jacks").path.read_text())
+    data.update(name="hostile_jacks", aliases=["hostile jacks"])
+    data["smp"]["activity_label"] = "hostile_jacks"
+    change(data["procedural"])
+    (i.tmp / "lib").mkdir()
+    (i.tmp / "lib" / "hostile_jacks.yaml").write_text(yaml.safe_dump(data))
+    out = i.tmp / "m.npz"
+    return Row(["motion", "synth", "hostile_jacks", "--library", i.tmp / "lib", "--seed", "0", "-o", out],
+               "hostile_jacks.yaml", "", absent=(out,))
+
+
+def row_recipe_wave_nan(i: Inputs) -> Row:
+    row = _recipe_row(i, lambda r: r["cycle"]["wave"]["knee_flex"].__setitem__(1, [0.25, float("nan")]))
+    row.says = "field 'procedural.cycle.wave.knee_flex[1][1]': knee_flex = nan is out of range"
+    return row
+
+
+def row_recipe_pose_angle_huge(i: Inputs) -> Row:
+    row = _recipe_row(i, lambda r: r["poses"]["open"].update(shoulder_abd=1e9))
+    row.says = "field 'procedural.poses.open.shoulder_abd'"
+    return row
+
+
+def row_recipe_pose_nan(i: Inputs) -> Row:
+    row = _recipe_row(i, lambda r: r["poses"]["open"].update(hip_abd=float("nan")))
+    row.says = "field 'procedural.poses.open.hip_abd': hip_abd = nan is out of range"
+    return row
+
+
+def row_recipe_offset_huge(i: Inputs) -> Row:
+    row = _recipe_row(i, lambda r: r["cycle"]["wave"]["root_dy"].__setitem__(1, [0.25, 1e300]))
+    row.says = "Allowed: a finite number within ±10 m"
+    return row
+
+
 # -- output paths, checked before the work -------------------------------------------------------
 def row_evaluate_output_is_a_file(i: Inputs) -> Row:
     out = i.tmp / "taken"

@@ -139,6 +139,55 @@ def test_augment_jumping_jacks_200_is_deterministic(cli, tmp_path, jj):
     assert code == 2 and "file not found" in err
 
 
+def test_augment_refuses_an_output_over_the_limit_before_drawing(cli, tmp_path, jj_file, monkeypatch):
+    import vsmp_imu.smp.augment as augment
+
+    size = len(load_smp(jj_file).canonical_json()) + 1
+    monkeypatch.setattr(augment, "MAX_OUTPUT_BYTES", 10 * size)
+    monkeypatch.setattr(augment, "augment_variant", lambda *a, **kw: pytest.fail("drew a variant"))
+    out = tmp_path / "v.jsonl"
+    code, _, err = cli("smp", "augment", jj_file, "-k", 11, "-o", out)
+    assert code == 2 and "field '-k'" in err and f"11 variants of this {size:,}-byte SMP" in err
+    assert "at most 10 variants" in err and not out.exists()
+
+
+def test_augment_streams_its_variants(cli, tmp_path, jj_file):
+    """Memory does not grow with k (it grew by about 20 KB a variant): each line is written as
+    it is drawn."""
+    import tracemalloc
+
+    out, prov = tmp_path / "v.jsonl", tmp_path / "p.jsonl"
+    assert cli("smp", "augment", jj_file, "-k", 1, "-o", out)[0] == 0  # imports and caches first
+    peaks = {}
+    for k in (50, 350):
+        tracemalloc.start()
+        try:
+            assert cli("smp", "augment", jj_file, "-k", k, "-o", out, "--provenance", prov)[0] == 0
+            peaks[k] = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+    assert len(out.read_text().splitlines()) == len(prov.read_text().splitlines()) == 350
+    assert peaks[350] < peaks[50] + 500_000, peaks
+
+
+def test_augment_that_fails_midway_leaves_no_file(cli, tmp_path, jj_file, monkeypatch):
+    import vsmp_imu.smp.augment as augment
+    from vsmp_imu.errors import ValidationError
+
+    draw = augment.augment_variant
+
+    def third_fails(smp, seed, index, *args):
+        if index == 2:
+            raise ValidationError("a variant out of range", field="tempo")
+        return draw(smp, seed, index, *args)
+
+    monkeypatch.setattr(augment, "augment_variant", third_fails)
+    out, prov = tmp_path / "v.jsonl", tmp_path / "p.jsonl"
+    code, _, err = cli("smp", "augment", jj_file, "-k", 5, "-o", out, "--provenance", prov)
+    assert code == 2 and "a variant out of range" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["jj.json"]
+
+
 def test_intervene_and_verbalize(cli, tmp_path, jj_file):
     out_file = tmp_path / "fast.json"
     code, _, _ = cli("smp", "intervene", jj_file, "--attribute", "tempo", "--level", "fast",

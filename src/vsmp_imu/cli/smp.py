@@ -6,7 +6,9 @@ A FILE argument that is not an existing path but names a library activity
 
 from __future__ import annotations
 
+import contextlib
 import json
+from collections.abc import Iterator
 from pathlib import Path
 
 import typer
@@ -16,10 +18,10 @@ from rich.text import Text
 
 from vsmp_imu.cli.common import console, distinct_files, library_dirs, output_file, safe_text, shown
 from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError, VsmpError
-from vsmp_imu.io import write_json, write_text
+from vsmp_imu.io import atomic_text, write_json
 from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
 from vsmp_imu.smp.aggregate import aggregate
-from vsmp_imu.smp.augment import SMPAugmenter
+from vsmp_imu.smp.augment import SMPAugmenter, check_output_size
 from vsmp_imu.smp.intervene import ATTRIBUTES, intervene
 from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.smp.refine import Refiner, RefineResult
@@ -233,14 +235,26 @@ def augment_cmd(
     output_file(provenance, "--provenance")
     distinct_files({"--output": output, "--provenance": provenance}, {"the input SMP": Path(file)})
     smp = _smp_arg(file, library)
+    check_output_size(smp, k, field="-k")
     augmenter = SMPAugmenter(uncertainty_conditioned=not no_uncertainty)
-    variants = augmenter.augment(smp, k, seed)
-    write_text(output, "".join(v.canonical_json() + "\n" for v in variants))
-    if provenance is not None:
-        write_text(provenance, "".join(json.dumps(c, sort_keys=True, separators=(",", ":")) + "\n"
-                                       for c in augmenter.changes_))
-    console.print(f"wrote {len(variants)} variant(s) of '{shown(smp.activity_label)}' to {shown(output)}",
+    n = _write_variants(augmenter.iter_variants(smp, k, seed), output, provenance)
+    console.print(f"wrote {n} variant(s) of '{shown(smp.activity_label)}' to {shown(output)}",
                   highlight=False)
+
+
+def _write_variants(pairs: Iterator[tuple[SMP, dict]], output: Path, provenance: Path | None) -> int:
+    """Write each variant (and its change record) as one line as it is drawn; the files appear
+    only when all are written. Returns the number of variants."""
+    n = 0
+    with contextlib.ExitStack() as stack:
+        lines = stack.enter_context(atomic_text(output))
+        changes = stack.enter_context(atomic_text(provenance)) if provenance is not None else None
+        for variant, change in pairs:
+            lines.write(variant.canonical_json() + "\n")
+            if changes is not None:
+                changes.write(json.dumps(change, sort_keys=True, separators=(",", ":")) + "\n")
+            n += 1
+    return n
 
 
 @smp_app.command("intervene")

@@ -17,6 +17,10 @@ dominant action and how confident it is:
   body-part score (both must hold).
 Stage 2, a confidence threshold: retained when the checker says yes with
 confidence >= threshold. Every decision is kept with its reason.
+
+The same bytes twice (by sha256): a later copy under the same activity is rejected as a
+`duplicate of` the first without being checked; a clip retained under two or more
+activities is rejected under each, as its activity is ambiguous. No clip counts twice.
 """
 
 from __future__ import annotations
@@ -76,10 +80,11 @@ def parse_check_answer(text: str) -> tuple[bool | None, float, str]:
         conf = float("nan")
     if not math.isfinite(conf):
         return answer, 0.0, "no numeric confidence in the answer"
-    if conf > 1.0 and conf <= 100.0:
+    if not 0.0 <= conf <= 100.0:
+        return answer, 0.0, f"confidence {conf:g} is neither a fraction 0..1 nor a percentage 0..100"
+    if conf > 1.0:
         conf /= 100.0  # a percentage
-    reason = str(lower.get("reason", "")).strip()
-    return answer, min(1.0, max(0.0, conf)), reason
+    return answer, conf, str(lower.get("reason", "")).strip()
 
 
 class VLMClipChecker:
@@ -280,27 +285,52 @@ class SourcePoolFilter:
         root = Path(pool_dir)
         clips = pool_clips(root)
         decisions: list[ClipDecision] = []
+        first: dict[tuple[str, str], str] = {}  # (activity, sha256) -> the first such clip
         for n, (activity, path) in enumerate(clips):
             rel = path.relative_to(root).as_posix()
-            try:
-                sha = file_sha256(path)
-                result = self.checker.check(path, activity)
-            except VsmpError as exc:
-                if isinstance(exc, ConfigError):
-                    raise
-                decisions.append(ClipDecision(activity, rel, None, "rejected", None, 0.0,
-                                              f"unreadable clip: {exc.message}"))
-            else:
-                keep = result.shows_activity is True and result.confidence >= self.threshold
-                reason = result.reason
-                if result.shows_activity is True and not keep:
-                    reason = f"confidence {result.confidence:.2f} below {self.threshold:g}: {reason}"
-                decisions.append(ClipDecision(activity, rel, sha, "retained" if keep else "rejected",
-                                              result.shows_activity, round(result.confidence, 4),
-                                              reason, result.details))
+            decisions.append(self._decide(activity, path, rel, first))
             if progress is not None:
                 progress(n + 1, len(clips), rel)
+        _reject_ambiguous(decisions)
         return manifest(root, self.checker.describe(), self.threshold, decisions)
+
+    def _decide(self, activity: str, path: Path, rel: str,
+                first: dict[tuple[str, str], str]) -> ClipDecision:
+        """One clip's decision; a copy of an earlier clip of the same activity is not checked again."""
+        try:
+            sha = file_sha256(path)
+            earlier = first.setdefault((activity, sha), rel)
+            if earlier != rel:
+                return ClipDecision(activity, rel, sha, "rejected", None, 0.0,
+                                    f"duplicate of {earlier} (the same bytes)", {"duplicate_of": earlier})
+            result = self.checker.check(path, activity)
+        except VsmpError as exc:
+            if isinstance(exc, ConfigError):
+                raise
+            return ClipDecision(activity, rel, None, "rejected", None, 0.0,
+                                f"unreadable clip: {exc.message}")
+        keep = result.shows_activity is True and result.confidence >= self.threshold
+        reason = result.reason
+        if result.shows_activity is True and not keep:
+            reason = f"confidence {result.confidence:.2f} below {self.threshold:g}: {reason}"
+        return ClipDecision(activity, rel, sha, "retained" if keep else "rejected", result.shows_activity,
+                            round(result.confidence, 4), reason, result.details)
+
+
+def _reject_ambiguous(decisions: list[ClipDecision]) -> None:
+    """A clip retained under several activities is the source of none: each copy is rejected,
+    naming the others (copies within one activity are already `duplicate of`)."""
+    retained: dict[str, list[ClipDecision]] = {}
+    for d in decisions:
+        if d.decision == "retained" and d.sha256 is not None:
+            retained.setdefault(d.sha256, []).append(d)
+    for same in (group for group in retained.values() if len(group) > 1):
+        for d in same:
+            others = [o for o in same if o is not d]
+            names = ", ".join(f"{o.activity} ({o.path})" for o in others)
+            d.decision = "rejected"
+            d.reason = f"the same clip is also retained as {names}; a clip is the source of one activity only"
+            d.details["also_retained_as"] = [o.path for o in others]
 
 
 def manifest(root: Path, checker: dict[str, Any], threshold: float,

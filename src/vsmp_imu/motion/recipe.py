@@ -12,6 +12,8 @@ phase). Validation errors name the library file and the field, e.g.
 from __future__ import annotations
 
 import functools
+import math
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -24,11 +26,13 @@ from vsmp_imu.motion.dofs import (
     DOF_NAMES,
     N_DOFS,
     SIDE_DOFS,
+    TRANSLATION_DOFS,
     expand_pose,
     is_dof_name,
     pose_vector,
 )
 from vsmp_imu.motion.skeleton import SMPL22_JOINTS
+from vsmp_imu.smp.schema import MAX_REPETITIONS
 from vsmp_imu.validation import validate_model
 
 PoseValue = dict[str, float | str]
@@ -37,6 +41,11 @@ KINDS = ("periodic", "discrete", "static")
 LOCOMOTION = ("none", "forward", "stairs_up", "stairs_down")
 SIDES = ("right", "left", "bilateral", "none")
 RESERVED_POSES = ("base", "start")
+# Bounds of the pose and wave numbers: an angle beyond a full turn only wraps around, and a
+# pelvis offset (root_dx/dy/dz, metres for a 1.70 m body) beyond 10 m leaves any scene.
+MAX_ANGLE_DEG = 360.0
+MAX_OFFSET_M = 10.0
+Phase = Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)]
 _DOF_HELP = "a DOF of vsmp_imu.motion.dofs (e.g. elbow_flex, left_hip_flex, trunk_twist, root_dy)"
 
 
@@ -87,13 +96,13 @@ class CycleRecipe(_Strict):
 
     primitives: list[str] = Field(min_length=1)
     # DOF -> [[phase, value], ...] over the cycle phase 0..1 (periodic, C2 spline)
-    wave: dict[str, list[tuple[float, float]]] = Field(default_factory=dict)
+    wave: dict[str, list[tuple[Phase, float]]] = Field(default_factory=dict)
     # the right side's wave runs half a cycle behind the left (gait, boxing)
     alternate: bool = False
     # cycles over which the waves fade in and out of the keyframed pose
     ramp: Annotated[float, Field(ge=0.0, le=1.0)] = 0.25
     # repetitions when the SMP gives no count and the recipe is not continuous
-    count: Annotated[int, Field(ge=1)] = 1
+    count: Annotated[int, Field(ge=1, le=MAX_REPETITIONS)] = 1
 
     @field_validator("wave")
     @classmethod
@@ -210,6 +219,12 @@ class Recipe(_Strict):
         return poses
 
     @model_validator(mode="after")
+    def _bounded(self) -> Recipe:
+        for where, dof, value in self._numbers():
+            _check_number(dof, value, where)
+        return self
+
+    @model_validator(mode="after")
     def _references(self) -> Recipe:
         names = set(self.primitives)
         if self.cycle is not None:
@@ -240,6 +255,16 @@ class Recipe(_Strict):
             if like is not None:
                 refs.append((like, f"poses.{pname}.like"))
         return refs
+
+    def _numbers(self) -> Iterator[tuple[str, str, float]]:
+        """(field, DOF, value) of every pose and wave number (text values are `_references`' to report)."""
+        poses = [(pose, f"poses.{name}") for name, pose in self.poses.items()]
+        poses += [(pose, where) for pose, where in self._pose_refs() if isinstance(pose, dict)]
+        for pose, where in poses:
+            yield from ((f"{where}.{dof}", dof, v) for dof, v in pose.items()
+                        if dof != "like" and not isinstance(v, str))
+        for dof, keys in (self.cycle.wave if self.cycle is not None else {}).items():
+            yield from ((f"cycle.wave.{dof}[{i}][1]", dof, v) for i, (_, v) in enumerate(keys))
 
     # -- compiled views -----------------------------------------------------------
     def pose(self, ref: PoseRef) -> np.ndarray:
@@ -276,6 +301,16 @@ def _check_pose_dict(pose: PoseValue, where: str) -> None:
             raise ValueError(f"{where}: unknown DOF '{key}'; use {_DOF_HELP}")
         if isinstance(value, str):
             raise ValueError(f"{where}.{key} must be a number (degrees, or metres for root_dx/dy/dz)")
+
+
+def _check_number(dof: str, value: Any, where: str) -> None:
+    """Refuse a pose or wave value that is not finite or lies beyond its DOF's bound.
+
+    Raised as a project error, which pydantic passes through, to name the value's own field."""
+    bound, unit = (MAX_OFFSET_M, "m") if dof in TRANSLATION_DOFS else (MAX_ANGLE_DEG, "degrees")
+    if not (math.isfinite(value) and abs(value) <= bound):
+        raise ValidationError(f"{dof} = {value!r} is out of range", field=where,
+                              allowed=f"a finite number within ±{bound:g} {unit}")
 
 
 def _resolve(recipe: Recipe, ref: PoseRef, chain: tuple[str, ...]) -> np.ndarray:

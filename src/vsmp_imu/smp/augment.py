@@ -30,9 +30,10 @@ field on which other fields are variant.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from typing import Any
 
-from vsmp_imu.errors import ValidationError
+from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp._text import norm_name
 from vsmp_imu.smp.schema import (
@@ -53,6 +54,9 @@ SYMMETRY_CHANGE_PROBABILITY = 0.3
 DISPLACEMENT_MAX_FRACTION = 0.25
 DECIMALS = 4  # stored numbers are rounded (stable, readable JSON)
 MIN_EXTENT_M = 1e-3  # a mobile extent never reaches 0 (that would mean stationary)
+# The most a run of variants may write (k x the SMP's canonical size): a library SMP of 5 KB
+# allows 40 000 variants, an SMP of the 16 MiB input limit 11.
+MAX_OUTPUT_BYTES = 200 * 10**6
 
 
 def _u(smp: SMP, name: str, conditioned: bool) -> float:
@@ -160,15 +164,31 @@ class SMPAugmenter:
         self.uncertainty_conditioned = uncertainty_conditioned
 
     def augment(self, smp: SMP, k: int, seed: int) -> list[SMP]:
-        if k < 0:
-            raise ValidationError(f"k must be >= 0, got {k}", field="k")
         variants: list[SMP] = []
         self.changes_: list[dict[str, Any]] = []
+        for variant, change in self.iter_variants(smp, k, seed):
+            variants.append(variant)
+            self.changes_.append(change)
+        return variants
+
+    def iter_variants(self, smp: SMP, k: int, seed: int) -> Iterator[tuple[SMP, dict[str, Any]]]:
+        """Variants 0..k-1, one at a time, each with its `changes_` record."""
+        if k < 0:
+            raise ValidationError(f"k must be >= 0, got {k}", field="k")
         source = smp.smp_id
         for i in range(k):
             variant, changed = augment_variant(smp, seed, i, self.uncertainty_conditioned)
-            variants.append(variant)
-            self.changes_.append({"index": i, "source_smp_id": source, "seed": seed,
-                                  "uncertainty_conditioned": self.uncertainty_conditioned,
-                                  "smp_id": variant.smp_id, "changed": changed})
-        return variants
+            yield variant, {"index": i, "source_smp_id": source, "seed": seed,
+                            "uncertainty_conditioned": self.uncertainty_conditioned,
+                            "smp_id": variant.smp_id, "changed": changed}
+
+
+def check_output_size(smp: SMP, k: int, field: str = "k") -> None:
+    """Refuse k variants whose lines would exceed MAX_OUTPUT_BYTES, before any is drawn. A
+    variant changes a few numbers only, so it is about as long as `smp` in canonical form."""
+    limit = MAX_OUTPUT_BYTES
+    size = len(smp.canonical_json().encode("utf-8")) + 1
+    if k * size > limit:
+        raise ConfigError(f"{k} variants of this {size:,}-byte SMP would write about "
+                          f"{k * size / 1e6:,.0f} MB, more than the {limit / 1e6:,.0f} MB limit",
+                          field=field, allowed=f"at most {max(1, limit // size)} variants of this SMP")
