@@ -37,8 +37,8 @@ LIBRARY_OPTION = typer.Option(None, "--library", help="Extra activity-library fo
 BASE_URL_OPTION = typer.Option(None, "--vlm-base-url", help="OpenAI-compatible endpoint, e.g. "
                                "https://api.openai.com/v1 or http://localhost:8000/v1 (vLLM)")
 MODEL_OPTION = typer.Option(None, "--vlm-model", help="Model name served by the endpoint")
-CACHE_OPTION = typer.Option(None, "--cache-dir", help="VLM response cache (default: "
-                            "$XDG_CACHE_HOME/vsmp-imu/vlm or ~/.cache/vsmp-imu/vlm)")
+CACHE_OPTION = typer.Option(None, "--cache-dir", help="VLM response cache (default: the vlm folder "
+                            "of the project's cache, see `vsmp-imu cache info`)")
 
 
 def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
