@@ -142,6 +142,16 @@ def test_cache_hit_costs_no_request_and_keys_differ_by_fields(chat_server, tmp_p
     assert stored["key"]["model"] == "vlm-test" and "content" in stored and "response" in stored
 
 
+def test_the_cache_key_holds_the_endpoint(chat_server, tmp_path):
+    """Two servers with the same model name do not share answers."""
+    with chat_server([ok("walking_valid_1.json")]) as one, chat_server([ok("walking_valid_2.json")]) as two:
+        first = client(one, tmp_path).complete(MESSAGES, {"q": 0})
+        second = client(two, tmp_path).complete(MESSAGES, {"q": 0})
+    assert not second.cached and len(two.requests) == 1 and second.content != first.content
+    keys = [json.loads(p.read_text())["key"] for p in (tmp_path / "cache").rglob("*.json")]
+    assert sorted(k["endpoint"] for k in keys) == sorted([one.url, two.url])
+
+
 def test_a_200_with_an_unreadable_body_is_retried(chat_server):
     with chat_server([Reply(200, raw_body="<html>gateway</html>"), ok("walking_valid_1.json")]) as server:
         done = client(server).complete(MESSAGES, {})

@@ -15,8 +15,9 @@ failure is counted in the extraction report.
   carried it is retried at once without it; when that succeeds the endpoint
   (base URL + model) is remembered as text-only, in memory and in the cache
   folder (`endpoints.json`).
-- Cache: successful responses are stored under the request's key fields
-  (`cache.ResponseCache`); a hit costs no request.
+- Cache: successful responses are stored under the request's key fields, the
+  endpoint (base URL) and the model (`cache.ResponseCache`); a hit costs no
+  request.
 - The API key comes from the constructor or the environment
   (`VSMP_VLM_API_KEY`, else `OPENAI_API_KEY`). It is sent in the
   Authorization header only: never cached, logged or put in a message, and
@@ -278,7 +279,7 @@ class VLMClient:
         """One logical request: cache, then attempts with retries. Never raises for
         retryable failures (the Completion carries the error); raises ServiceError for
         configuration errors (401, 403, 404, a 400 that is not about response_format)."""
-        fields = {"model": self.model, **key_fields}
+        fields = {"endpoint": self.base_url.rstrip("/"), "model": self.model, **key_fields}
         hit = self.cache.get(fields)
         if hit is not None and isinstance(hit.get("content"), str):
             return Completion(hit["content"], hit.get("response"), cached=True, attempts=0,
