@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 
 import pytest
 from vlm_server import Reply, error, fixture_text, ok
@@ -156,6 +157,41 @@ def test_a_200_with_an_unreadable_body_is_retried(chat_server):
     with chat_server([Reply(200, raw_body="<html>gateway</html>"), ok("walking_valid_1.json")]) as server:
         done = client(server).complete(MESSAGES, {})
     assert done.ok and "not JSON" in done.errors[0]
+
+
+def test_a_deeply_nested_body_is_a_retried_failure(chat_server):
+    deep = Reply(200, raw_body="[" * 100_000 + "]" * 100_000)
+    with chat_server([deep, ok("walking_valid_1.json")]) as server:
+        done = client(server).complete(MESSAGES, {})
+    assert done.ok and done.attempts == 2 and "not JSON" in done.errors[0]
+
+
+@pytest.mark.parametrize("damage", [b"\xff\xfe\x00garbage", b"[" * 100_000, b'{"format": 1}', b"{trunc"])
+def test_a_damaged_cache_entry_is_a_miss_that_is_replaced_and_reported(chat_server, tmp_path, caplog, damage):
+    with chat_server([ok("walking_valid_1.json"), ok("walking_valid_2.json")]) as server:
+        client(server, tmp_path).complete(MESSAGES, {"q": 0})
+        (entry,) = (tmp_path / "cache").rglob("*.json")
+        entry.write_bytes(damage)
+        with caplog.at_level(logging.WARNING):
+            again = client(server, tmp_path).complete(MESSAGES, {"q": 0})
+        third = client(server, tmp_path).complete(MESSAGES, {"q": 0})
+    assert again.ok and not again.cached and len(server.requests) == 2
+    assert str(entry) in again.cache_note and again.to_dict()["cache_note"] == again.cache_note
+    assert again.cache_note in caplog.text
+    assert third.cached and third.content == again.content and third.cache_note is None
+
+
+@pytest.mark.parametrize("text", [b"\xff", b"[" * 100_000, b"[1, 2]", b'{"ID": "unsupported"}', b'{"ID": null}'])
+def test_a_damaged_endpoints_file_is_ignored_then_rewritten(chat_server, tmp_path, text):
+    with chat_server([ok("walking_valid_1.json")], reject_response_format=True) as server:
+        c = client(server, tmp_path)
+        (tmp_path / "cache").mkdir()
+        (tmp_path / "cache" / ENDPOINTS_FILE).write_bytes(text.replace(b"ID", c.endpoint_id.encode()))
+        assert c.supports_response_format()
+        done = c.complete(MESSAGES, {}, FORMAT)
+    assert done.ok and done.format_fallback
+    saved = json.loads((tmp_path / "cache" / ENDPOINTS_FILE).read_text())
+    assert saved[c.endpoint_id] == {"response_format": "unsupported"}
 
 
 def test_key_goes_only_into_the_authorization_header(chat_server, monkeypatch, tmp_path):

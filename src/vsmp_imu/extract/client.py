@@ -148,6 +148,7 @@ class Completion:
     waits_s: list[float] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)  # one line per failed attempt
     error: str | None = None  # set when every attempt failed
+    cache_note: str | None = None  # why a cache entry was not used or the answer not stored
 
     @property
     def ok(self) -> bool:
@@ -158,7 +159,7 @@ class Completion:
                 "attempts": self.attempts, "retries": self.retries,
                 "response_format": self.response_format, "format_fallback": self.format_fallback,
                 "waits_s": [round(w, 3) for w in self.waits_s], "errors": list(self.errors),
-                "error": self.error}
+                "error": self.error, "cache_note": self.cache_note}
 
 
 class _Retryable(Exception):
@@ -232,8 +233,8 @@ class VLMClient:
         """False once the endpoint rejected it (this run or a cached earlier one)."""
         if not self.use_response_format or self.endpoint_id in self._text_only:
             return False
-        known = self.cache.read_json(ENDPOINTS_FILE).get(self.endpoint_id, {})
-        return known.get("response_format", "supported") != "unsupported"
+        known = self.cache.read_json(ENDPOINTS_FILE).get(self.endpoint_id)
+        return not (isinstance(known, dict) and known.get("response_format") == "unsupported")
 
     def _remember_text_only(self) -> None:
         self._text_only.add(self.endpoint_id)
@@ -280,13 +281,18 @@ class VLMClient:
         retryable failures (the Completion carries the error); raises ServiceError for
         configuration errors (401, 403, 404, a 400 that is not about response_format)."""
         fields = {"endpoint": self.base_url.rstrip("/"), "model": self.model, **key_fields}
-        hit = self.cache.get(fields)
-        if hit is not None and isinstance(hit.get("content"), str):
+        hit, problem = self.cache.lookup(fields)
+        if hit is not None and not isinstance(hit.get("content"), str):
+            hit, problem = None, "the cached entry holds no answer text"
+        if hit is not None:
             return Completion(hit["content"], hit.get("response"), cached=True, attempts=0,
                               response_format=hit.get("response_format", "text"))
         secret = self._key()
         fmt = response_format if response_format is not None and self.supports_response_format() else None
         out = Completion(None, response_format="json_schema" if fmt is not None else "text")
+        if problem is not None:
+            out.cache_note = f"cache entry not used, asked again: {problem}"
+            log.warning("VLM %s", out.cache_note)
         retries = 0
         while True:
             out.attempts += 1
@@ -358,7 +364,7 @@ class VLMClient:
                                + " or ".join(API_KEY_ENV_VARS)) from None
         try:
             body_json = json.loads(text)
-        except json.JSONDecodeError as exc:
+        except (json.JSONDecodeError, RecursionError) as exc:  # RecursionError: nested too deeply
             raise _Retryable(f"response body is not JSON: {_short(text)}") from exc
         if not isinstance(body_json, dict) or message_text(body_json) is None:
             raise _Retryable(f"response has no choices[0].message: {_short(text)}")
