@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vlm_server import error, ok
+from vlm_server import Reply, error, ok
 
 from vsmp_imu.extract.client import VLMClient
 from vsmp_imu.extract.frames import FrameSampler
@@ -151,6 +151,30 @@ def test_rerun_is_free_and_a_killed_run_resumes(chat_server, tmp_path, videos):
         ex2 = extractor(server2, tmp_path)
         ex2.extract(videos["counter"], label="walking in place")
         assert len(server2.requests) == 5
+
+
+def test_unusable_answers_are_not_cached_and_asked_again(chat_server, tmp_path, videos):
+    """A refusal, prose or an empty answer is not cached as if good: the next run asks again."""
+    bad = [ok("prose_refusal.txt"), ok("walking_missing_label.json"), Reply(200, ""),
+           ok("walking_valid_1.json"), ok("walking_valid_2.json")]
+    with chat_server(bad, default=ok("walking_valid_3.json")) as server:
+        first = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+        again = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    assert first.counts.valid == 2 and first.discarded
+    assert len(server.requests) == 8 and again.counts.cached == 2 and again.counts.valid == 5
+    assert [q["cache_note"] is not None for q in first.queries] == [True, True, True, False, False]
+    assert first.queries[0]["cache_note"].startswith("not cached: no JSON object found")
+
+
+def test_cached_unusable_answers_of_an_older_run_are_asked_again(chat_server, tmp_path, videos):
+    with chat_server([ok("prose_refusal.txt")], default=ok("walking_valid_1.json")) as server:
+        ex = extractor(server, tmp_path)
+        sampled = FrameSampler(n_frames=4).sample(videos["counter"])
+        messages, texts = ex._request(sampled, "walking")
+        ex.client.complete(messages, ex._key_fields(sampled, texts, 0))  # no check: cached
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    assert result.counts.cached == 0 and result.counts.valid == 5 and len(server.requests) == 6
+    assert "the cached answer is unusable (no JSON object found" in result.queries[0]["cache_note"]
 
 
 def test_cli_extract_writes_smp_raw_and_report_and_never_the_key(chat_server, tmp_path, videos, cli,

@@ -17,7 +17,8 @@ failure is counted in the extraction report.
   folder (`endpoints.json`).
 - Cache: successful responses are stored under the request's key fields, the
   endpoint (base URL) and the model (`cache.ResponseCache`); a hit costs no
-  request.
+  request. With an `accept` check, only usable answers are stored, and a
+  cached answer it refuses is asked again.
 - The API key comes from the constructor or the environment
   (`VSMP_VLM_API_KEY`, else `OPENAI_API_KEY`). It is sent in the
   Authorization header only: never cached, logged or put in a message, and
@@ -47,6 +48,7 @@ RETRY_STATUSES = frozenset({408, 409, 425, 429})
 FORMAT_REJECT_STATUSES = frozenset({400, 422})
 ENDPOINTS_FILE = "endpoints.json"
 MAX_ERROR_CHARS = 300
+Accept = Callable[[str], str | None]  # None: a usable answer; else why it is not
 
 
 def api_key_from_env(environ: Mapping[str, str] | None = None) -> str | None:
@@ -276,14 +278,16 @@ class VLMClient:
                 "body": abbreviate_images(self._body(messages, fmt))}
 
     def complete(self, messages: list[dict[str, Any]], key_fields: dict[str, Any],
-                 response_format: dict[str, Any] | None = None) -> Completion:
+                 response_format: dict[str, Any] | None = None,
+                 accept: Accept | None = None) -> Completion:
         """One logical request: cache, then attempts with retries. Never raises for
         retryable failures (the Completion carries the error); raises ServiceError for
-        configuration errors (401, 403, 404, a 400 that is not about response_format)."""
+        configuration errors (401, 403, 404, a 400 that is not about response_format).
+
+        accept: None for an answer the caller can use, else why not. An unusable answer
+        is returned but not cached, and a cached one is asked again."""
         fields = {"endpoint": self.base_url.rstrip("/"), "model": self.model, **key_fields}
-        hit, problem = self.cache.lookup(fields)
-        if hit is not None and not isinstance(hit.get("content"), str):
-            hit, problem = None, "the cached entry holds no answer text"
+        hit, problem = self._cached(fields, accept)
         if hit is not None:
             return Completion(hit["content"], hit.get("response"), cached=True, attempts=0,
                               response_format=hit.get("response_format", "text"))
@@ -323,9 +327,23 @@ class VLMClient:
         out.retries = retries
         out.response = _scrub_obj(body, secret)
         out.content = scrub(message_text(body) or "", secret)
-        self.cache.put(fields, {"content": out.content, "response": out.response,
-                                "response_format": out.response_format})
+        unusable = accept(out.content) if accept is not None else None
+        if unusable is None:
+            self.cache.put(fields, {"content": out.content, "response": out.response,
+                                    "response_format": out.response_format})
+        else:
+            out.cache_note = "; ".join(filter(None, [out.cache_note, f"not cached: {unusable}"]))
         return out
+
+    def _cached(self, fields: dict[str, Any], accept: Accept | None) -> tuple[dict[str, Any] | None, str | None]:
+        """(the usable cache entry, None), or (None, why an existing entry is not used)."""
+        hit, problem = self.cache.lookup(fields)
+        if hit is not None and not isinstance(hit.get("content"), str):
+            return None, "the cached entry holds no answer text"
+        unusable = accept(hit["content"]) if hit is not None and accept is not None else None
+        if unusable is not None:
+            return None, f"the cached answer is unusable ({unusable})"
+        return hit, problem
 
     def _backoff(self, retry: int, hint_s: float | None) -> float:
         delay = min(self.max_delay_s, self.base_delay_s * (2.0 ** retry))
