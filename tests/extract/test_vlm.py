@@ -250,3 +250,31 @@ def test_cli_option_errors(cli, videos, tmp_path):
     code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "--n-frames", "4",
                        "--preset", "mm_fit", "-o", tmp_path / "a.json")
     assert code == 2 and "not both" in err
+
+
+@pytest.mark.parametrize("option,value", [("--timeout-s", v) for v in ("-1", "nan", "inf", "0", "3601")]
+                         + [("--max-retries", v) for v in ("-1", "11")])
+@pytest.mark.parametrize("command", ["extract", "pool"])
+def test_cli_timeout_and_retries_are_range_checked_before_any_work(cli, videos, tmp_path, option, value, command):
+    vlm = ("--vlm-base-url", "http://127.0.0.1:9/v1", "--vlm-model", "m", option, value)
+    if command == "extract":
+        args = ("smp", "extract", videos["counter"], "--label", "walking", "-o", tmp_path / "a.json", *vlm)
+    else:
+        (tmp_path / "pool" / "walking").mkdir(parents=True)
+        (tmp_path / "pool" / "walking" / "a.avi").write_bytes(videos["counter"].read_bytes())
+        args = ("video", "pool", tmp_path / "pool", "--checker", "vlm", "-o", tmp_path / "m.json", *vlm)
+    code, _, err = cli(*args)
+    assert code == 2 and f"field '{option}': '" in err and "Allowed: a " in err
+    assert not (tmp_path / "a.raw").exists() and not (tmp_path / "m.json").exists()
+
+
+def test_client_limits_for_api_users():
+    from vsmp_imu.errors import ConfigError
+
+    for bad in (0, -1.0, float("nan"), float("inf"), 3601, True, "5"):
+        with pytest.raises(ConfigError, match="Allowed: a number of seconds > 0, at most 3600"):
+            VLMClient("http://127.0.0.1:9/v1", "m", timeout_s=bad)
+    for bad in (-1, 11, 1.5, True):
+        with pytest.raises(ConfigError, match="max_retries"):
+            VLMClient("http://127.0.0.1:9/v1", "m", max_retries=bad)
+    assert VLMClient("http://127.0.0.1:9/v1", "m", timeout_s=3600, max_retries=0).timeout_s == 3600.0

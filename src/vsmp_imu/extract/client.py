@@ -30,6 +30,7 @@ from __future__ import annotations
 import email.utils
 import json
 import logging
+import math
 import os
 import random
 import time
@@ -48,6 +49,8 @@ RETRY_STATUSES = frozenset({408, 409, 425, 429})
 FORMAT_REJECT_STATUSES = frozenset({400, 422})
 ENDPOINTS_FILE = "endpoints.json"
 MAX_ERROR_CHARS = 300
+MAX_TIMEOUT_S = 3600.0  # the longest a request may take (--timeout-s)
+MAX_RETRIES = 10  # retries per query at most (--max-retries)
 Accept = Callable[[str], str | None]  # None: a usable answer; else why it is not
 
 
@@ -71,6 +74,23 @@ def check_api_key(key: str, source: str = "api_key") -> str:
                           "typographic quote pasted with it)", field=source,
                           allowed="printable ASCII characters only")
     return key
+
+
+def check_timeout_s(value: float) -> float:
+    """`value` when it is a finite number of seconds in (0, MAX_TIMEOUT_S]."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not (
+            math.isfinite(value) and 0 < value <= MAX_TIMEOUT_S):
+        raise ConfigError(f"'{value}' is not a time limit for a request", field="timeout_s",
+                          allowed=f"a number of seconds > 0, at most {MAX_TIMEOUT_S:g}")
+    return float(value)
+
+
+def check_max_retries(value: int) -> int:
+    """`value` when it is a whole number in 0..MAX_RETRIES."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_RETRIES:
+        raise ConfigError(f"'{value}' is not a number of retries", field="max_retries",
+                          allowed=f"a whole number from 0 to {MAX_RETRIES}")
+    return value
 
 
 def scrub(text: str, secret: str | None) -> str:
@@ -177,7 +197,8 @@ class VLMClient:
         (vLLM), `http://localhost:11434/v1` (Ollama).
     model: the model name the endpoint serves.
     api_key: None reads the environment (see module docs).
-    timeout_s: per-request timeout; max_retries: retries after the first attempt.
+    timeout_s: the most one request may take, whole answer included (0 < t <= 3600);
+    max_retries: retries after the first attempt (0..10).
     base_delay_s, max_delay_s, max_retry_after_s: backoff settings.
     cache_dir: response cache folder (None: no cache).
     use_response_format: send the JSON-schema response_format when the
@@ -197,8 +218,8 @@ class VLMClient:
         self.api_key = check_api_key(api_key) if api_key else api_key
         if not api_key:
             api_key_from_env()  # a key the request could not carry fails now, before any work
-        self.timeout_s = timeout_s
-        self.max_retries = max_retries
+        self.timeout_s = check_timeout_s(timeout_s)
+        self.max_retries = check_max_retries(max_retries)
         self.base_delay_s = base_delay_s
         self.max_delay_s = max_delay_s
         self.max_retry_after_s = max_retry_after_s
