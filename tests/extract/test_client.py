@@ -128,6 +128,24 @@ def test_a_server_rejecting_response_format_falls_back_and_is_remembered(chat_se
     assert not client(server, tmp_path).supports_response_format()
 
 
+def test_a_400_that_does_not_name_the_format_marks_the_endpoint_only_when_repeated(chat_server, tmp_path):
+    """One 400 about something else (transient, or the prompt) is no proof that the endpoint lacks
+    structured output: the request falls back, but only a second such fallback is remembered."""
+    other = error(400, message="upstream busy, try again")
+    script = [other, ok("walking_valid_1.json"), other, ok("walking_valid_2.json"), ok("walking_valid_3.json")]
+    with chat_server(script) as server:
+        c = client(server, tmp_path)
+        first = c.complete(MESSAGES, {"q": 0}, FORMAT)
+        assert first.ok and first.format_fallback and c.supports_response_format()
+        assert not (tmp_path / "cache" / ENDPOINTS_FILE).exists()
+        second = c.complete(MESSAGES, {"q": 1}, FORMAT)
+        third = c.complete(MESSAGES, {"q": 2}, FORMAT)
+    assert second.ok and second.format_fallback and third.ok and not third.format_fallback
+    assert ["response_format" in r["body"] for r in server.requests] == [True, False, True, False, False]
+    saved = json.loads((tmp_path / "cache" / ENDPOINTS_FILE).read_text())
+    assert saved == {c.endpoint_id: {"response_format": "unsupported"}}
+
+
 def test_cache_hit_costs_no_request_and_keys_differ_by_fields(chat_server, tmp_path):
     with chat_server([ok("walking_valid_1.json"), ok("walking_valid_2.json")]) as server:
         c = client(server, tmp_path)

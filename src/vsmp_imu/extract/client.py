@@ -12,9 +12,10 @@ failure is counted in the extraction report.
   ...) are configuration mistakes: `ServiceError` at once.
 - Structured output: the JSON-schema `response_format` is sent unless the
   endpoint is known not to support it. A 400/422 answer to a request that
-  carried it is retried at once without it; when that succeeds the endpoint
-  (base URL + model) is remembered as text-only, in memory and in the cache
-  folder (`endpoints.json`).
+  carried it is retried at once without it; when that succeeds and the error
+  named the format (or it is the second such fallback of this client), the
+  endpoint (base URL + model) is remembered as text-only, in memory and in the
+  cache folder (`endpoints.json`).
 - Cache: successful responses are stored under the request's key fields, the
   endpoint (base URL) and the model (`cache.ResponseCache`); a hit costs no
   request. With an `accept` check, only usable answers are stored, and a
@@ -47,6 +48,8 @@ API_KEY_ENV_VARS = ("VSMP_VLM_API_KEY", "OPENAI_API_KEY")
 NO_KEY_PLACEHOLDER = "no-key"  # sent when no key is set (local servers ignore it)
 RETRY_STATUSES = frozenset({408, 409, 425, 429})
 FORMAT_REJECT_STATUSES = frozenset({400, 422})
+FORMAT_ERROR_WORDS = ("response_format", "response format", "json_schema", "structured output")
+FORMAT_FALLBACKS_TO_REMEMBER = 2  # fallbacks after errors that do not name the format
 ENDPOINTS_FILE = "endpoints.json"
 MAX_ERROR_CHARS = 300
 MAX_TIMEOUT_S = 3600.0  # the longest a request may take (--timeout-s)
@@ -232,6 +235,7 @@ class VLMClient:
         self._openai: Any = None
         self._rng = random.Random(seed)
         self._text_only: set[str] = set()
+        self._fallbacks = 0
 
     def __repr__(self) -> str:
         return f"VLMClient(base_url={self.base_url!r}, model={self.model!r})"
@@ -258,6 +262,14 @@ class VLMClient:
             return False
         known = self.cache.read_json(ENDPOINTS_FILE).get(self.endpoint_id)
         return not (isinstance(known, dict) and known.get("response_format") == "unsupported")
+
+    def _fell_back(self, named_format: bool) -> None:
+        """A request worked as plain text after a 400/422: remember the endpoint as text-only
+        when the error named the format, or after repeated fallbacks (a lone other 400 may be
+        transient)."""
+        self._fallbacks += 1
+        if named_format or self._fallbacks >= FORMAT_FALLBACKS_TO_REMEMBER:
+            self._remember_text_only()
 
     def _remember_text_only(self) -> None:
         self._text_only.add(self.endpoint_id)
@@ -318,12 +330,13 @@ class VLMClient:
         if problem is not None:
             out.cache_note = f"cache entry not used, asked again: {problem}"
             log.warning("VLM %s", out.cache_note)
-        retries = 0
+        retries, named_format = 0, False
         while True:
             out.attempts += 1
             try:
                 body = self._send(messages, fmt)
             except _FormatRejected as exc:
+                named_format = exc.named_format
                 out.errors.append(scrub(str(exc), secret))
                 out.format_fallback = True
                 fmt = None
@@ -344,7 +357,7 @@ class VLMClient:
                 continue
             break
         if out.format_fallback:
-            self._remember_text_only()
+            self._fell_back(named_format)
         out.retries = retries
         out.response = _scrub_obj(body, secret)
         out.content = scrub(message_text(body) or "", secret)
@@ -392,8 +405,9 @@ class VLMClient:
             detail = _short(exc.response.text if exc.response is not None else str(exc))
             headers = dict(exc.response.headers) if exc.response is not None else {}
             if fmt is not None and status in FORMAT_REJECT_STATUSES:
+                named = any(word in detail.lower() for word in FORMAT_ERROR_WORDS)
                 raise _FormatRejected(f"HTTP {status} with response_format ({detail}); "
-                                      "retrying as plain text") from exc
+                                      "retrying as plain text", named) from exc
             if status in RETRY_STATUSES or status >= 500:
                 hint = retry_after_s(headers)
                 extra = f", Retry-After {hint:g} s" if hint is not None else ""
@@ -411,7 +425,9 @@ class VLMClient:
 
 
 class _FormatRejected(Exception):
-    pass
+    def __init__(self, message: str, named_format: bool) -> None:
+        super().__init__(message)
+        self.named_format = named_format  # the error names the response format
 
 
 def _short(text: str) -> str:
