@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 import logging
+import time
 
 import pytest
-from vlm_server import Reply, error, fixture_text, ok
+from vlm_server import Reply, error, fixture_text, ok, redirect
 
 from vsmp_imu.errors import ServiceError
 from vsmp_imu.extract.client import (
@@ -18,6 +20,7 @@ from vsmp_imu.extract.client import (
     retry_after_s,
     scrub,
 )
+from vsmp_imu.extract.http import MAX_RESPONSE_BYTES
 
 MESSAGES = [{"role": "user", "content": [{"type": "text", "text": "describe"},
                                          {"type": "image_url",
@@ -96,6 +99,52 @@ def test_slow_server_times_out_and_is_retried(chat_server):
         done = client(server, timeout_s=0.3).complete(MESSAGES, {})
     assert done.ok and done.attempts == 2 and "timeout" in done.errors[0]
     assert json.loads(done.content)["temporal_structure"]["repetition_count"] == 9
+
+
+def test_a_trickled_answer_is_cut_off_at_the_deadline_and_retried(chat_server):
+    """--timeout-s bounds the whole request: a server that sends a piece every 0.2 s (never
+    idle for the 0.5 s a single read may wait) is cut off after 0.5 s, not read for 10 s."""
+    slow = Reply(200, fixture_text("walking_valid_1.json"), trickle_s=0.2)
+    with chat_server([slow, ok("walking_valid_2.json")]) as server:
+        c = client(server, timeout_s=0.5)
+        c._client()  # imports done before the clock starts
+        start = time.monotonic()
+        done = c.complete(MESSAGES, {})
+        took = time.monotonic() - start
+    assert done.ok and done.attempts == 2 and done.errors[0].startswith("timeout")
+    assert json.loads(done.content)["temporal_structure"]["repetition_count"] == 9
+    assert took < 3.0
+
+
+@pytest.mark.parametrize("length", [True, False])
+def test_an_answer_over_the_size_cap_is_refused_and_not_cached(chat_server, tmp_path, length):
+    big = Reply(200, "x" * (MAX_RESPONSE_BYTES + 10), length=length)
+    with chat_server([big, ok("walking_valid_1.json")]) as server:
+        done = client(server, tmp_path).complete(MESSAGES, {})
+    assert done.ok and done.attempts == 2 and len(done.content) < 10_000
+    assert done.errors[0].startswith("answer too large") and ("Content-Length" in done.errors[0]) == length
+    (entry,) = (tmp_path / "cache").rglob("*.json")
+    assert entry.stat().st_size < 20_000
+
+
+def test_a_compressed_answer_is_refused(chat_server):
+    packed = gzip.compress(json.dumps({"choices": [{"message": {"content": "x" * 10**6}}]}).encode())
+    bomb = Reply(200, headers={"Content-Encoding": "gzip"}, raw_body=packed)
+    with chat_server([bomb, ok("walking_valid_1.json")]) as server:
+        done = client(server).complete(MESSAGES, {})
+    assert server.requests[0]["headers"]["accept-encoding"] == "identity"
+    assert done.ok and done.attempts == 2 and done.errors[0].startswith("answer compressed (gzip)")
+
+
+@pytest.mark.parametrize("status", [301, 302, 307, 308])
+def test_a_redirect_is_not_followed(chat_server, status):
+    """A followed 302 turns the POST into a GET without the frames (and 307/308 re-send them
+    elsewhere): a 3xx is a request failure naming where it points, not retried."""
+    with chat_server([redirect(status, "/v1/elsewhere")], default=ok("walking_valid_1.json")) as server:
+        done = client(server, max_retries=3).complete(MESSAGES, {})
+    assert not done.ok and done.attempts == 1 and len(server.requests) == 1
+    assert f"HTTP {status}: the endpoint redirects to /v1/elsewhere" in done.error
+    assert [r["method"] for r in server.requests] == ["POST"]
 
 
 def test_giving_up_returns_the_error_without_raising(chat_server):

@@ -4,12 +4,16 @@ Built on the `openai` package with its own retries switched off
 (`max_retries=0`): this module retries, so that every attempt, wait and
 failure is counted in the extraction report.
 
-- Retries: HTTP 408/409/425/429 and 5xx, timeouts, connection errors and
-  unreadable response bodies are retried with exponential backoff
+- Limits: `timeout_s` bounds a whole request, however slowly its answer
+  arrives; an answer over `http.MAX_RESPONSE_BYTES` or compressed is refused;
+  a redirect is not followed (see `extract.http`).
+- Retries: HTTP 408/409/425/429 and 5xx, timeouts, connection errors, refused
+  answers and unreadable response bodies are retried with exponential backoff
   (`base_delay_s * 2**k`, capped at `max_delay_s`) and jitter (x 0.5..1);
   a `Retry-After` (or `retry-after-ms`) header is honoured (waits at least
-  that long, up to `max_retry_after_s`). Other client errors (401, 403, 404,
-  ...) are configuration mistakes: `ServiceError` at once.
+  that long, up to `max_retry_after_s`). A 3xx fails the query at once (it
+  names where it points). Other client errors (401, 403, 404, ...) are
+  configuration mistakes: `ServiceError` at once.
 - Structured output: the JSON-schema `response_format` is sent unless the
   endpoint is known not to support it. A 400/422 answer to a request that
   carried it is retried at once without it; when that succeeds and the error
@@ -34,6 +38,7 @@ import logging
 import math
 import os
 import random
+import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -187,10 +192,13 @@ class Completion:
                 "error": self.error, "cache_note": self.cache_note}
 
 
-class _Retryable(Exception):
-    def __init__(self, message: str, wait_hint_s: float | None = None) -> None:
+class _Failed(Exception):
+    """A failed attempt: retried (after `wait_hint_s` at least) unless `retry` is False."""
+
+    def __init__(self, message: str, wait_hint_s: float | None = None, retry: bool = True) -> None:
         super().__init__(message)
         self.wait_hint_s = wait_hint_s
+        self.retry = retry
 
 
 class VLMClient:
@@ -281,11 +289,14 @@ class VLMClient:
         if self._openai is None:
             try:
                 from openai import OpenAI
+
+                from vsmp_imu.extract.http import http_client
             except ImportError as exc:  # pragma: no cover - a pinned dependency
                 raise DependencyError("the VLM client needs the `openai` package "
                                       "(pip install -e .)") from exc
             self._openai = OpenAI(base_url=self.base_url, api_key=self._key() or NO_KEY_PLACEHOLDER,
-                                  timeout=self.timeout_s, max_retries=0)
+                                  timeout=self.timeout_s, max_retries=0,
+                                  http_client=http_client(self.timeout_s))
         return self._openai
 
     def _body(self, messages: list[dict[str, Any]], response_format: dict[str, Any] | None) -> dict[str, Any]:
@@ -342,9 +353,9 @@ class VLMClient:
                 fmt = None
                 out.response_format = "text"
                 continue
-            except _Retryable as exc:
+            except _Failed as exc:
                 out.errors.append(scrub(str(exc), secret))
-                if retries >= self.max_retries:
+                if retries >= self.max_retries or not exc.retry:
                     out.error = f"gave up after {out.attempts} attempt(s): {out.errors[-1]}"
                     out.retries = retries
                     return out
@@ -387,41 +398,82 @@ class VLMClient:
         return delay
 
     def _send(self, messages: list[dict[str, Any]], fmt: dict[str, Any] | None) -> dict[str, Any]:
+        """One attempt: the response body, or _Failed / _FormatRejected / ServiceError."""
+        client = self._client()
+        text = self._in_time(lambda: self._post(client, messages, fmt))
+        try:
+            body_json = json.loads(text)
+        except (json.JSONDecodeError, RecursionError) as exc:  # RecursionError: nested too deeply
+            raise _Failed(f"response body is not JSON: {_short(text)}") from exc
+        if not isinstance(body_json, dict) or message_text(body_json) is None:
+            raise _Failed(f"response has no choices[0].message: {_short(text)}")
+        return body_json
+
+    def _in_time(self, call: Callable[[], str]) -> str:
+        """call() in a worker thread, given up after timeout_s however slowly the answer arrives
+        (a blocked read is not interrupted: the worker ends on its own, see extract.http)."""
+        box: dict[str, Any] = {}
+
+        def run() -> None:
+            try:
+                box["text"] = call()
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller
+                box["error"] = exc
+
+        worker = threading.Thread(target=run, name="vlm-request", daemon=True)
+        worker.start()
+        worker.join(self.timeout_s)
+        if worker.is_alive():
+            self._openai = None  # its connection is still busy: the next attempt opens another
+            raise _Failed(f"timeout: no complete answer within {self.timeout_s:g} s")
+        if "error" in box:
+            raise box["error"]
+        return box["text"]
+
+    def _post(self, client: Any, messages: list[dict[str, Any]], fmt: dict[str, Any] | None) -> str:
+        """The request through `openai`; the body text of a 2xx answer."""
         import openai
 
-        client = self._client()
+        from vsmp_imu.extract.http import AnswerRefused, AnswerTooSlow
+
         body = self._body(messages, fmt)
         kwargs = {k: v for k, v in body.items() if k not in ("model", "messages")}
         try:
             raw = client.chat.completions.with_raw_response.create(
                 model=body["model"], messages=body["messages"], **kwargs)
-            text = raw.text
+            return raw.text
         except openai.APITimeoutError as exc:
-            raise _Retryable(f"timeout after {self.timeout_s:g} s") from exc
+            slow = isinstance(exc.__cause__, AnswerTooSlow)
+            raise _Failed(f"timeout: the answer was still arriving after {self.timeout_s:g} s" if slow
+                          else f"timeout after {self.timeout_s:g} s") from exc
         except openai.APIConnectionError as exc:
-            raise _Retryable(f"connection error ({type(exc.__cause__ or exc).__name__})") from exc
+            if isinstance(exc.__cause__, AnswerRefused):
+                raise _Failed(str(exc.__cause__)) from exc
+            raise _Failed(f"connection error ({type(exc.__cause__ or exc).__name__})") from exc
         except openai.APIStatusError as exc:
-            status = exc.status_code
-            detail = _short(exc.response.text if exc.response is not None else str(exc))
-            headers = dict(exc.response.headers) if exc.response is not None else {}
-            if fmt is not None and status in FORMAT_REJECT_STATUSES:
-                named = any(word in detail.lower() for word in FORMAT_ERROR_WORDS)
-                raise _FormatRejected(f"HTTP {status} with response_format ({detail}); "
-                                      "retrying as plain text", named) from exc
-            if status in RETRY_STATUSES or status >= 500:
-                hint = retry_after_s(headers)
-                extra = f", Retry-After {hint:g} s" if hint is not None else ""
-                raise _Retryable(f"HTTP {status}{extra}: {detail}", hint) from exc
-            raise ServiceError(f"the endpoint answered HTTP {status}: {scrub(detail, self._key())}"
-                               + _status_hint(status), allowed="check --vlm-base-url, --vlm-model and the key in "
-                               + " or ".join(API_KEY_ENV_VARS)) from None
-        try:
-            body_json = json.loads(text)
-        except (json.JSONDecodeError, RecursionError) as exc:  # RecursionError: nested too deeply
-            raise _Retryable(f"response body is not JSON: {_short(text)}") from exc
-        if not isinstance(body_json, dict) or message_text(body_json) is None:
-            raise _Retryable(f"response has no choices[0].message: {_short(text)}")
-        return body_json
+            error = self._status_error(exc, fmt)
+            raise error from (None if isinstance(error, ServiceError) else exc)
+
+    def _status_error(self, exc: Any, fmt: dict[str, Any] | None) -> Exception:
+        """The exception for an HTTP error status (`exc`: openai.APIStatusError)."""
+        status = exc.status_code
+        detail = _short(exc.response.text if exc.response is not None else str(exc))
+        headers = dict(exc.response.headers) if exc.response is not None else {}
+        if 300 <= status < 400:
+            where = headers.get("location", "no Location given")
+            return _Failed(f"HTTP {status}: the endpoint redirects to {where} (not followed: a POST must "
+                           "not become a GET; if that is the endpoint, use it as --vlm-base-url)", retry=False)
+        if fmt is not None and status in FORMAT_REJECT_STATUSES:
+            named = any(word in detail.lower() for word in FORMAT_ERROR_WORDS)
+            return _FormatRejected(f"HTTP {status} with response_format ({detail}); "
+                                   "retrying as plain text", named)
+        if status in RETRY_STATUSES or status >= 500:
+            hint = retry_after_s(headers)
+            extra = f", Retry-After {hint:g} s" if hint is not None else ""
+            return _Failed(f"HTTP {status}{extra}: {detail}", hint)
+        return ServiceError(f"the endpoint answered HTTP {status}: {scrub(detail, self._key())}"
+                            + _status_hint(status), allowed="check --vlm-base-url, --vlm-model and the key in "
+                            + " or ".join(API_KEY_ENV_VARS))
 
 
 class _FormatRejected(Exception):
