@@ -461,8 +461,8 @@ class VLMClient:
         headers = dict(exc.response.headers) if exc.response is not None else {}
         if 300 <= status < 400:
             where = headers.get("location", "no Location given")
-            return _Failed(f"HTTP {status}: the endpoint redirects to {where} (not followed: a POST must "
-                           "not become a GET; if that is the endpoint, use it as --vlm-base-url)", retry=False)
+            return _Failed(f"HTTP {status}: the endpoint redirects to {where} (not followed, so that a POST "
+                           "never becomes a GET; check --vlm-base-url)", retry=False)
         if fmt is not None and status in FORMAT_REJECT_STATUSES:
             named = any(word in detail.lower() for word in FORMAT_ERROR_WORDS)
             return _FormatRejected(f"HTTP {status} with response_format ({detail}); "
