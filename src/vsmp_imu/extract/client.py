@@ -335,41 +335,53 @@ class VLMClient:
         if hit is not None:
             return Completion(hit["content"], hit.get("response"), cached=True, attempts=0,
                               response_format=hit.get("response_format", "text"))
-        secret = self._key()
         fmt = response_format if response_format is not None and self.supports_response_format() else None
         out = Completion(None, response_format="json_schema" if fmt is not None else "text")
         if problem is not None:
             out.cache_note = f"cache entry not used, asked again: {problem}"
             log.warning("VLM %s", out.cache_note)
-        retries, named_format = 0, False
+        body = self._attempts(messages, fmt, out)
+        if body is not None:
+            self._keep(fields, body, out, accept)
+        return out
+
+    def _attempts(self, messages: list[dict[str, Any]], fmt: dict[str, Any] | None,
+                  out: Completion) -> dict[str, Any] | None:
+        """Send until an answer comes (its body), or until the retries run out (None; out.error)."""
+        secret = self._key()
+        named_format = False
         while True:
             out.attempts += 1
             try:
                 body = self._send(messages, fmt)
             except _FormatRejected as exc:
-                named_format = exc.named_format
+                named_format, fmt = exc.named_format, None
                 out.errors.append(scrub(str(exc), secret))
-                out.format_fallback = True
-                fmt = None
-                out.response_format = "text"
+                out.format_fallback, out.response_format = True, "text"
                 continue
             except _Failed as exc:
                 out.errors.append(scrub(str(exc), secret))
-                if retries >= self.max_retries or not exc.retry:
+                if out.retries >= self.max_retries or not exc.retry:
                     out.error = f"gave up after {out.attempts} attempt(s): {out.errors[-1]}"
-                    out.retries = retries
-                    return out
-                wait = self._backoff(retries, exc.wait_hint_s)
-                out.waits_s.append(wait)
-                retries += 1
-                log.info("VLM request failed (%s); retry %d of %d in %.2f s",
-                         out.errors[-1], retries, self.max_retries, wait)
-                (self.sleep or time.sleep)(wait)
+                    return None
+                self._wait(out, exc.wait_hint_s)
                 continue
-            break
-        if out.format_fallback:
-            self._fell_back(named_format)
-        out.retries = retries
+            if out.format_fallback:
+                self._fell_back(named_format)
+            return body
+
+    def _wait(self, out: Completion, hint_s: float | None) -> None:
+        wait = self._backoff(out.retries, hint_s)
+        out.waits_s.append(wait)
+        out.retries += 1
+        log.info("VLM request failed (%s); retry %d of %d in %.2f s",
+                 out.errors[-1], out.retries, self.max_retries, wait)
+        (self.sleep or time.sleep)(wait)
+
+    def _keep(self, fields: dict[str, Any], body: dict[str, Any], out: Completion,
+              accept: Accept | None) -> None:
+        """Fill `out` from the answer's body; cache it unless `accept` finds it unusable."""
+        secret = self._key()
         out.response = _scrub_obj(body, secret)
         out.content = scrub(message_text(body) or "", secret)
         unusable = accept(out.content) if accept is not None else None
@@ -378,7 +390,6 @@ class VLMClient:
                                     "response_format": out.response_format})
         else:
             out.cache_note = "; ".join(filter(None, [out.cache_note, f"not cached: {unusable}"]))
-        return out
 
     def _cached(self, fields: dict[str, Any], accept: Accept | None) -> tuple[dict[str, Any] | None, str | None]:
         """(the usable cache entry, None), or (None, why an existing entry is not used)."""
