@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import gzip
 import json
+import logging
+import time
 
 import pytest
-from vlm_server import Reply, error, fixture_text, ok
+from vlm_server import Reply, error, fixture_text, ok, redirect
 
 from vsmp_imu.errors import ServiceError
 from vsmp_imu.extract.client import (
@@ -17,6 +20,7 @@ from vsmp_imu.extract.client import (
     retry_after_s,
     scrub,
 )
+from vsmp_imu.extract.http import MAX_RESPONSE_BYTES
 
 MESSAGES = [{"role": "user", "content": [{"type": "text", "text": "describe"},
                                          {"type": "image_url",
@@ -97,6 +101,52 @@ def test_slow_server_times_out_and_is_retried(chat_server):
     assert json.loads(done.content)["temporal_structure"]["repetition_count"] == 9
 
 
+def test_a_trickled_answer_is_cut_off_at_the_deadline_and_retried(chat_server):
+    """--timeout-s bounds the whole request: a server that sends a piece every 0.2 s (never
+    idle for the 0.5 s a single read may wait) is cut off after 0.5 s, not read for 10 s."""
+    slow = Reply(200, fixture_text("walking_valid_1.json"), trickle_s=0.2)
+    with chat_server([slow, ok("walking_valid_2.json")]) as server:
+        c = client(server, timeout_s=0.5)
+        c._client()  # imports done before the clock starts
+        start = time.monotonic()
+        done = c.complete(MESSAGES, {})
+        took = time.monotonic() - start
+    assert done.ok and done.attempts == 2 and done.errors[0].startswith("timeout")
+    assert json.loads(done.content)["temporal_structure"]["repetition_count"] == 9
+    assert took < 3.0
+
+
+@pytest.mark.parametrize("length", [True, False])
+def test_an_answer_over_the_size_cap_is_refused_and_not_cached(chat_server, tmp_path, length):
+    big = Reply(200, "x" * (MAX_RESPONSE_BYTES + 10), length=length)
+    with chat_server([big, ok("walking_valid_1.json")]) as server:
+        done = client(server, tmp_path).complete(MESSAGES, {})
+    assert done.ok and done.attempts == 2 and len(done.content) < 10_000
+    assert done.errors[0].startswith("answer too large") and ("Content-Length" in done.errors[0]) == length
+    (entry,) = (tmp_path / "cache").rglob("*.json")
+    assert entry.stat().st_size < 20_000
+
+
+def test_a_compressed_answer_is_refused(chat_server):
+    packed = gzip.compress(json.dumps({"choices": [{"message": {"content": "x" * 10**6}}]}).encode())
+    bomb = Reply(200, headers={"Content-Encoding": "gzip"}, raw_body=packed)
+    with chat_server([bomb, ok("walking_valid_1.json")]) as server:
+        done = client(server).complete(MESSAGES, {})
+    assert server.requests[0]["headers"]["accept-encoding"] == "identity"
+    assert done.ok and done.attempts == 2 and done.errors[0].startswith("answer compressed (gzip)")
+
+
+@pytest.mark.parametrize("status", [301, 302, 307, 308])
+def test_a_redirect_is_not_followed(chat_server, status):
+    """A followed 302 turns the POST into a GET without the frames (and 307/308 re-send them
+    elsewhere): a 3xx is a request failure naming where it points, not retried."""
+    with chat_server([redirect(status, "/v1/elsewhere")], default=ok("walking_valid_1.json")) as server:
+        done = client(server, max_retries=3).complete(MESSAGES, {})
+    assert not done.ok and done.attempts == 1 and len(server.requests) == 1
+    assert f"HTTP {status}: the endpoint redirects to /v1/elsewhere" in done.error
+    assert [r["method"] for r in server.requests] == ["POST"]
+
+
 def test_giving_up_returns_the_error_without_raising(chat_server):
     with chat_server([], default=error(503)) as server:
         done = client(server, max_retries=2).complete(MESSAGES, {})
@@ -127,6 +177,24 @@ def test_a_server_rejecting_response_format_falls_back_and_is_remembered(chat_se
     assert not client(server, tmp_path).supports_response_format()
 
 
+def test_a_400_that_does_not_name_the_format_marks_the_endpoint_only_when_repeated(chat_server, tmp_path):
+    """One 400 about something else (transient, or the prompt) is no proof that the endpoint lacks
+    structured output: the request falls back, but only a second such fallback is remembered."""
+    other = error(400, message="upstream busy, try again")
+    script = [other, ok("walking_valid_1.json"), other, ok("walking_valid_2.json"), ok("walking_valid_3.json")]
+    with chat_server(script) as server:
+        c = client(server, tmp_path)
+        first = c.complete(MESSAGES, {"q": 0}, FORMAT)
+        assert first.ok and first.format_fallback and c.supports_response_format()
+        assert not (tmp_path / "cache" / ENDPOINTS_FILE).exists()
+        second = c.complete(MESSAGES, {"q": 1}, FORMAT)
+        third = c.complete(MESSAGES, {"q": 2}, FORMAT)
+    assert second.ok and second.format_fallback and third.ok and not third.format_fallback
+    assert ["response_format" in r["body"] for r in server.requests] == [True, False, True, False, False]
+    saved = json.loads((tmp_path / "cache" / ENDPOINTS_FILE).read_text())
+    assert saved == {c.endpoint_id: {"response_format": "unsupported"}}
+
+
 def test_cache_hit_costs_no_request_and_keys_differ_by_fields(chat_server, tmp_path):
     with chat_server([ok("walking_valid_1.json"), ok("walking_valid_2.json")]) as server:
         c = client(server, tmp_path)
@@ -142,10 +210,55 @@ def test_cache_hit_costs_no_request_and_keys_differ_by_fields(chat_server, tmp_p
     assert stored["key"]["model"] == "vlm-test" and "content" in stored and "response" in stored
 
 
+def test_the_cache_key_holds_the_endpoint(chat_server, tmp_path):
+    """Two servers with the same model name do not share answers."""
+    with chat_server([ok("walking_valid_1.json")]) as one, chat_server([ok("walking_valid_2.json")]) as two:
+        first = client(one, tmp_path).complete(MESSAGES, {"q": 0})
+        second = client(two, tmp_path).complete(MESSAGES, {"q": 0})
+    assert not second.cached and len(two.requests) == 1 and second.content != first.content
+    keys = [json.loads(p.read_text())["key"] for p in (tmp_path / "cache").rglob("*.json")]
+    assert sorted(k["endpoint"] for k in keys) == sorted([one.url, two.url])
+
+
 def test_a_200_with_an_unreadable_body_is_retried(chat_server):
     with chat_server([Reply(200, raw_body="<html>gateway</html>"), ok("walking_valid_1.json")]) as server:
         done = client(server).complete(MESSAGES, {})
     assert done.ok and "not JSON" in done.errors[0]
+
+
+def test_a_deeply_nested_body_is_a_retried_failure(chat_server):
+    deep = Reply(200, raw_body="[" * 100_000 + "]" * 100_000)
+    with chat_server([deep, ok("walking_valid_1.json")]) as server:
+        done = client(server).complete(MESSAGES, {})
+    assert done.ok and done.attempts == 2 and "not JSON" in done.errors[0]
+
+
+@pytest.mark.parametrize("damage", [b"\xff\xfe\x00garbage", b"[" * 100_000, b'{"format": 1}', b"{trunc"])
+def test_a_damaged_cache_entry_is_a_miss_that_is_replaced_and_reported(chat_server, tmp_path, caplog, damage):
+    with chat_server([ok("walking_valid_1.json"), ok("walking_valid_2.json")]) as server:
+        client(server, tmp_path).complete(MESSAGES, {"q": 0})
+        (entry,) = (tmp_path / "cache").rglob("*.json")
+        entry.write_bytes(damage)
+        with caplog.at_level(logging.WARNING):
+            again = client(server, tmp_path).complete(MESSAGES, {"q": 0})
+        third = client(server, tmp_path).complete(MESSAGES, {"q": 0})
+    assert again.ok and not again.cached and len(server.requests) == 2
+    assert str(entry) in again.cache_note and again.to_dict()["cache_note"] == again.cache_note
+    assert again.cache_note in caplog.text
+    assert third.cached and third.content == again.content and third.cache_note is None
+
+
+@pytest.mark.parametrize("text", [b"\xff", b"[" * 100_000, b"[1, 2]", b'{"ID": "unsupported"}', b'{"ID": null}'])
+def test_a_damaged_endpoints_file_is_ignored_then_rewritten(chat_server, tmp_path, text):
+    with chat_server([ok("walking_valid_1.json")], reject_response_format=True) as server:
+        c = client(server, tmp_path)
+        (tmp_path / "cache").mkdir()
+        (tmp_path / "cache" / ENDPOINTS_FILE).write_bytes(text.replace(b"ID", c.endpoint_id.encode()))
+        assert c.supports_response_format()
+        done = c.complete(MESSAGES, {}, FORMAT)
+    assert done.ok and done.format_fallback
+    saved = json.loads((tmp_path / "cache" / ENDPOINTS_FILE).read_text())
+    assert saved[c.endpoint_id] == {"response_format": "unsupported"}
 
 
 def test_key_goes_only_into_the_authorization_header(chat_server, monkeypatch, tmp_path):

@@ -63,17 +63,17 @@ def test_pool_listing(pool, tmp_path):
 
 def test_vlm_checker_manifest(pool, chat_server, tmp_path):
     # clips in sorted order: jumping_jacks/d, (e corrupt: no request), walking/a, walking/b, walking/c
-    script = [ok("check_unsure.json"), ok("check_yes.json"), ok("check_no.json"), ok("check_garbage.txt")]
-    with chat_server(script) as server:
+    script = [ok("check_unsure.json"), ok("check_yes.json"), ok("check_no.json")]
+    with chat_server(script, default=ok("check_garbage.txt")) as server:
         client = VLMClient(server.url, "vlm-test", cache_dir=tmp_path / "cache", sleep=lambda s: None)
         checker = VLMClipChecker(client, FrameSampler(n_frames=3))
         data = SourcePoolFilter(checker, threshold=0.6).filter(pool)
         assert len(server.requests) == 4
         again = SourcePoolFilter(checker, threshold=0.6).filter(pool)
-        assert len(server.requests) == 4  # cached
+        assert len(server.requests) == 5  # cached, but the unreadable answer (not cached)
     keys = ("path", "decision", "confidence", "reason")
     assert [[c[k] for k in keys] for c in again["clips"]] == [[c[k] for k in keys] for c in data["clips"]]
-    assert [c["details"].get("cached") for c in again["clips"]] == [True, None, True, True, True]
+    assert [c["details"].get("cached") for c in again["clips"]] == [True, None, True, True, False]
     assert data["format"] == MANIFEST_FORMAT and data["threshold"] == 0.6
     assert data["counts"] == {"clips": 5, "retained": 1, "rejected": 4}
     by = {c["path"]: c for c in data["clips"]}
@@ -114,6 +114,18 @@ def test_the_same_clip_twice_counts_once_and_an_out_of_range_confidence_is_rejec
     assert by["walking/a.avi"]["reason"].startswith("the same clip is also retained as sitting (sitting/s.avi)")
     assert by["sitting/s.avi"]["details"]["also_retained_as"] == ["walking/a.avi"]
     assert retained_clips(data) == []
+
+
+def test_vlm_checker_caches_only_readable_answers(pool, chat_server, tmp_path):
+    clip = pool / "walking" / "a.avi"
+    with chat_server([ok("check_garbage.txt"), ok("check_yes.json")]) as server:
+        client = VLMClient(server.url, "m", cache_dir=tmp_path / "c", sleep=lambda s: None)
+        first = VLMClipChecker(client, FrameSampler(n_frames=2)).check(clip, "walking")
+        second = VLMClipChecker(client, FrameSampler(n_frames=2)).check(clip, "walking")
+        third = VLMClipChecker(client, FrameSampler(n_frames=2)).check(clip, "walking")
+    assert second.shows_activity is True and not second.details["cached"] and third.details["cached"]
+    assert len(server.requests) == 2
+    assert first.shows_activity is None and first.details["cache_note"] == "not cached: no yes/no answer"
 
 
 def test_vlm_checker_request_failure_is_a_rejection(pool, chat_server, tmp_path):

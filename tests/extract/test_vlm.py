@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vlm_server import error, ok
+from vlm_server import Reply, error, ok
 
 from vsmp_imu.extract.client import VLMClient
 from vsmp_imu.extract.frames import FrameSampler
@@ -153,6 +153,30 @@ def test_rerun_is_free_and_a_killed_run_resumes(chat_server, tmp_path, videos):
         assert len(server2.requests) == 5
 
 
+def test_unusable_answers_are_not_cached_and_asked_again(chat_server, tmp_path, videos):
+    """A refusal, prose or an empty answer is not cached as if good: the next run asks again."""
+    bad = [ok("prose_refusal.txt"), ok("walking_missing_label.json"), Reply(200, ""),
+           ok("walking_valid_1.json"), ok("walking_valid_2.json")]
+    with chat_server(bad, default=ok("walking_valid_3.json")) as server:
+        first = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+        again = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    assert first.counts.valid == 2 and first.discarded
+    assert len(server.requests) == 8 and again.counts.cached == 2 and again.counts.valid == 5
+    assert [q["cache_note"] is not None for q in first.queries] == [True, True, True, False, False]
+    assert first.queries[0]["cache_note"].startswith("not cached: no JSON object found")
+
+
+def test_cached_unusable_answers_of_an_older_run_are_asked_again(chat_server, tmp_path, videos):
+    with chat_server([ok("prose_refusal.txt")], default=ok("walking_valid_1.json")) as server:
+        ex = extractor(server, tmp_path)
+        sampled = FrameSampler(n_frames=4).sample(videos["counter"])
+        messages, texts = ex._request(sampled, "walking")
+        ex.client.complete(messages, ex._key_fields(sampled, texts, 0))  # no check: cached
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    assert result.counts.cached == 0 and result.counts.valid == 5 and len(server.requests) == 6
+    assert "the cached answer is unusable (no JSON object found" in result.queries[0]["cache_note"]
+
+
 def test_cli_extract_writes_smp_raw_and_report_and_never_the_key(chat_server, tmp_path, videos, cli,
                                                                 monkeypatch, caplog, capfd):
     monkeypatch.setenv("VSMP_VLM_API_KEY", SECRET)
@@ -226,3 +250,31 @@ def test_cli_option_errors(cli, videos, tmp_path):
     code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "--n-frames", "4",
                        "--preset", "mm_fit", "-o", tmp_path / "a.json")
     assert code == 2 and "not both" in err
+
+
+@pytest.mark.parametrize("option,value", [("--timeout-s", v) for v in ("-1", "nan", "inf", "0", "3601")]
+                         + [("--max-retries", v) for v in ("-1", "11")])
+@pytest.mark.parametrize("command", ["extract", "pool"])
+def test_cli_timeout_and_retries_are_range_checked_before_any_work(cli, videos, tmp_path, option, value, command):
+    vlm = ("--vlm-base-url", "http://127.0.0.1:9/v1", "--vlm-model", "m", option, value)
+    if command == "extract":
+        args = ("smp", "extract", videos["counter"], "--label", "walking", "-o", tmp_path / "a.json", *vlm)
+    else:
+        (tmp_path / "pool" / "walking").mkdir(parents=True)
+        (tmp_path / "pool" / "walking" / "a.avi").write_bytes(videos["counter"].read_bytes())
+        args = ("video", "pool", tmp_path / "pool", "--checker", "vlm", "-o", tmp_path / "m.json", *vlm)
+    code, _, err = cli(*args)
+    assert code == 2 and f"field '{option}': '" in err and "Allowed: a " in err
+    assert not (tmp_path / "a.raw").exists() and not (tmp_path / "m.json").exists()
+
+
+def test_client_limits_for_api_users():
+    from vsmp_imu.errors import ConfigError
+
+    for bad in (0, -1.0, float("nan"), float("inf"), 3601, True, "5"):
+        with pytest.raises(ConfigError, match="Allowed: a number of seconds > 0, at most 3600"):
+            VLMClient("http://127.0.0.1:9/v1", "m", timeout_s=bad)
+    for bad in (-1, 11, 1.5, True):
+        with pytest.raises(ConfigError, match="max_retries"):
+            VLMClient("http://127.0.0.1:9/v1", "m", max_retries=bad)
+    assert VLMClient("http://127.0.0.1:9/v1", "m", timeout_s=3600, max_retries=0).timeout_s == 3600.0

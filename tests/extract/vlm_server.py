@@ -5,7 +5,9 @@ It speaks the OpenAI protocol as far as the client uses it: `POST
 envelope (`tests/fixtures/vlm/completion_envelope.json`) carrying a recorded
 message content, or by an error status with an OpenAI-style error body.
 Each request takes the next reply of the script; every request is recorded
-(body and headers) for the test to inspect.
+(method, body and headers) for the test to inspect. A reply may also be sent
+slowly (`trickle_s`), without a Content-Length, or be a redirect; a GET (a
+followed redirect) is recorded and answered with a valid SMP.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "vlm"
+TRICKLE_BYTES = 64
 
 
 def fixture_text(name: str) -> str:
@@ -34,12 +37,18 @@ class Reply:
     content: str | None = None  # message content for a 200
     headers: dict[str, str] = field(default_factory=dict)
     delay_s: float = 0.0
-    raw_body: str | None = None  # sent as is instead of the envelope
+    raw_body: str | bytes | None = None  # sent as is instead of the envelope
+    trickle_s: float = 0.0  # > 0: the whole answer (headers too) in TRICKLE_BYTES pieces this far apart
+    length: bool = True  # False: no Content-Length; the connection closes after the body
 
 
 def ok(name: str, delay_s: float = 0.0) -> Reply:
     """A 200 carrying the recorded content of fixture `name`."""
     return Reply(200, fixture_text(name), delay_s=delay_s)
+
+
+def redirect(status: int = 302, location: str = "/v1/elsewhere") -> Reply:
+    return Reply(status, headers={"Location": location}, raw_body="")
 
 
 def error(status: int, retry_after: str | None = None, message: str = "") -> Reply:
@@ -96,7 +105,8 @@ class ChatServer:
 
     def answer(self, reply: Reply, body: dict[str, Any]) -> tuple[int, dict[str, str], bytes]:
         if reply.raw_body is not None:
-            return reply.status, reply.headers, reply.raw_body.encode()
+            raw = reply.raw_body
+            return reply.status, reply.headers, raw if isinstance(raw, bytes) else raw.encode()
         env = copy.deepcopy(self.envelope)
         env["model"] = body.get("model", env["model"])
         env["id"] = f"chatcmpl-test{len(self.requests):04d}"
@@ -112,35 +122,50 @@ class ChatServer:
             def log_message(self, *args: Any) -> None:  # keep test output quiet
                 pass
 
-            def do_POST(self) -> None:  # noqa: N802 (http.server naming)
+            def _record(self) -> dict[str, Any]:
                 length = int(self.headers.get("Content-Length", "0"))
                 raw = self.rfile.read(length)
                 try:
-                    body = json.loads(raw)
+                    body = json.loads(raw) if raw else {}
                 except json.JSONDecodeError:
                     body = {}
                 with server.lock:
-                    server.requests.append({"path": self.path, "body": body,
+                    server.requests.append({"method": self.command, "path": self.path, "body": body,
                                             "headers": {k.lower(): v for k, v in self.headers.items()}})
+                return body
+
+            def do_GET(self) -> None:  # noqa: N802 (http.server naming)
+                self._record()
+                self._send(ok("walking_valid_1.json"), *server.answer(ok("walking_valid_1.json"), {}))
+
+            def do_POST(self) -> None:  # noqa: N802 (http.server naming)
+                body = self._record()
                 if self.path.rstrip("/") != "/v1/chat/completions":
-                    self._send(404, {}, b'{"error": {"message": "not found"}}')
+                    self._send(Reply(), 404, {}, b'{"error": {"message": "not found"}}')
                     return
                 reply = server.next_reply(body)
                 if reply.delay_s:
                     time.sleep(reply.delay_s)
-                status, headers, payload = server.answer(reply, body)
-                self._send(status, headers, payload)
+                self._send(reply, *server.answer(reply, body))
 
-            def _send(self, status: int, headers: dict[str, str], payload: bytes) -> None:
+            def _send(self, reply: Reply, status: int, headers: dict[str, str], payload: bytes) -> None:
+                head = {"Content-Type": "application/json", **headers}
+                if reply.length:
+                    head["Content-Length"] = str(len(payload))
+                else:
+                    head["Connection"] = "close"
+                    self.close_connection = True
+                lines = [f"HTTP/1.1 {status} {self.responses.get(status, ('',))[0]}"]
+                data = ("\r\n".join(lines + [f"{k}: {v}" for k, v in head.items()]) + "\r\n\r\n").encode()
+                data += payload
+                step = TRICKLE_BYTES if reply.trickle_s else len(data) or 1
                 try:
-                    self.send_response(status)
-                    self.send_header("Content-Type", "application/json")
-                    self.send_header("Content-Length", str(len(payload)))
-                    for k, v in headers.items():
-                        self.send_header(k, v)
-                    self.end_headers()
-                    self.wfile.write(payload)
+                    for i in range(0, len(data), step):
+                        self.wfile.write(data[i:i + step])
+                        self.wfile.flush()
+                        if reply.trickle_s:
+                            time.sleep(reply.trickle_s)
                 except (BrokenPipeError, ConnectionResetError):
-                    pass  # the client gave up (timeout test)
+                    pass  # the client gave up (timeout tests)
 
         return Handler

@@ -19,6 +19,7 @@ from vsmp_imu.har.cache import (
     max_cache_bytes,
     prune_cache,
     samples_dir,
+    vlm_dir,
 )
 
 
@@ -187,3 +188,22 @@ def test_clear_keeps_the_vlm_answers_unless_asked(cli, tmp_path, monkeypatch):
     assert cache_contents().folders == []
     _fill(root / "vlm", [10])
     assert [u.name for u in clear_cache(only="vlm")[0]] == ["vlm"]
+
+
+def test_one_rule_places_the_cache_and_the_vlm_answers_in_it(cli, tmp_path, monkeypatch):
+    """cache_dir() is $VSMP_IMU_CACHE, else $XDG_CACHE_HOME/vsmp-imu, else ~/.cache/vsmp-imu, and
+    the VLM answers are its `vlm` folder, so `cache clear --all` finds them wherever it is."""
+    from vsmp_imu.cli.video import _client
+
+    monkeypatch.setenv("VSMP_IMU_CACHE", str(tmp_path / "mine"))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert vlm_dir() == tmp_path / "mine" / "vlm"
+    assert _client("http://localhost:1/v1", "m", None, False, 1.0, 0, False).cache_dir == vlm_dir()
+    _fill(vlm_dir(), [10, 20])
+    code, out, _ = cli("cache", "clear", "--all")
+    assert code == 0 and f"removed 2 files (30 B) from {vlm_dir()}" in out and not vlm_dir().exists()
+    monkeypatch.delenv("VSMP_IMU_CACHE")
+    assert cache_dir() == tmp_path / "xdg" / "vsmp-imu" and vlm_dir() == cache_dir() / "vlm"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert cache_dir() == tmp_path / "home" / ".cache" / "vsmp-imu" and vlm_dir() == cache_dir() / "vlm"

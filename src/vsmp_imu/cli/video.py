@@ -37,8 +37,8 @@ LIBRARY_OPTION = typer.Option(None, "--library", help="Extra activity-library fo
 BASE_URL_OPTION = typer.Option(None, "--vlm-base-url", help="OpenAI-compatible endpoint, e.g. "
                                "https://api.openai.com/v1 or http://localhost:8000/v1 (vLLM)")
 MODEL_OPTION = typer.Option(None, "--vlm-model", help="Model name served by the endpoint")
-CACHE_OPTION = typer.Option(None, "--cache-dir", help="VLM response cache (default: "
-                            "$XDG_CACHE_HOME/vsmp-imu/vlm or ~/.cache/vsmp-imu/vlm)")
+CACHE_OPTION = typer.Option(None, "--cache-dir", help="VLM response cache (default: the vlm folder "
+                            "of the project's cache, see `vsmp-imu cache info`)")
 
 
 def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
@@ -83,8 +83,12 @@ def _client(base_url: str | None, model: str | None, cache_dir: Path | None, no_
         raise ConfigError("the VLM needs --vlm-base-url and --vlm-model (the key is read from "
                           "VSMP_VLM_API_KEY or OPENAI_API_KEY)", field="--vlm-base-url")
     cache = None if no_cache else (cache_dir or vlm_dir())
-    return VLMClient(base_url, model, timeout_s=timeout_s, max_retries=max_retries,
-                     cache_dir=cache, use_response_format=not no_response_format)
+    try:
+        return VLMClient(base_url, model, timeout_s=timeout_s, max_retries=max_retries,
+                         cache_dir=cache, use_response_format=not no_response_format)
+    except ConfigError as exc:
+        option = {"timeout_s": "--timeout-s", "max_retries": "--max-retries"}.get(exc.field or "", exc.field)
+        raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
 
 
 def _library(library: list[Path] | None):
@@ -132,8 +136,9 @@ def extract_cmd(
     no_label_hint: bool = typer.Option(False, "--no-label-hint", help="Do not tell the VLM the label"),
     no_response_format: bool = typer.Option(False, "--no-response-format",
                                             help="Never send the JSON-schema response_format"),
-    timeout_s: float = typer.Option(120.0, "--timeout-s", help="VLM request timeout (s)"),
-    max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM query"),
+    timeout_s: float = typer.Option(120.0, "--timeout-s", help="Most seconds one VLM request may take, "
+                                    "whole answer included (0 < s <= 3600)"),
+    max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM query (0..10)"),
     fuse_threshold: float = typer.Option(0.35, "--fuse-threshold",
                                          help="fused: measurements below this uncertainty override"),
     max_fps: float = typer.Option(30.0, "--max-fps", help="pose: frames per second processed at most (> 0)"),
@@ -322,8 +327,9 @@ def pool_cmd(
     model: str | None = MODEL_OPTION,
     cache_dir: Path | None = CACHE_OPTION,
     no_cache: bool = typer.Option(False, "--no-cache", help="Do not read or write the VLM cache"),
-    timeout_s: float = typer.Option(120.0, "--timeout-s", help="VLM request timeout (s)"),
-    max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM request"),
+    timeout_s: float = typer.Option(120.0, "--timeout-s", help="Most seconds one VLM request may take, "
+                                    "whole answer included (0 < s <= 3600)"),
+    max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM request (0..10)"),
     max_fps: float = typer.Option(15.0, "--max-fps", help="pose: frames per second processed at most (> 0)"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:

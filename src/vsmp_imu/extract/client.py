@@ -4,19 +4,26 @@ Built on the `openai` package with its own retries switched off
 (`max_retries=0`): this module retries, so that every attempt, wait and
 failure is counted in the extraction report.
 
-- Retries: HTTP 408/409/425/429 and 5xx, timeouts, connection errors and
-  unreadable response bodies are retried with exponential backoff
+- Limits: `timeout_s` bounds a whole request, however slowly its answer
+  arrives; an answer over `http.MAX_RESPONSE_BYTES` or compressed is refused;
+  a redirect is not followed (see `extract.http`).
+- Retries: HTTP 408/409/425/429 and 5xx, timeouts, connection errors, refused
+  answers and unreadable response bodies are retried with exponential backoff
   (`base_delay_s * 2**k`, capped at `max_delay_s`) and jitter (x 0.5..1);
   a `Retry-After` (or `retry-after-ms`) header is honoured (waits at least
-  that long, up to `max_retry_after_s`). Other client errors (401, 403, 404,
-  ...) are configuration mistakes: `ServiceError` at once.
+  that long, up to `max_retry_after_s`). A 3xx fails the query at once (it
+  names where it points). Other client errors (401, 403, 404, ...) are
+  configuration mistakes: `ServiceError` at once.
 - Structured output: the JSON-schema `response_format` is sent unless the
   endpoint is known not to support it. A 400/422 answer to a request that
-  carried it is retried at once without it; when that succeeds the endpoint
-  (base URL + model) is remembered as text-only, in memory and in the cache
-  folder (`endpoints.json`).
-- Cache: successful responses are stored under the request's key fields
-  (`cache.ResponseCache`); a hit costs no request.
+  carried it is retried at once without it; when that succeeds and the error
+  named the format (or it is the second such fallback of this client), the
+  endpoint (base URL + model) is remembered as text-only, in memory and in the
+  cache folder (`endpoints.json`).
+- Cache: successful responses are stored under the request's key fields, the
+  endpoint (base URL) and the model (`cache.ResponseCache`); a hit costs no
+  request. With an `accept` check, only usable answers are stored, and a
+  cached answer it refuses is asked again.
 - The API key comes from the constructor or the environment
   (`VSMP_VLM_API_KEY`, else `OPENAI_API_KEY`). It is sent in the
   Authorization header only: never cached, logged or put in a message, and
@@ -28,8 +35,10 @@ from __future__ import annotations
 import email.utils
 import json
 import logging
+import math
 import os
 import random
+import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -44,8 +53,13 @@ API_KEY_ENV_VARS = ("VSMP_VLM_API_KEY", "OPENAI_API_KEY")
 NO_KEY_PLACEHOLDER = "no-key"  # sent when no key is set (local servers ignore it)
 RETRY_STATUSES = frozenset({408, 409, 425, 429})
 FORMAT_REJECT_STATUSES = frozenset({400, 422})
+FORMAT_ERROR_WORDS = ("response_format", "response format", "json_schema", "structured output")
+FORMAT_FALLBACKS_TO_REMEMBER = 2  # fallbacks after errors that do not name the format
 ENDPOINTS_FILE = "endpoints.json"
 MAX_ERROR_CHARS = 300
+MAX_TIMEOUT_S = 3600.0  # the longest a request may take (--timeout-s)
+MAX_RETRIES = 10  # retries per query at most (--max-retries)
+Accept = Callable[[str], str | None]  # None: a usable answer; else why it is not
 
 
 def api_key_from_env(environ: Mapping[str, str] | None = None) -> str | None:
@@ -68,6 +82,23 @@ def check_api_key(key: str, source: str = "api_key") -> str:
                           "typographic quote pasted with it)", field=source,
                           allowed="printable ASCII characters only")
     return key
+
+
+def check_timeout_s(value: float) -> float:
+    """`value` when it is a finite number of seconds in (0, MAX_TIMEOUT_S]."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not (
+            math.isfinite(value) and 0 < value <= MAX_TIMEOUT_S):
+        raise ConfigError(f"'{value}' is not a time limit for a request", field="timeout_s",
+                          allowed=f"a number of seconds > 0, at most {MAX_TIMEOUT_S:g}")
+    return float(value)
+
+
+def check_max_retries(value: int) -> int:
+    """`value` when it is a whole number in 0..MAX_RETRIES."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_RETRIES:
+        raise ConfigError(f"'{value}' is not a number of retries", field="max_retries",
+                          allowed=f"a whole number from 0 to {MAX_RETRIES}")
+    return value
 
 
 def scrub(text: str, secret: str | None) -> str:
@@ -147,6 +178,7 @@ class Completion:
     waits_s: list[float] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)  # one line per failed attempt
     error: str | None = None  # set when every attempt failed
+    cache_note: str | None = None  # why a cache entry was not used or the answer not stored
 
     @property
     def ok(self) -> bool:
@@ -157,13 +189,16 @@ class Completion:
                 "attempts": self.attempts, "retries": self.retries,
                 "response_format": self.response_format, "format_fallback": self.format_fallback,
                 "waits_s": [round(w, 3) for w in self.waits_s], "errors": list(self.errors),
-                "error": self.error}
+                "error": self.error, "cache_note": self.cache_note}
 
 
-class _Retryable(Exception):
-    def __init__(self, message: str, wait_hint_s: float | None = None) -> None:
+class _Failed(Exception):
+    """A failed attempt: retried (after `wait_hint_s` at least) unless `retry` is False."""
+
+    def __init__(self, message: str, wait_hint_s: float | None = None, retry: bool = True) -> None:
         super().__init__(message)
         self.wait_hint_s = wait_hint_s
+        self.retry = retry
 
 
 class VLMClient:
@@ -173,7 +208,8 @@ class VLMClient:
         (vLLM), `http://localhost:11434/v1` (Ollama).
     model: the model name the endpoint serves.
     api_key: None reads the environment (see module docs).
-    timeout_s: per-request timeout; max_retries: retries after the first attempt.
+    timeout_s: the most one request may take, whole answer included (0 < t <= 3600);
+    max_retries: retries after the first attempt (0..10).
     base_delay_s, max_delay_s, max_retry_after_s: backoff settings.
     cache_dir: response cache folder (None: no cache).
     use_response_format: send the JSON-schema response_format when the
@@ -193,8 +229,8 @@ class VLMClient:
         self.api_key = check_api_key(api_key) if api_key else api_key
         if not api_key:
             api_key_from_env()  # a key the request could not carry fails now, before any work
-        self.timeout_s = timeout_s
-        self.max_retries = max_retries
+        self.timeout_s = check_timeout_s(timeout_s)
+        self.max_retries = check_max_retries(max_retries)
         self.base_delay_s = base_delay_s
         self.max_delay_s = max_delay_s
         self.max_retry_after_s = max_retry_after_s
@@ -207,6 +243,7 @@ class VLMClient:
         self._openai: Any = None
         self._rng = random.Random(seed)
         self._text_only: set[str] = set()
+        self._fallbacks = 0
 
     def __repr__(self) -> str:
         return f"VLMClient(base_url={self.base_url!r}, model={self.model!r})"
@@ -231,8 +268,16 @@ class VLMClient:
         """False once the endpoint rejected it (this run or a cached earlier one)."""
         if not self.use_response_format or self.endpoint_id in self._text_only:
             return False
-        known = self.cache.read_json(ENDPOINTS_FILE).get(self.endpoint_id, {})
-        return known.get("response_format", "supported") != "unsupported"
+        known = self.cache.read_json(ENDPOINTS_FILE).get(self.endpoint_id)
+        return not (isinstance(known, dict) and known.get("response_format") == "unsupported")
+
+    def _fell_back(self, named_format: bool) -> None:
+        """A request worked as plain text after a 400/422: remember the endpoint as text-only
+        when the error named the format, or after repeated fallbacks (a lone other 400 may be
+        transient)."""
+        self._fallbacks += 1
+        if named_format or self._fallbacks >= FORMAT_FALLBACKS_TO_REMEMBER:
+            self._remember_text_only()
 
     def _remember_text_only(self) -> None:
         self._text_only.add(self.endpoint_id)
@@ -244,11 +289,14 @@ class VLMClient:
         if self._openai is None:
             try:
                 from openai import OpenAI
+
+                from vsmp_imu.extract.http import http_client
             except ImportError as exc:  # pragma: no cover - a pinned dependency
                 raise DependencyError("the VLM client needs the `openai` package "
                                       "(pip install -e .)") from exc
             self._openai = OpenAI(base_url=self.base_url, api_key=self._key() or NO_KEY_PLACEHOLDER,
-                                  timeout=self.timeout_s, max_retries=0)
+                                  timeout=self.timeout_s, max_retries=0,
+                                  http_client=http_client(self.timeout_s))
         return self._openai
 
     def _body(self, messages: list[dict[str, Any]], response_format: dict[str, Any] | None) -> dict[str, Any]:
@@ -274,51 +322,84 @@ class VLMClient:
                 "body": abbreviate_images(self._body(messages, fmt))}
 
     def complete(self, messages: list[dict[str, Any]], key_fields: dict[str, Any],
-                 response_format: dict[str, Any] | None = None) -> Completion:
+                 response_format: dict[str, Any] | None = None,
+                 accept: Accept | None = None) -> Completion:
         """One logical request: cache, then attempts with retries. Never raises for
         retryable failures (the Completion carries the error); raises ServiceError for
-        configuration errors (401, 403, 404, a 400 that is not about response_format)."""
-        fields = {"model": self.model, **key_fields}
-        hit = self.cache.get(fields)
-        if hit is not None and isinstance(hit.get("content"), str):
+        configuration errors (401, 403, 404, a 400 that is not about response_format).
+
+        accept: None for an answer the caller can use, else why not. An unusable answer
+        is returned but not cached, and a cached one is asked again."""
+        fields = {"endpoint": self.base_url.rstrip("/"), "model": self.model, **key_fields}
+        hit, problem = self._cached(fields, accept)
+        if hit is not None:
             return Completion(hit["content"], hit.get("response"), cached=True, attempts=0,
                               response_format=hit.get("response_format", "text"))
-        secret = self._key()
         fmt = response_format if response_format is not None and self.supports_response_format() else None
         out = Completion(None, response_format="json_schema" if fmt is not None else "text")
-        retries = 0
+        if problem is not None:
+            out.cache_note = f"cache entry not used, asked again: {problem}"
+            log.warning("VLM %s", out.cache_note)
+        body = self._attempts(messages, fmt, out)
+        if body is not None:
+            self._keep(fields, body, out, accept)
+        return out
+
+    def _attempts(self, messages: list[dict[str, Any]], fmt: dict[str, Any] | None,
+                  out: Completion) -> dict[str, Any] | None:
+        """Send until an answer comes (its body), or until the retries run out (None; out.error)."""
+        secret = self._key()
+        named_format = False
         while True:
             out.attempts += 1
             try:
                 body = self._send(messages, fmt)
             except _FormatRejected as exc:
+                named_format, fmt = exc.named_format, None
                 out.errors.append(scrub(str(exc), secret))
-                out.format_fallback = True
-                fmt = None
-                out.response_format = "text"
+                out.format_fallback, out.response_format = True, "text"
                 continue
-            except _Retryable as exc:
+            except _Failed as exc:
                 out.errors.append(scrub(str(exc), secret))
-                if retries >= self.max_retries:
+                if out.retries >= self.max_retries or not exc.retry:
                     out.error = f"gave up after {out.attempts} attempt(s): {out.errors[-1]}"
-                    out.retries = retries
-                    return out
-                wait = self._backoff(retries, exc.wait_hint_s)
-                out.waits_s.append(wait)
-                retries += 1
-                log.info("VLM request failed (%s); retry %d of %d in %.2f s",
-                         out.errors[-1], retries, self.max_retries, wait)
-                (self.sleep or time.sleep)(wait)
+                    return None
+                self._wait(out, exc.wait_hint_s)
                 continue
-            break
-        if out.format_fallback:
-            self._remember_text_only()
-        out.retries = retries
+            if out.format_fallback:
+                self._fell_back(named_format)
+            return body
+
+    def _wait(self, out: Completion, hint_s: float | None) -> None:
+        wait = self._backoff(out.retries, hint_s)
+        out.waits_s.append(wait)
+        out.retries += 1
+        log.info("VLM request failed (%s); retry %d of %d in %.2f s",
+                 out.errors[-1], out.retries, self.max_retries, wait)
+        (self.sleep or time.sleep)(wait)
+
+    def _keep(self, fields: dict[str, Any], body: dict[str, Any], out: Completion,
+              accept: Accept | None) -> None:
+        """Fill `out` from the answer's body; cache it unless `accept` finds it unusable."""
+        secret = self._key()
         out.response = _scrub_obj(body, secret)
         out.content = scrub(message_text(body) or "", secret)
-        self.cache.put(fields, {"content": out.content, "response": out.response,
-                                "response_format": out.response_format})
-        return out
+        unusable = accept(out.content) if accept is not None else None
+        if unusable is None:
+            self.cache.put(fields, {"content": out.content, "response": out.response,
+                                    "response_format": out.response_format})
+        else:
+            out.cache_note = "; ".join(filter(None, [out.cache_note, f"not cached: {unusable}"]))
+
+    def _cached(self, fields: dict[str, Any], accept: Accept | None) -> tuple[dict[str, Any] | None, str | None]:
+        """(the usable cache entry, None), or (None, why an existing entry is not used)."""
+        hit, problem = self.cache.lookup(fields)
+        if hit is not None and not isinstance(hit.get("content"), str):
+            return None, "the cached entry holds no answer text"
+        unusable = accept(hit["content"]) if hit is not None and accept is not None else None
+        if unusable is not None:
+            return None, f"the cached answer is unusable ({unusable})"
+        return hit, problem
 
     def _backoff(self, retry: int, hint_s: float | None) -> float:
         delay = min(self.max_delay_s, self.base_delay_s * (2.0 ** retry))
@@ -328,44 +409,88 @@ class VLMClient:
         return delay
 
     def _send(self, messages: list[dict[str, Any]], fmt: dict[str, Any] | None) -> dict[str, Any]:
+        """One attempt: the response body, or _Failed / _FormatRejected / ServiceError."""
+        client = self._client()
+        text = self._in_time(lambda: self._post(client, messages, fmt))
+        try:
+            body_json = json.loads(text)
+        except (json.JSONDecodeError, RecursionError) as exc:  # RecursionError: nested too deeply
+            raise _Failed(f"response body is not JSON: {_short(text)}") from exc
+        if not isinstance(body_json, dict) or message_text(body_json) is None:
+            raise _Failed(f"response has no choices[0].message: {_short(text)}")
+        return body_json
+
+    def _in_time(self, call: Callable[[], str]) -> str:
+        """call() in a worker thread, given up after timeout_s however slowly the answer arrives
+        (a blocked read is not interrupted: the worker ends on its own, see extract.http)."""
+        box: dict[str, Any] = {}
+
+        def run() -> None:
+            try:
+                box["text"] = call()
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller
+                box["error"] = exc
+
+        worker = threading.Thread(target=run, name="vlm-request", daemon=True)
+        worker.start()
+        worker.join(self.timeout_s)
+        if worker.is_alive():
+            self._openai = None  # its connection is still busy: the next attempt opens another
+            raise _Failed(f"timeout: no complete answer within {self.timeout_s:g} s")
+        if "error" in box:
+            raise box["error"]
+        return box["text"]
+
+    def _post(self, client: Any, messages: list[dict[str, Any]], fmt: dict[str, Any] | None) -> str:
+        """The request through `openai`; the body text of a 2xx answer."""
         import openai
 
-        client = self._client()
+        from vsmp_imu.extract.http import AnswerRefused, AnswerTooSlow
+
         body = self._body(messages, fmt)
         kwargs = {k: v for k, v in body.items() if k not in ("model", "messages")}
         try:
             raw = client.chat.completions.with_raw_response.create(
                 model=body["model"], messages=body["messages"], **kwargs)
-            text = raw.text
+            return raw.text
         except openai.APITimeoutError as exc:
-            raise _Retryable(f"timeout after {self.timeout_s:g} s") from exc
+            slow = isinstance(exc.__cause__, AnswerTooSlow)
+            raise _Failed(f"timeout: the answer was still arriving after {self.timeout_s:g} s" if slow
+                          else f"timeout after {self.timeout_s:g} s") from exc
         except openai.APIConnectionError as exc:
-            raise _Retryable(f"connection error ({type(exc.__cause__ or exc).__name__})") from exc
+            if isinstance(exc.__cause__, AnswerRefused):
+                raise _Failed(str(exc.__cause__)) from exc
+            raise _Failed(f"connection error ({type(exc.__cause__ or exc).__name__})") from exc
         except openai.APIStatusError as exc:
-            status = exc.status_code
-            detail = _short(exc.response.text if exc.response is not None else str(exc))
-            headers = dict(exc.response.headers) if exc.response is not None else {}
-            if fmt is not None and status in FORMAT_REJECT_STATUSES:
-                raise _FormatRejected(f"HTTP {status} with response_format ({detail}); "
-                                      "retrying as plain text") from exc
-            if status in RETRY_STATUSES or status >= 500:
-                hint = retry_after_s(headers)
-                extra = f", Retry-After {hint:g} s" if hint is not None else ""
-                raise _Retryable(f"HTTP {status}{extra}: {detail}", hint) from exc
-            raise ServiceError(f"the endpoint answered HTTP {status}: {scrub(detail, self._key())}"
-                               + _status_hint(status), allowed="check --vlm-base-url, --vlm-model and the key in "
-                               + " or ".join(API_KEY_ENV_VARS)) from None
-        try:
-            body_json = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise _Retryable(f"response body is not JSON: {_short(text)}") from exc
-        if not isinstance(body_json, dict) or message_text(body_json) is None:
-            raise _Retryable(f"response has no choices[0].message: {_short(text)}")
-        return body_json
+            error = self._status_error(exc, fmt)
+            raise error from (None if isinstance(error, ServiceError) else exc)
+
+    def _status_error(self, exc: Any, fmt: dict[str, Any] | None) -> Exception:
+        """The exception for an HTTP error status (`exc`: openai.APIStatusError)."""
+        status = exc.status_code
+        detail = _short(exc.response.text if exc.response is not None else str(exc))
+        headers = dict(exc.response.headers) if exc.response is not None else {}
+        if 300 <= status < 400:
+            where = headers.get("location", "no Location given")
+            return _Failed(f"HTTP {status}: the endpoint redirects to {where} (not followed, so that a POST "
+                           "never becomes a GET; check --vlm-base-url)", retry=False)
+        if fmt is not None and status in FORMAT_REJECT_STATUSES:
+            named = any(word in detail.lower() for word in FORMAT_ERROR_WORDS)
+            return _FormatRejected(f"HTTP {status} with response_format ({detail}); "
+                                   "retrying as plain text", named)
+        if status in RETRY_STATUSES or status >= 500:
+            hint = retry_after_s(headers)
+            extra = f", Retry-After {hint:g} s" if hint is not None else ""
+            return _Failed(f"HTTP {status}{extra}: {detail}", hint)
+        return ServiceError(f"the endpoint answered HTTP {status}: {scrub(detail, self._key())}"
+                            + _status_hint(status), allowed="check --vlm-base-url, --vlm-model and the key in "
+                            + " or ".join(API_KEY_ENV_VARS))
 
 
 class _FormatRejected(Exception):
-    pass
+    def __init__(self, message: str, named_format: bool) -> None:
+        super().__init__(message)
+        self.named_format = named_format  # the error names the response format
 
 
 def _short(text: str) -> str:

@@ -87,6 +87,11 @@ def parse_check_answer(text: str) -> tuple[bool | None, float, str]:
     return answer, conf, str(lower.get("reason", "")).strip()
 
 
+def unreadable_check(text: str) -> str | None:
+    """None when the answer says yes or no (so it may be cached); else why not."""
+    return None if parse_check_answer(text)[0] is not None else "no yes/no answer"
+
+
 class VLMClipChecker:
     """Ask the VLM whether a clip shows the activity as its dominant action."""
 
@@ -110,9 +115,9 @@ class VLMClipChecker:
                "frames": {"indices": [int(i) for i in sampled.indices],
                           "size_px": sampled.size_px, "jpeg_quality": self.jpeg_quality},
                "prompt_sha256": prompt_sha256(text), "query_index": 0}
-        done = self.client.complete(messages, key)
+        done = self.client.complete(messages, key, accept=unreadable_check)
         details = {"cached": done.cached, "attempts": done.attempts, "content": done.content,
-                   "errors": done.errors}
+                   "errors": done.errors, "cache_note": done.cache_note}
         if not done.ok:
             return CheckResult(None, 0.0, f"request failed: {done.error}", details)
         answer, conf, reason = parse_check_answer(done.content or "")

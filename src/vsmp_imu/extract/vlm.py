@@ -73,6 +73,12 @@ def smp_response_format() -> dict[str, Any]:
                             "strict": False}}
 
 
+def unusable_smp(content: str) -> str | None:
+    """None when the answer repairs to an SMP (so it may be cached); else why not."""
+    parsed = parse_response(content)
+    return None if parsed.smp is not None else (parsed.report.reason or "no SMP in the answer")
+
+
 @dataclass
 class FailureCounts:
     """The paper's extraction-audit counts for one clip (appendix "SMP audit metrics").
@@ -202,7 +208,7 @@ class VLMExtractor:
         completions: list[Completion] = []
         for k in range(self.n_queries):
             completions.append(self.client.complete(messages, self._key_fields(sampled, texts, k),
-                                                    smp_response_format()))
+                                                    smp_response_format(), accept=unusable_smp))
             if progress is not None:
                 progress(k + 1, self.n_queries)
         return self._finish(sampled, label, texts, completions)

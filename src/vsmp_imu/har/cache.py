@@ -1,10 +1,10 @@
 """The on-disk cache: parsed datasets (keyed by the source file's hash) and the per-sample
 results of synthetic generation (keyed by each sample's content hash).
 
-The cache lives under `cache_dir()` (`$VSMP_IMU_CACHE`, else `~/.cache/vsmp-imu`), never in
-an evaluation's output folder, in the folders named in `CACHE_FOLDERS` and nowhere else (the
-VLM answers lie there only at the defaults, see `vlm_dir()`). The
-generation samples are kept below a size cap (`$VSMP_IMU_CACHE_MAX_GB`, default 10): after an
+The cache lives under `cache_dir()` (`$VSMP_IMU_CACHE`, else `$XDG_CACHE_HOME/vsmp-imu`, else
+`~/.cache/vsmp-imu`), never in an evaluation's output folder, in the folders named in
+`CACHE_FOLDERS` and nowhere else (the VLM answers too, unless `--cache-dir` names another
+folder). The generation samples are kept below a size cap (`$VSMP_IMU_CACHE_MAX_GB`, default 10): after an
 evaluation the least recently used samples are removed until the cache fits. `vsmp-imu cache
 info` and `cache clear` show and remove these folders; anything else under the root (the user
 may point `$VSMP_IMU_CACHE` at a folder of their own) is not the project's and is left alone,
@@ -29,7 +29,7 @@ __all__ = ["CACHE_FOLDERS", "KEPT_UNLESS_ASKED", "cache_dir", "cache_folder", "f
 
 SAMPLES = "samples"  # samples_dir()
 HAPT_CACHE = "hapt"  # the HAPT loader's parsed arrays (har/datasets/hapt.py)
-VLM = "vlm"  # vlm_dir(), under cache_dir() when neither $XDG_CACHE_HOME nor $VSMP_IMU_CACHE is set
+VLM = "vlm"  # vlm_dir()
 # Every folder the project makes under cache_dir(), and what it holds: `cache clear` removes
 # these and nothing else. A new cache folder is made with cache_folder(), which refuses a name
 # missing here.
@@ -46,9 +46,12 @@ DEFAULT_MAX_GB = 10.0
 
 
 def cache_dir() -> Path:
-    """`$VSMP_IMU_CACHE`, else `~/.cache/vsmp-imu`."""
+    """`$VSMP_IMU_CACHE`, else `$XDG_CACHE_HOME/vsmp-imu`, else `~/.cache/vsmp-imu`."""
     root = os.environ.get("VSMP_IMU_CACHE")
-    return Path(root) if root else Path.home() / ".cache" / "vsmp-imu"
+    if root:
+        return Path(root)
+    base = os.environ.get("XDG_CACHE_HOME")
+    return (Path(base) if base else Path.home() / ".cache") / "vsmp-imu"
 
 
 def cache_folder(name: str) -> Path:
@@ -64,9 +67,8 @@ def samples_dir() -> Path:
 
 
 def vlm_dir() -> Path:
-    """The default VLM response cache: `$XDG_CACHE_HOME/vsmp-imu/vlm`, else `~/.cache/vsmp-imu/vlm`."""
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "vsmp-imu" / VLM
+    """The default VLM response cache: the `vlm` folder under cache_dir()."""
+    return cache_folder(VLM)
 
 
 def max_cache_bytes() -> int:
