@@ -379,12 +379,32 @@ def test_apply_skips_resets_and_passes_the_turn_hint_on():
 
 def test_a_relative_root_travel_is_applied_once():
     # the second pass (a movement's first DOF wins) must not add the travel again
-    out = compiler._apply(np.zeros(N_DOFS), [MOVEMENTS["jump"]], _step(), None, 0)
-    assert out[_col("root_dy")] == pytest.approx(MOVEMENTS["jump"].pose["root_dy"])
+    squat = MOVEMENTS["squat"]
+    out = compiler._apply(np.zeros(N_DOFS), [squat], _step(), None, 0)
+    assert out[_col("root_dz")] == pytest.approx(squat.pose["root_dz"])
     start = np.zeros(N_DOFS)
-    start[_col("root_dy")] = 0.5  # travel is relative to where the step starts
-    again = compiler._apply(start, [MOVEMENTS["jump"]], _step(), None, 0)
-    assert again[_col("root_dy")] == pytest.approx(0.5 + MOVEMENTS["jump"].pose["root_dy"])
+    start[_col("root_dz")] = 0.5  # without a neutral pose, travel is relative to where the step starts
+    again = compiler._apply(start, [squat], _step(), None, 0)
+    assert again[_col("root_dz")] == pytest.approx(0.5 + squat.pose["root_dz"])
+
+
+def test_a_second_squat_does_not_sink_the_pelvis_further():
+    squat = MOVEMENTS["squat"]
+    low = compiler._apply(np.zeros(N_DOFS), [squat], _step(), None, 0, neutral=np.zeros(N_DOFS))
+    lower = compiler._apply(low, [squat], _step(), None, 0, neutral=np.zeros(N_DOFS))
+    assert lower[_col("root_dz")] == low[_col("root_dz")] == pytest.approx(squat.pose["root_dz"])
+
+
+def test_a_jump_lands_where_it_took_off():
+    """The root rises in the air only: a jump's target keeps the take-off height (each jump of
+    a sequence of jumps lifted the body 9 cm for good)."""
+    start = np.zeros(N_DOFS)
+    start[_col("root_dy")] = 0.2
+    landed = compiler._apply(start, [MOVEMENTS["jump"]], _step(), None, 0)
+    assert landed[_col("root_dy")] == 0.2
+    keys = compiler._hop(start, landed)
+    assert max(k[1][_col("root_dy")] for k in keys) == pytest.approx(0.2 + MOVEMENTS["jump"].pose["root_dy"])
+    assert keys[-1][1][_col("root_dy")] == 0.2
 
 
 def test_structural_entries_of_the_sequence_are_not_primitives():

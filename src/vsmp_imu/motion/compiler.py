@@ -332,9 +332,11 @@ def _limb_sides(move: Movement, step: Step, smp: SMP) -> tuple[str, ...]:
     return ("left", "right")
 
 
-def _apply(current: np.ndarray, moves: list[Movement], step: Step, smp: SMP, direction_hint: int) -> np.ndarray:
+def _apply(current: np.ndarray, moves: list[Movement], step: Step, smp: SMP, direction_hint: int,
+           neutral: np.ndarray | None = None) -> np.ndarray:
     """`current` with the movements' targets set (their first DOF last, so it wins); a relative
-    root travel counts from `current`, so setting it twice does not add it twice."""
+    root travel counts from the posture's `neutral` pose (else from `current`), so a second
+    squat does not sink the pelvis further, and setting it twice does not add it twice."""
     out = current.copy()
     for primary in (False, True):
         for move in moves:
@@ -342,12 +344,13 @@ def _apply(current: np.ndarray, moves: list[Movement], step: Step, smp: SMP, dir
             for stem, value in items:
                 if move.kind == "reset":
                     continue
-                for col, val in _targets(move, stem, value, step, smp, current, direction_hint):
+                for col, val in _targets(move, stem, value, step, smp,
+                                         current if neutral is None else neutral, direction_hint):
                     out[col] = val
     return out
 
 
-def _targets(move: Movement, stem: str, value: float, step: Step, smp: SMP, current: np.ndarray,
+def _targets(move: Movement, stem: str, value: float, step: Step, smp: SMP, origin: np.ndarray,
              hint: int) -> list[tuple[int, float]]:
     if stem in SIDE_DOFS:
         sides = _limb_sides(move, step, smp) if move.sided else ("left", "right")
@@ -359,7 +362,9 @@ def _targets(move: Movement, stem: str, value: float, step: Step, smp: SMP, curr
         sign = step.reading.direction or hint or 1
         return [(col, float(value) * sign)]
     if stem in ("root_dz", "root_dy"):
-        return [(col, current[col] + float(value))]
+        if move.kind == "jump":
+            return []  # the root rises in the air (_hop) and lands where it took off
+        return [(col, origin[col] + float(value))]
     return [(col, float(value))]
 
 
@@ -421,7 +426,8 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             current = target
         else:
             target = _apply(_reset(before, moves, base),
-                            [m for m in moves if m.kind in ("excursion", "swing", "circle", "jump")], step, smp, hint)
+                            [m for m in moves if m.kind in ("excursion", "swing", "circle", "jump")], step, smp, hint,
+                            neutral=_posture_vector(posture, root_dz))
             step.keys = _shape(step, moves, before, target)
             if step.action == "go":
                 stack.append(before)
