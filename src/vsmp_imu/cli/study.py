@@ -20,12 +20,20 @@ DATASET_OPTION = typer.Option("hapt12", "--dataset", "-d", help=DATASET_HELP)
 DATA_DIR_OPTION = typer.Option(None, "--data-dir", help="Folder of a downloaded dataset")
 BACKBONE_OPTION = typer.Option("rf", "--backbone", help="rf | rf-seg | dclstm | dclstm-attn | bilstm-attn")
 BACKEND_OPTION = typer.Option("procedural", "--backend", help="Motion backend: procedural | compiled | hymotion")
-WORKERS_OPTION = typer.Option(1, "--workers", min=1, max=256, help="Generation workers")
-MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", max=100000, help="Neural backbones: epoch limit")
-PATIENCE_OPTION = typer.Option(None, "--patience", max=100000, help="Neural backbones: early stopping")
+# Integer options are checked by `_check_ints` before any work (messages in the project's
+# style); the upper bounds are generous multiples of what the paper and the defaults use.
+SEED_MAX = 2**32 - 1  # numpy's and scikit-learn's seed range
+SEEDS_MAX = 1000  # as `evaluate --seeds`
+JOBS_MAX = 256  # as `evaluate --jobs` and `--workers`
+EPOCHS_MAX = 100_000  # as `evaluate --max-epochs` and `--patience`
+K_MAX = 64  # as `evaluate --k`
+WORKERS_OPTION = typer.Option(1, "--workers", help=f"Generation workers (1..{JOBS_MAX})")
+MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", help=f"Neural backbones: epoch limit (1..{EPOCHS_MAX})")
+PATIENCE_OPTION = typer.Option(None, "--patience", help=f"Neural backbones: early stopping (1..{EPOCHS_MAX})")
 SOURCE_OPTION = typer.Option("library", "--source", help="VSMP source SMPs: library | smp:DIR | video:DIR")
-SEEDS_OPTION = typer.Option(1, "--seeds", max=1000, help="Seeds 0..N-1")
-JOBS_OPTION = typer.Option(None, "--jobs", help="CPU threads of the backbone")
+SEEDS_OPTION = typer.Option(1, "--seeds", help=f"Seeds 0..N-1 (N 1..{SEEDS_MAX})")
+JOBS_OPTION = typer.Option(None, "--jobs", help=f"CPU threads of the backbone (1..{JOBS_MAX})")
+SEED_HELP = f"(0..{SEED_MAX})"
 FOLDS_OPTION = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3,4,5")
 PROTOCOL_HELP = "lopo | low-resource | long-tail"
 
@@ -40,7 +48,7 @@ def _library(library: list[Path] | None):
 def control_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder (report.md, results.json, "
                                 "cases.csv, control_results.png; cache/ makes a rerun fast)"),
-    seeds: int = typer.Option(5, "--seeds", help="Generation seeds per level: 0..N-1"),
+    seeds: int = typer.Option(5, "--seeds", help=f"Generation seeds per level: 0..N-1 (N 1..{SEEDS_MAX})"),
     backend: str = BACKEND_OPTION,
     data_dir: Path | None = typer.Option(None, "--data-dir", help="UTD-MHAD inertial files: ground "
                                          "to them and validate labels with them (default: ground "
@@ -57,8 +65,7 @@ def control_cmd(
     from vsmp_imu.studies.control import ATTRIBUTES, ControlStudy
     from vsmp_imu.studies.control_report import write_control_outputs
 
-    if seeds < 1:
-        raise ConfigError(f"{seeds} is out of range", field="--seeds", allowed="an integer >= 1")
+    _check_ints((seeds, 1, SEEDS_MAX, "--seeds"))
     study = ControlStudy(
         seeds=range(seeds),
         activities=parse_csv(activities, option="--activities") if activities else None,
@@ -88,7 +95,7 @@ def audit_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     groups: Path | None = typer.Option(None, "--groups", help="CSV clip,group (default: "
                                        "PRED/clips.csv when present)"),
-    min_valid: int = typer.Option(3, "--min-valid", help="Valid responses needed to aggregate"),
+    min_valid: int = typer.Option(3, "--min-valid", help="Valid responses needed to aggregate (1..100)"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """SMP extraction audit: field accuracy, failure accounting, uncertainty calibration."""
@@ -96,8 +103,7 @@ def audit_cmd(
     from vsmp_imu.studies.audit import ExtractionAudit, load_audit_inputs
     from vsmp_imu.studies.audit_report import write_audit_outputs
 
-    if min_valid < 1:
-        raise ConfigError(f"{min_valid} is out of range", field="--min-valid", allowed="an integer >= 1")
+    _check_ints((min_valid, 1, 100, "--min-valid"))
     clips = load_audit_inputs(pred, ref, groups)
     results = ExtractionAudit(_library(library), min_valid).run(clips)
     paths = write_audit_outputs(results, output)
@@ -116,7 +122,7 @@ def case_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     video: Path | None = typer.Option(None, "--video", help="Source clip (frames and the pose "
                                       "extractor's SMP; needs the video extra)"),
-    seed: int = typer.Option(0, "--seed", help="Motion and IMU noise seed"),
+    seed: int = typer.Option(0, "--seed", help=f"Motion and IMU noise seed {SEED_HELP}"),
     location: str | None = typer.Option(None, "--location", help="Sensor location (default: the "
                                         "activity's dataset location)"),
     library: list[Path] = LIBRARY_OPTION,
@@ -125,6 +131,7 @@ def case_cmd(
     output_dir(output)
     from vsmp_imu.studies.case import CaseStudy, write_case_outputs
 
+    _check_ints((seed, 0, SEED_MAX, "--seed"))
     if location is not None:
         from vsmp_imu.imu.placement import get_placement
 
@@ -153,17 +160,19 @@ def _check_range(value: float | None, low: float, high: float, option: str, low_
                           allowed=f"{low:g} {'<' if low_open else '<='} value <= {high:g}")
 
 
-def _positive(value: int | None, option: str) -> None:
-    if value is not None and value < 1:
-        raise ConfigError(f"{value} is out of range", field=option, allowed="an integer >= 1")
+def _check_ints(*checks: tuple[int | None, int, int, str]) -> None:
+    """Each (value, low, high, option): an integer option in low..high (None: not given)."""
+    for value, low, high, option in checks:
+        if value is not None and not low <= value <= high:
+            raise ConfigError(f"{value} is out of range", field=option, allowed=f"an integer in {low}..{high}")
 
 
 def _backbone(name: str, max_epochs: int | None, patience: int | None, jobs: int | None) -> dict:
     from vsmp_imu.har.backbones import BACKBONES, option_params
 
     parse_csv(name, tuple(BACKBONES), "--backbone")
-    for value, option in ((max_epochs, "--max-epochs"), (patience, "--patience"), (jobs, "--jobs")):
-        _positive(value, option)
+    _check_ints((max_epochs, 1, EPOCHS_MAX, "--max-epochs"), (patience, 1, EPOCHS_MAX, "--patience"),
+                (jobs, 1, JOBS_MAX, "--jobs"))
     return option_params(name, jobs=jobs, max_epochs=max_epochs, patience=patience)
 
 
@@ -171,6 +180,7 @@ def _generation(source: str, k: int, backend: str, workers: int, library: list[P
                 clips: Path | None = None):
     from vsmp_imu.pipeline.spec import GenerationSpec
 
+    _check_ints((k, 1, K_MAX, "--k"), (workers, 1, JOBS_MAX, "--workers"))
     return GenerationSpec(source=source, k=k, backend=backend, workers=workers,
                           library_dirs=tuple(str(p) for p in (library or [])), clips=str(clips) if clips else None)
 
@@ -192,9 +202,10 @@ def ablation_cmd(
     parts: str = typer.Option("caption,components,grounding,alpha", "--parts",
                               help="Subset of caption, components, grounding, alpha"),
     source: str = typer.Option("library", "--source", help="Source SMPs: library | smp:DIR | video:DIR"),
-    k: int = typer.Option(4, "--k", help="SMP variants (slots) per source SMP, 1..4"),
+    k: int = typer.Option(4, "--k", help=f"SMP variants (slots) per source SMP, 1..4 (without the caption "
+                          f"part 1..{K_MAX})"),
     max_rounds: int = typer.Option(6, "--max-rounds", help="Matched 2x2: generation rounds (first "
-                                   "attempt plus replenishments)"),
+                                   "attempt plus replenishments; 1..100)"),
     backend: str = BACKEND_OPTION,
     workers: int = WORKERS_OPTION,
     max_epochs: int | None = MAX_EPOCHS_OPTION,
@@ -217,14 +228,13 @@ def ablation_cmd(
         raise ConfigError(f"'{alphas}' is not a list of numbers", field="--alphas") from None
     for a in alpha_values:
         _check_range(a, 0.1, 2.0, "--alphas")
-    _positive(seeds, "--seeds")
-    _positive(max_rounds, "--max-rounds")
-    if "caption" in parts and not 1 <= k <= 4:
+    _check_ints((seeds, 1, SEEDS_MAX, "--seeds"), (max_rounds, 1, 100, "--max-rounds"))
+    chosen = tuple(parse_csv(parts, PARTS, "--parts"))
+    if "caption" in chosen and not 1 <= k <= 4:
         raise ConfigError(f"{k} is out of range", field="--k", allowed="1..4 (the matched 2x2 has four slots)")
     study = AblationStudy(
         dataset=dataset, data_dir=data_dir, protocol=protocol, budget=budget, folds=_folds(folds),
-        seeds=seeds, backbone=backbone, alpha=alpha, alphas=alpha_values, max_rounds=max_rounds,
-        parts=tuple(parse_csv(parts, PARTS, "--parts")),
+        seeds=seeds, backbone=backbone, alpha=alpha, alphas=alpha_values, max_rounds=max_rounds, parts=chosen,
         options=_generation(source, k, backend, workers, library),
         backbone_params=_backbone(backbone, max_epochs, patience, jobs))
     with progress("ablation") as update:
@@ -255,7 +265,7 @@ def granularity_cmd(
     clips: Path | None = typer.Option(None, "--clips", help="Source clips for IMUTube (one folder per "
                                       "activity)"),
     source: str = SOURCE_OPTION,
-    k: int = typer.Option(4, "--k", max=64, help="SMP variants per source SMP"),
+    k: int = typer.Option(4, "--k", help=f"SMP variants per source SMP (1..{K_MAX})"),
     backend: str = BACKEND_OPTION,
     workers: int = WORKERS_OPTION,
     max_epochs: int | None = MAX_EPOCHS_OPTION,
@@ -276,7 +286,7 @@ def granularity_cmd(
                           allowed="a percentage in (0, 100]")
     _check_range(budget, 0, 100, "--budget", low_open=True)
     _check_range(alpha, 0.1, 2.0, "--alpha")
-    _positive(seeds, "--seeds")
+    _check_ints((seeds, 1, SEEDS_MAX, "--seeds"))
     study = GranularityStudy(
         dataset=dataset, data_dir=data_dir, taxonomy=taxonomy,
         methods=tuple(parse_csv(methods, method_names(), "--methods")), backbone=backbone,
@@ -294,6 +304,21 @@ def granularity_cmd(
     console.print(f"wrote {shown(paths['report'])}", highlight=False)
 
 
+# The realism encoder: 16 times the paper's 64 filters and 128 LSTM units, 4 times its
+# mini-batch of 1024 (a few GB of activations at most, each alone, on a CPU)
+FILTERS_MAX, HIDDEN_MAX, BATCH_MAX = 1024, 2048, 4096
+
+
+def _encoder(filters: int, hidden: int, batch_size: int, jobs: int | None) -> dict:
+    """The realism encoder's parameters, each option in its range."""
+    _check_ints((filters, 1, FILTERS_MAX, "--filters"), (hidden, 1, HIDDEN_MAX, "--hidden"),
+                (batch_size, 1, BATCH_MAX, "--batch-size"), (jobs, 1, JOBS_MAX, "--jobs"))
+    encoder = {"n_filters": filters, "hidden": hidden, "batch_size": batch_size}
+    if jobs:
+        encoder["n_threads"] = jobs
+    return encoder
+
+
 @study_app.command("realism")
 def realism_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
@@ -301,26 +326,28 @@ def realism_cmd(
     data_dir: Path | None = DATA_DIR_OPTION,
     fold: str | None = typer.Option(None, "--fold", help="Held-out subject (default: the first)"),
     methods: str = typer.Option("vsmp,imugpt,classical", "--methods", help="Synthetic methods"),
-    seed: int = typer.Option(0, "--seed", help="Seed of the split, encoder and generation"),
+    seed: int = typer.Option(0, "--seed", help=f"Seed of the split, encoder and generation {SEED_HELP}"),
     alpha: float = typer.Option(0.5, "--alpha", help="Synthetic windows per real training window"),
-    max_per_class: int = typer.Option(150, "--max-per-class", help="Cap on synthetic windows per class"),
-    epochs: int = typer.Option(8, "--epochs", help="Encoder epochs at most (CPU: keep modest)"),
-    patience: int = typer.Option(3, "--patience", help="Encoder early-stopping patience"),
+    max_per_class: int = typer.Option(150, "--max-per-class", help="Cap on synthetic windows per class "
+                                      "(1..100000)"),
+    epochs: int = typer.Option(8, "--epochs", help=f"Encoder epochs at most (CPU: keep modest; 1..{EPOCHS_MAX})"),
+    patience: int = typer.Option(3, "--patience", help=f"Encoder early-stopping patience (1..{EPOCHS_MAX})"),
     encoder_windows: int = typer.Option(3000, "--encoder-windows", help="Real windows the encoder "
                                         "trains on (class-stratified subset; 0 = all)"),
     val_windows: int = typer.Option(1000, "--val-windows", help="Validation windows for early stopping "
                                     "(class-stratified subset; 0 = all)"),
-    filters: int = typer.Option(64, "--filters", help="Encoder convolution filters (paper: 64)"),
-    hidden: int = typer.Option(128, "--hidden", help="Encoder LSTM units (paper: 128)"),
-    batch_size: int = typer.Option(128, "--batch-size", help="Encoder mini-batch (paper: 1024 on a GPU)"),
+    filters: int = typer.Option(64, "--filters", help=f"Encoder convolution filters (paper: 64; 1..{FILTERS_MAX})"),
+    hidden: int = typer.Option(128, "--hidden", help=f"Encoder LSTM units (paper: 128; 1..{HIDDEN_MAX})"),
+    batch_size: int = typer.Option(128, "--batch-size", help=f"Encoder mini-batch (paper: 1024 on a GPU; "
+                                   f"1..{BATCH_MAX})"),
     layer: str = typer.Option("conv", "--layer", help="Embedding: conv (final convolutional layer, "
                               "time-averaged; the paper's) | lstm (last LSTM state)"),
     clips: Path | None = typer.Option(None, "--clips", help="Source clips for IMUTube"),
     source: str = SOURCE_OPTION,
-    k: int = typer.Option(4, "--k", max=64, help="SMP variants per source SMP"),
+    k: int = typer.Option(4, "--k", help=f"SMP variants per source SMP (1..{K_MAX})"),
     backend: str = BACKEND_OPTION,
     workers: int = WORKERS_OPTION,
-    jobs: int | None = typer.Option(None, "--jobs", help="CPU threads of the encoder"),
+    jobs: int | None = typer.Option(None, "--jobs", help=f"CPU threads of the encoder (1..{JOBS_MAX})"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Feature-space realism: class-wise centroid distances in DeepConvLSTM embeddings, PCA, KS,
@@ -331,17 +358,13 @@ def realism_cmd(
     from vsmp_imu.studies.realism_report import write_realism_outputs
 
     _check_range(alpha, 0.1, 2.0, "--alpha")
-    for value, option in ((max_per_class, "--max-per-class"), (epochs, "--epochs"), (patience, "--patience"),
-                          (jobs, "--jobs"), (filters, "--filters"), (hidden, "--hidden"),
-                          (batch_size, "--batch-size")):
-        _positive(value, option)
+    _check_ints((seed, 0, SEED_MAX, "--seed"), (max_per_class, 1, 100_000, "--max-per-class"),
+                (epochs, 1, EPOCHS_MAX, "--epochs"), (patience, 1, EPOCHS_MAX, "--patience"))
     for value, option in ((encoder_windows, "--encoder-windows"), (val_windows, "--val-windows")):
-        if value < 0:
+        if value < 0:  # no upper bound: more windows than the data has means all of them
             raise ConfigError(f"{value} is out of range", field=option, allowed="0 (all) or a positive integer")
     parse_csv(layer, LAYERS, "--layer")
-    encoder = {"n_filters": filters, "hidden": hidden, "batch_size": batch_size}
-    if jobs:
-        encoder["n_threads"] = jobs
+    encoder = _encoder(filters, hidden, batch_size, jobs)
     study = RealismStudy(
         dataset=dataset, data_dir=data_dir, fold=fold,
         methods=tuple(parse_csv(methods, method_names(), "--methods")), seed=seed, alpha=alpha,

@@ -1,0 +1,48 @@
+"""`vsmp-imu study ...` options checked before any work: a mistake exits with code 2 and a
+message that names the option the user typed and what it allows."""
+
+from __future__ import annotations
+
+import pytest
+
+STUDIES = {"control": "ControlStudy", "ablation": "AblationStudy", "granularity": "GranularityStudy",
+           "realism": "RealismStudy", "case": "CaseStudy", "audit": "ExtractionAudit"}
+
+
+@pytest.fixture(autouse=True)
+def no_work(monkeypatch):
+    """A study that starts its work fails the test at once (a check came too late)."""
+    import importlib
+
+    def started(*_args, **_kwargs):
+        raise AssertionError("the study started its work before the options were checked")
+
+    for module, cls in STUDIES.items():
+        monkeypatch.setattr(getattr(importlib.import_module(f"vsmp_imu.studies.{module}"), cls), "run", started)
+    monkeypatch.setattr("vsmp_imu.studies.audit.load_audit_inputs", started)
+
+
+@pytest.mark.parametrize("args, option", [
+    (("control", "--seeds", "100000000"), "--seeds"),
+    (("realism", "--seed", "-1"), "--seed"),
+    (("realism", "--seed", str(2**32)), "--seed"),
+    (("realism", "--filters", "2000000000"), "--filters"),
+    (("realism", "--hidden", "100000"), "--hidden"),
+    (("realism", "--batch-size", "1000000"), "--batch-size"),
+    (("realism", "--max-per-class", "1000000"), "--max-per-class"),
+    (("realism", "--epochs", "1000000"), "--epochs"),
+    (("realism", "--jobs", "1000"), "--jobs"),
+    (("case", "--activity", "walking", "--seed", "-1"), "--seed"),
+    (("ablation", "--parts", "alpha", "--k", "0"), "--k"),
+    (("ablation", "--max-rounds", "1000"), "--max-rounds"),
+    (("ablation", "--seeds", "1001"), "--seeds"),
+    (("ablation", "--jobs", "1000"), "--jobs"),
+    (("granularity", "--workers", "0"), "--workers"),
+    (("granularity", "--k", "0"), "--k"),
+    (("granularity", "--max-epochs", "0"), "--max-epochs"),
+    (("audit", "--pred", "p", "--ref", "r", "--min-valid", "101"), "--min-valid"),
+])
+def test_an_integer_out_of_range_is_refused_before_any_work(cli, tmp_path, args, option):
+    code, _, err = cli("study", args[0], "-o", tmp_path / "out", *args[1:])
+    assert code == 2
+    assert f"field '{option}'" in err and "Allowed: an integer in" in err, err
