@@ -46,3 +46,34 @@ def test_an_integer_out_of_range_is_refused_before_any_work(cli, tmp_path, args,
     code, _, err = cli("study", args[0], "-o", tmp_path / "out", *args[1:])
     assert code == 2
     assert f"field '{option}'" in err and "Allowed: an integer in" in err, err
+
+
+@pytest.mark.parametrize("study", ["ablation", "granularity"])
+@pytest.mark.parametrize("protocol", ["tstr", "unseen"])
+def test_a_protocol_the_study_does_not_offer_is_refused(cli, tmp_path, study, protocol):
+    code, _, err = cli("study", study, "-o", tmp_path / "out", "--protocol", protocol)
+    assert code == 2
+    assert "field '--protocol'" in err and "Allowed: lopo, low-resource, long-tail" in err, err
+
+
+@pytest.mark.parametrize("study, protocol", [("ablation", "lopo"), ("granularity", "lopo"),
+                                             ("granularity", "long-tail")])
+def test_a_budget_the_protocol_ignores_is_refused(cli, tmp_path, study, protocol):
+    code, _, err = cli("study", study, "-o", tmp_path / "out", "--protocol", protocol, "--budget", "5")
+    assert code == 2
+    assert "field '--budget'" in err and "low-resource protocol only" in err, err
+
+
+def test_the_ablation_budget_defaults_to_five_percent_under_low_resource(monkeypatch, cli, tmp_path):
+    from vsmp_imu.studies.ablation import AblationStudy
+
+    seen = {}
+
+    def run(self, *_args, **_kwargs):
+        seen["budget"] = self.budget
+        raise AssertionError("stop")
+
+    monkeypatch.setattr(AblationStudy, "run", run)
+    with pytest.raises(AssertionError, match="stop"):
+        cli("study", "ablation", "-o", tmp_path / "out")
+    assert seen == {"budget": 5.0}

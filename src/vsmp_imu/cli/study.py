@@ -35,7 +35,8 @@ SEEDS_OPTION = typer.Option(1, "--seeds", help=f"Seeds 0..N-1 (N 1..{SEEDS_MAX})
 JOBS_OPTION = typer.Option(None, "--jobs", help=f"CPU threads of the backbone (1..{JOBS_MAX})")
 SEED_HELP = f"(0..{SEED_MAX})"
 FOLDS_OPTION = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3,4,5")
-PROTOCOL_HELP = "lopo | low-resource | long-tail"
+STUDY_PROTOCOLS = ("lopo", "low-resource", "long-tail")  # the studies' protocols (no unseen, tstr)
+PROTOCOL_HELP = " | ".join(STUDY_PROTOCOLS)
 
 
 def _library(library: list[Path] | None):
@@ -160,6 +161,25 @@ def _check_range(value: float | None, low: float, high: float, option: str, low_
                           allowed=f"{low:g} {'<' if low_open else '<='} value <= {high:g}")
 
 
+def _protocol(protocol: str, budget: float | None, default: float | None = None) -> float | None:
+    """The label budget of a study's protocol: low-resource needs one (`default` when not
+    given), the others take none (as `evaluate --budgets`)."""
+    if protocol not in STUDY_PROTOCOLS:
+        raise ConfigError(f"the studies do not run protocol '{protocol}'", field="--protocol",
+                          allowed=", ".join(STUDY_PROTOCOLS))
+    if protocol != "low-resource":
+        if budget is not None:
+            raise ConfigError("label budgets apply to the low-resource protocol only", field="--budget",
+                              allowed="use --protocol low-resource, or leave --budget out")
+        return None
+    budget = default if budget is None else budget
+    if budget is None:
+        raise ConfigError("the low-resource protocol needs --budget", field="--budget",
+                          allowed="a percentage in (0, 100]")
+    _check_range(budget, 0, 100, "--budget", low_open=True)
+    return budget
+
+
 def _check_ints(*checks: tuple[int | None, int, int, str]) -> None:
     """Each (value, low, high, option): an integer option in low..high (None: not given)."""
     for value, low, high, option in checks:
@@ -192,7 +212,8 @@ def ablation_cmd(
     dataset: str = DATASET_OPTION,
     data_dir: Path | None = DATA_DIR_OPTION,
     protocol: str = typer.Option("low-resource", "--protocol", help=PROTOCOL_HELP),
-    budget: float = typer.Option(5.0, "--budget", help="Label budget in percent (low-resource)"),
+    budget: float | None = typer.Option(None, "--budget", help="Label budget in percent (low-resource only; "
+                                        "default 5)"),
     folds: str = FOLDS_OPTION,
     seeds: int = SEEDS_OPTION,
     backbone: str = BACKBONE_OPTION,
@@ -215,12 +236,10 @@ def ablation_cmd(
 ) -> None:
     """Ablations: matched caption-SMP 2x2, components, sensor grounding, alpha sensitivity."""
     output_dir(output)
-    from vsmp_imu.har.protocols import check_protocol
     from vsmp_imu.studies.ablation import PARTS, AblationStudy
     from vsmp_imu.studies.ablation_report import write_ablation_outputs
 
-    check_protocol(protocol)
-    _check_range(budget, 0, 100, "--budget", low_open=True)
+    budget = _protocol(protocol, budget, default=5.0)
     _check_range(alpha, 0.1, 2.0, "--alpha")
     try:
         alpha_values = tuple(float(a) for a in parse_csv(alphas, option="--alphas"))
@@ -258,7 +277,8 @@ def granularity_cmd(
     methods: str = typer.Option("real,imutube,imugpt,vsmp", "--methods", help="Methods to compare"),
     backbone: str = BACKBONE_OPTION,
     protocol: str = typer.Option("lopo", "--protocol", help=PROTOCOL_HELP),
-    budget: float | None = typer.Option(None, "--budget", help="Label budget in percent (low-resource)"),
+    budget: float | None = typer.Option(None, "--budget", help="Label budget in percent (low-resource "
+                                        "only, where it is needed)"),
     folds: str = FOLDS_OPTION,
     seeds: int = SEEDS_OPTION,
     alpha: float = typer.Option(0.5, "--alpha", help="Synthetic-to-real ratio (0.1..2.0)"),
@@ -275,16 +295,11 @@ def granularity_cmd(
 ) -> None:
     """Per-class precision/recall/F1 and group Macro-F1 under an activity taxonomy."""
     output_dir(output)
-    from vsmp_imu.har.protocols import check_protocol
     from vsmp_imu.studies.granularity import GranularityStudy
     from vsmp_imu.studies.granularity_report import write_granularity_outputs
     from vsmp_imu.studies.methods import method_names
 
-    check_protocol(protocol)
-    if protocol == "low-resource" and budget is None:
-        raise ConfigError("the low-resource protocol needs --budget", field="--budget",
-                          allowed="a percentage in (0, 100]")
-    _check_range(budget, 0, 100, "--budget", low_open=True)
+    budget = _protocol(protocol, budget)
     _check_range(alpha, 0.1, 2.0, "--alpha")
     _check_ints((seeds, 1, SEEDS_MAX, "--seeds"))
     study = GranularityStudy(
