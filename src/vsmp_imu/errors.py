@@ -43,8 +43,16 @@ class VsmpError(Exception):
 
     def in_file(self, file: str | Path) -> VsmpError:
         """The same error naming `file` (the user's input it came from)."""
+        return self._named(file=str(file))
+
+    def in_field(self, field: str) -> VsmpError:
+        """The same error naming `field` (the option the user typed, say)."""
+        return self._named(field=field)
+
+    def _named(self, **names: str) -> VsmpError:
         named = copy.copy(self)
-        named.file = str(file)
+        for key, value in names.items():
+            setattr(named, key, value)
         named.args = (named.render(),)
         return named
 

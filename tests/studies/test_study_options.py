@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import pytest
 
+from vsmp_imu.studies.control import ControlStudy
+
+CONTROL_RUN = ControlStudy.run
 STUDIES = {"control": "ControlStudy", "ablation": "AblationStudy", "granularity": "GranularityStudy",
            "realism": "RealismStudy", "case": "CaseStudy", "audit": "ExtractionAudit"}
 
@@ -77,3 +80,26 @@ def test_the_ablation_budget_defaults_to_five_percent_under_low_resource(monkeyp
     with pytest.raises(AssertionError, match="stop"):
         cli("study", "ablation", "-o", tmp_path / "out")
     assert seen == {"budget": 5.0}
+
+
+@pytest.mark.parametrize("args, option", [
+    (("case", "--activity", "no_such_activity"), "--activity"),
+    (("case", "--activity", "walking", "--location", "no_such_place"), "--location"),
+    (("control", "--backend", "foo"), "--backend"),
+    (("granularity", "--backend", "foo"), "--backend"),
+    (("ablation", "--backend", "foo"), "--backend"),
+    (("granularity", "--source", "foo"), "--source"),
+    (("realism", "--source", "smp:"), "--source"),
+    (("realism", "--source", "smp:/no/such/folder"), "--source"),
+])
+def test_an_error_names_the_option_the_user_typed(cli, tmp_path, args, option):
+    code, _, err = cli("study", args[0], "-o", tmp_path / "out", *args[1:])
+    assert code == 2
+    assert f"field '{option}'" in err, err
+
+
+def test_an_unknown_control_activity_names_the_option(monkeypatch, cli, tmp_path):
+    monkeypatch.setattr(ControlStudy, "run", CONTROL_RUN)  # the activities are checked as it starts
+    code, _, err = cli("study", "control", "-o", tmp_path / "out", "--activities", "walk")
+    assert code == 2
+    assert "field '--activities'" in err, err

@@ -62,6 +62,19 @@ def naming(file: Path | str | None) -> Iterator[None]:
         raise exc.in_file(file) from exc
 
 
+@contextlib.contextmanager
+def option_names(options: dict[str, str]) -> Iterator[None]:
+    """Errors raised deep in a command that name a setting by its internal name (field
+    'backend') name the option the user typed instead ('--backend'); `options` maps the one to
+    the other. Also a decorator of a command."""
+    try:
+        yield
+    except VsmpError as exc:
+        if exc.field not in options:
+            raise
+        raise exc.in_field(options[exc.field]) from exc
+
+
 def executor_options(executor: str, address: str | None) -> None:
     """`--executor` / `--address` checked before any work (an address without Ray is not ignored)."""
     from vsmp_imu.executor import check_executor_options

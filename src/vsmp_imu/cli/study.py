@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, library_dirs, output_dir, parse_csv, shown
+from vsmp_imu.cli.common import console, library_dirs, option_names, output_dir, parse_csv, shown
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.progress import progress
 
@@ -34,6 +34,11 @@ SOURCE_OPTION = typer.Option("library", "--source", help="VSMP source SMPs: libr
 SEEDS_OPTION = typer.Option(1, "--seeds", help=f"Seeds 0..N-1 (N 1..{SEEDS_MAX})")
 JOBS_OPTION = typer.Option(None, "--jobs", help=f"CPU threads of the backbone (1..{JOBS_MAX})")
 SEED_HELP = f"(0..{SEED_MAX})"
+# what the studies' errors call a setting -> the option that sets it (`option_names`)
+GENERATION_OPTIONS = {"backend": "--backend", "source": "--source", "k": "--k", "workers": "--workers"}
+CONTROL_OPTIONS = {"backend": "--backend", "activities": "--activities", "controls": "--controls",
+                   "seeds": "--seeds"}
+CASE_OPTIONS = {"activity": "--activity", "location": "--location"}
 FOLDS_OPTION = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3,4,5")
 STUDY_PROTOCOLS = ("lopo", "low-resource", "long-tail")  # the studies' protocols (no unseen, tstr)
 PROTOCOL_HELP = " | ".join(STUDY_PROTOCOLS)
@@ -46,6 +51,7 @@ def _library(library: list[Path] | None):
 
 
 @study_app.command("control")
+@option_names(CONTROL_OPTIONS)
 def control_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder (report.md, results.json, "
                                 "cases.csv, control_results.png; cache/ makes a rerun fast)"),
@@ -67,6 +73,7 @@ def control_cmd(
     from vsmp_imu.studies.control_report import write_control_outputs
 
     _check_ints((seeds, 1, SEEDS_MAX, "--seeds"))
+    _backend(backend)
     study = ControlStudy(
         seeds=range(seeds),
         activities=parse_csv(activities, option="--activities") if activities else None,
@@ -118,6 +125,7 @@ def audit_cmd(
 
 
 @study_app.command("case")
+@option_names(CASE_OPTIONS)
 def case_cmd(
     activity: str = typer.Option(..., "--activity", help="Library activity"),
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
@@ -137,8 +145,9 @@ def case_cmd(
         from vsmp_imu.imu.placement import get_placement
 
         location = get_placement(location).name
-    result = CaseStudy(activity, video=video, seed=seed, library=_library(library),
-                       location=location).run()
+    activities = _library(library)
+    activities.get(activity)  # an unknown activity, before the clip is read
+    result = CaseStudy(activity, video=video, seed=seed, library=activities, location=location).run()
     paths = write_case_outputs(result, output)
     for k, var in enumerate(result.variants, start=1):
         console.print(f"variant {k}: {shown(var.variant.title)}", highlight=False)
@@ -196,16 +205,28 @@ def _backbone(name: str, max_epochs: int | None, patience: int | None, jobs: int
     return option_params(name, jobs=jobs, max_epochs=max_epochs, patience=patience)
 
 
+def _backend(name: str) -> None:
+    from vsmp_imu.motion.backends import backend_name
+
+    backend_name(name)
+
+
 def _generation(source: str, k: int, backend: str, workers: int, library: list[Path] | None,
                 clips: Path | None = None):
+    from vsmp_imu.pipeline.sources import parse_source
     from vsmp_imu.pipeline.spec import GenerationSpec
 
     _check_ints((k, 1, K_MAX, "--k"), (workers, 1, JOBS_MAX, "--workers"))
+    _backend(backend)
+    _, folder = parse_source(source)
+    if folder is not None and not folder.is_dir():
+        raise ConfigError("no such folder", file=folder, field="--source", allowed="library, smp:DIR, video:DIR")
     return GenerationSpec(source=source, k=k, backend=backend, workers=workers,
                           library_dirs=tuple(str(p) for p in (library or [])), clips=str(clips) if clips else None)
 
 
 @study_app.command("ablation")
+@option_names(GENERATION_OPTIONS)
 def ablation_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder (report.md, results.json, "
                                 "ablation.png, runs/, cache/)"),
@@ -268,6 +289,7 @@ def ablation_cmd(
 
 
 @study_app.command("granularity")
+@option_names(GENERATION_OPTIONS)
 def granularity_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     dataset: str = DATASET_OPTION,
@@ -335,6 +357,7 @@ def _encoder(filters: int, hidden: int, batch_size: int, jobs: int | None) -> di
 
 
 @study_app.command("realism")
+@option_names(GENERATION_OPTIONS)
 def realism_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     dataset: str = DATASET_OPTION,

@@ -29,7 +29,7 @@ def get_backend(name: str, **kwargs: Any) -> MotionBackend:
     procedural backend with every motion compiled from its SMP (recipes ignored);
     'hymotion': HY-Motion 1.0.
     """
-    key = str(name).strip().lower().replace("-", "").replace("_", "")
+    key = backend_name(name)
     if key == "procedural":
         from vsmp_imu.motion.procedural import ProceduralBackend
 
@@ -38,8 +38,16 @@ def get_backend(name: str, **kwargs: Any) -> MotionBackend:
         from vsmp_imu.motion.procedural import ProceduralBackend
 
         return ProceduralBackend(compile_mode="always", **kwargs)
-    if key in ("hymotion", "hymotion1", "hymotion10"):
-        from vsmp_imu.motion.hymotion import HYMotionBackend
+    from vsmp_imu.motion.hymotion import HYMotionBackend
 
-        return HYMotionBackend(**kwargs)
-    raise ConfigError(f"unknown motion backend '{name}'", field="backend", allowed=", ".join(BACKENDS))
+    return HYMotionBackend(**kwargs)
+
+
+def backend_name(name: str) -> str:
+    """The backend `name` stands for (case, '-' and '_' aside: 'HY-Motion' is 'hymotion'); a
+    ConfigError when none (cheap: a command checks its option before any work)."""
+    key = str(name).strip().lower().replace("-", "").replace("_", "")
+    key = {"hymotion1": "hymotion", "hymotion10": "hymotion"}.get(key, key)
+    if key not in BACKENDS:
+        raise ConfigError(f"unknown motion backend '{name}'", field="backend", allowed=", ".join(BACKENDS))
+    return key
