@@ -180,7 +180,8 @@ MAX_NESTING = 100
 MAX_ALIAS_NODES = 1_000_000
 
 
-def read_text(path: str | Path, max_bytes: int | None = None) -> str:
+def read_text(path: str | Path, max_bytes: int | None = None, newline: str | None = None) -> str:
+    """A UTF-8 text file; `newline` as `open` takes it (None: any line end read as LF, "": as written)."""
     path = Path(path)
     if not path.exists():
         raise InputFileError("file not found", file=path)
@@ -190,7 +191,8 @@ def read_text(path: str | Path, max_bytes: int | None = None) -> str:
         raise InputFileError(f"the file has {path.stat().st_size} bytes, more than this kind of file may have",
                              file=path, allowed=f"at most {max_bytes // 2**20} MiB")
     try:
-        return path.read_text(encoding="utf-8")
+        with path.open(encoding="utf-8", newline=newline) as file:
+            return file.read()
     except UnicodeDecodeError as exc:
         raise InputFileError(f"not UTF-8 text ({exc.reason})", file=path) from exc
     except OSError as exc:

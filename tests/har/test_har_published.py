@@ -242,6 +242,50 @@ def test_an_undeclared_or_unclosed_block_is_an_input_error(repo, cli):
     assert code == 2 and "has no '<!-- /report -->'" in err
 
 
+def _tamper(text: str) -> str:
+    """The text with one digit of the demo table's first row changed."""
+    start = text.index("| 1 % | all classes | ") + len("| 1 % | all classes | ")
+    return text[:start] + str((int(text[start]) + 1) % 10) + text[start + 1:]
+
+
+def test_a_crlf_document_is_checked_and_keeps_its_line_ends(repo, cli):
+    cli("report", "--write", "--root", repo)
+    path = repo / "docs" / "results.md"
+    crlf = path.read_bytes().replace(b"\n", b"\r\n")
+    path.write_bytes(crlf)
+    code, out, _ = cli("report", "--check", "--root", repo)
+    assert code == 0 and "2 tables from records, 0 differ" in out, out
+    path.write_bytes(_tamper(crlf.decode()).encode())
+    code, _, err = cli("report", "--check", "--root", repo)
+    assert code == 1 and "table 'demo:main'" in err
+    code, out, _ = cli("report", "--write", "--root", repo)
+    assert code == 0, out
+    assert path.read_bytes() == crlf  # rebuilt, every line still ending in CRLF
+
+
+def test_a_mark_with_trailing_whitespace_is_a_mark(repo, cli):
+    cli("report", "--write", "--root", repo)
+    path = repo / "docs" / "results.md"
+    text = path.read_text().replace("<!-- report:demo:main -->\n", "<!-- report:demo:main --> \t\n")
+    path.write_text(_tamper(text))
+    code, _, err = cli("report", "--check", "--root", repo)
+    assert code == 1 and "table 'demo:main'" in err
+    cli("report", "--write", "--root", repo)
+    assert "<!-- report:demo:main --> \t\n" in path.read_text()
+
+
+@pytest.mark.parametrize("line, why", [
+    (" <!-- report:demo:main -->", "looks like a report mark but is not one"),
+    ("<!--report:demo:main-->", "looks like a report mark but is not one"),
+    ("<!-- report: demo:main -->", "looks like a report mark but is not one"),
+    ("<!-- /report -->", "has no '<!-- report:ID -->' before it"),
+])
+def test_a_line_that_looks_like_a_mark_but_is_none_is_an_input_error(repo, cli, line, why):
+    (repo / "docs" / "results.md").write_text(DOC + "\n" + line + "\n")
+    code, _, err = cli("report", "--check", "--root", repo)
+    assert code == 2 and why in err and "line 17" in err, err
+
+
 def test_a_table_asking_for_records_the_set_lacks_is_an_error(repo):
     catalogue = repo / "results" / "tables.yaml"
     catalogue.write_text(CATALOGUE.replace("budgets: [1]\n    methods: [real, vsmp]",

@@ -49,10 +49,14 @@ from vsmp_imu.io import read_structured, read_text, write_bytes, write_text
 
 SPEC_FILE = "tables.yaml"
 DOC_GLOBS = ("README.md", "BENCHMARKS.md", "docs/*.md")
-# a mark stands alone on its line (so that prose may quote one in backticks)
-BLOCK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->\n(?P<body>.*?)^<!-- /report -->$",
-                   re.DOTALL | re.MULTILINE)
-OPEN_MARK = re.compile(r"^<!-- report:(?P<id>[^ >]+) -->$", re.MULTILINE)
+# a mark stands alone on its line, from its first column (so that prose may quote one in
+# backticks); trailing whitespace and the line end (LF or CRLF) are no part of it
+OPEN_MARK = re.compile(r"<!-- report:(?P<id>[^ >]+) -->")
+CLOSE_MARK = "<!-- /report -->"
+# a line that any reader would take for a mark: it must be one (a typo is not skipped silently)
+MARK_LIKE = re.compile(r"\s*<!--\s*/?\s*report\b")
+MARK_FORM = "'<!-- report:ID -->' and '<!-- /report -->', each alone on its line from its first column"
+LINE = re.compile(r"[^\n]*\n?")
 # a paired table's baseline that pairs each method with itself (in baseline_records or on baseline_backbone)
 SAME = "same"
 
@@ -428,25 +432,52 @@ def _bold_best(cells: list[str], values: Sequence[float | None]) -> list[str]:
 # -- documents ----------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Block:
-    """One marked table in a document."""
+    """One marked table in a document; `newline` ends its opening mark's line (a table is
+    written back with it, so a CRLF document stays CRLF)."""
 
     path: Path
     table_id: str
     body: str
     start: int
     end: int
+    newline: str = "\n"
+
+    def text(self) -> str:
+        """The body with LF line ends, as tables are rendered."""
+        return self.body.replace("\r\n", "\n")
 
 
 def find_blocks(path: Path, text: str) -> list[Block]:
-    """The marked blocks of a document; an opening mark without its closing one is an error."""
-    blocks = [Block(path, m["id"], m["body"], m.start("body"), m.end("body"))
-              for m in BLOCK.finditer(text)]
-    if len(blocks) != len(OPEN_MARK.findall(text)):
-        raise InputFileError(
-            "a '<!-- report:ID -->' mark has no '<!-- /report -->' after it (or two marks nest)",
-            file=path,
-        )
+    """The marked blocks of a document, line by line: a mark without its partner, nested marks
+    and a line that looks like a mark but is not one are errors (never skipped)."""
+    blocks: list[Block] = []
+    opened: tuple[str, int, str, int] | None = None  # table id, body start, newline, line number
+    offset = 0
+    for number, match in enumerate(LINE.finditer(text), start=1):
+        line, start, offset = match[0], offset, match.end()
+        mark = line.rstrip()
+        open_mark = OPEN_MARK.fullmatch(mark)
+        if open_mark is not None and opened is None:
+            opened = (open_mark["id"], offset, "\r\n" if line.endswith("\r\n") else "\n", number)
+        elif mark == CLOSE_MARK and opened is not None:
+            blocks.append(Block(path, opened[0], text[opened[1]:start], opened[1], start, opened[2]))
+            opened = None
+        elif open_mark is not None or mark == CLOSE_MARK or MARK_LIKE.match(line):
+            raise InputFileError(f"line {number}: {_misplaced(mark, opened and opened[3])}", file=path,
+                                 allowed=MARK_FORM)
+    if opened is not None:
+        raise InputFileError(f"line {opened[3]}: a '<!-- report:ID -->' mark has no '{CLOSE_MARK}' after it",
+                             file=path, allowed=MARK_FORM)
     return blocks
+
+
+def _misplaced(mark: str, open_line: int | None) -> str:
+    """Why a line that looks like a mark does not open or close a block."""
+    if OPEN_MARK.fullmatch(mark):
+        return f"a mark opens a block inside the block of line {open_line} (marks do not nest)"
+    if mark == CLOSE_MARK:
+        return f"a '{CLOSE_MARK}' mark has no '<!-- report:ID -->' before it"
+    return f"{mark!r} looks like a report mark but is not one"
 
 
 @dataclass
@@ -541,36 +572,46 @@ class Publication:
                 outcome.diffs.append(f"{figure_path(table_id)} is missing: run `vsmp-imu report --write`\n")
 
     def check(self, write: bool = False) -> Outcome:
-        """Compare (or, with `write`, rewrite) every marked block with its records."""
+        """Compare (or, with `write`, rewrite) every marked block with its records. Every
+        document is checked before any is written: an error leaves them all as they were."""
         unbacked = {u.id: u.reason for u in self.catalogue.unbacked}
         known = {t.id for t in self.catalogue.tables} | {t.id for t in self.catalogue.targets} | set(unbacked)
-        outcome, placed = Outcome(), set()
+        outcome, placed, rewrites = Outcome(), set(), {}
         for path in self.documents():
-            text = read_text(path)
-            blocks = find_blocks(path, text)
-            new_text, last = [], 0
-            for block in blocks:
-                if block.table_id not in known:
-                    raise ConfigError(f"table '{block.table_id}' is not declared in {SPEC_FILE}",
-                                      file=path, allowed=", ".join(sorted(known)))
-                placed.add(block.table_id)
-                expected = self._expected(block, unbacked, outcome)
-                new_text += [text[last:block.start], block.body if expected is None else expected]
-                last = block.end
-                if expected is None:
-                    continue
-                outcome.checked += 1
-                if expected != block.body:
-                    rel = str(path.relative_to(self.root))
-                    outcome.differing.append(f"{rel}: table '{block.table_id}'")
-                    outcome.diffs.append("".join(difflib.unified_diff(
-                        block.body.splitlines(keepends=True), expected.splitlines(keepends=True),
-                        f"{rel} [{block.table_id}] (in the document)",
-                        f"{rel} [{block.table_id}] (from the records)")))
-            new_text.append(text[last:])
-            if write and "".join(new_text) != text:
-                outcome.written.append(write_text(path, "".join(new_text)))
+            text, new_text = self._document(path, known, unbacked, outcome, placed)
+            if new_text != text:
+                rewrites[path] = new_text
         outcome.warnings += [f"table '{i}' is declared in {SPEC_FILE} but placed in no document"
                              for i in sorted(known - placed)]
+        if write:
+            outcome.written += [write_text(path, new_text) for path, new_text in rewrites.items()]
         self._figures_out(write, outcome)
         return outcome
+
+    def _document(self, path: Path, known: set[str], unbacked: dict[str, str], outcome: Outcome,
+                  placed: set[str]) -> tuple[str, str]:
+        """A document's text and the same with its blocks rebuilt; the blocks that differ go
+        to `outcome`, their ids to `placed`."""
+        text = read_text(path, newline="")  # line ends as written: a CRLF document stays CRLF
+        new_text, last = [], 0
+        for block in find_blocks(path, text):
+            if block.table_id not in known:
+                raise ConfigError(f"table '{block.table_id}' is not declared in {SPEC_FILE}",
+                                  file=path, allowed=", ".join(sorted(known)))
+            placed.add(block.table_id)
+            expected = self._expected(block, unbacked, outcome)
+            new_text += [text[last:block.start],
+                         block.body if expected is None else expected.replace("\n", block.newline)]
+            last = block.end
+            if expected is None:
+                continue
+            outcome.checked += 1
+            if expected != block.text():
+                rel = str(path.relative_to(self.root))
+                outcome.differing.append(f"{rel}: table '{block.table_id}'")
+                outcome.diffs.append("".join(difflib.unified_diff(
+                    block.text().splitlines(keepends=True), expected.splitlines(keepends=True),
+                    f"{rel} [{block.table_id}] (in the document)",
+                    f"{rel} [{block.table_id}] (from the records)")))
+        new_text.append(text[last:])
+        return text, "".join(new_text)
