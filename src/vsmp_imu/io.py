@@ -21,11 +21,12 @@ from vsmp_imu.errors import ConfigError, InputFileError
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | Path, suffix: str | None = None) -> Iterator[Path]:
+def atomic_path(path: str | Path, suffix: str | None = None, mode: int | None = None) -> Iterator[Path]:
     """Yield a temporary path next to `path`; rename it onto `path` on success.
 
     Nothing is left behind on failure: a reader never sees a partial file.
-    `suffix` keeps the extension visible to writers that dispatch on it.
+    `suffix` keeps the extension visible to writers that dispatch on it;
+    `mode`: the file's permissions (None: the usual ones, 0666 less the umask).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -39,7 +40,7 @@ def atomic_path(path: str | Path, suffix: str | None = None) -> Iterator[Path]:
     try:
         yield tmp_path
         if tmp_path.exists():
-            tmp_path.chmod(0o666 & ~_umask())  # mkstemp makes 0600; use the usual mode
+            tmp_path.chmod(0o666 & ~_umask() if mode is None else mode)  # mkstemp makes 0600
         os.replace(tmp_path, path)
     finally:
         if tmp_path.exists():
@@ -136,9 +137,9 @@ def file_sha256(path: str | Path, chunk: int = 1 << 20) -> str:
     return digest.hexdigest()
 
 
-def write_bytes(path: str | Path, data: bytes) -> Path:
-    """Write bytes atomically."""
-    with atomic_path(path) as tmp:
+def write_bytes(path: str | Path, data: bytes, mode: int | None = None) -> Path:
+    """Write bytes atomically (`mode` as `atomic_path` takes it)."""
+    with atomic_path(path, mode=mode) as tmp:
         tmp.write_bytes(data)
     return Path(path)
 
@@ -151,9 +152,9 @@ def atomic_text(path: str | Path) -> Iterator[TextIO]:
         yield stream
 
 
-def write_text(path: str | Path, text: str) -> Path:
-    """Write UTF-8 text atomically."""
-    return write_bytes(path, text.encode("utf-8"))
+def write_text(path: str | Path, text: str, mode: int | None = None) -> Path:
+    """Write UTF-8 text atomically (`mode` as `atomic_path` takes it)."""
+    return write_bytes(path, text.encode("utf-8"), mode)
 
 
 def dumps_json(obj: Any) -> str:

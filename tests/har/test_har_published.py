@@ -286,6 +286,30 @@ def test_a_line_that_looks_like_a_mark_but_is_none_is_an_input_error(repo, cli, 
     assert code == 2 and why in err and "line 17" in err, err
 
 
+def test_write_leaves_a_read_only_document_as_it_is(repo, cli):
+    cli("report", "--write", "--root", repo)
+    path = repo / "docs" / "results.md"
+    tampered = _tamper(path.read_text())
+    path.write_text(tampered)
+    path.chmod(0o444)
+    code, _, err = cli("report", "--write", "--root", repo)
+    assert code == 2 and "read-only" in err and "results.md" in err, err
+    assert path.read_text() == tampered and path.stat().st_mode & 0o777 == 0o444
+
+
+def test_write_keeps_a_documents_mode_and_its_link(repo, cli):
+    cli("report", "--write", "--root", repo)
+    real = repo / "shared.md"
+    (repo / "docs" / "results.md").rename(real)
+    (repo / "docs" / "results.md").symlink_to(real)
+    real.write_text(_tamper(real.read_text()))
+    real.chmod(0o640)
+    code, out, _ = cli("report", "--write", "--root", repo)
+    assert code == 0 and "1 files rewritten" in out, out
+    assert (repo / "docs" / "results.md").is_symlink() and real.stat().st_mode & 0o777 == 0o640
+    assert cli("report", "--check", "--root", repo)[0] == 0
+
+
 def test_a_table_asking_for_records_the_set_lacks_is_an_error(repo):
     catalogue = repo / "results" / "tables.yaml"
     catalogue.write_text(CATALOGUE.replace("budgets: [1]\n    methods: [real, vsmp]",

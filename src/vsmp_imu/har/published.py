@@ -19,6 +19,7 @@ from __future__ import annotations
 import difflib
 import os
 import re
+import stat
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -480,6 +481,24 @@ def _misplaced(mark: str, open_line: int | None) -> str:
     return f"{mark!r} looks like a report mark but is not one"
 
 
+def _check_writable(path: Path) -> None:
+    """Refuse to rewrite a read-only document: one whose mode has no write bit (even for
+    root, who may write anything), or that this user or its folder does not let us write."""
+    target = path.resolve()
+    if not (target.stat().st_mode & stat.S_IWUSR and os.access(target, os.W_OK)
+            and os.access(target.parent, os.W_OK | os.X_OK)):
+        raise InputFileError("the document is read-only, so `report --write` leaves it (and every other "
+                             "document) as it is", file=path,
+                             allowed="make it writable (chmod u+w) first, or see its differences with --check")
+
+
+def _rewrite(path: Path, text: str) -> Path:
+    """Replace a document keeping its mode; through a symbolic link, its target."""
+    target = path.resolve()
+    write_text(target, text, mode=stat.S_IMODE(target.stat().st_mode))
+    return path
+
+
 @dataclass
 class Outcome:
     """What `check` found: tables that differ (with their diffs) and warnings."""
@@ -584,7 +603,9 @@ class Publication:
         outcome.warnings += [f"table '{i}' is declared in {SPEC_FILE} but placed in no document"
                              for i in sorted(known - placed)]
         if write:
-            outcome.written += [write_text(path, new_text) for path, new_text in rewrites.items()]
+            for path in rewrites:
+                _check_writable(path)
+            outcome.written += [_rewrite(path, new_text) for path, new_text in rewrites.items()]
         self._figures_out(write, outcome)
         return outcome
 
