@@ -29,7 +29,7 @@ def get_backend(name: str, **kwargs: Any) -> MotionBackend:
     procedural backend with every motion compiled from its SMP (recipes ignored);
     'hymotion': HY-Motion 1.0.
     """
-    key = str(name).strip().lower().replace("-", "").replace("_", "")
+    key = _key(name)
     if key == "procedural":
         from vsmp_imu.motion.procedural import ProceduralBackend
 
@@ -43,3 +43,13 @@ def get_backend(name: str, **kwargs: Any) -> MotionBackend:
 
         return HYMotionBackend(**kwargs)
     raise ConfigError(f"unknown motion backend '{name}'", field="backend", allowed=", ".join(BACKENDS))
+
+
+def _key(name: str) -> str:
+    return str(name).strip().lower().replace("-", "").replace("_", "")
+
+
+def check_backend(name: str, field: str = "backend") -> None:
+    """Refuse a name `get_backend` does not take, before any work (nothing is imported)."""
+    if _key(name) not in (*BACKENDS, "hymotion1", "hymotion10"):
+        raise ConfigError(f"unknown motion backend '{name}'", field=field, allowed=", ".join(BACKENDS))
