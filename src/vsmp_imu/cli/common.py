@@ -95,6 +95,14 @@ def output_dir(path: Path | None, option: str = "--output") -> Path | None:
     return path
 
 
+def path_text(text: str) -> Path:
+    """A path option's text as a Path (typer's `parser`); an empty one is refused, not taken
+    as the current folder."""
+    if not text.strip():
+        raise typer.BadParameter("is empty; give a path ('.' for the current folder)")
+    return Path(text)
+
+
 def _check_parent(path: Path, option: str) -> None:
     """The nearest existing folder above `path` must be a folder we may write in."""
     above = path.absolute().parent

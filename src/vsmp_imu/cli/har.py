@@ -34,6 +34,7 @@ from vsmp_imu.cli.common import (
     finite_range,
     output_dir,
     parse_csv,
+    path_text,
     print_warnings,
     shown,
 )
@@ -221,15 +222,17 @@ def evaluate_cmd(
         1, "--processes", min=1, max=64,
         help="run the folds in this many evaluate processes side by side, one fold each (each with "
              "--jobs threads and --workers generation workers); their records merge into the output folder"),
-    output: Path = typer.Option(..., "--output", "-o", help="output folder"),
+    output: Path = typer.Option(..., "--output", "-o", parser=path_text, metavar="DIR",
+                                help="output folder: a new or empty one, or one of an earlier evaluate with the "
+                                     "same settings (resumed, or extended by more methods, folds or seeds)"),
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
     confusion matrices to the output folder (finished folds are not recomputed)."""
-    output_dir(output)
-    output_dir(cache_dir, "--cache-dir")
+    _check_folders(output, cache_dir)
     executor_options(executor, address)
     from vsmp_imu.app import EvalRequest, evaluate, evaluation
     from vsmp_imu.har.backbones import BACKBONES
+    from vsmp_imu.har.output import claim
     from vsmp_imu.motion.backends import check_backend
     from vsmp_imu.pipeline.spec import GenerationSpec, intensity_bounds
 
@@ -262,9 +265,11 @@ def evaluate_cmd(
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)
+    _, folds = run.windows_and_folds()  # checked before the folder is claimed
+    claim(run)  # refuses a folder whose records were made with other settings or data
     print_warnings(run.dataset.warnings)
     if processes > 1:
-        _fold_processes(run, spec, request, processes)
+        _fold_processes(run, spec, request, processes, folds)
     with progress(f"{run.dataset.info.name} {protocol}", console=console, transient=False) as update:
         results, written = evaluate(run, lambda stage, done, total: update(done, total, stage))
     _print_summary(results.summary)
@@ -275,12 +280,20 @@ def evaluate_cmd(
     )
 
 
-def _fold_processes(run, spec, request, processes: int) -> None:
+def _check_folders(output: Path, cache_dir: Path | None) -> None:
+    """Before any work: the output folder is new, empty or an earlier evaluate's."""
+    from vsmp_imu.har.output import check_folder
+
+    output_dir(output)
+    check_folder(output)
+    output_dir(cache_dir, "--cache-dir")
+
+
+def _fold_processes(run, spec, request, processes: int, folds: list[str]) -> None:
     """`--processes N`: every fold in its own process first (`vsmp_imu.har.fanout`); the
     evaluation that follows finds their records done. A failed fold stops the command (exit 1)."""
     from vsmp_imu.har.fanout import run_folds
 
-    folds = run.folds(run.dataset.windows(request.window_s, request.overlap))
     console.print(f"{len(folds)} fold(s) in {min(processes, len(folds))} processes; each fold's progress "
                   f"in {shown(request.output / '.folds')}/fold-FOLD/log.txt", highlight=False)
 
