@@ -104,6 +104,16 @@ def test_the_fingerprint_follows_the_recordings_of_hapt(tmp_path):
     assert data_fingerprint(first) != data_fingerprint(HAPT().get_subset(["2"]))
 
 
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs /proc")
+@pytest.mark.parametrize("option", ["--output", "--cache-dir"])
+def test_a_folder_that_cannot_be_written_is_refused_before_any_work(cli, generic, tmp_path, option):
+    """/proc looks writable to root (`os.access`), yet nothing can be made there."""
+    out, cache = (Path("/proc/vsmp-imu-test"), None) if option == "--output" else (tmp_path / "run", "/proc/cache")
+    code, stdout, err = _evaluate(cli, generic, out, *(("--cache-dir", cache) if cache else ()))
+    assert code == 2 and f"field '{option}'" in err and "cannot write in '/proc'" in err, stdout
+    assert not (tmp_path / "run").exists()
+
+
 @pytest.mark.parametrize("args,option", [
     (("--methods", "real,classical,real"), "--methods"),
     (("--backbones", "rf,rf"), "--backbones"),

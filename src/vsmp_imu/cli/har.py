@@ -36,6 +36,7 @@ from vsmp_imu.cli.common import (
     parse_csv,
     path_text,
     print_warnings,
+    probe_folder,
     shown,
 )
 from vsmp_imu.errors import ConfigError
@@ -281,12 +282,16 @@ def evaluate_cmd(
 
 
 def _check_folders(output: Path, cache_dir: Path | None) -> None:
-    """Before any work: the output folder is new, empty or an earlier evaluate's."""
+    """Before any work: the output folder is new, empty or an earlier evaluate's, and both
+    folders can be written (a probe file)."""
     from vsmp_imu.har.output import check_folder
 
     output_dir(output)
     check_folder(output)
-    output_dir(cache_dir, "--cache-dir")
+    probe_folder(output)
+    if cache_dir is not None:
+        output_dir(cache_dir, "--cache-dir")
+        probe_folder(cache_dir, "--cache-dir")
 
 
 def _fold_processes(run, spec, request, processes: int, folds: list[str]) -> None:
