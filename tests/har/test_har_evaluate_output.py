@@ -142,3 +142,28 @@ def test_a_device_no_backbone_uses_is_said_to_be_unused(monkeypatch, capsys):
 
     assert _backbone_params(("rf",), None, None, 1, "cuda:1") == {"rf": {"n_jobs": 1}}
     assert "--device is unused" in capsys.readouterr().out
+
+
+def test_a_cache_dir_of_the_user_keeps_the_size_cap_on_its_sample_files_alone(tiny_dataset, tmp_path,
+                                                                               monkeypatch):
+    from vsmp_imu.app import evaluate
+    from vsmp_imu.har.evaluate import EvalConfig, Evaluation
+
+    cache = tmp_path / "mine"
+    cache.mkdir()
+    samples = [cache / f"{i:024x}.parquet" for i in range(4)]
+    for age, path in enumerate(samples):
+        path.write_bytes(b"x" * 100)
+        os.utime(path, (1000 + age, 1000 + age))
+    (cache / "notes.parquet").write_bytes(b"y" * 1000)  # not a sample: the user's
+    monkeypatch.setenv("VSMP_IMU_CACHE_MAX_GB", str(250 / 1e9))
+    config = EvalConfig(dataset="tiny", folds=("1",), backbone_params={"rf": {"n_estimators": 5, "n_jobs": 1}},
+                        method_params={"real": {"cache_dir": str(cache)}})
+    evaluate(Evaluation(config, tiny_dataset, tmp_path / "run"))
+    assert sorted(p.name for p in cache.iterdir()) == sorted([samples[2].name, samples[3].name, "notes.parquet"])
+
+
+def test_an_empty_cache_dir_is_refused(cli, generic, tmp_path):
+    code, _, err = _evaluate(cli, generic, tmp_path / "run", "--cache-dir", "")
+    assert code == 2 and "--cache-dir" in err and "is empty" in " ".join(err.replace("│", " ").split())
+    assert not (tmp_path / "run").exists()

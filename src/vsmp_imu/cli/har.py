@@ -210,8 +210,9 @@ def evaluate_cmd(
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder"),
     refill: int = typer.Option(0, "--refill", min=0, max=8,
                                help="VSMP-IMU: extra passes for classes short of their budget after filtering"),
-    cache_dir: Path = typer.Option(None, "--cache-dir",
-                                   help="generated-sample cache (default: the cache directory, see `vsmp-imu cache info`)"),
+    cache_dir: Path = typer.Option(None, "--cache-dir", parser=path_text, metavar="DIR",
+                                   help="generated-sample cache (default: the cache directory, see `vsmp-imu cache "
+                                        "info`); its samples are kept below the same size cap"),
     share_selection: str = typer.Option(
         None, "--share-selection", show_default=False,
         help="do no harm: drop a method's synthetic windows where they measurably lower the validation "
