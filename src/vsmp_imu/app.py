@@ -207,14 +207,26 @@ def evaluate(evaluation, progress: Callable | None = None):
     """Run an evaluation and write results.json, results.md and the confusion matrices.
 
     Returns (EvalResults, written report files)."""
-    from vsmp_imu.har.cache import max_cache_bytes, prune_cache, samples_dir
     from vsmp_imu.har.report import write_report
 
     results = evaluation.run(progress)
     written = write_report(results.to_json(), evaluation.output_dir)
-    if samples_dir().is_dir():
-        prune_cache(samples_dir(), max_cache_bytes())
+    prune_samples(evaluation.config.method_params)
     return results, written
+
+
+def prune_samples(method_params: dict[str, dict[str, Any]]) -> None:
+    """Keep the sample caches below the size cap (`max_cache_bytes`): the default one whole, and
+    a `--cache-dir` the methods were given, of which only the cache's own files are removed."""
+    from vsmp_imu.har.cache import max_cache_bytes, prune_cache, prune_files, samples_dir
+    from vsmp_imu.pipeline.sample import cached_files
+
+    cap, default = max_cache_bytes(), samples_dir()
+    if default.is_dir():
+        prune_cache(default, cap)
+    for folder in {str(p["cache_dir"]) for p in method_params.values() if p.get("cache_dir")}:
+        if Path(folder).absolute() != default.absolute():
+            prune_files(cached_files(folder), cap)
 
 
 def method_names() -> tuple[str, ...]:

@@ -47,8 +47,9 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
         (("--protocol", "kfold"), "--protocol", "lopo, low-resource, long-tail"),
         (("--backbones", "rf,svm"), "--backbones", "rf, rf-seg, dclstm, dclstm-attn, bilstm-attn"),
         (("--methods", "real,magic"), "--methods", "real, classical"),
-        (("--overlap", "1.5"), "--overlap", "0 <= overlap < 1"),
-        (("--overlap", "nan"), "--overlap", "0 <= overlap < 1"),
+        (("--overlap", "1.5"), "--overlap", "0..0.9, not 1.5"),
+        (("--overlap", "nan"), "--overlap", "0..0.9, not nan"),
+        (("--overlap", "0.95"), "--overlap", "0..0.9, not 0.95"),  # a hop of 5 % of a window: 10x the windows
         (("--workers", "0"), "--workers", ">= 1"),
         (("--max-epochs", "0"), "--max-epochs", ">= 1"),
         (("--policy", "greedy"), "--policy", "uniform, tail, scarcity"),

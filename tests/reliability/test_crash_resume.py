@@ -222,7 +222,8 @@ def test_evaluate_with_vsmp_resumes_after_many_sigkills(small_dataset, tmp_path)
 
 def test_evaluate_resumes_with_another_sample_cache_and_worker_count(small_dataset, tmp_path):
     """Where the samples are cached and how many workers make them change no record: a rerun
-    with other ones reuses every record and generates nothing; another alpha recomputes."""
+    with other ones reuses every record and generates nothing; another alpha is refused (its
+    records would replace these) and leaves the records as they were."""
     out = tmp_path / "run"
     _timed([*_evaluate_args(small_dataset, out, 1), "--cache-dir", str(tmp_path / "cache-a")])
     records = tree_bytes(out, ("records",))
@@ -234,6 +235,7 @@ def test_evaluate_resumes_with_another_sample_cache_and_worker_count(small_datas
     assert config["method_params"]["vsmp"]["workers"] == 2  # recorded, for the reader
     other = [*_evaluate_args(small_dataset, out, 2), "--cache-dir", str(tmp_path / "cache-b")]
     other[other.index("--alpha") + 1] = "0.6"
-    recomputed = run_cli(*other)
-    assert recomputed.returncode == 0, recomputed.stderr[-2000:]
-    assert "(cached)" not in recomputed.stdout + recomputed.stderr and (tmp_path / "cache-b").is_dir()
+    refused = run_cli(*other)
+    assert refused.returncode == 2, refused.stderr[-2000:]
+    assert "--alpha 0.5 (now 0.6)" in " ".join(refused.stderr.split())
+    assert tree_bytes(out, ("records",)) == records and not (tmp_path / "cache-b").exists()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -106,6 +107,30 @@ def output_dir(path: Path | None, option: str = "--output") -> Path | None:
     else:
         _check_parent(path, option)
     return path
+
+
+def probe_folder(path: Path, option: str = "--output") -> None:
+    """Create and remove a small file in `path`, or in the nearest existing folder above it: a
+    folder that only looks writable (root on /proc, a full or read-only disk) is found before
+    any work, where `os.access` says yes."""
+    above = path.absolute()
+    while not _exists(above, option) and above != above.parent:
+        above = above.parent
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".vsmp-imu-probe-", dir=above)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise ConfigError(f"cannot write in '{above}' ({exc.strerror})", file=path, field=option,
+                          allowed="a folder you may write to") from exc
+
+
+def path_text(text: str) -> Path:
+    """A path option's text as a Path (typer's `parser`); an empty one is refused, not taken
+    as the current folder."""
+    if not text.strip():
+        raise typer.BadParameter("is empty; give a path ('.' for the current folder)")
+    return Path(text)
 
 
 def _check_parent(path: Path, option: str) -> None:

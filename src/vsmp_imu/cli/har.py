@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +34,9 @@ from vsmp_imu.cli.common import (
     finite_range,
     output_dir,
     parse_csv,
+    path_text,
     print_warnings,
+    probe_folder,
     shown,
 )
 from vsmp_imu.errors import ConfigError
@@ -42,10 +45,32 @@ from vsmp_imu.progress import progress
 dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_is_help=True)
 
 
+MAX_OVERLAP = 0.9  # a hop of a tenth of a window: ten times the windows of no overlap
+
+
+def _once(items: list[str], option: str) -> tuple[str, ...]:
+    """The items of a list option, each named once (a repeat would count a run twice)."""
+    twice = [item for item, n in Counter(items).items() if n > 1]
+    if twice:
+        raise ConfigError(f"{', '.join(twice)} named more than once", field=option, allowed="each value once")
+    return tuple(items)
+
+
 def _parse_folds(text: str) -> tuple[str, ...] | None:
     if text.strip().lower() == "all":
         return None
-    return tuple(parse_csv(text, option="--folds"))
+    return _once(parse_csv(text, option="--folds"), "--folds")
+
+
+def _parse_budgets(text: str | None) -> tuple[float | None, ...]:
+    """`--budgets` as numbers (checked against the protocol later, `EvalConfig.check`)."""
+    from vsmp_imu.har.protocols import parse_budgets
+
+    if not text:
+        return (None,)
+    values = parse_budgets(text, "low-resource")
+    _once([f"{float(t.strip().rstrip('%')):g}" for t in text.split(",") if t.strip().rstrip("%")], "--budgets")
+    return values
 
 
 def _parse_seeds(text: str | None) -> tuple[int, ...]:
@@ -134,14 +159,16 @@ def evaluate_cmd(
     rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
     window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
                                    help="window length in seconds, 0.5..30"),
-    overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
+    overlap: float = typer.Option(0.5, "--overlap", callback=finite_range(0.0, MAX_OVERLAP),
+                                  help=f"overlap of neighbouring windows, 0..{MAX_OVERLAP:g}"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
     max_epochs: int = typer.Option(None, "--max-epochs", max=100000, help="neural backbones: epoch limit"),
     patience: int = typer.Option(
         None, "--patience", max=100000, help="neural backbones: early-stopping patience"
     ),
     jobs: int = typer.Option(None, "--jobs", max=256, help="CPU threads for RF and PyTorch"),
-    device: str = typer.Option("cpu", "--device", help="neural backbones: cpu | cuda | cuda:N | mps | auto"),
+    device: str = typer.Option(None, "--device", show_default=False,
+                               help="neural backbones: cpu | cuda | cuda:N | mps | auto [default: cpu]"),
     class_weight: str = typer.Option(
         None, "--class-weight", show_default=False,
         help="balanced (each class weighted by the inverse of its training windows, in a forest's "
@@ -183,8 +210,9 @@ def evaluate_cmd(
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder"),
     refill: int = typer.Option(0, "--refill", min=0, max=8,
                                help="VSMP-IMU: extra passes for classes short of their budget after filtering"),
-    cache_dir: Path = typer.Option(None, "--cache-dir",
-                                   help="generated-sample cache (default: the cache directory, see `vsmp-imu cache info`)"),
+    cache_dir: Path = typer.Option(None, "--cache-dir", parser=path_text, metavar="DIR",
+                                   help="generated-sample cache (default: the cache directory, see `vsmp-imu cache "
+                                        "info`); its samples are kept below the same size cap"),
     share_selection: str = typer.Option(
         None, "--share-selection", show_default=False,
         help="do no harm: drop a method's synthetic windows where they measurably lower the validation "
@@ -196,19 +224,22 @@ def evaluate_cmd(
         1, "--processes", min=1, max=64,
         help="run the folds in this many evaluate processes side by side, one fold each (each with "
              "--jobs threads and --workers generation workers); their records merge into the output folder"),
-    output: Path = typer.Option(..., "--output", "-o", help="output folder"),
+    output: Path = typer.Option(..., "--output", "-o", parser=path_text, metavar="DIR",
+                                help="output folder: a new or empty one, or one of an earlier evaluate with the "
+                                     "same settings (resumed, or extended by more methods, folds or seeds)"),
 ) -> None:
     """Evaluate backbones x methods under a LOPO protocol; writes results.json, results.md and
     confusion matrices to the output folder (finished folds are not recomputed)."""
-    output_dir(output)
-    output_dir(cache_dir, "--cache-dir")
+    _check_folders(output, cache_dir)
     executor_options(executor, address)
     from vsmp_imu.app import EvalRequest, evaluate, evaluation
     from vsmp_imu.har.backbones import BACKBONES
-    from vsmp_imu.har.protocols import parse_budgets
+    from vsmp_imu.har.output import claim
+    from vsmp_imu.motion.backends import check_backend
     from vsmp_imu.pipeline.spec import GenerationSpec, intensity_bounds
 
-    chosen_backbones = tuple(parse_csv(backbones, tuple(BACKBONES), "--backbones"))
+    check_backend(backend, "--backend")  # before the dataset loads, even where no method animates
+    chosen_backbones = _once(parse_csv(backbones, tuple(BACKBONES), "--backbones"), "--backbones")
     share_selection = share_default(protocol, chosen_backbones, share_selection)
     alpha, policy = budget_defaults(protocol, alpha, policy)
     _positive(max_epochs, "--max-epochs")
@@ -218,14 +249,14 @@ def evaluate_cmd(
     class_weight, share = weighting(chosen_backbones, class_weight, synthetic_weight)
     request = EvalRequest(
         dataset=dataset, output=output, protocol=protocol,
-        budgets=parse_budgets(budgets, "low-resource") if budgets else (None,),
-        backbones=chosen_backbones, methods=tuple(parse_csv(methods, option="--methods")),
+        budgets=_parse_budgets(budgets),
+        backbones=chosen_backbones, methods=_once(parse_csv(methods, option="--methods"), "--methods"),
         folds=_parse_folds(folds), seeds=seeds, only_seeds=_parse_seeds(only_seeds), rho=rho, window_s=window_s, overlap=overlap,
         data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device,
                                                              class_weight),
         report_groups=_parse_groups(report_groups), share_selection=share_selection,
         synthetic_weight=share,
-        unseen=tuple(parse_csv(unseen, option="--unseen")) if unseen is not None else ())
+        unseen=_once(parse_csv(unseen, option="--unseen"), "--unseen") if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, per_class_rank=per_class_rank,
         motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
@@ -236,9 +267,11 @@ def evaluate_cmd(
         library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)
+    _, folds = run.windows_and_folds()  # checked before the folder is claimed
+    claim(run)  # refuses a folder whose records were made with other settings or data
     print_warnings(run.dataset.warnings)
     if processes > 1:
-        _fold_processes(run, spec, request, processes)
+        _fold_processes(run, spec, request, processes, folds)
     with progress(f"{run.dataset.info.name} {protocol}", console=console, transient=False) as update:
         results, written = evaluate(run, lambda stage, done, total: update(done, total, stage))
     _print_summary(results.summary)
@@ -249,12 +282,24 @@ def evaluate_cmd(
     )
 
 
-def _fold_processes(run, spec, request, processes: int) -> None:
+def _check_folders(output: Path, cache_dir: Path | None) -> None:
+    """Before any work: the output folder is new, empty or an earlier evaluate's, and both
+    folders can be written (a probe file)."""
+    from vsmp_imu.har.output import check_folder
+
+    output_dir(output)
+    check_folder(output)
+    probe_folder(output)
+    if cache_dir is not None:
+        output_dir(cache_dir, "--cache-dir")
+        probe_folder(cache_dir, "--cache-dir")
+
+
+def _fold_processes(run, spec, request, processes: int, folds: list[str]) -> None:
     """`--processes N`: every fold in its own process first (`vsmp_imu.har.fanout`); the
     evaluation that follows finds their records done. A failed fold stops the command (exit 1)."""
     from vsmp_imu.har.fanout import run_folds
 
-    folds = run.folds(run.dataset.windows(request.window_s, request.overlap))
     console.print(f"{len(folds)} fold(s) in {min(processes, len(folds))} processes; each fold's progress "
                   f"in {shown(request.output / '.folds')}/fold-FOLD/log.txt", highlight=False)
 
@@ -327,17 +372,32 @@ def _without_class_weight(chosen: tuple[str, ...]) -> list[str]:
     return [b for b in chosen if "class_weight" not in make_backbone(b).get_params()]
 
 
+DEVICE_NAME = re.compile(r"cpu|cuda|cuda:[0-9]+|mps|auto")  # `resolve_device`'s names
+
+
+def _check_device(device: str | None, used: bool) -> None:
+    """`--device` where given: resolved where a chosen backbone takes it (an unknown or absent
+    device fails before any data is loaded); else its name checked, and said to be unused."""
+    from vsmp_imu.har.backbones.neural import DEVICES, resolve_device
+
+    if device is None:
+        return
+    if used:
+        resolve_device(device)
+    elif not DEVICE_NAME.fullmatch(device.strip().lower()):
+        raise ConfigError(f"unknown device '{device}'", field="--device", allowed=", ".join(DEVICES))
+    else:
+        console.print("[yellow]note:[/] --device is unused: no chosen backbone is a network", highlight=False)
+
+
 def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: int | None,
-                     jobs: int | None, device: str, class_weight: str = "none") -> dict[str, dict[str, Any]]:
+                     jobs: int | None, device: str | None, class_weight: str = "none") -> dict[str, dict[str, Any]]:
     """Per backbone: the options given that it takes (`option_params`). A class weight that a
     chosen backbone cannot take is refused, so every backbone of a run is weighted alike."""
     from vsmp_imu.har.backbones import make_backbone, option_params
 
     accepted = {b: make_backbone(b).get_params() for b in chosen}
-    if any("device" in a for a in accepted.values()):
-        from vsmp_imu.har.backbones.neural import resolve_device
-
-        resolve_device(device)  # an unknown or absent device fails before any data is loaded
+    _check_device(device, any("device" in a for a in accepted.values()))
     if class_weight not in CLASS_WEIGHTS:  # one value: a list would reach the forest unparsed
         raise ConfigError(f"unknown class weight '{class_weight}'", field="--class-weight",
                           allowed=", ".join(CLASS_WEIGHTS))
@@ -347,7 +407,7 @@ def _backbone_params(chosen: tuple[str, ...], max_epochs: int | None, patience: 
         raise ConfigError(f"backbone(s) {', '.join(unweighted)} take no class weights", field="--class-weight",
                           allowed="none, or only backbones that take a class_weight parameter")
     params = {b: option_params(b, jobs=jobs, max_epochs=max_epochs, patience=patience,
-                               device=None if device == "cpu" else device,
+                               device=None if device in (None, "cpu") else device,
                                class_weight=class_weight if weighted else None) for b in chosen}
     return {b: p for b, p in params.items() if p}
 

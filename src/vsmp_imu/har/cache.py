@@ -25,7 +25,7 @@ from vsmp_imu.errors import ConfigError
 from vsmp_imu.io import atomic_path, file_sha256
 
 __all__ = ["CACHE_FOLDERS", "KEPT_UNLESS_ASKED", "cache_dir", "cache_folder", "file_sha256", "load_npz", "save_npz", "samples_dir",
-           "vlm_dir", "max_cache_bytes", "cache_contents", "prune_cache", "clear_cache"]
+           "vlm_dir", "max_cache_bytes", "cache_contents", "prune_cache", "prune_files", "clear_cache"]
 
 SAMPLES = "samples"  # samples_dir()
 HAPT_CACHE = "hapt"  # the HAPT loader's parsed arrays (har/datasets/hapt.py)
@@ -145,7 +145,12 @@ def prune_cache(folder: Path, max_bytes: int) -> tuple[int, int]:
     Returns (files removed, bytes removed). Cache hits refresh a file's time, so what
     recent runs use stays.
     """
-    files = sorted(_files(Path(folder)), key=lambda p: (_mtime(p), str(p)))
+    return prune_files(_files(Path(folder)), max_bytes)
+
+
+def prune_files(files: list[Path], max_bytes: int) -> tuple[int, int]:
+    """`prune_cache` of these files alone (a folder of the user's: only the cache's own files)."""
+    files = sorted(files, key=lambda p: (_mtime(p), str(p)))
     total = sum(_size(p) for p in files)
     removed = freed = 0
     for path in files:

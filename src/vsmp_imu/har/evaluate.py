@@ -326,20 +326,11 @@ class Evaluation:
             )
         return sorted(dict.fromkeys(wanted), key=natural_key)
 
-    def _digest(self, backbone: str, method: str, unseen: tuple[str, ...] | None = None,
-                with_run_params: bool = False) -> str:
-        """Hash of every setting a record depends on (besides its key).
-
-        Settings that decide only where and how fast a record is computed (the backbones' and
-        the methods' `RUN_PARAMS`) are left out; `with_run_params` keeps the methods' in, as
-        records written before they were left out have it."""
+    def run_settings(self) -> dict[str, Any]:
+        """The settings every record of this run depends on, whatever its backbone and method
+        (the shared part of `_digest`)."""
         c = self.config
-        params = make_backbone(backbone, **c.backbone_params.get(backbone, {})).get_params()
-        params = {k: v for k, v in params.items() if k not in BACKBONE_RUN_PARAMS}
-        method_params = c.method_params.get(method, {})
-        if not with_run_params:
-            method_params = {k: v for k, v in method_params.items() if k not in RUN_PARAMS}
-        payload = {
+        return {
             "harness_version": HARNESS_VERSION,
             "dataset": c.dataset,
             "info": self.dataset.info.to_dict(),
@@ -349,10 +340,32 @@ class Evaluation:
             "policy": c.policy,
             "rho": c.rho,
             "val_fraction": c.val_fraction,
+        }
+
+    def backbone_settings(self, backbone: str) -> dict[str, Any]:
+        """The backbone's parameters a record depends on (its `RUN_PARAMS` left out)."""
+        params = make_backbone(backbone, **self.config.backbone_params.get(backbone, {})).get_params()
+        return {k: v for k, v in params.items() if k not in BACKBONE_RUN_PARAMS}
+
+    def method_settings(self, method: str, with_run_params: bool = False) -> dict[str, Any]:
+        """The method's parameters a record depends on (its `RUN_PARAMS` left out unless asked)."""
+        params = self.config.method_params.get(method, {})
+        return dict(params) if with_run_params else {k: v for k, v in params.items() if k not in RUN_PARAMS}
+
+    def _digest(self, backbone: str, method: str, unseen: tuple[str, ...] | None = None,
+                with_run_params: bool = False) -> str:
+        """Hash of every setting a record depends on (besides its key).
+
+        Settings that decide only where and how fast a record is computed (the backbones' and
+        the methods' `RUN_PARAMS`) are left out; `with_run_params` keeps the methods' in, as
+        records written before they were left out have it."""
+        c = self.config
+        payload = {
+            **self.run_settings(),
             "backbone": backbone,
-            "backbone_params": params,
+            "backbone_params": self.backbone_settings(backbone),
             "method": method,
-            "method_params": method_params,
+            "method_params": self.method_settings(method, with_run_params),
         }
         if unseen is not None:  # absent otherwise: the other protocols' records stay valid
             payload["unseen"] = list(unseen)
@@ -407,12 +420,17 @@ class Evaluation:
         return record if found == digest else None
 
     # -- running ---------------------------------------------------------------------------
-    def run(self, progress: Progress | None = None) -> EvalResults:
+    def windows_and_folds(self) -> tuple[Windows, list[str]]:
+        """The dataset's windows and the folds to run, checked (ConfigError or ValidationError)."""
         c = self.config
         windows = self.dataset.windows(c.window_s, c.overlap)
         require_windows(self.dataset, windows, c.window_s)
+        return windows, self.folds(windows)
+
+    def run(self, progress: Progress | None = None) -> EvalResults:
+        c = self.config
+        windows, folds = self.windows_and_folds()
         groups = self._groups()
-        folds = self.folds(windows)
         if self.output_dir is not None:
             remove_stale_temps(self.output_dir)  # leftovers of a killed run
         cells = self._cells()

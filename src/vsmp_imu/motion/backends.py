@@ -51,3 +51,11 @@ def backend_name(name: str) -> str:
     if key not in BACKENDS:
         raise ConfigError(f"unknown motion backend '{name}'", field="backend", allowed=", ".join(BACKENDS))
     return key
+
+
+def check_backend(name: str, field: str = "backend") -> None:
+    """Refuse a name `get_backend` does not take, before any work (nothing is imported)."""
+    try:
+        backend_name(name)
+    except ConfigError as exc:
+        raise exc.in_field(field) from None

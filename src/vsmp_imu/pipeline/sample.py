@@ -18,6 +18,7 @@ import hashlib
 import io
 import json
 import os
+import re
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -471,6 +472,17 @@ def cached_synthesize_many(tasks: tuple[SampleTask, ...], cache_dir: str | None)
             result.to_parquet(Path(cache_dir) / f"{tasks[i].content_hash()}.parquet")
         results[i] = result
     return results
+
+
+CACHED_NAME = re.compile(r"[0-9a-f]{24}(\.motion\.npz|\.parquet)")  # `_cached`'s files: content hash, kind
+
+
+def cached_files(cache_dir: str | Path) -> list[Path]:
+    """The per-sample cache's own files directly in `cache_dir` (`_cached`), nothing else."""
+    folder = Path(cache_dir)
+    if not folder.is_dir():
+        return []
+    return [p for p in folder.iterdir() if CACHED_NAME.fullmatch(p.name) and p.is_file() and not p.is_symlink()]
 
 
 def _motion_target(task: SampleTask, cache_dir: str | None) -> Path | None:
