@@ -53,7 +53,7 @@ from vsmp_imu.smp.bodyparts import (
     side_of,
 )
 from vsmp_imu.smp.library import ActivityLibrary, LibraryEntry
-from vsmp_imu.smp.schema import SMP, UNKNOWN
+from vsmp_imu.smp.schema import MAX_PRIMITIVES, SMP, UNKNOWN
 
 MARK_UNCERTAIN = 0.8  # uncertainty of a field that failed a check and could not be corrected
 PRIMITIVE_MATCH_MIN = 75.0  # rapidfuzz token_sort_ratio for "same primitive"
@@ -325,6 +325,9 @@ def _check_label_primitives(w: _Work, entry: LibraryEntry) -> None:
         else:
             items.insert(cursor, ("lib", li))
             cursor += 1
+    if len(items) > MAX_PRIMITIVES:  # no room to insert the missing ones
+        w.mark("label_primitive", "motion_primitives")
+        return
     prims = d["motion_primitives"]
     values = d["primitive_durations"]["values"]
     new_prims, new_seq, new_values = [], [], []

@@ -25,7 +25,9 @@ a reason, and reports what it did:
 4. Mandatory fields: `activity_label`, and the primitives, given as
    `motion_primitives` or `primitive_sequence` (either one is rebuilt from
    the other; a sequence name that no primitive has gets a bare primitive).
-   A response without a label or without any primitive is rejected.
+   A response without a label or without any primitive is rejected, and so is
+   one with more than `MAX_PRIMITIVES` primitives or sequence items (an invalid
+   value: an SMP has a handful).
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from vsmp_imu.io import load_yaml
 from vsmp_imu.smp._text import NUMBER_WORDS, norm_key, norm_name
 from vsmp_imu.smp.schema import (
     INVARIANT_FIELDS,
+    MAX_PRIMITIVES,
     SCHEMA_VERSION,
     SMP,
     STRUCTURAL_NAMES,
@@ -910,6 +913,23 @@ def _primitives(data: dict, ctx: _Ctx) -> tuple[list[dict], list[str]]:
     return prims, seq
 
 
+def _too_many(name: str, n: int, ctx: _Ctx) -> bool:
+    """More than MAX_PRIMITIVES items in `name` is an invalid value that rejects the answer."""
+    if n <= MAX_PRIMITIVES:
+        return False
+    ctx.invalid(name, f"rejected '{name}': {n} items, more than {MAX_PRIMITIVES}")
+    ctx.report.rejected = True
+    ctx.report.reason = f"'{name}' has {n} items; at most {MAX_PRIMITIVES} are allowed"
+    return True
+
+
+def _raw_count(value: Any) -> int:
+    """How many items a raw primitive list or sequence holds (before any is repaired)."""
+    if isinstance(value, str):
+        return sum(1 for s in _SPLIT_SEQ.split(value) if s and s.strip())
+    return len(value) if isinstance(value, list) else 0
+
+
 def _add_missing_primitives(prims: list[dict], seq: list[str], ctx: _Ctx) -> None:
     """A sequence name that no primitive has (the schema refuses it) gets a bare primitive."""
     known = {norm_name(p["name"]) for p in prims}
@@ -1064,7 +1084,11 @@ def _assemble(data: dict, ctx: _Ctx) -> dict[str, Any] | None:
     label = _label(top, ctx)
     if top.get("activity_label") is None or label is None:
         ctx.report.missing_mandatory.append("activity_label")
+    if any(_too_many(k, _raw_count(top.get(k)), ctx) for k in ("motion_primitives", "primitive_sequence")):
+        return None
     prims, seq = _primitives(top, ctx)
+    if _too_many("motion_primitives", len(prims), ctx) or _too_many("primitive_sequence", len(seq), ctx):
+        return None
     missing = [m for m in ctx.report.missing_mandatory]
     problems = []
     if label is None:
