@@ -297,3 +297,22 @@ def test_the_primitive_bound_counts_what_repair_builds():
     assert result.smp is None and "motion_primitives" in result.report.invalid_values
     at_bound = json.dumps({"activity_label": "x", "primitive_sequence": [f"p{i}" for i in range(MAX_PRIMITIVES)]})
     assert len(parse_response(at_bound).smp.motion_primitives) == MAX_PRIMITIVES
+
+
+def test_an_out_of_range_number_resets_only_its_field(raw):
+    raw["primitive_durations"] = {"type": "absolute", "values": [-3.0, 1e9, 2.0]}
+    raw["motion_primitives"][0]["relative_duration"] = 1e9
+    raw["execution_attributes"]["global_displacement"] = 1e308
+    result = parse_response(json.dumps(raw))
+    smp, report = result.smp, result.report
+    assert smp is not None and not [r for r in report.repairs if r.startswith("reset")]
+    assert smp.primitive_durations.values == ["unknown", "unknown", 2.0]
+    assert smp.motion_primitives[0].relative_duration == "unknown"
+    ea = smp.execution_attributes
+    assert ea.global_displacement == "unknown"
+    # the section's other fields are kept
+    assert (ea.tempo, ea.amplitude, ea.symmetry) == (raw["execution_attributes"]["tempo"],
+                                                     raw["execution_attributes"]["amplitude"], "symmetric")
+    assert {"primitive_durations.values[1]", "motion_primitives[0].relative_duration",
+            "execution_attributes.global_displacement"} <= set(report.invalid_values)
+    assert any("1e+308" in r and "0..2000 m" in r for r in report.repairs)
