@@ -226,3 +226,10 @@ def test_cli_option_errors(cli, videos, tmp_path):
     code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "--n-frames", "4",
                        "--preset", "mm_fit", "-o", tmp_path / "a.json")
     assert code == 2 and "not both" in err
+
+
+@pytest.mark.parametrize("value", ["nan", "-0.1", "1.5", "inf"])
+def test_cli_fuse_threshold_is_a_finite_number_in_0_1(cli, videos, tmp_path, value):
+    code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "--extractor", "fused",
+                       "--fuse-threshold", value, "-o", tmp_path / "a.json")
+    assert code == 2 and "--fuse-threshold" in err and "0..1" in err

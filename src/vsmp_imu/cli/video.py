@@ -17,6 +17,7 @@ from vsmp_imu.cli.common import (
     console,
     console_err,
     distinct_files,
+    finite_range,
     library_dirs,
     output_dir,
     output_file,
@@ -134,8 +135,8 @@ def extract_cmd(
                                             help="Never send the JSON-schema response_format"),
     timeout_s: float = typer.Option(120.0, "--timeout-s", help="VLM request timeout (s)"),
     max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM query"),
-    fuse_threshold: float = typer.Option(0.35, "--fuse-threshold",
-                                         help="fused: measurements below this uncertainty override"),
+    fuse_threshold: float = typer.Option(0.35, "--fuse-threshold", callback=finite_range(0.0, 1.0),
+                                         help="fused: measurements below this uncertainty override, 0..1"),
     max_fps: float = typer.Option(30.0, "--max-fps", help="pose: frames per second processed at most (> 0)"),
     motion_out: Path | None = typer.Option(None, "--motion-out", help="pose/fused: also write the "
                                            "clip's pose motion (.npz)"),
