@@ -10,13 +10,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vlm_server import error, ok
+from vlm_server import Reply, error, ok
 
 from vsmp_imu.extract.client import VLMClient
 from vsmp_imu.extract.frames import FrameSampler
 from vsmp_imu.extract.prompt import PROMPT_TEMPLATE, SCHEMA_TEXT, smp_prompt
 from vsmp_imu.extract.vlm import VLMExtractor
 from vsmp_imu.smp import load_smp
+from vsmp_imu.smp.library import ActivityLibrary
 
 cv2 = pytest.importorskip("cv2")
 
@@ -226,6 +227,39 @@ def test_cli_option_errors(cli, videos, tmp_path):
     code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "--n-frames", "4",
                        "--preset", "mm_fit", "-o", tmp_path / "a.json")
     assert code == 2 and "not both" in err
+
+
+def _library_answer(name: str) -> Reply:
+    return Reply(200, ActivityLibrary.load().get(name).smp.model_dump_json())
+
+
+def test_responses_of_another_activity_than_the_label_discard_the_clip(chat_server, tmp_path, videos):
+    with chat_server([], default=_library_answer("jumping_jacks")) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="Walking")
+        assert result.discarded and result.smp is None and result.counts.discarded == 1
+        assert result.reason == ("the responses name 'jumping jacks' (activity jumping_jacks), not the "
+                                 "clip's label 'Walking' (activity walking)")
+        assert result.aggregated_smp is not None and result.refinement is None  # kept as evidence
+        # a label that names no library activity cannot be checked
+        kept = extractor(server, tmp_path).extract(videos["counter"], label="star exercise")
+        assert not kept.discarded and kept.smp.activity_label == "jumping jacks"
+
+
+def test_responses_naming_different_activities_discard_the_clip(chat_server, tmp_path, videos):
+    script = [_library_answer(n) for n in ("jumping_jacks", "walking", "sitting", "jumping_jacks", "walking")]
+    with chat_server(script) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    assert result.discarded and result.counts.valid == 5
+    assert result.reason.startswith("no activity is named by a majority of the 5 valid responses")
+
+
+def test_an_answer_with_thousands_of_primitives_is_an_invalid_value(chat_server, tmp_path, videos):
+    huge = json.dumps({"activity_label": "walking", "primitive_sequence": [f"p{i}" for i in range(5000)]})
+    script = [Reply(200, huge)] + [ok("walking_valid_1.json")] * 4
+    with chat_server(script) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    c = result.counts
+    assert (c.valid, c.rejected, c.invalid_value) == (4, 1, 1) and not result.discarded
 
 
 @pytest.mark.parametrize("value", ["nan", "-0.1", "1.5", "inf"])
