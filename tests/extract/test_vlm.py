@@ -262,6 +262,32 @@ def test_an_answer_with_thousands_of_primitives_is_an_invalid_value(chat_server,
     assert (c.valid, c.rejected, c.invalid_value) == (4, 1, 1) and not result.discarded
 
 
+def _extract(cli, server, video, out, *extra):
+    return cli("smp", "extract", video, "--label", "walking", "--n-frames", "2",
+               "--vlm-base-url", server.url, "--vlm-model", "vlm-test", "--no-cache", "-o", out, *extra)
+
+
+@pytest.mark.parametrize(("args", "field", "allowed"), [
+    (["--n-queries", "2"], "--n-queries", "3..20"), (["--n-queries", "100000"], "--n-queries", "3..20"),
+    (["--n-frames", "0"], "--n-frames", "1..256"),
+])
+def test_cli_query_options_are_checked_before_any_request(chat_server, tmp_path, videos, cli, args, field,
+                                                          allowed):
+    with chat_server([], default=ok("walking_valid_1.json")) as server:
+        code, _, err = _extract(cli, server, videos["counter"], tmp_path / "a.json", *args)
+    assert code == 2 and f"field '{field}'" in err and allowed in err
+    assert server.requests == []
+
+
+def test_cli_a_file_where_the_raw_folder_goes_is_refused_before_any_request(chat_server, tmp_path, videos,
+                                                                           cli):
+    (tmp_path / "a.raw").write_text("a file")
+    with chat_server([], default=ok("walking_valid_1.json")) as server:
+        code, _, err = _extract(cli, server, videos["counter"], tmp_path / "a.json")
+    assert code == 2 and "a.raw" in err and "not a folder" in err
+    assert server.requests == []
+
+
 @pytest.mark.parametrize("value", ["nan", "-0.1", "1.5", "inf"])
 def test_cli_fuse_threshold_is_a_finite_number_in_0_1(cli, videos, tmp_path, value):
     code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "--extractor", "fused",

@@ -42,7 +42,8 @@ CACHE_OPTION = typer.Option(None, "--cache-dir", help="VLM response cache (defau
                             "$XDG_CACHE_HOME/vsmp-imu/vlm or ~/.cache/vsmp-imu/vlm)")
 
 
-def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
+def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512, n_option: str = "--n"):
+    """The frame sampler, range-checked; errors name `n_option`, the option that gave n_frames."""
     from vsmp_imu.extract.frames import FrameSampler
     from vsmp_imu.extract.frames import preset as get_preset
 
@@ -52,7 +53,7 @@ def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
     try:
         sampler.settings()  # range checks before a clip is opened
     except ConfigError as exc:
-        option = {"n_frames": "--n", "size_px": "--size"}.get(exc.field or "", exc.field)
+        option = {"n_frames": n_option, "size_px": "--size"}.get(exc.field or "", exc.field)
         raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
     return sampler
 
@@ -121,7 +122,7 @@ def extract_cmd(
     extractor: str = typer.Option("vlm", "--extractor", help="vlm | pose | fused"),
     output: Path | None = typer.Option(None, "-o", "--output", help="SMP file to write (.json/.yaml); "
                                        "SMP.raw/ and SMP.report.json are written next to it"),
-    n_queries: int = typer.Option(5, "--n-queries", help="VLM queries per clip"),
+    n_queries: int = typer.Option(5, "--n-queries", help="VLM queries per clip, 3..20"),
     n_frames: int | None = typer.Option(None, "--n-frames", help="Frames sent to the VLM"),
     preset: str | None = typer.Option(None, "--preset", help="Frame preset: mm_fit, utd_mhad, "
                                       "mmact, pamap2, had_aw"),
@@ -156,6 +157,10 @@ def extract_cmd(
         raise ConfigError("give --n-frames or --preset, not both", field="--n-frames")
     if output is None and not dry_run:
         raise ConfigError("name the SMP file to write with -o", field="--output")
+    if output is not None:
+        raw_next_to, _ = side_paths(output)
+        output_dir(raw_next_to, "the raw folder next to --output")
+        output_file(report_next_to, "the report next to --output")
     lib = _library(library)
     if motion_out is not None:
         _short_enough(video)
@@ -166,8 +171,9 @@ def extract_cmd(
 
         client = _client(base_url, model, cache_dir, no_cache, timeout_s, max_retries,
                          no_response_format)
-        vlm = VLMExtractor(client, n_queries=n_queries, sampler=_sampler(n_frames, preset),
+        vlm = VLMExtractor(client, n_queries=n_queries, sampler=_sampler(n_frames, preset, n_option="--n-frames"),
                            library=lib, label_hint=not no_label_hint)
+        _check_vlm(vlm)
     if dry_run:
         if vlm is None:
             typer.echo(json.dumps({"extractor": extractor, "video": str(video), "label": label,
@@ -222,6 +228,15 @@ def extract_cmd(
     save_smp(smp, output)
     write_json(report_path, report)
     console.print(f"wrote {shown(output)} and {shown(report_path.name)}", highlight=False)
+
+
+def _check_vlm(vlm: Any) -> None:
+    """The extractor's range checks, before any request, naming the options."""
+    try:
+        vlm.check()
+    except ConfigError as exc:
+        option = {"n_queries": "--n-queries"}.get(exc.field or "", exc.field)
+        raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
 
 
 def _print_pose(extraction: Any) -> None:
@@ -338,7 +353,7 @@ def pool_cmd(
     distinct_files({"--output": output}, {"a clip of POOL": [clip for _, clip in pool_clips(pool_dir)]})
     if checker == "vlm":
         client = _client(base_url, model, cache_dir, no_cache, timeout_s, max_retries, True)
-        chk: Any = VLMClipChecker(client, _sampler(n_frames, None))
+        chk: Any = VLMClipChecker(client, _sampler(n_frames, None, n_option="--n-frames"))
     else:
         from vsmp_imu.extract.landmarks import MediaPipePoseEstimator
         from vsmp_imu.extract.pose import PoseExtractor

@@ -41,6 +41,7 @@ from vsmp_imu.smp.schema import SMP, smp_json_schema
 
 N_QUERIES = 5  # appendix: five queries per clip
 MIN_VALID = 3  # appendix: fewer than three valid outputs -> discard
+MAX_QUERIES = 20  # paid requests per clip at most: four times the paper's
 JPEG_QUALITY = 90
 Progress = Callable[[int, int], None]
 
@@ -169,11 +170,15 @@ class VLMExtractor:
     include_timing: bool = True
     jpeg_quality: int = JPEG_QUALITY
 
-    def _check(self) -> None:
-        if self.n_queries < 1:
-            raise ConfigError(f"n_queries must be at least 1, got {self.n_queries}", field="n_queries")
+    def check(self) -> None:
+        """Range checks, before any request: min_valid <= n_queries <= MAX_QUERIES."""
         if not self.min_valid >= 1:
-            raise ConfigError(f"min_valid must be at least 1, got {self.min_valid}", field="min_valid")
+            raise ConfigError(f"{self.min_valid} is out of range", field="min_valid", allowed="an integer >= 1")
+        if not self.min_valid <= self.n_queries <= MAX_QUERIES:
+            raise ConfigError(
+                f"{self.n_queries} queries is out of range", field="n_queries",
+                allowed=f"{self.min_valid}..{MAX_QUERIES} (fewer than min_valid = {self.min_valid} "
+                        "would always discard the clip)")
 
     def _library(self) -> ActivityLibrary:
         if self.library is None:
@@ -207,7 +212,7 @@ class VLMExtractor:
 
     def preview(self, video: str | Path, label: str | None = None) -> dict[str, Any]:
         """The exact request (dry run): nothing is sent."""
-        self._check()
+        self.check()
         sampled = (self.sampler or FrameSampler()).sample(video)
         messages, texts = self._request(sampled, label)
         return {"requests_per_clip": self.n_queries, "clip": sampled.to_dict(),
@@ -217,7 +222,7 @@ class VLMExtractor:
     def extract(self, video: str | Path, label: str | None = None,
                 progress: Progress | None = None) -> ExtractionResult:
         """Extract the SMP of one clip (`label`: the clip's dataset label, optional)."""
-        self._check()
+        self.check()
         sampled = (self.sampler or FrameSampler()).sample(video)
         messages, texts = self._request(sampled, label)
         completions: list[Completion] = []
