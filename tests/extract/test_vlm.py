@@ -267,6 +267,25 @@ def _extract(cli, server, video, out, *extra):
                "--vlm-base-url", server.url, "--vlm-model", "vlm-test", "--no-cache", "-o", out, *extra)
 
 
+def test_cli_rerun_leaves_no_file_of_the_earlier_run(chat_server, tmp_path, videos, cli):
+    out = tmp_path / "clip.json"
+    raw = tmp_path / "clip.raw"
+    with chat_server([], default=ok("walking_valid_1.json")) as server:
+        code, _, err = _extract(cli, server, videos["counter"], out)
+    assert code == 0, err
+    (raw / "notes.txt").write_text("mine")
+    with chat_server([], default=_library_answer("jumping_jacks")) as server:
+        code, _, err = _extract(cli, server, videos["counter"], out, "--n-queries", "3")
+    assert code == 2 and "clip discarded: the responses name 'jumping jacks'" in err
+    assert f"removed the SMP of an earlier run, {out}" in err
+    assert not out.exists()
+    assert sorted(p.name for p in raw.iterdir()) == ["notes.txt"] + [
+        f"response_{k}.{ext}" for k in range(3) for ext in ("json", "txt")]
+    assert all("jumping" in (raw / f"response_{k}.txt").read_text() for k in range(3))
+    report = json.loads((tmp_path / "clip.report.json").read_text())
+    assert report["discarded"] and len(report["queries"]) == 3
+
+
 @pytest.mark.parametrize(("args", "field", "allowed"), [
     (["--n-queries", "2"], "--n-queries", "3..20"), (["--n-queries", "100000"], "--n-queries", "3..20"),
     (["--n-frames", "0"], "--n-frames", "1..256"),

@@ -6,7 +6,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -101,6 +103,25 @@ def side_paths(output: Path) -> tuple[Path, Path]:
     return output.with_name(stem + ".raw"), output.with_name(stem + ".report.json")
 
 
+_RAW_FILE = re.compile(r"response_\d+\.(?:txt|json)")
+
+
+def clear_earlier_run(output: Path) -> bool:
+    """Remove what an earlier run wrote for `output`: the SMP, the report and SMP.raw/'s
+    response files (other files there are kept). True when there was an SMP."""
+    raw_dir, report_path = side_paths(output)
+    if raw_dir.is_dir():
+        for path in raw_dir.iterdir():
+            if _RAW_FILE.fullmatch(path.name) and path.is_file():
+                path.unlink()
+        with contextlib.suppress(OSError):
+            raw_dir.rmdir()  # only when nothing else is there
+    report_path.unlink(missing_ok=True)
+    had_smp = output.is_file()
+    output.unlink(missing_ok=True)
+    return had_smp
+
+
 def write_raw(raw_dir: Path, queries: list[dict[str, Any]]) -> None:
     """One text file per response (as received) and one JSON file per full response or error."""
     raw_dir.mkdir(parents=True, exist_ok=True)
@@ -188,6 +209,7 @@ def extract_cmd(
     if vlm is not None:
         with progress(f"VLM queries ({vlm.client.model})", n_queries) as update:
             result = vlm.extract(video, label, progress=update)
+        had_smp = clear_earlier_run(output)
         write_raw(raw_dir, result.queries)
         report = result.to_dict()
         c = result.counts
@@ -198,7 +220,8 @@ def extract_cmd(
                       highlight=False)
         if result.smp is None and extractor == "vlm":
             write_json(report_path, report)
-            raise ExtractionError(f"clip discarded: {result.reason}", file=video)
+            removed = f" (removed the SMP of an earlier run, {output})" if had_smp else ""
+            raise ExtractionError(f"clip discarded: {result.reason}{removed}", file=video)
         smp = result.smp
         if smp is None:
             console_err.print(f"VLM discarded the clip ({shown(result.reason)}); fusing pose with the "
@@ -223,6 +246,9 @@ def extract_cmd(
             console.print(f"wrote {shown(motion_out)}", highlight=False)
     assert smp is not None
     from vsmp_imu.smp import save_smp
+
+    if vlm is None:
+        clear_earlier_run(output)
 
     report["smp"] = smp.model_dump(mode="json")
     save_smp(smp, output)
