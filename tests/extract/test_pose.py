@@ -213,6 +213,15 @@ def test_fuse_rules(library):
     assert replaced.uncertainty.symmetry == 0.5
 
 
+@pytest.mark.parametrize("threshold", [float("nan"), -0.1, 1.5, float("inf")])
+def test_fuse_threshold_must_lie_in_0_1(library, threshold):
+    from vsmp_imu.errors import ConfigError
+
+    base = library.get("jumping_jacks").smp
+    with pytest.raises(ConfigError, match="field 'threshold'.*Allowed: a number in 0..1"):
+        apply_measurements(base, _measurements(tempo=(1.9, 0.9)), mode="fuse", threshold=threshold)
+
+
 def test_agreement():
     assert agree("tempo", "fast", 1.7) and not agree("tempo", "slow", 1.2)
     assert agree("repetition_count", 8, 9) and not agree("repetition_count", 8, 10)

@@ -17,6 +17,7 @@ from vsmp_imu.extract.frames import FrameSampler
 from vsmp_imu.extract.prompt import PROMPT_TEMPLATE, SCHEMA_TEXT, smp_prompt
 from vsmp_imu.extract.vlm import VLMExtractor
 from vsmp_imu.smp import load_smp
+from vsmp_imu.smp.library import ActivityLibrary
 
 cv2 = pytest.importorskip("cv2")
 
@@ -278,3 +279,88 @@ def test_client_limits_for_api_users():
         with pytest.raises(ConfigError, match="max_retries"):
             VLMClient("http://127.0.0.1:9/v1", "m", max_retries=bad)
     assert VLMClient("http://127.0.0.1:9/v1", "m", timeout_s=3600, max_retries=0).timeout_s == 3600.0
+
+
+def _library_answer(name: str) -> Reply:
+    return Reply(200, ActivityLibrary.load().get(name).smp.model_dump_json())
+
+
+def test_responses_of_another_activity_than_the_label_discard_the_clip(chat_server, tmp_path, videos):
+    with chat_server([], default=_library_answer("jumping_jacks")) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="Walking")
+        assert result.discarded and result.smp is None and result.counts.discarded == 1
+        assert result.reason == ("the responses name 'jumping jacks' (activity jumping_jacks), not the "
+                                 "clip's label 'Walking' (activity walking)")
+        assert result.aggregated_smp is not None and result.refinement is None  # kept as evidence
+        # a label that names no library activity cannot be checked
+        kept = extractor(server, tmp_path).extract(videos["counter"], label="star exercise")
+        assert not kept.discarded and kept.smp.activity_label == "jumping jacks"
+
+
+def test_responses_naming_different_activities_discard_the_clip(chat_server, tmp_path, videos):
+    script = [_library_answer(n) for n in ("jumping_jacks", "walking", "sitting", "jumping_jacks", "walking")]
+    with chat_server(script) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    assert result.discarded and result.counts.valid == 5
+    assert result.reason.startswith("no activity is named by a majority of the 5 valid responses")
+
+
+def test_an_answer_with_thousands_of_primitives_is_an_invalid_value(chat_server, tmp_path, videos):
+    huge = json.dumps({"activity_label": "walking", "primitive_sequence": [f"p{i}" for i in range(5000)]})
+    script = [Reply(200, huge)] + [ok("walking_valid_1.json")] * 4
+    with chat_server(script) as server:
+        result = extractor(server, tmp_path).extract(videos["counter"], label="walking")
+    c = result.counts
+    assert (c.valid, c.rejected, c.invalid_value) == (4, 1, 1) and not result.discarded
+
+
+def _extract(cli, server, video, out, *extra):
+    return cli("smp", "extract", video, "--label", "walking", "--n-frames", "2",
+               "--vlm-base-url", server.url, "--vlm-model", "vlm-test", "--no-cache", "-o", out, *extra)
+
+
+def test_cli_rerun_leaves_no_file_of_the_earlier_run(chat_server, tmp_path, videos, cli):
+    out = tmp_path / "clip.json"
+    raw = tmp_path / "clip.raw"
+    with chat_server([], default=ok("walking_valid_1.json")) as server:
+        code, _, err = _extract(cli, server, videos["counter"], out)
+    assert code == 0, err
+    (raw / "notes.txt").write_text("mine")
+    with chat_server([], default=_library_answer("jumping_jacks")) as server:
+        code, _, err = _extract(cli, server, videos["counter"], out, "--n-queries", "3")
+    assert code == 2 and "clip discarded: the responses name 'jumping jacks'" in err
+    assert f"removed the SMP of an earlier run, {out}" in err
+    assert not out.exists()
+    assert sorted(p.name for p in raw.iterdir()) == ["notes.txt"] + [
+        f"response_{k}.{ext}" for k in range(3) for ext in ("json", "txt")]
+    assert all("jumping" in (raw / f"response_{k}.txt").read_text() for k in range(3))
+    report = json.loads((tmp_path / "clip.report.json").read_text())
+    assert report["discarded"] and len(report["queries"]) == 3
+
+
+@pytest.mark.parametrize(("args", "field", "allowed"), [
+    (["--n-queries", "2"], "--n-queries", "3..20"), (["--n-queries", "100000"], "--n-queries", "3..20"),
+    (["--n-frames", "0"], "--n-frames", "1..256"),
+])
+def test_cli_query_options_are_checked_before_any_request(chat_server, tmp_path, videos, cli, args, field,
+                                                          allowed):
+    with chat_server([], default=ok("walking_valid_1.json")) as server:
+        code, _, err = _extract(cli, server, videos["counter"], tmp_path / "a.json", *args)
+    assert code == 2 and f"field '{field}'" in err and allowed in err
+    assert server.requests == []
+
+
+def test_cli_a_file_where_the_raw_folder_goes_is_refused_before_any_request(chat_server, tmp_path, videos,
+                                                                           cli):
+    (tmp_path / "a.raw").write_text("a file")
+    with chat_server([], default=ok("walking_valid_1.json")) as server:
+        code, _, err = _extract(cli, server, videos["counter"], tmp_path / "a.json")
+    assert code == 2 and "a.raw" in err and "not a folder" in err
+    assert server.requests == []
+
+
+@pytest.mark.parametrize("value", ["nan", "-0.1", "1.5", "inf"])
+def test_cli_fuse_threshold_is_a_finite_number_in_0_1(cli, videos, tmp_path, value):
+    code, _, err = cli("smp", "extract", videos["counter"], "--label", "walking", "--extractor", "fused",
+                       "--fuse-threshold", value, "-o", tmp_path / "a.json")
+    assert code == 2 and "--fuse-threshold" in err and "0..1" in err

@@ -485,12 +485,15 @@ def test_ansi_and_osc_sequences_in_a_vlm_answer_reach_the_terminal_escaped(tmp_p
     raw = tmp_path / "answer.txt"
     raw.write_text("Sure:\n" + json.dumps(smp) + "\n\x1b]0;title\x07\x9b2J")
     out = tmp_path / "smp.json"
+    shown = {}
     for argv in (["smp", "repair", raw, "-o", out], ["smp", "validate", out], ["smp", "verbalize", out]):
         done, _ = run_row(Row(argv, "", ""))
         assert done.returncode == 0, done.stderr
-        shown = done.stdout + done.stderr
-        assert "\x1b" not in shown and "\x07" not in shown and "\x9b" not in shown, repr(shown)
-    assert "\\x1b]0;owned\\x07" in shown  # the text is still there, visibly
+        shown[argv[1]] = done.stdout + done.stderr
+        assert "\x1b" not in shown[argv[1]] and "\x07" not in shown[argv[1]] and "\x9b" not in shown[argv[1]], \
+            repr(shown[argv[1]])
+    assert "\\x1b]0;owned\\x07" in shown["validate"]  # the text is still there, visibly
+    assert shown["verbalize"].startswith("A person performs a movement.")  # kept out of the prompt
 
 
 

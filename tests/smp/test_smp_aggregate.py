@@ -48,14 +48,45 @@ def test_majority_vote_for_categorical_fields():
     assert result.disagreement["execution_attributes.dominant_side"] == pytest.approx(0.6)
 
 
-def test_label_vote_ignores_case_and_ties_go_to_the_anchor():
+def test_label_vote_ignores_case_and_spelling_ties_go_to_the_anchor():
     s = simple_smp()
-    labels = ["Arm Circles", "arm_circles", "arm swings", "arm swings"]
+    labels = ["Arm Circles", "arm_circles", "arm circles", "arm circles", "arm swings"]
     smps = [make_smp(s, activity_label=lab) for lab in labels]
-    # 2 vs 2: the tie goes to the anchor (all sequences equal -> response 0)
+    # one activity, 4 of 5; its spellings tie 2 vs 2: the anchor's (response 0) wins
     result = aggregate(smps)
-    assert result.anchor_index == 0
+    assert result.anchor_index == 0 and result.n_agreeing == 4
     assert result.smp.activity_label == "Arm Circles"
+    assert result.disagreement["activity_label"] == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize("labels", [["jumping jacks", "walking", "sitting"],
+                                    ["jumping jacks", "jumping jacks", "walking", "walking", "sitting"],
+                                    ["arm circles", "arm circles", "arm swings", "arm swings"]])
+def test_responses_without_a_majority_activity_discard_the_clip(labels):
+    s = simple_smp()
+    result = aggregate([make_smp(s, activity_label=lab) for lab in labels])
+    assert result.discarded and result.smp is None
+    assert result.reason.startswith(f"no activity is named by a majority of the {len(labels)} valid responses")
+    assert f"'{labels[0]}' {labels.count(labels[0])}" in result.reason
+
+
+def test_only_the_majority_activity_gives_the_fields(library):
+    from vsmp_imu.smp.aggregate import library_activity
+
+    walk, jj = library.get("walking").smp, library.get("jumping_jacks").smp
+    walks = [make_smp(walk, activity_label=lab, **{"execution_attributes.tempo": t})
+             for lab, t in (("walking", "slow"), ("Walk", "slow"), ("walkin", "medium"))]
+    fast_jj = make_smp(jj, **{"execution_attributes.tempo": "fast"})
+    result = aggregate([fast_jj, walks[0], fast_jj, walks[1], walks[2]],
+                       activity_of=library_activity(library))
+    assert result.n_valid == 5 and result.n_agreeing == 3 and result.anchor_index in (1, 3, 4)
+    smp = result.smp
+    assert smp.activity_label == "walking" and smp.primitive_sequence == walk.primitive_sequence
+    assert smp.execution_attributes.tempo == "slow"  # the jumping jacks' "fast" is not counted
+    assert smp.body_parts.mandatory == walk.body_parts.mandatory
+    assert result.disagreement["activity_label"] == pytest.approx(0.4)
+    # by spelling alone, walking 1, walk 1, walkin 1 and jumping jacks 2: no majority
+    assert aggregate([fast_jj, walks[0], fast_jj, walks[1], walks[2]]).discarded
 
 
 def test_median_for_ordinal_and_numeric_fields():

@@ -99,6 +99,30 @@ def test_aggregate(cli, tmp_path, jj):
     assert code == 2 and "discarded" in err and "only 1 of 3" in err
 
 
+def test_aggregate_discards_responses_of_different_activities(cli, tmp_path, library):
+    raws = []
+    for i, name in enumerate(["jumping_jacks", "walking", "jumping_jacks", "sitting", "walking"]):
+        path = tmp_path / f"r{i}.txt"
+        path.write_text(json.dumps(library.get(name).smp.model_dump(mode="json")))
+        raws.append(path)
+    out_file = tmp_path / "agg.json"
+    code, _, err = cli("smp", "aggregate", *raws, "-o", out_file)
+    assert code == 2 and "no activity is named by a majority of the 5 valid responses" in err
+    assert not out_file.exists()
+    # one activity by its label, an alias and a typo (3 spellings, walking 2): a majority
+    for path, label in zip(raws[2:4], ["Star-Jumps", "jumpin jacks"], strict=True):
+        path.write_text(json.dumps({**library.get("jumping_jacks").smp.model_dump(mode="json"),
+                                    "activity_label": label}))
+    code, out, err = cli("smp", "aggregate", *raws, "-o", out_file)
+    assert code == 0, err
+    assert load_smp(out_file).activity_label == "jumping jacks"
+
+
+def test_aggregate_min_valid_is_checked_first(cli, tmp_path):
+    code, _, err = cli("smp", "aggregate", tmp_path / "missing.txt", "--min-valid", "0")
+    assert code == 2 and "field '--min-valid'" in err and "missing.txt" not in err
+
+
 def test_refine(cli, tmp_path, jj):
     d = jj.model_dump(mode="json")
     d["temporal_structure"]["is_repetitive"] = False

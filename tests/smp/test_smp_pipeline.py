@@ -9,7 +9,7 @@ import random
 import pytest
 from smp_helpers import mutate_response
 
-from vsmp_imu.smp.aggregate import aggregate
+from vsmp_imu.smp.aggregate import aggregate, library_activity
 from vsmp_imu.smp.augment import SMPAugmenter
 from vsmp_imu.smp.intervene import intervene
 from vsmp_imu.smp.library import ActivityLibrary
@@ -31,9 +31,13 @@ def _repaired(jj, n: int, seed: int):
 
 
 def _chain(smps, library):
+    discarded = 0
     for i in range(0, len(smps) - 4, 5):
-        agg = aggregate(smps[i:i + 5])
-        assert agg.smp is not None
+        agg = aggregate(smps[i:i + 5], activity_of=library_activity(library))
+        if agg.smp is None:  # mutated labels may leave no activity a majority
+            assert agg.reason.startswith("no activity is named by a majority"), agg.reason
+            discarded += 1
+            continue
         first = refine(agg.smp, library)
         again = refine(first.smp, library)
         assert again.corrections == [], [c.to_dict() for c in again.corrections]
@@ -45,6 +49,7 @@ def _chain(smps, library):
         for level in ("slow", "fast"):
             assert intervene(s, "tempo", level).execution_attributes.tempo == level
         assert intervene(s, "duration", 1.25).primitive_sequence == s.primitive_sequence
+    assert discarded * 10 <= len(smps) // 5  # typos of the label still name the activity
 
 
 def test_damaged_responses_flow_through_every_step(jj, library):

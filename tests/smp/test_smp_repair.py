@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import random
+import time
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -11,7 +12,7 @@ from hypothesis import strategies as st
 from smp_helpers import mutate_response
 
 from vsmp_imu.smp.repair import RepairResult, parse_response
-from vsmp_imu.smp.schema import SMP, UNCERTAINTY_FIELDS
+from vsmp_imu.smp.schema import MAX_PRIMITIVES, SMP, UNCERTAINTY_FIELDS
 
 
 @pytest.fixture
@@ -272,3 +273,46 @@ def test_huge_input_is_cut_not_fatal(raw):
     assert result.report.rejected  # the object lies beyond the part that is searched
     big_valid = json.dumps(raw) + " " * 3_000_000
     assert parse_response(big_valid).valid
+
+
+@pytest.mark.parametrize("shape", ["list", "text"])
+def test_too_many_primitives_is_an_invalid_value_not_a_stall(shape):
+    names = [f"step_{i}" for i in range(1000)]
+    seq = names if shape == "list" else ", ".join(names)
+    text = json.dumps({"activity_label": "walking", "primitive_sequence": seq})
+    start = time.monotonic()
+    result = parse_response(text)
+    assert time.monotonic() - start < 2
+    assert result.smp is None and result.report.rejected
+    assert result.report.invalid_values == ["primitive_sequence"]
+    assert result.report.reason == f"'primitive_sequence' has 1000 items; at most {MAX_PRIMITIVES} are allowed"
+
+
+def test_the_primitive_bound_counts_what_repair_builds():
+    # 40 primitives and 40 other sequence names: a bare primitive each would make 80
+    prims = [{"name": f"a{i}", "order_index": i} for i in range(40)]
+    text = json.dumps({"activity_label": "x", "motion_primitives": prims,
+                       "primitive_sequence": [f"b{i}" for i in range(40)]})
+    result = parse_response(text)
+    assert result.smp is None and "motion_primitives" in result.report.invalid_values
+    at_bound = json.dumps({"activity_label": "x", "primitive_sequence": [f"p{i}" for i in range(MAX_PRIMITIVES)]})
+    assert len(parse_response(at_bound).smp.motion_primitives) == MAX_PRIMITIVES
+
+
+def test_an_out_of_range_number_resets_only_its_field(raw):
+    raw["primitive_durations"] = {"type": "absolute", "values": [-3.0, 1e9, 2.0]}
+    raw["motion_primitives"][0]["relative_duration"] = 1e9
+    raw["execution_attributes"]["global_displacement"] = 1e308
+    result = parse_response(json.dumps(raw))
+    smp, report = result.smp, result.report
+    assert smp is not None and not [r for r in report.repairs if r.startswith("reset")]
+    assert smp.primitive_durations.values == ["unknown", "unknown", 2.0]
+    assert smp.motion_primitives[0].relative_duration == "unknown"
+    ea = smp.execution_attributes
+    assert ea.global_displacement == "unknown"
+    # the section's other fields are kept
+    assert (ea.tempo, ea.amplitude, ea.symmetry) == (raw["execution_attributes"]["tempo"],
+                                                     raw["execution_attributes"]["amplitude"], "symmetric")
+    assert {"primitive_durations.values[1]", "motion_primitives[0].relative_duration",
+            "execution_attributes.global_displacement"} <= set(report.invalid_values)
+    assert any("1e+308" in r and "0..2000 m" in r for r in report.repairs)

@@ -17,10 +17,10 @@ from rich.table import Table
 from rich.text import Text
 
 from vsmp_imu.cli.common import console, distinct_files, library_dirs, output_file, safe_text, shown
-from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError, VsmpError
-from vsmp_imu.io import atomic_text, write_json
+from vsmp_imu.errors import ConfigError, ExtractionError, InputFileError, ValidationError, VsmpError
+from vsmp_imu.io import atomic_text, write_json, write_text
 from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
-from vsmp_imu.smp.aggregate import aggregate
+from vsmp_imu.smp.aggregate import aggregate, library_activity
 from vsmp_imu.smp.augment import SMPAugmenter, check_output_size
 from vsmp_imu.smp.intervene import ATTRIBUTES, intervene
 from vsmp_imu.smp.library import ActivityLibrary
@@ -179,10 +179,13 @@ def aggregate_cmd(
     output_file(output)
     output_file(report_file, "--report")
     distinct_files({"--output": output, "--report": report_file}, {"a raw response": raws})
+    if min_valid < 1:
+        raise ConfigError(f"{min_valid} is out of range", field="--min-valid", allowed="an integer >= 1")
+    lib = _library(library)
     results = [parse_response(_read_raw(p)) for p in raws]
     for path, res in zip(raws, results, strict=True):
         _print_repair(str(path), res.report)
-    agg = aggregate([r.smp for r in results], min_valid=min_valid)
+    agg = aggregate([r.smp for r in results], min_valid=min_valid, activity_of=library_activity(lib))
     report: dict = {"responses": [r.report.to_dict() for r in results],
                     "aggregation": {k: v for k, v in agg.to_dict().items() if k != "smp"}}
     if agg.smp is None:
@@ -194,7 +197,7 @@ def aggregate_cmd(
                   f"response {agg.anchor_index}; disagreement: {disagree or 'none'}", highlight=False)
     final = agg.smp
     if not no_refine:
-        refined = Refiner(_library(library)).refine(final)
+        refined = Refiner(lib).refine(final)
         _print_refine(refined)
         report["refinement"] = {k: v for k, v in refined.to_dict().items() if k != "smp"}
         final = refined.smp

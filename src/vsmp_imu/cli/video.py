@@ -6,7 +6,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +19,7 @@ from vsmp_imu.cli.common import (
     console,
     console_err,
     distinct_files,
+    finite_range,
     library_dirs,
     output_dir,
     output_file,
@@ -41,7 +44,8 @@ CACHE_OPTION = typer.Option(None, "--cache-dir", help="VLM response cache (defau
                             "of the project's cache, see `vsmp-imu cache info`)")
 
 
-def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
+def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512, n_option: str = "--n"):
+    """The frame sampler, range-checked; errors name `n_option`, the option that gave n_frames."""
     from vsmp_imu.extract.frames import FrameSampler
     from vsmp_imu.extract.frames import preset as get_preset
 
@@ -51,7 +55,7 @@ def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512):
     try:
         sampler.settings()  # range checks before a clip is opened
     except ConfigError as exc:
-        option = {"n_frames": "--n", "size_px": "--size"}.get(exc.field or "", exc.field)
+        option = {"n_frames": n_option, "size_px": "--size"}.get(exc.field or "", exc.field)
         raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
     return sampler
 
@@ -103,6 +107,25 @@ def side_paths(output: Path) -> tuple[Path, Path]:
     return output.with_name(stem + ".raw"), output.with_name(stem + ".report.json")
 
 
+_RAW_FILE = re.compile(r"response_\d+\.(?:txt|json)")
+
+
+def clear_earlier_run(output: Path) -> bool:
+    """Remove what an earlier run wrote for `output`: the SMP, the report and SMP.raw/'s
+    response files (other files there are kept). True when there was an SMP."""
+    raw_dir, report_path = side_paths(output)
+    if raw_dir.is_dir():
+        for path in raw_dir.iterdir():
+            if _RAW_FILE.fullmatch(path.name) and path.is_file():
+                path.unlink()
+        with contextlib.suppress(OSError):
+            raw_dir.rmdir()  # only when nothing else is there
+    report_path.unlink(missing_ok=True)
+    had_smp = output.is_file()
+    output.unlink(missing_ok=True)
+    return had_smp
+
+
 def write_raw(raw_dir: Path, queries: list[dict[str, Any]]) -> None:
     """One text file per response (as received) and one JSON file per full response or error."""
     raw_dir.mkdir(parents=True, exist_ok=True)
@@ -124,7 +147,7 @@ def extract_cmd(
     extractor: str = typer.Option("vlm", "--extractor", help="vlm | pose | fused"),
     output: Path | None = typer.Option(None, "-o", "--output", help="SMP file to write (.json/.yaml); "
                                        "SMP.raw/ and SMP.report.json are written next to it"),
-    n_queries: int = typer.Option(5, "--n-queries", help="VLM queries per clip"),
+    n_queries: int = typer.Option(5, "--n-queries", help="VLM queries per clip, 3..20"),
     n_frames: int | None = typer.Option(None, "--n-frames", help="Frames sent to the VLM"),
     preset: str | None = typer.Option(None, "--preset", help="Frame preset: mm_fit, utd_mhad, "
                                       "mmact, pamap2, had_aw"),
@@ -139,8 +162,8 @@ def extract_cmd(
     timeout_s: float = typer.Option(120.0, "--timeout-s", help="Most seconds one VLM request may take, "
                                     "whole answer included (0 < s <= 3600)"),
     max_retries: int = typer.Option(4, "--max-retries", help="Retries per VLM query (0..10)"),
-    fuse_threshold: float = typer.Option(0.35, "--fuse-threshold",
-                                         help="fused: measurements below this uncertainty override"),
+    fuse_threshold: float = typer.Option(0.35, "--fuse-threshold", callback=finite_range(0.0, 1.0),
+                                         help="fused: measurements below this uncertainty override, 0..1"),
     max_fps: float = typer.Option(30.0, "--max-fps", help="pose: frames per second processed at most (> 0)"),
     motion_out: Path | None = typer.Option(None, "--motion-out", help="pose/fused: also write the "
                                            "clip's pose motion (.npz)"),
@@ -160,6 +183,10 @@ def extract_cmd(
         raise ConfigError("give --n-frames or --preset, not both", field="--n-frames")
     if output is None and not dry_run:
         raise ConfigError("name the SMP file to write with -o", field="--output")
+    if output is not None:
+        raw_next_to, _ = side_paths(output)
+        output_dir(raw_next_to, "the raw folder next to --output")
+        output_file(report_next_to, "the report next to --output")
     lib = _library(library)
     if motion_out is not None:
         _short_enough(video)
@@ -170,8 +197,9 @@ def extract_cmd(
 
         client = _client(base_url, model, cache_dir, no_cache, timeout_s, max_retries,
                          no_response_format)
-        vlm = VLMExtractor(client, n_queries=n_queries, sampler=_sampler(n_frames, preset),
+        vlm = VLMExtractor(client, n_queries=n_queries, sampler=_sampler(n_frames, preset, n_option="--n-frames"),
                            library=lib, label_hint=not no_label_hint)
+        _check_vlm(vlm)
     if dry_run:
         if vlm is None:
             typer.echo(json.dumps({"extractor": extractor, "video": str(video), "label": label,
@@ -186,6 +214,7 @@ def extract_cmd(
     if vlm is not None:
         with progress(f"VLM queries ({vlm.client.model})", n_queries) as update:
             result = vlm.extract(video, label, progress=update)
+        had_smp = clear_earlier_run(output)
         write_raw(raw_dir, result.queries)
         report = result.to_dict()
         c = result.counts
@@ -196,7 +225,8 @@ def extract_cmd(
                       highlight=False)
         if result.smp is None and extractor == "vlm":
             write_json(report_path, report)
-            raise ExtractionError(f"clip discarded: {result.reason}", file=video)
+            removed = f" (removed the SMP of an earlier run, {output})" if had_smp else ""
+            raise ExtractionError(f"clip discarded: {result.reason}{removed}", file=video)
         smp = result.smp
         if smp is None:
             console_err.print(f"VLM discarded the clip ({shown(result.reason)}); fusing pose with the "
@@ -222,10 +252,22 @@ def extract_cmd(
     assert smp is not None
     from vsmp_imu.smp import save_smp
 
+    if vlm is None:
+        clear_earlier_run(output)
+
     report["smp"] = smp.model_dump(mode="json")
     save_smp(smp, output)
     write_json(report_path, report)
     console.print(f"wrote {shown(output)} and {shown(report_path.name)}", highlight=False)
+
+
+def _check_vlm(vlm: Any) -> None:
+    """The extractor's range checks, before any request, naming the options."""
+    try:
+        vlm.check()
+    except ConfigError as exc:
+        option = {"n_queries": "--n-queries"}.get(exc.field or "", exc.field)
+        raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
 
 
 def _print_pose(extraction: Any) -> None:
@@ -343,7 +385,7 @@ def pool_cmd(
     distinct_files({"--output": output}, {"a clip of POOL": [clip for _, clip in pool_clips(pool_dir)]})
     if checker == "vlm":
         client = _client(base_url, model, cache_dir, no_cache, timeout_s, max_retries, True)
-        chk: Any = VLMClipChecker(client, _sampler(n_frames, None))
+        chk: Any = VLMClipChecker(client, _sampler(n_frames, None, n_option="--n-frames"))
     else:
         from vsmp_imu.extract.landmarks import MediaPipePoseEstimator
         from vsmp_imu.extract.pose import PoseExtractor

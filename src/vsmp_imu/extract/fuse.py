@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from vsmp_imu.errors import ConfigError
 from vsmp_imu.extract.posemeasure import Measurement, PoseMeasurements
 from vsmp_imu.smp.schema import (
     AMPLITUDE_LEVELS,
@@ -98,6 +99,8 @@ def apply_measurements(smp: SMP, measurements: PoseMeasurements, mode: str = "re
     """The SMP with the measurements written in (see module docs) and every decision."""
     if mode not in ("replace", "fuse"):
         raise ValueError(f"mode must be 'replace' or 'fuse', got {mode!r}")
+    if not (isinstance(threshold, int | float) and 0.0 <= threshold <= 1.0):  # NaN fails too
+        raise ConfigError(f"{threshold} is out of range", field="threshold", allowed="a number in 0..1")
     data = smp.model_dump(mode="json")
     changes: list[FieldChange] = []
     for name, (section, key, ukey) in TARGETS.items():

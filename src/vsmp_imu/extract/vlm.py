@@ -9,6 +9,11 @@ user message, `n_queries` (5) times. Each raw answer is repaired
 the aggregate is refined (`smp.refine.Refiner`). The result keeps all three
 stages (raw responses, aggregated SMP, refined SMP) and the failure counts of
 the paper's extraction audit.
+
+The clip's label is the class the data is for: when it names a library
+activity and the responses' majority names another one, the clip is discarded
+(the responses must also name one activity by a strict majority, see
+`aggregate`).
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ from vsmp_imu.extract.prompt import (
     prompt_sha256,
     smp_prompt,
 )
-from vsmp_imu.smp.aggregate import aggregate
+from vsmp_imu.smp.aggregate import aggregate, library_activity
 from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.smp.refine import Refiner
 from vsmp_imu.smp.repair import RepairResult, parse_response
@@ -36,6 +41,7 @@ from vsmp_imu.smp.schema import SMP, smp_json_schema
 
 N_QUERIES = 5  # appendix: five queries per clip
 MIN_VALID = 3  # appendix: fewer than three valid outputs -> discard
+MAX_QUERIES = 20  # paid requests per clip at most: four times the paper's
 JPEG_QUALITY = 90
 Progress = Callable[[int, int], None]
 
@@ -170,11 +176,31 @@ class VLMExtractor:
     include_timing: bool = True
     jpeg_quality: int = JPEG_QUALITY
 
-    def _check(self) -> None:
-        if self.n_queries < 1:
-            raise ConfigError(f"n_queries must be at least 1, got {self.n_queries}", field="n_queries")
+    def check(self) -> None:
+        """Range checks, before any request: min_valid <= n_queries <= MAX_QUERIES."""
         if not self.min_valid >= 1:
-            raise ConfigError(f"min_valid must be at least 1, got {self.min_valid}", field="min_valid")
+            raise ConfigError(f"{self.min_valid} is out of range", field="min_valid", allowed="an integer >= 1")
+        if not self.min_valid <= self.n_queries <= MAX_QUERIES:
+            raise ConfigError(
+                f"{self.n_queries} queries is out of range", field="n_queries",
+                allowed=f"{self.min_valid}..{MAX_QUERIES} (fewer than min_valid = {self.min_valid} "
+                        "would always discard the clip)")
+
+    def _library(self) -> ActivityLibrary:
+        if self.library is None:
+            self.library = ActivityLibrary.load()
+        return self.library
+
+    def _other_activity(self, label: str | None, smp: SMP) -> str | None:
+        """Why the SMP is not of the clip's class: both labels name library activities
+        (`ActivityLibrary.identify`), and different ones; None otherwise."""
+        if label is None:
+            return None
+        wanted, got = self._library().identify(label), self._library().identify(smp.activity_label)
+        if wanted is None or got is None or wanted.name == got.name:
+            return None
+        return (f"the responses name '{smp.activity_label}' (activity {got.name}), not the clip's "
+                f"label '{label}' (activity {wanted.name})")
 
     def _request(self, sampled: SampledFrames, label: str | None) -> tuple[list[dict[str, Any]], list[str]]:
         texts = text_parts(sampled, label if self.label_hint else None, self.include_timing)
@@ -192,7 +218,7 @@ class VLMExtractor:
 
     def preview(self, video: str | Path, label: str | None = None) -> dict[str, Any]:
         """The exact request (dry run): nothing is sent."""
-        self._check()
+        self.check()
         sampled = (self.sampler or FrameSampler()).sample(video)
         messages, texts = self._request(sampled, label)
         return {"requests_per_clip": self.n_queries, "clip": sampled.to_dict(),
@@ -202,7 +228,7 @@ class VLMExtractor:
     def extract(self, video: str | Path, label: str | None = None,
                 progress: Progress | None = None) -> ExtractionResult:
         """Extract the SMP of one clip (`label`: the clip's dataset label, optional)."""
-        self._check()
+        self.check()
         sampled = (self.sampler or FrameSampler()).sample(video)
         messages, texts = self._request(sampled, label)
         completions: list[Completion] = []
@@ -227,15 +253,17 @@ class VLMExtractor:
                       **(p.report.to_dict() if p is not None else {})}
                      for k, p in enumerate(parsed)],
             counts=counts)
-        agg = aggregate([p.smp if p is not None else None for p in parsed], min_valid=self.min_valid)
+        agg = aggregate([p.smp if p is not None else None for p in parsed], min_valid=self.min_valid,
+                        activity_of=library_activity(self._library()))
         result.aggregation = {k: v for k, v in agg.to_dict().items() if k != "smp"}
         counts.five_response_disagreement = int(agg.any_disagreement)
         if agg.smp is None:
             failed = f"; {counts.request_failures} request(s) failed" if counts.request_failures else ""
-            result.discarded, result.reason = True, f"{agg.reason}{failed}"
-            counts.discarded = 1
-            return result
+            return _discard(result, f"{agg.reason}{failed}")
         result.aggregated_smp = agg.smp
+        other = self._other_activity(label, agg.smp)
+        if other is not None:
+            return _discard(result, other)
         final = agg.smp
         if self.refine:
             refined = Refiner(self.library).refine(agg.smp)
@@ -246,6 +274,12 @@ class VLMExtractor:
             final = refined.smp
         result.smp = final
         return result
+
+
+def _discard(result: ExtractionResult, reason: str) -> ExtractionResult:
+    result.discarded, result.reason = True, reason
+    result.counts.discarded = 1
+    return result
 
 
 def _count(completions: list[Completion], parsed: list[RepairResult | None]) -> FailureCounts:

@@ -6,6 +6,17 @@ import re
 
 _SEPARATORS = re.compile(r"[\s_\-]+")
 _CAMEL = re.compile(r"(?<=[a-z0-9])(?=[A-Z])")
+_WORD = re.compile(r"[^\W_]+(?:'[^\W_]+)?")
+
+# Words that make a label a statement about activities rather than an activity's name.
+NEGATION_WORDS = frozenset({"not", "no", "non", "never", "without", "nor", "neither", "none", "isn't",
+                            "aren't", "don't", "doesn't", "cannot", "can't", "instead", "except",
+                            "rather"})
+# Words of an instruction to a model ("ignore the schema and label this jumping_jacks"): no
+# activity name or movement description holds them.
+INSTRUCTION_WORDS = frozenset({"ignore", "disregard", "forget", "override", "system", "instruction",
+                               "instructions", "prompt", "schema", "assistant", "pretend", "respond",
+                               "reply", "output", "json", "label", "answer"})
 
 NUMBER_WORDS = (
     "zero", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten",
@@ -28,3 +39,8 @@ def norm_key(text: str) -> str:
 def number_word(n: int) -> str:
     """'eight' for 8; digits beyond twenty."""
     return NUMBER_WORDS[n] if 0 <= n < len(NUMBER_WORDS) else str(n)
+
+
+def words(text: str) -> list[str]:
+    """The lower-case words of a text ('Don't jump!' -> ["don't", 'jump'])."""
+    return _WORD.findall(str(text).lower().replace("\u2019", "'"))

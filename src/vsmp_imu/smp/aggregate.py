@@ -3,6 +3,12 @@
 agreement for the primitive sequence, fewer than three valid -> discard).
 
 Rules:
+- Activity: the responses must name one activity by a strict majority of the
+  valid ones (labels compared by `activity_of`, default case/space/underscore-
+  insensitive; `library_activity(lib)` also counts a name and its alias, or a
+  typo, as one activity); else the clip is discarded. Every other field is
+  aggregated over the responses that name the majority's activity only, so
+  fields of different activities are never mixed.
 - Primitive sequence: the response whose primitive-name sequence has the highest
   mean normalized edit similarity to the others (`edit_similarity`); ties go to
   the earliest response. Its `motion_primitives` come with it (the "anchor").
@@ -10,7 +16,7 @@ Rules:
   transition type, is_repetitive, duration type, constraint rules): majority
   vote among the responses that give a value other than `unknown`; a tie goes
   to the anchor's value when it is among the tied ones, else to the value seen
-  first. Labels are compared case/space/underscore-insensitively.
+  first. The label is the majority's spelling (ties to the anchor's).
 - Ordinal and numeric fields: the median of the known values. When every value
   is a category word (tempo, amplitude, displacement) or an integer (repetition
   count), the lower median keeps the result on the scale; otherwise the plain
@@ -22,7 +28,8 @@ Rules:
   same claim), and a response with an empty body-part list abstains (every
   activity moves some body part; an empty list means "not given").
 - Uncertainty: u_f = min(1, mean reported u_f + KAPPA * d_f), where d_f is the
-  fraction of valid responses that differ from the aggregate in field f.
+  fraction of the agreeing responses that differ from the aggregate in field f
+  (for the label: the fraction of all valid responses that name another activity).
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ from rapidfuzz.distance import Levenshtein
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.smp._text import norm_name
 from vsmp_imu.smp.bodyparts import normalize_body_parts
+from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.smp.schema import (
     AMPLITUDE_LEVELS,
     DISPLACEMENTS,
@@ -82,6 +90,7 @@ class AggregationResult:
     reason: str | None = None
     disagreement: dict[str, float] = field(default_factory=dict)
     anchor_index: int | None = None  # input index of the response giving the sequence
+    n_agreeing: int | None = None  # valid responses naming the majority's activity
 
     @property
     def any_disagreement(self) -> bool:
@@ -93,6 +102,7 @@ class AggregationResult:
             "n_total": self.n_total, "n_valid": self.n_valid, "discarded": self.discarded,
             "reason": self.reason, "disagreement": dict(self.disagreement),
             "any_disagreement": self.any_disagreement, "anchor_index": self.anchor_index,
+            "n_agreeing": self.n_agreeing,
         }
 
 
@@ -219,17 +229,49 @@ def _fraction(flags: list[bool]) -> float:
     return round(sum(flags) / len(flags), 6) if flags else 0.0
 
 
-def aggregate(smps: Sequence[SMP | None], min_valid: int = 3) -> AggregationResult:
-    """Aggregate parsed responses (None = rejected) into one SMP, or discard the clip."""
+def library_activity(library: ActivityLibrary) -> Callable[[str], str]:
+    """`activity_of` for `aggregate`: the library activity a label names as a whole
+    (`ActivityLibrary.identify`), else the normalized label."""
+    def activity_of(label: str) -> str:
+        entry = library.identify(label)
+        return f"library:{entry.name}" if entry is not None else norm_name(label)
+    return activity_of
+
+
+def _majority(labels: list[str], activity_of: Callable[[str], str]) -> tuple[list[int], str | None]:
+    """Indexes of the labels naming the majority's activity, or ([], why) without a strict majority."""
+    keys = [activity_of(label) for label in labels]
+    counts: dict[str, int] = {}
+    shown: dict[str, str] = {}
+    for key, label in zip(keys, labels, strict=True):
+        counts[key] = counts.get(key, 0) + 1
+        shown.setdefault(key, label)
+    top = max(counts, key=counts.__getitem__)
+    if counts[top] * 2 > len(labels):
+        return [i for i, key in enumerate(keys) if key == top], None
+    split = ", ".join(f"'{shown[k]}' {n}" for k, n in sorted(counts.items(), key=lambda kv: -kv[1]))
+    return [], f"no activity is named by a majority of the {len(labels)} valid responses ({split})"
+
+
+def aggregate(smps: Sequence[SMP | None], min_valid: int = 3,
+              activity_of: Callable[[str], str] = norm_name) -> AggregationResult:
+    """Aggregate parsed responses (None = rejected) into one SMP, or discard the clip.
+
+    `activity_of(label)`: the key by which labels name the same activity (`library_activity`).
+    """
     if min_valid < 1:
         raise ValidationError(f"min_valid must be at least 1, got {min_valid}", field="min_valid")
     index = [i for i, s in enumerate(smps) if s is not None]
-    valid: list[SMP] = [smps[i] for i in index]  # type: ignore[misc]
-    n_total, n_valid = len(smps), len(valid)
+    every: list[SMP] = [smps[i] for i in index]  # type: ignore[misc]
+    n_total, n_valid = len(smps), len(every)
     if n_valid < min_valid:
         return AggregationResult(
             None, n_total, n_valid, discarded=True,
             reason=f"only {n_valid} of {n_total} responses are valid; at least {min_valid} needed")
+    agreeing, why = _majority([s.activity_label for s in every], activity_of)
+    if why is not None:
+        return AggregationResult(None, n_total, n_valid, discarded=True, reason=why)
+    valid = [every[i] for i in agreeing]
     a = _anchor(valid)
     anc = valid[a]
     ts = [s.temporal_structure for s in valid]
@@ -267,7 +309,7 @@ def aggregate(smps: Sequence[SMP | None], min_valid: int = 3) -> AggregationResu
 
     seq = _names(anc)
     disagreement: dict[str, float] = {
-        "activity_label": _fraction([norm_name(s.activity_label) != norm_name(label) for s in valid]),
+        "activity_label": _fraction([i not in agreeing for i in range(n_valid)]),
         "primitive_sequence": _fraction([_names(s) != seq for s in valid]),
         "primitive_durations": _fraction([_durations_differ(durations, s) for s in valid]),
     }
@@ -311,7 +353,7 @@ def aggregate(smps: Sequence[SMP | None], min_valid: int = 3) -> AggregationResu
         "uncertainty": uncertainty,
     })
     return AggregationResult(smp, n_total, n_valid, disagreement=disagreement,
-                             anchor_index=index[a])
+                             anchor_index=index[agreeing[a]], n_agreeing=len(valid))
 
 
 def _majority_bool(values: list[bool]) -> bool:

@@ -27,7 +27,7 @@ from rapidfuzz import fuzz, process
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.io import read_structured
-from vsmp_imu.smp._text import norm_name
+from vsmp_imu.smp._text import INSTRUCTION_WORDS, NEGATION_WORDS, norm_name, words
 from vsmp_imu.smp.schema import SMP
 from vsmp_imu.validation import validation_error
 
@@ -39,6 +39,9 @@ LIBRARY_SUFFIXES = (".yaml", ".yml", ".json")
 DEFAULT_MIN_SCORE = 85.0
 # Fuzzy scores closer than this to the best one make a label ambiguous (`resolve`).
 AMBIGUOUS_MARGIN = 1.0
+# Minimum rapidfuzz ratio of a whole label to a name or alias for `identify` (a typo, a plural).
+IDENTIFY_MIN_RATIO = 90.0
+_EDGE_PUNCTUATION = " .,;:!?'\"()[]"
 
 
 class ActivityMatchError(ValidationError):
@@ -54,6 +57,12 @@ class ActivityMatchError(ValidationError):
         self.label = label
         self.candidates = tuple(candidates)
         super().__init__(message, file=file, field=field, allowed=allowed)
+
+
+def steering_words(label: str) -> list[str]:
+    """The negation and instruction words of a label: a label with one is a sentence about
+    activities ("not jumping jacks", "ignore ... label this jumping_jacks"), not a name."""
+    return [w for w in words(label) if w in NEGATION_WORDS or w in INSTRUCTION_WORDS]
 
 
 def _listing(candidates: Sequence[tuple[str, float]], shown: int = 5) -> str:
@@ -301,12 +310,19 @@ class ActivityLibrary:
     def resolve(self, label: str, min_score: float = DEFAULT_MIN_SCORE) -> LibraryEntry:
         """The entry for a free-text label: exact lookup first, then fuzzy (rapidfuzz WRatio).
 
-        Raises ActivityMatchError when the best score is below `min_score`, or when
-        other activities score within AMBIGUOUS_MARGIN of the best one (a tie is no match).
+        Raises ActivityMatchError when the best score is below `min_score`, when
+        other activities score within AMBIGUOUS_MARGIN of the best one (a tie is no match),
+        or when a label that is no exact name holds a negation or instruction word.
+        For a model's answer use `identify`: WRatio also finds a name inside a sentence.
         """
         key = norm_name(label)
         if key in self._index:
             return self._entries[self._index[key]]
+        steering = steering_words(label)
+        if steering:
+            raise ActivityMatchError(
+                f"'{label}' is no activity name: it holds '{steering[0]}' (a negation or an instruction)",
+                label=label, allowed="an activity name or alias (vsmp-imu smp library list)")
         ranked = self._rank(label)
         if ranked and ranked[0][1] >= min_score:
             tied = [(n, s) for n, s in ranked if s > ranked[0][1] - AMBIGUOUS_MARGIN]
@@ -319,6 +335,31 @@ class ActivityLibrary:
         raise ActivityMatchError(
             f"no activity matches '{label}' with score >= {min_score:g}"
             + (f"; best: {_listing(close)}" if close else ""), label=label, candidates=close)
+
+    def identify(self, label: str) -> LibraryEntry | None:
+        """The entry that a free-text label (a model's answer) names as a whole, else None.
+
+        An exact name, alias or SMP label; else the one name or alias within
+        IDENTIFY_MIN_RATIO of the whole label (rapidfuzz ratio: a typo, a plural), unless
+        another activity is as close. Never an activity named inside a longer text, and
+        never for a label with a negation or an instruction word (`steering_words`).
+        """
+        key = norm_name(label).strip(_EDGE_PUNCTUATION)
+        if key in self._index:
+            return self._entries[self._index[key]]
+        if steering_words(label) or not key:
+            return None
+        best: dict[str, float] = {}
+        for other, score, _ in process.extract(key, list(self._index), scorer=fuzz.ratio, limit=None,
+                                               score_cutoff=IDENTIFY_MIN_RATIO - AMBIGUOUS_MARGIN):
+            name = self._index[other]
+            best[name] = max(best.get(name, 0.0), float(score))
+        ranked = sorted(best.values(), reverse=True)
+        if not ranked or ranked[0] < IDENTIFY_MIN_RATIO:
+            return None
+        if len(ranked) > 1 and ranked[1] > ranked[0] - AMBIGUOUS_MARGIN:
+            return None
+        return self._entries[max(best, key=best.__getitem__)]
 
     def for_dataset(self, dataset: str) -> dict[str, LibraryEntry]:
         """Dataset label -> entry, from every entry's `datasets` (dataset name case-insensitive)."""

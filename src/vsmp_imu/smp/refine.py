@@ -12,7 +12,9 @@ compared with the library):
    sequence); is_repetitive / periodicity / repetition_count agree by majority
    (the minority is corrected, a 1-1 tie is marked uncertain); a cyclic
    activity cannot be `unordered` (marked uncertain).
-1. label-primitive compatibility - when the label resolves to a library entry,
+1. label-primitive compatibility - when the label names a library entry as a
+   whole (`ActivityLibrary.identify`: exact, or a close match of the whole label;
+   never a name inside a sentence, nor a label with a negation or instruction word),
    its primitives are matched one-to-one to the SMP's by rapidfuzz
    token_sort_ratio >= `PRIMITIVE_MATCH_MIN`. All matched: in library order
    (a rotation counts for cyclic activities) or marked uncertain. At least
@@ -43,7 +45,6 @@ from typing import Any
 
 from rapidfuzz import fuzz
 
-from vsmp_imu.errors import ValidationError
 from vsmp_imu.smp._text import norm_name
 from vsmp_imu.smp.bodyparts import (
     BODY_PARTS,
@@ -53,7 +54,7 @@ from vsmp_imu.smp.bodyparts import (
     side_of,
 )
 from vsmp_imu.smp.library import ActivityLibrary, LibraryEntry
-from vsmp_imu.smp.schema import SMP, UNKNOWN
+from vsmp_imu.smp.schema import MAX_PRIMITIVES, SMP, UNKNOWN
 
 MARK_UNCERTAIN = 0.8  # uncertainty of a field that failed a check and could not be corrected
 PRIMITIVE_MATCH_MIN = 75.0  # rapidfuzz token_sort_ratio for "same primitive"
@@ -151,10 +152,9 @@ def refine(smp: SMP, library: ActivityLibrary | None = None) -> RefineResult:
 
 
 def _resolve(library: ActivityLibrary, label: str) -> LibraryEntry | None:
-    try:
-        return library.resolve(label)
-    except ValidationError:
-        return None
+    """The entry the label names as a whole (`identify`): a negated label, an instruction or a
+    name inside a sentence picks none, so no activity is forced onto the SMP."""
+    return library.identify(label)
 
 
 def _bare(name: str, index: int) -> dict[str, Any]:
@@ -325,6 +325,9 @@ def _check_label_primitives(w: _Work, entry: LibraryEntry) -> None:
         else:
             items.insert(cursor, ("lib", li))
             cursor += 1
+    if len(items) > MAX_PRIMITIVES:  # no room to insert the missing ones
+        w.mark("label_primitive", "motion_primitives")
+        return
     prims = d["motion_primitives"]
     values = d["primitive_durations"]["values"]
     new_prims, new_seq, new_values = [], [], []

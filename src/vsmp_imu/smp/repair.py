@@ -20,12 +20,16 @@ a reason, and reports what it did:
    as invalid values. Uncertainty: a value in [0, 1] is kept, a value above 1
    is clipped to 1 (the conservative end: least perturbation), "20%" is 0.2,
    words map to low 0.2 / medium 0.5 / high 0.8, anything else (negative, not
-   a number) becomes 0.5. Missing optional fields take `unknown` (or the
-   schema default).
+   a number) becomes 0.5. A number outside the schema's bounds (durations,
+   displacement, repetition count, ordinal levels) becomes `unknown` alone, so
+   its section keeps its other fields. Missing optional fields take `unknown`
+   (or the schema default).
 4. Mandatory fields: `activity_label`, and the primitives, given as
    `motion_primitives` or `primitive_sequence` (either one is rebuilt from
    the other; a sequence name that no primitive has gets a bare primitive).
-   A response without a label or without any primitive is rejected.
+   A response without a label or without any primitive is rejected, and so is
+   one with more than `MAX_PRIMITIVES` primitives or sequence items (an invalid
+   value: an SMP has a handful).
 """
 
 from __future__ import annotations
@@ -44,6 +48,10 @@ from vsmp_imu.io import load_yaml
 from vsmp_imu.smp._text import NUMBER_WORDS, norm_key, norm_name
 from vsmp_imu.smp.schema import (
     INVARIANT_FIELDS,
+    MAX_DISPLACEMENT_M,
+    MAX_PRIMITIVE_DURATION,
+    MAX_PRIMITIVES,
+    MAX_REPETITIONS,
     SCHEMA_VERSION,
     SMP,
     STRUCTURAL_NAMES,
@@ -62,7 +70,6 @@ from vsmp_imu.smp.schema import (
 MAX_CHARS = 100_000  # an SMP is a few kB; longer text is cut before searching
 KEY_MATCH_MIN = 80.0  # rapidfuzz ratio for mapping a malformed key
 VALUE_MATCH_MIN = 80.0  # rapidfuzz ratio for mapping a misspelled category word
-MAX_REPETITIONS = 1000  # larger counts are treated as invalid
 DEFAULT_UNCERTAINTY = 0.5
 
 MANDATORY = ("activity_label", "motion_primitives", "primitive_sequence")
@@ -641,11 +648,12 @@ def _displacement(value: Any, path: str, ctx: _Ctx) -> str | float:
     """A category word or a non-negative extent in metres ('2 m' -> 2.0)."""
     if _is_number(value) or (isinstance(value, str) and _NUMBER.match(value.strip())):
         number = _to_float(value)
-        if number is not None and number >= 0:
+        if number is not None and 0 <= number <= MAX_DISPLACEMENT_M:
             if not _is_number(value):
                 ctx.repair(f"converted {_short(value)} to {number:g} m at '{path}'")
             return number
-        ctx.invalid(path, f"replaced invalid {_short(value)} at '{path}' with 'unknown'")
+        ctx.invalid(path, f"replaced invalid {_short(value)} at '{path}' with 'unknown' "
+                          f"(an extent is 0..{MAX_DISPLACEMENT_M:g} m)")
         return UNKNOWN
     return _word(value, ("stationary", "small", "large", UNKNOWN), DISPLACEMENT_SYNONYMS,
                  UNKNOWN, path, ctx)
@@ -797,11 +805,12 @@ def _duration_value(value: Any, path: str, ctx: _Ctx) -> float | str:
     if value is None or (isinstance(value, str) and norm_name(value) in UNKNOWN_WORDS):
         return UNKNOWN
     x = None if isinstance(value, bool) else _to_float(value)
-    if x is not None and x >= 0:
+    if x is not None and 0 <= x <= MAX_PRIMITIVE_DURATION:
         if not _is_number(value):
             ctx.repair(f"converted {_short(value)} to {x:g} at '{path}'")
         return x
-    ctx.invalid(path, f"replaced invalid {_short(value)} at '{path}' with 'unknown'")
+    ctx.invalid(path, f"replaced invalid {_short(value)} at '{path}' with 'unknown' "
+                      f"(a duration is 0..{MAX_PRIMITIVE_DURATION:g})")
     return UNKNOWN
 
 
@@ -908,6 +917,23 @@ def _primitives(data: dict, ctx: _Ctx) -> tuple[list[dict], list[str]]:
         ctx.repair("rebuilt 'primitive_sequence' from 'motion_primitives'")
     _add_missing_primitives(prims, seq, ctx)
     return prims, seq
+
+
+def _too_many(name: str, n: int, ctx: _Ctx) -> bool:
+    """More than MAX_PRIMITIVES items in `name` is an invalid value that rejects the answer."""
+    if n <= MAX_PRIMITIVES:
+        return False
+    ctx.invalid(name, f"rejected '{name}': {n} items, more than {MAX_PRIMITIVES}")
+    ctx.report.rejected = True
+    ctx.report.reason = f"'{name}' has {n} items; at most {MAX_PRIMITIVES} are allowed"
+    return True
+
+
+def _raw_count(value: Any) -> int:
+    """How many items a raw primitive list or sequence holds (before any is repaired)."""
+    if isinstance(value, str):
+        return sum(1 for s in _SPLIT_SEQ.split(value) if s and s.strip())
+    return len(value) if isinstance(value, list) else 0
 
 
 def _add_missing_primitives(prims: list[dict], seq: list[str], ctx: _Ctx) -> None:
@@ -1064,7 +1090,11 @@ def _assemble(data: dict, ctx: _Ctx) -> dict[str, Any] | None:
     label = _label(top, ctx)
     if top.get("activity_label") is None or label is None:
         ctx.report.missing_mandatory.append("activity_label")
+    if any(_too_many(k, _raw_count(top.get(k)), ctx) for k in ("motion_primitives", "primitive_sequence")):
+        return None
     prims, seq = _primitives(top, ctx)
+    if _too_many("motion_primitives", len(prims), ctx) or _too_many("primitive_sequence", len(seq), ctx):
+        return None
     missing = [m for m in ctx.report.missing_mandatory]
     problems = []
     if label is None:

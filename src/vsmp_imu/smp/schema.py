@@ -51,6 +51,9 @@ MAX_REPETITIONS = 1000
 #   library's "large" is 4 m).
 MAX_DISPLACEMENT_M = 2000.0
 MAX_ORDER_INDEX = 1000  # an order position; an SMP has a handful of primitives
+# At most this many motion primitives and sequence items: the library's longest activity has
+# 6, and refinement compares items pairwise, so an answer with thousands would stall it.
+MAX_PRIMITIVES = 64
 
 
 def _number(lo: float, hi: float):
@@ -209,8 +212,8 @@ class SMP(_Strict):
 
     schema_version: str = SCHEMA_VERSION
     activity_label: str = Field(min_length=1)
-    motion_primitives: list[MotionPrimitive] = Field(min_length=1)
-    primitive_sequence: list[SequenceName] = Field(min_length=1)
+    motion_primitives: list[MotionPrimitive] = Field(min_length=1, max_length=MAX_PRIMITIVES)
+    primitive_sequence: list[SequenceName] = Field(min_length=1, max_length=MAX_PRIMITIVES)
     primitive_durations: PrimitiveDurations = Field(default_factory=PrimitiveDurations)
     body_parts: BodyParts = Field(default_factory=BodyParts)
     temporal_structure: TemporalStructure = Field(default_factory=TemporalStructure)

@@ -17,6 +17,12 @@ A prompt has three parts:
    symmetry, displacement for a mobile activity, repetitions, and, on request,
    the central phase's share of the movement.
 
+Text fields come from a model's answer, so each goes in only as far as it
+describes: its first sentence, without symbols, at most a few dozen characters
+(`_field_text`), and not at all when it holds a control character or an
+instruction word (`INSTRUCTION_WORDS`: "ignore", "system", "prompt", ...); a
+description that does not go in is replaced by the primitive's name.
+
 Only known fields are verbalized; nothing is invented (no scenery, clothing,
 camera, or objects the SMP does not list). Prompts stay under 60 words: when
 they would not, the longest primitive phrase is condensed first, one step at
@@ -36,7 +42,7 @@ from __future__ import annotations
 import re
 
 from vsmp_imu.errors import ValidationError
-from vsmp_imu.smp._text import norm_name, number_word
+from vsmp_imu.smp._text import INSTRUCTION_WORDS, norm_name, number_word, words
 from vsmp_imu.smp.bodyparts import side_of
 from vsmp_imu.smp.intervene import central_primitive_index
 from vsmp_imu.smp.library import ActivityLibrary, LibraryEntry
@@ -66,6 +72,17 @@ SYMMETRY_PHRASES = {
 _RESERVE = {"tempo": 5, "amplitude": 6, "side": 5, "symmetry": 4, "displacement": 4,
             "repetitions": 6}
 
+# At most this many characters of each text field (the library's longest: label 40,
+# description 134, object 14, name 26).
+MAX_LABEL_CHARS = 60
+MAX_DESCRIPTION_CHARS = 200
+MAX_NAME_CHARS = 40
+GENERIC_LABEL = "a movement"  # the opening's label when the SMP's may not go in
+
+_SENTENCE_END = re.compile(r"[.!?:;](?:\s|$)|[\r\n]")
+_NOT_TEXT = re.compile(r"[^\w\s,'()/-]|_")
+_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")
+
 _SUBJECT = re.compile(r"^(?:the |a |an )?(?:person|individual|subject|man|woman|user|actor|"
                       r"participant|they|he|she)\s+", re.I)
 _IRREGULAR = {"is": "are", "has": "have", "does": "do", "goes": "go", "lies": "lie",
@@ -85,6 +102,20 @@ def _base_verb(word: str) -> str:
     if low.endswith(("shes", "ches", "xes", "zes", "sses")):
         return word[:-2]
     return word[:-1]
+
+
+def _field_text(text: str, max_chars: int) -> str:
+    """What of an SMP text field may go into a prompt: its first sentence without symbols, cut
+    to `max_chars` at a word; "" when it holds an instruction word or a control character."""
+    end = _SENTENCE_END.search(text)
+    text = text[: end.start()] if end else text
+    if _CONTROL.search(text) or any(w in INSTRUCTION_WORDS for w in words(text)):
+        return ""
+    text = " ".join(_NOT_TEXT.sub(" ", text).split())
+    if len(text) > max_chars:
+        cut = text[: max_chars + 1]
+        text = cut.rsplit(" ", 1)[0] if " " in cut else text[:max_chars]
+    return text
 
 
 def _clean(text: str) -> str:
@@ -156,9 +187,11 @@ def _phrases(smp: SMP, budget: int) -> list[str]:
     full, names = [], []
     for name in smp.primitive_sequence:
         p = by_name.get(norm_name(name))
-        named = _clean(name)
-        names.append(named)
-        full.append(_clean(p.description) if p is not None and p.description.strip() else named)
+        named = _clean(_field_text(name, MAX_NAME_CHARS))
+        described = _clean(_field_text(p.description, MAX_DESCRIPTION_CHARS)) if p is not None else ""
+        if named or described:
+            names.append(named or described)
+            full.append(described or named)
     for candidate in (full, names, [n.split(" ")[0] for n in names]):
         fitted = _condense(candidate, budget)
         if fitted is not None:
@@ -177,12 +210,12 @@ def _words(text: str) -> int:
 
 
 def _label(smp: SMP) -> str:
-    return " ".join(smp.activity_label.replace("_", " ").split()).lower()
+    return _field_text(smp.activity_label, MAX_LABEL_CHARS).lower() or GENERIC_LABEL
 
 
 def _opening(smp: SMP) -> str:
     text = f"A person performs {_label(smp)}"
-    objects = [" ".join(o.replace("_", " ").split()) for o in smp.object_contact.objects]
+    objects = [t for t in (_field_text(o, MAX_NAME_CHARS) for o in smp.object_contact.objects) if t]
     if objects:
         text += " using the " + " and the ".join(objects)
     if _displacement_category(smp) == "stationary" and not _label(smp).endswith("in place"):
@@ -256,7 +289,7 @@ def _attribute_items(smp: SMP, phase_durations: bool) -> list[tuple[str, str]]:
         c = central_primitive_index(smp)
         share = round(100 * smp.relative_durations()[c])
         unit = "each repetition" if ts.is_repetitive else "the movement"
-        name = _clean(smp.primitive_sequence[c])
+        name = _clean(_field_text(smp.primitive_sequence[c], MAX_NAME_CHARS)) or "central"
         items.append(("duration", f"with the {name} phase taking about {share} percent of {unit}"))
     count = smp.repetition_count()
     if ts.is_repetitive and (count is None or count >= 2):

@@ -58,7 +58,7 @@ import numpy as np
 from vsmp_imu.errors import InputFileError, ValidationError
 from vsmp_imu.io import read_text
 from vsmp_imu.smp._text import norm_name
-from vsmp_imu.smp.aggregate import aggregate, edit_similarity
+from vsmp_imu.smp.aggregate import aggregate, edit_similarity, library_activity
 from vsmp_imu.smp.bodyparts import normalize_body_parts
 from vsmp_imu.smp.io import load_smp
 from vsmp_imu.smp.library import ActivityLibrary
@@ -415,7 +415,8 @@ class ExtractionAudit:
             semantic_correction=False)
         audit.raw_scores = [compare_smps(p.smp, clip.reference, library) for p in received
                             if p.smp is not None]
-        agg = aggregate([p.smp if p is not None else None for p in parsed], min_valid=self.min_valid)
+        agg = aggregate([p.smp if p is not None else None for p in parsed], min_valid=self.min_valid,
+                        activity_of=library_activity(library))
         audit.disagreement = agg.any_disagreement
         if agg.smp is None:
             audit.discarded = True
