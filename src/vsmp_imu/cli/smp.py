@@ -18,7 +18,7 @@ from rich.text import Text
 
 from vsmp_imu.cli.common import console, distinct_files, library_dirs, output_file, safe_text, shown
 from vsmp_imu.errors import ConfigError, ExtractionError, InputFileError, ValidationError, VsmpError
-from vsmp_imu.io import atomic_text, write_json, write_text
+from vsmp_imu.io import atomic_text, write_json
 from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
 from vsmp_imu.smp.aggregate import aggregate, library_activity
 from vsmp_imu.smp.augment import SMPAugmenter, check_output_size
