@@ -150,9 +150,11 @@ def test_a_cycle_without_its_set_up_ends_where_it_started(library):
     assert wave["cycle"]["primitives"] == ["sweep_out", "sweep_back"]  # raising and lowering the hand are set-up
     jacks = compile_recipe_data(library.get("jumping_jacks").smp)
     assert jacks["cycle"]["primitives"] == ["jump_open", "jump_close"]
-    (at_out, out, _), (at_end, end, ease) = _keys(jacks, "jump_close")
-    assert (at_out, at_end, ease) == (0.5, 1.0, "stop")
+    (_, crouch, _), (_, air, _), (at_end, end, ease) = _keys(jacks, "jump_close")
+    assert (at_end, ease) == (1.0, "stop")
     assert _changed(jacks, end) == {}  # closed: back to the standing start, ready for the next jump
+    # the legs close in the air: a hop whose peak is the jump's rise, landing on the ground
+    assert jacks["poses"][air]["root_dy"] == pytest.approx(0.09) and jacks["poses"][end]["root_dy"] == 0.0
 
 
 def test_the_first_gait_primitive_sets_the_gait_pose(library):

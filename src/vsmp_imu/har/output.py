@@ -108,11 +108,21 @@ def run_file(evaluation) -> dict[str, Any]:
         "command": "vsmp-imu evaluate",
         "settings": settings,
         "backbones": {b: evaluation.backbone_settings(b) for b in c.backbones},
-        "methods": {m: evaluation.method_settings(m) for m in c.methods},
+        "methods": {m: _without(evaluation.method_settings(m), REMADE) for m in c.methods},
         "data": {"declaration": _sha(json.dumps(evaluation.dataset.info.to_dict(), sort_keys=True, default=str)),
                  "recordings": data_fingerprint(evaluation.dataset)},
     }
     return json.loads(json.dumps(content, sort_keys=True, default=str))
+
+
+# A method's settings whose change remakes the records it touches (a record's digest holds the
+# activity library it read: editing or adding activity files, `--library DIR`, remakes the
+# records of the classes they change), so a rerun with them changed resumes the folder.
+REMADE = ("library_dirs",)
+
+
+def _without(settings: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
+    return {k: v for k, v in settings.items() if k not in keys}
 
 
 def data_fingerprint(dataset) -> str:

@@ -512,6 +512,9 @@ def _close(step: Step, before: np.ndarray, current: np.ndarray, start: np.ndarra
         return
     if step.action == "gait":
         return
+    if any(m.kind == "jump" for m in step.movements):
+        step.keys = _hop(before, start)  # a jump that closes the cycle jumps there (jumping jacks close in the air)
+        return
     if step.action == "go" and step.keys:
         step.keys = [(0.5, step.keys[-1][1], "stop"), (1.0, start, "stop")]
     elif step.keys:
