@@ -28,10 +28,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
-from scipy.signal import butter, sosfiltfilt
+from scipy.signal import butter
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.grounding import floors
+from vsmp_imu.zero_phase import filtfilt
 
 LF_BAND_HZ = (0.3, 3.0)
 HF_BAND_HZ = (3.0, 12.0)
@@ -56,7 +57,7 @@ def _sos(band: tuple[float, float], fs_hz: float) -> np.ndarray:
 
 
 def _band(x: np.ndarray, band: tuple[float, float], fs_hz: float, axis: int) -> np.ndarray:
-    return sosfiltfilt(_sos(band, fs_hz), x, axis=axis)
+    return filtfilt(_sos(band, fs_hz), x, axis=axis)
 
 
 def _min_length(fs_hz: float) -> int:

@@ -29,11 +29,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, find_peaks, sosfiltfilt
+from scipy.signal import butter, find_peaks
 from scipy.spatial.transform import Rotation
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.motion.motion import Motion
+from vsmp_imu.zero_phase import filtfilt
 
 # Paper appendix "Analysis Parameters", "Control-measurement parameters".
 BUTTER_ORDER = 4
@@ -86,7 +87,7 @@ def lowpass(x: np.ndarray, fps: float, cutoff_hz: float = CUTOFF_HZ, order: int 
         return x.copy()
     sos = _lowpass_sos(order, cutoff_hz / nyquist)
     padlen = min(3 * (2 * len(sos) + 1), x.shape[0] - 1)
-    return sosfiltfilt(sos, x, axis=0, padlen=padlen)
+    return filtfilt(sos, x, axis=0, padlen=padlen)
 
 
 def _indices(motion: Motion, joints: Sequence[str]) -> list[int]:
