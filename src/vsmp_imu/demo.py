@@ -31,12 +31,21 @@ from vsmp_imu.har.synthetic import synthetic_budget
 from vsmp_imu.har.weights import DEFAULT_SYNTHETIC_WEIGHT
 from vsmp_imu.io import write_text
 from vsmp_imu.methods import register_all
+from vsmp_imu.output_folder import OutputFolder
 from vsmp_imu.pipeline.fold import FoldGenerator, FoldOutput
 from vsmp_imu.pipeline.method import fold_key
 from vsmp_imu.pipeline.output import write_output
 from vsmp_imu.pipeline.sources import LibrarySmpSource
 from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.smp.library import ActivityLibrary
+
+RUN_FILE = "demo.json"  # {"command": "vsmp-imu demo"}, written before any work
+# What the demo writes at the top of its folder (cache/: an older demo's samples, before they moved
+# to the cache directory); a folder it wrote holds one of MARKERS (evaluation/ comes first).
+MARKERS = frozenset({"evaluation", "synthetic", "traces.png", "filter_stats.png", "skeleton.gif",
+                     "skeleton_keyframes.png"})
+FOLDER = OutputFolder("vsmp-imu demo", RUN_FILE, names=MARKERS | {"report.md", "summary.json", "cache"},
+                      markers=MARKERS)
 
 
 @dataclass(frozen=True)
@@ -258,9 +267,10 @@ def report_markdown(cfg: DemoConfig, rows, fold_out: FoldOutput, elapsed_s: floa
 
 
 def run_demo(output: Path, cfg: DemoConfig = DemoConfig(), progress=None) -> dict[str, Any]:
-    """Everything `make demo` does; returns the summary rows."""
+    """Everything `make demo` does; returns the summary rows. `output`: a new or empty folder, or an
+    earlier demo's (rerun: its files are replaced); another one is refused before any work."""
     start = time.perf_counter()
-    output.mkdir(parents=True, exist_ok=True)
+    FOLDER.claim(output)
     results = run_evaluation(cfg, output, progress)
     fold_out, split, info = first_fold_synthetic(cfg, output)
     plot_traces(fold_out, split.fit, info, output / "traces.png")

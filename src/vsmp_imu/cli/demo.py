@@ -23,9 +23,11 @@ def demo_cmd(
     and a skeleton animation."""
     output_dir(output)
     from vsmp_imu.app import run_demo
+    from vsmp_imu.demo import FOLDER as DEMO_FOLDER
     from vsmp_imu.demo import DemoConfig, backbone_title
 
     cfg = DemoConfig(folds=tuple(parse_csv(folds, option="--folds")), budget_percent=budget, workers=workers)
+    DEMO_FOLDER.check(output)  # a folder of other files is refused before the header (run_demo takes it)
     console.print(f"VSMP-IMU demo: {cfg.dataset}, held-out subjects {', '.join(cfg.folds)}, "
                   f"{cfg.budget_percent:g} % labels, writing {shown(output)}/", highlight=False)
     with progress("evaluation", console=console, transient=False) as update:

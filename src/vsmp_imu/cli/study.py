@@ -10,6 +10,7 @@ import typer
 from vsmp_imu.cli.common import console, library_dirs, option_names, output_dir, parse_csv, shown
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.progress import progress
+from vsmp_imu.studies.folders import claim_study_folder, study_folder
 
 study_app = typer.Typer(help="Studies of the paper: end-to-end controllability, SMP extraction "
                         "audit, qualitative case study, ablations, activity granularity, realism.",
@@ -44,6 +45,13 @@ STUDY_PROTOCOLS = ("lopo", "low-resource", "long-tail")  # the studies' protocol
 PROTOCOL_HELP = " | ".join(STUDY_PROTOCOLS)
 
 
+def _output(output: Path, study: str) -> None:
+    """The output folder: one we may write in, new, empty or the study's own (`claim_study_folder`
+    takes it, right before the work)."""
+    output_dir(output)
+    study_folder(study).check(output)
+
+
 def _library(library: list[Path] | None):
     from vsmp_imu.smp.library import ActivityLibrary
 
@@ -68,7 +76,7 @@ def control_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """End-to-end SMP controllability: motion, raw IMU and grounded IMU checkpoints."""
-    output_dir(output)
+    _output(output, "control")
     from vsmp_imu.studies.control import ATTRIBUTES, ControlStudy
     from vsmp_imu.studies.control_report import write_control_outputs
 
@@ -79,6 +87,7 @@ def control_cmd(
         activities=parse_csv(activities, option="--activities") if activities else None,
         attributes=parse_csv(controls, ATTRIBUTES, "--controls") if controls else None,
         backend=backend, library=_library(library), noise=not no_noise, data_dir=data_dir)
+    claim_study_folder(output, "control")
     with progress("controllability") as update:
         results = study.run(output, progress=update)
     paths = write_control_outputs(results, output)
@@ -107,12 +116,13 @@ def audit_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """SMP extraction audit: field accuracy, failure accounting, uncertainty calibration."""
-    output_dir(output)
+    _output(output, "audit")
     from vsmp_imu.studies.audit import ExtractionAudit, load_audit_inputs
     from vsmp_imu.studies.audit_report import write_audit_outputs
 
     _check_ints((min_valid, 1, 100, "--min-valid"))
     clips = load_audit_inputs(pred, ref, groups)
+    claim_study_folder(output, "audit")
     results = ExtractionAudit(_library(library), min_valid).run(clips)
     paths = write_audit_outputs(results, output)
     f = results.failures["overall"]
@@ -137,7 +147,7 @@ def case_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Qualitative case study: source frames, SMP, three controlled variants, motions, IMU."""
-    output_dir(output)
+    _output(output, "case")
     from vsmp_imu.studies.case import CaseStudy, write_case_outputs
 
     _check_ints((seed, 0, SEED_MAX, "--seed"))
@@ -147,6 +157,7 @@ def case_cmd(
         location = get_placement(location).name
     activities = _library(library)
     activities.get(activity)  # an unknown activity, before the clip is read
+    claim_study_folder(output, "case")
     result = CaseStudy(activity, video=video, seed=seed, library=activities, location=location).run()
     paths = write_case_outputs(result, output)
     for k, var in enumerate(result.variants, start=1):
@@ -256,7 +267,7 @@ def ablation_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Ablations: matched caption-SMP 2x2, components, sensor grounding, alpha sensitivity."""
-    output_dir(output)
+    _output(output, "ablation")
     from vsmp_imu.studies.ablation import PARTS, AblationStudy
     from vsmp_imu.studies.ablation_report import write_ablation_outputs
 
@@ -277,6 +288,7 @@ def ablation_cmd(
         seeds=seeds, backbone=backbone, alpha=alpha, alphas=alpha_values, max_rounds=max_rounds, parts=chosen,
         options=_generation(source, k, backend, workers, library),
         backbone_params=_backbone(backbone, max_epochs, patience, jobs))
+    claim_study_folder(output, "ablation")
     with progress("ablation") as update:
         results = study.run(output, progress=update)
     paths = write_ablation_outputs(results, output)
@@ -316,7 +328,7 @@ def granularity_cmd(
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Per-class precision/recall/F1 and group Macro-F1 under an activity taxonomy."""
-    output_dir(output)
+    _output(output, "granularity")
     from vsmp_imu.studies.granularity import GranularityStudy
     from vsmp_imu.studies.granularity_report import write_granularity_outputs
     from vsmp_imu.studies.methods import method_names
@@ -330,6 +342,7 @@ def granularity_cmd(
         protocol=protocol, budget=budget, folds=_folds(folds), seeds=seeds, alpha=alpha,
         options=_generation(source, k, backend, workers, library, clips),
         backbone_params=_backbone(backbone, max_epochs, patience, jobs))
+    claim_study_folder(output, "granularity")
     with progress("granularity") as update:
         results = study.run(output, progress=update)
     paths = write_granularity_outputs(results, output)
@@ -390,7 +403,7 @@ def realism_cmd(
 ) -> None:
     """Feature-space realism: class-wise centroid distances in DeepConvLSTM embeddings, PCA, KS,
     and a two-sample test (RF AUC) on the ECDF features."""
-    output_dir(output)
+    _output(output, "realism")
     from vsmp_imu.studies.methods import method_names
     from vsmp_imu.studies.realism import LAYERS, RealismStudy
     from vsmp_imu.studies.realism_report import write_realism_outputs
@@ -409,6 +422,7 @@ def realism_cmd(
         max_per_class=max_per_class, epochs=epochs, patience=patience,
         encoder_windows=encoder_windows or None, val_windows=val_windows or None, layer=layer,
         encoder_params=encoder, options=_generation(source, k, backend, workers, library, clips))
+    claim_study_folder(output, "realism")
     with progress("realism") as update:
         results = study.run(output, progress=update)
     paths = write_realism_outputs(results, output)

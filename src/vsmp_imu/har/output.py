@@ -3,7 +3,7 @@
 `check_folder` (before the dataset loads) takes a new or empty folder, or one an earlier
 `evaluate` wrote: it holds RUN_FILE, or (a folder written before RUN_FILE was) only the files
 `evaluate` writes, records/ among them. Anything else is refused, so a run never overwrites
-a user's files.
+a user's files (`vsmp_imu.output_folder`, shared with the demo and the studies).
 
 `claim` (after the dataset loads, before any record) writes RUN_FILE: what every record's
 numbers depend on, the settings (`Evaluation.run_settings`, the protocol, the do-no-harm and
@@ -22,57 +22,36 @@ from pathlib import Path
 from typing import Any
 
 from vsmp_imu.errors import ConfigError
-from vsmp_imu.io import is_temp_name, write_json
+from vsmp_imu.io import write_json
+from vsmp_imu.output_folder import OutputFolder, read_json_object
 
 RUN_FILE = "evaluate.json"
 OWN_NAMES = ("results.json", "results.md", "records", ".folds", RUN_FILE)
 OWN_PATTERN = re.compile(r"confusion_.+\.png")  # har/report.py's confusion matrices
-MAX_RUN_FILE_BYTES = 16 * 2**20  # a larger RUN_FILE is not one `evaluate` wrote
 # RUN_FILE's settings as the command line names them (the others by their own name)
 OPTIONS = {"protocol": "--protocol", "window_s": "--window-s", "overlap": "--overlap", "alpha": "--alpha",
            "policy": "--policy", "rho": "--rho", "share_selection": "--share-selection",
            "synthetic_weight": "--synthetic-weight", "dataset": "--dataset"}
+# A folder an evaluate wrote before RUN_FILE was: its records/ (or its folds' .folds/) and its
+# own files alone
+FOLDER = OutputFolder("vsmp-imu evaluate", RUN_FILE, names=frozenset(OWN_NAMES),
+                      markers=frozenset({"records", ".folds"}), patterns=(OWN_PATTERN,),
+                      earlier=lambda folder: read_run_file(folder) is not None,
+                      allowed="a new or empty folder, or the folder of an earlier `vsmp-imu evaluate` (to "
+                              "resume or extend it); give another -o, or remove the folder")
 REFUSED = ("a new --output folder, or remove this one first; the same settings and data resume or extend "
            "its run")
 
 
 def check_folder(folder: Path) -> None:
     """`folder` is new, empty or an earlier evaluate's; else a ConfigError naming what it holds."""
-    entries = _entries(folder)
-    if not entries or read_run_file(folder) is not None or _only_own(entries):
-        return
-    names = sorted(p.name for p in entries)
-    shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
-    raise ConfigError(f"is not empty and holds no earlier `vsmp-imu evaluate` run ({shown})", file=folder,
-                      field="--output", allowed="a new or empty folder, or the folder of an earlier "
-                      "`vsmp-imu evaluate` (to resume or extend it); give another -o, or remove the folder")
-
-
-def _entries(folder: Path) -> list[Path]:
-    try:
-        return [p for p in folder.iterdir() if not is_temp_name(p.name)] if folder.is_dir() else []
-    except OSError as exc:  # a folder we may not list
-        raise ConfigError(f"cannot list the folder ({exc.strerror})", file=folder, field="--output",
-                          allowed="a folder you may read and write") from exc
-
-
-def _only_own(entries: list[Path]) -> bool:
-    """A folder an evaluate wrote before RUN_FILE was: its records/ (or its folds' .folds/) and its
-    own files alone."""
-    names = {p.name for p in entries}
-    return bool(names & {"records", ".folds"}) and all(n in OWN_NAMES or OWN_PATTERN.fullmatch(n) for n in names)
+    FOLDER.check(folder)
 
 
 def read_run_file(folder: Path) -> dict[str, Any] | None:
     """The RUN_FILE of `folder`, or None when absent or not one `evaluate` wrote."""
-    path = folder / RUN_FILE
-    try:
-        if path.stat().st_size > MAX_RUN_FILE_BYTES:
-            return None
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError, RecursionError):  # absent, not JSON, or nested too deep
-        return None
-    if not isinstance(data, dict) or data.get("command") != "vsmp-imu evaluate":
+    data = read_json_object(folder / RUN_FILE)
+    if data is None or data.get("command") != "vsmp-imu evaluate":
         return None
     return data if all(isinstance(data.get(k), dict) for k in ("settings", "backbones", "methods", "data")) else None
 

@@ -28,7 +28,8 @@ import pyarrow.parquet as pq
 
 from vsmp_imu.errors import ConfigError, InputFileError
 from vsmp_imu.har.windows import Windows
-from vsmp_imu.io import is_temp_name, write_bytes, write_json, write_text
+from vsmp_imu.io import write_bytes, write_json, write_text
+from vsmp_imu.output_folder import entries, listing, read_json_object
 from vsmp_imu.pipeline.fold import FoldOutput
 from vsmp_imu.pipeline.sample import json_default
 
@@ -131,11 +132,11 @@ def claim_output(folder: Path, dataset: str, holdout: str) -> None:
     so the folder never mixes two runs; its per-sample cache (`cache/`) stays, for the samples
     to be reused. A folder that holds anything else is refused (ConfigError).
     """
-    entries = [p for p in folder.iterdir() if not is_temp_name(p.name)] if folder.is_dir() else []
-    if entries:
+    held_entries = entries(folder)
+    if held_entries:
         held = earlier_fold(folder)
         if held != (dataset, holdout):
-            raise ConfigError(_holds(held, entries, dataset, holdout), file=folder, field="--output",
+            raise ConfigError(_holds(held, held_entries, dataset, holdout), file=folder, field="--output",
                               allowed="a new or empty folder, or the folder of an earlier `vsmp-imu generate` of "
                                       "the same dataset and held-out subject (rerun: its outputs are replaced); "
                                       "give another -o, or remove the folder")
@@ -147,24 +148,17 @@ def earlier_fold(folder: Path) -> tuple[str, str] | None:
     """(dataset, held-out subject) of the `generate` run in `folder`, read from its RUN_FILE (or the
     summary.json of a run written before RUN_FILE was); None when neither names them."""
     for name in (RUN_FILE, "summary.json"):
-        try:
-            if (folder / name).stat().st_size > MAX_SUMMARY_BYTES:
-                continue
-            data = json.loads((folder / name).read_text(encoding="utf-8"))
-        except (OSError, ValueError, RecursionError):  # absent, not JSON, or nested too deep
-            continue
-        if isinstance(data, dict) and isinstance(data.get("dataset"), str) and isinstance(data.get("holdout"), str):
+        data = read_json_object(folder / name, MAX_SUMMARY_BYTES)
+        if data is not None and isinstance(data.get("dataset"), str) and isinstance(data.get("holdout"), str):
             return data["dataset"], data["holdout"]
     return None
 
 
-def _holds(held: tuple[str, str] | None, entries: list[Path], dataset: str, holdout: str) -> str:
+def _holds(held: tuple[str, str] | None, found: list[Path], dataset: str, holdout: str) -> str:
     if held is not None:
         return (f"holds the output of `vsmp-imu generate` for {held[0]} with held-out subject {held[1]}, "
                 f"not {dataset} with {holdout}")
-    names = sorted(p.name for p in entries)
-    shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
-    return f"is not empty and holds no earlier `vsmp-imu generate` run ({shown})"
+    return f"is not empty and holds no earlier `vsmp-imu generate` run ({listing(found)})"
 
 
 def _remove_outputs(folder: Path) -> None:

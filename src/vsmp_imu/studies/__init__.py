@@ -13,7 +13,8 @@
 - `realism`: class-wise centroid distances in DeepConvLSTM embeddings;
   `realism_report`.
 - `methods`: the synthetic methods as the `evaluate` command registers them.
-- `report`: output helpers shared by every study.
+- `report`: output helpers shared by every study; `folders`: the output
+  folder each study takes (`-o`) before its work.
 
 See docs/studies.md.
 """
