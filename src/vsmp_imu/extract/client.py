@@ -16,8 +16,9 @@ failure is counted in the extraction report.
   `max_retry_after_s`, and a whole query, attempts and waits together, by
   `(1 + max_retries) * timeout_s` (`query_budget_s`); a server that asks for
   a longer wait than that allows fails the query at once, naming the endpoint
-  and what it asked. A 3xx fails the query at once (it names where it points). Other client errors (401, 403, 404, ...) are
-  configuration mistakes: `ServiceError` at once.
+  and what it asked. A 3xx fails the query at once (it names where it
+  points). Other client errors (401, 403, 404, ...) are configuration
+  mistakes: `ServiceError` at once.
 - Structured output: the JSON-schema `response_format` is sent unless the
   endpoint is known not to support it. A 400/422 answer to a request that
   carried it is retried at once without it; when that succeeds and the error
