@@ -14,10 +14,13 @@ from vsmp_imu.baselines.generative import (
     ImuTubeMethod,
     llm_descriptions,
     offline_descriptions,
+    parse_descriptions,
+    unusable_descriptions,
 )
-from vsmp_imu.errors import ConfigError
+from vsmp_imu.errors import ConfigError, VsmpError
 from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.synthetic import FoldContext, synthetic_budget
+from vsmp_imu.smp.library import ActivityLibrary
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "extract"))
 from extract_support import VIDEO_DIR  # noqa: E402
@@ -56,6 +59,86 @@ def test_llm_descriptions_through_a_chat_completions_server(tmp_path):
         assert len(server.requests) == 1
     assert got == again == ["A person walks briskly.", "A person strolls slowly."]
     assert "walking" in server.requests[0]["body"]["messages"][0]["content"]
+    assert server.requests[0]["headers"]["accept-encoding"] == "identity"  # the bounded transport
+
+
+def test_parse_descriptions():
+    assert parse_descriptions('{"descriptions": [" A person walks. ", "", 3, {"x": 1}, "Strolls."]}') == (
+        ["A person walks.", "Strolls."], None)
+    assert parse_descriptions('["A person walks."]') == (["A person walks."], None)
+    for text in ("", "I'm sorry, but I can't help with that.", '{"descriptions": []}', '"just a string"',
+                 '{"descriptions": "walk"}', '{"refusal": "no"}', "null", "[" * 100_000, '{"descriptions": [1, " "]}'):
+        items, why = parse_descriptions(text)
+        assert items == [] and why, text
+        assert unusable_descriptions(text) == why
+
+
+USABLE = '{"descriptions": ["A person walks briskly."]}'
+
+
+@pytest.mark.parametrize("bad", ["", "I'm sorry, but I can't help with that.", '{"descriptions": []}',
+                                 '{"descriptions": "walk"}'])
+def test_an_unusable_description_answer_is_not_cached_and_asked_again(tmp_path, bad):
+    from vsmp_imu.extract.client import VLMClient
+
+    with ChatServer([Reply(200, bad), Reply(200, USABLE)]) as server:
+        client = VLMClient(server.url, "describer", api_key="test", cache_dir=tmp_path, sleep=lambda s: None)
+        with pytest.raises(VsmpError, match="not the expected JSON .*not cached"):
+            llm_descriptions(client, "walking", 1)
+        assert not list(tmp_path.rglob("??/*.json"))
+        assert llm_descriptions(client, "walking", 1) == ["A person walks briskly."]  # asked again
+        assert llm_descriptions(client, "walking", 1) == ["A person walks briskly."]  # now cached
+        assert len(server.requests) == 2
+    assert len(list(tmp_path.rglob("??/*.json"))) == 1
+
+
+def test_a_refusal_field_is_not_cached(tmp_path):
+    """A model that refuses through `message.refusal` (content null) gets asked again."""
+    import json
+
+    from vsmp_imu.extract.client import VLMClient
+
+    envelope = {"choices": [{"index": 0, "message": {"role": "assistant", "content": None,
+                                                     "refusal": "I can't help with that."}}]}
+    with ChatServer([Reply(200, raw_body=json.dumps(envelope)), Reply(200, USABLE)]) as server:
+        client = VLMClient(server.url, "describer", api_key="test", cache_dir=tmp_path, sleep=lambda s: None)
+        with pytest.raises(VsmpError, match="describer|description model"):
+            llm_descriptions(client, "walking", 1)
+        assert llm_descriptions(client, "walking", 1) == ["A person walks briskly."]
+        assert len(server.requests) == 2
+
+
+@pytest.mark.parametrize("damage", [b"\xff\xfe", b"{trunc", b'{"format": 1}', b"[" * 100_000])
+def test_a_damaged_description_cache_entry_is_a_miss_with_a_warning(tmp_path, caplog, damage):
+    from vsmp_imu.extract.client import VLMClient
+
+    with ChatServer([Reply(200, USABLE), Reply(200, USABLE)]) as server:
+        client = VLMClient(server.url, "describer", api_key="test", cache_dir=tmp_path, sleep=lambda s: None)
+        assert llm_descriptions(client, "walking", 1) == ["A person walks briskly."]
+        (entry,) = tmp_path.rglob("??/*.json")
+        entry.write_bytes(damage)
+        with caplog.at_level("WARNING"):
+            assert llm_descriptions(client, "walking", 1) == ["A person walks briskly."]
+        assert len(server.requests) == 2
+    assert "cache entry not used, asked again" in caplog.text
+    assert llm_descriptions(client, "walking", 1) == ["A person walks briskly."]  # the entry was replaced
+
+
+@pytest.mark.parametrize("cache_dir,where", [(None, "cache/vlm"), ("cache/samples", "cache/vlm"),
+                                             ("mine", "mine/describer")])
+def test_the_describer_cache_is_never_the_current_folder(context, tmp_path, monkeypatch, cache_dir, where):
+    """Without a cache_dir of its own (none, or the project's samples folder, which is pruned
+    and cleared), the describer's answers go to the `vlm` cache folder."""
+    monkeypatch.setenv("VSMP_IMU_CACHE", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+    seen = []
+    monkeypatch.setattr("vsmp_imu.baselines.generative.llm_descriptions",
+                        lambda client, activity, n: seen.append(client.cache_dir) or [f"A person does {activity}."])
+    method = ImuGptMethod(n_descriptions=1, describer_url="http://127.0.0.1:9/v1",
+                          cache_dir=None if cache_dir is None else str(tmp_path / cache_dir))
+    method._bases(context, ActivityLibrary.load())
+    assert seen and all(Path(d) == tmp_path / where for d in seen)
+    assert not (tmp_path / "describer").exists()
 
 
 def test_imugpt_windows_come_from_prompts_without_smp_or_calibration(context, tmp_path):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import email.utils
 import gzip
 import json
 import logging
@@ -17,6 +18,7 @@ from vsmp_imu.extract.client import (
     abbreviate_images,
     api_key_from_env,
     message_text,
+    retry_after,
     retry_after_s,
     scrub,
 )
@@ -92,6 +94,116 @@ def test_5xx_backoff_grows_exponentially_with_jitter(chat_server):
     assert done.ok and done.retries == 3
     for k, wait in enumerate(sleeps.waits):
         assert 0.5 * 2**k <= wait <= 2**k  # base * 2^k x jitter in [0.5, 1]
+
+
+class Clock:
+    """A monotonic clock that the recorded waits advance (a Sleeps that costs no time)."""
+
+    def __init__(self) -> None:
+        self.slept = 0.0
+        self.waits: list[float] = []
+        self.start = time.monotonic()
+
+    def __call__(self) -> float:
+        return time.monotonic() + self.slept
+
+    def sleep(self, seconds: float) -> None:
+        self.waits.append(seconds)
+        self.slept += seconds
+
+    def elapsed(self) -> float:
+        return self() - self.start
+
+
+def test_retry_after_in_seconds_as_an_http_date_or_junk():
+    now = 1445412470.0
+    assert retry_after_s({"Retry-After": "Wed, 21 Oct 2015 07:28:00 -0000"}, now=now) == 10.0  # no zone: GMT
+    assert retry_after_s({"Retry-After": "Wed, 21 Oct 2015 07:27:00 GMT"}, now=now) == 0.0  # past: now
+    assert retry_after_s({"Retry-After": "Fri, 31 Dec 9999 23:59:59 GMT"}, now=now) > 1e11
+    for junk in ("soon", "", "-5", "inf", "nan", "1e999", "Wed, 99 Foo 2015 07:28:00 GMT", "Mon, 1 Jan 99999 0:0:0 GMT"):
+        assert retry_after_s({"Retry-After": junk}, now=now) is None, junk
+    assert retry_after_s({"retry-after-ms": "junk", "Retry-After": "4"}) == 4.0
+    assert retry_after({"Retry-After": " 86400 "}) == (86400.0, "retry-after: 86400")
+    assert retry_after({"Retry-After": "soon"}) == (None, "retry-after: soon")
+    assert retry_after({}) == (None, None)
+
+
+@pytest.mark.parametrize("asked", ["86400", "121", "Fri, 31 Dec 9999 23:59:59 GMT"])
+def test_a_retry_after_longer_than_a_wait_may_take_fails_the_query_at_once(chat_server, asked):
+    """A hostile or overloaded server asking for a day's wait must not hold the run: the query
+    fails without waiting, naming the endpoint and what it asked."""
+    sleeps = Sleeps()
+    with chat_server([error(429, retry_after=asked), ok("walking_valid_1.json")]) as server:
+        c = client(server, sleep=sleeps, timeout_s=200.0)  # a wait may take min(200, 120) s
+        done = c.complete(MESSAGES, {})
+    assert not done.ok and done.attempts == 1 and done.retries == 0 and sleeps.waits == []
+    assert len(server.requests) == 1
+    assert f"the endpoint {server.url} vlm-test asked to wait" in done.error
+    assert f"(retry-after: {asked})" in done.error and "more than the 120 s a wait may take" in done.error
+    assert "not retried" in done.error
+
+
+def test_a_wait_is_bounded_by_the_timeout_too(chat_server):
+    sleeps = Sleeps()
+    with chat_server([error(503, retry_after="3"), ok("walking_valid_1.json")]) as server:
+        done = client(server, sleep=sleeps, timeout_s=2.0).complete(MESSAGES, {})
+    assert not done.ok and sleeps.waits == [] and "more than the 2 s a wait may take (--timeout-s 2" in done.error
+
+
+def test_a_retry_after_longer_than_what_is_left_of_the_query_fails_it(chat_server):
+    """timeout 0.3 s, 2 retries: the query has 0.9 s. After 0.2 s + a 0.25 s wait + 0.2 s, a
+    second Retry-After of 0.28 s fits one wait (0.3 s) but not the 0.25 s left."""
+    clock = Clock()
+    script = [Reply(503, headers={"Retry-After": "0.25"}, raw_body="{}", delay_s=0.2),
+              Reply(503, headers={"Retry-After": "0.28"}, raw_body="{}", delay_s=0.2), ok("walking_valid_1.json")]
+    with chat_server(script) as server:
+        c = client(server, sleep=clock.sleep, clock=clock, timeout_s=0.3, max_retries=2)
+        c._client()  # imports done before the clock starts
+        done = c.complete(MESSAGES, {})
+    assert not done.ok and done.attempts == 2 and clock.waits == [0.25] and len(server.requests) == 2
+    assert "asked to wait 0.28 s before a retry (retry-after: 0.28)" in done.error
+    assert "s left of the query's 0.9 s ((1 + --max-retries 2) x --timeout-s 0.3)" in done.error
+
+
+def test_waits_and_attempts_together_stay_within_the_query_budget(chat_server):
+    """A server that never answers in time: attempts (0.2 s each) and backoff waits together
+    stop within (1 + 2) x 0.2 s, before the retries run out."""
+    clock = Clock()
+    with chat_server([], default=ok("walking_valid_1.json", delay_s=0.6)) as server:
+        c = client(server, sleep=clock.sleep, clock=clock, timeout_s=0.2, max_retries=2, base_delay_s=0.15)
+        c._client()
+        clock.start = clock()
+        done = c.complete(MESSAGES, {})
+    assert not done.ok and done.retries < 2 and "no time left for a retry" in done.error
+    assert all(e.startswith("timeout") for e in done.errors)
+    assert clock.elapsed() <= 0.6 + 0.15  # the budget, plus slack for a busy machine
+
+
+def test_the_last_attempt_gets_only_what_is_left_of_the_query(chat_server):
+    """timeout 0.4 s, 1 retry: 0.8 s in all. After ~0.1 s and a 0.35 s wait, the retry may
+    take 0.35 s, not 0.4 s."""
+    clock = Clock()
+    script = [Reply(503, headers={"Retry-After": "0.35"}, raw_body="{}", delay_s=0.1),
+              ok("walking_valid_1.json", delay_s=1.0)]
+    with chat_server(script) as server:
+        c = client(server, sleep=clock.sleep, clock=clock, timeout_s=0.4, max_retries=1)
+        c._client()
+        clock.start = clock()
+        done = c.complete(MESSAGES, {})
+    assert not done.ok and done.attempts == 2 and clock.waits == [0.35]
+    assert done.errors[1].startswith("timeout") and "(what was left of the query's time)" in done.errors[1]
+    assert clock.elapsed() <= 0.8 + 0.15
+
+
+def test_retry_after_as_an_http_date_is_honoured_and_junk_is_ignored(chat_server):
+    sleeps = Sleeps()
+    soon = email.utils.formatdate(time.time() + 3, usegmt=True)
+    script = [error(503, retry_after=soon), error(503, retry_after="soon"), ok("walking_valid_1.json")]
+    with chat_server(script) as server:
+        done = client(server, sleep=sleeps, timeout_s=5.0).complete(MESSAGES, {})
+    assert done.ok and done.retries == 2
+    assert 1.0 <= sleeps.waits[0] <= 3.0 and sleeps.waits[1] <= 0.02  # the date; then plain backoff
+    assert "HTTP 503 (retry-after: soon: not a time, ignored)" in done.errors[1]
 
 
 def test_slow_server_times_out_and_is_retried(chat_server):

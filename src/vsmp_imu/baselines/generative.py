@@ -51,24 +51,47 @@ def offline_descriptions(captions: tuple[str, ...], n: int, seed: int, key: str)
     return [pool[i] for i in order[:n]]
 
 
-def llm_descriptions(client, activity: str, n: int) -> list[str]:
-    """Descriptions from an OpenAI-compatible chat model (cached by the client)."""
+def parse_descriptions(text: str) -> tuple[list[str], str | None]:
+    """(the descriptions, None) from the describer's answer: JSON `{"descriptions": [...]}` or a
+    bare list of strings, fenced or not; ([], why) when it holds none (empty, a refusal, prose,
+    other JSON)."""
     import json_repair
 
+    body = (text or "").strip().removeprefix("```json").removeprefix("```").removesuffix("```")
+    try:
+        data = json_repair.loads(body)
+    except Exception:  # json_repair raises plain exceptions (RecursionError too) on hopeless input
+        data = None
+    if isinstance(data, dict):
+        data = data.get("descriptions")
+    if not isinstance(data, list):
+        return [], "no list of descriptions in the answer" if (text or "").strip() else "an empty answer"
+    items = [d.strip() for d in data if isinstance(d, str) and d.strip()]
+    return (items, None) if items else ([], "the answer's list holds no description text")
+
+
+def unusable_descriptions(text: str) -> str | None:
+    """None when the answer holds a description (so the client may cache it); else why not."""
+    return parse_descriptions(text)[1]
+
+
+def llm_descriptions(client, activity: str, n: int) -> list[str]:
+    """Descriptions from an OpenAI-compatible chat model (`extract.client.VLMClient`, so through
+    the bounded transport of `extract.http`). The client caches only usable answers
+    (`unusable_descriptions`): an empty, refused or malformed one is asked again next time, and
+    a damaged cache entry is a miss (with a warning)."""
     prompt = DESCRIBE_PROMPT.format(n=n, activity=activity)
     completion = client.complete([{"role": "user", "content": prompt}],
-                                 key_fields={"task": "imugpt-describe", "activity": activity, "n": n})
+                                 key_fields={"task": "imugpt-describe", "activity": activity, "n": n},
+                                 accept=unusable_descriptions)
     if completion.content is None:
         raise VsmpError(f"the description model gave no answer for '{activity}' "
-                        f"({'; '.join(completion.errors) or 'no content'})", field="describer")
-    try:
-        text = completion.content.strip().removeprefix("```json").removeprefix("```").removesuffix("```")
-        data = json_repair.loads(text)
-        items = [str(d).strip() for d in (data["descriptions"] if isinstance(data, dict) else data)
-                 if str(d).strip()]
-    except (ValueError, KeyError, TypeError) as exc:
-        raise VsmpError(f"the description model's answer for '{activity}' is not the expected JSON",
-                        field="describer") from exc
+                        f"({completion.error or '; '.join(completion.errors) or 'no content'})",
+                        field="describer")
+    items, problem = parse_descriptions(completion.content)
+    if problem is not None:
+        raise VsmpError(f"the description model's answer for '{activity}' is not the expected JSON "
+                        f"({problem}; not cached, asked again next time)", field="describer")
     return items[:n]
 
 
@@ -101,7 +124,9 @@ class _GenerativeBaseline:
 
 class ImuGptMethod(_GenerativeBaseline):
     """IMUGPT 2.0-style synthetic windows (see module doc); `describer_url` names an
-    OpenAI-compatible model that writes the descriptions (offline captions otherwise)."""
+    OpenAI-compatible model that writes the descriptions (offline captions otherwise). Its
+    answers are cached in `describer/` of the spec's own cache_dir, else (none, or the project's
+    samples folder) in the project's `vlm` cache folder."""
 
     name = "imugpt"
 
@@ -118,9 +143,12 @@ class ImuGptMethod(_GenerativeBaseline):
         client = None
         if self.describer_url:
             from vsmp_imu.extract.client import VLMClient
+            from vsmp_imu.har.cache import samples_dir, vlm_dir
 
-            client = VLMClient(self.describer_url, self.describer_model or "",
-                               cache_dir=Path(self.spec.cache_dir or ".") / "describer")
+            # paid answers: never in the current folder, nor with the samples (pruned, cleared)
+            own = self.spec.cache_dir and Path(self.spec.cache_dir).resolve() != samples_dir().resolve()
+            cache = Path(self.spec.cache_dir) / "describer" if own else vlm_dir()
+            client = VLMClient(self.describer_url, self.describer_model or "", cache_dir=cache)
         out = {}
         for label, entry in entries.items():
             if client is not None:

@@ -10,10 +10,15 @@ failure is counted in the extraction report.
 - Retries: HTTP 408/409/425/429 and 5xx, timeouts, connection errors, refused
   answers and unreadable response bodies are retried with exponential backoff
   (`base_delay_s * 2**k`, capped at `max_delay_s`) and jitter (x 0.5..1);
-  a `Retry-After` (or `retry-after-ms`) header is honoured (waits at least
-  that long, up to `max_retry_after_s`). A 3xx fails the query at once (it
-  names where it points). Other client errors (401, 403, 404, ...) are
-  configuration mistakes: `ServiceError` at once.
+  a `Retry-After` (or `retry-after-ms`) header, in seconds or an HTTP date, is
+  honoured (the wait is at least that long; a header that is neither is
+  ignored). Waits are bounded: one wait by `timeout_s` and
+  `max_retry_after_s`, and a whole query, attempts and waits together, by
+  `(1 + max_retries) * timeout_s` (`query_budget_s`); a server that asks for
+  a longer wait than that allows fails the query at once, naming the endpoint
+  and what it asked. A 3xx fails the query at once (it names where it
+  points). Other client errors (401, 403, 404, ...) are configuration
+  mistakes: `ServiceError` at once.
 - Structured output: the JSON-schema `response_format` is sent unless the
   endpoint is known not to support it. A 400/422 answer to a request that
   carried it is retried at once without it; when that succeeds and the error
@@ -32,6 +37,7 @@ failure is counted in the extraction report.
 
 from __future__ import annotations
 
+import datetime
 import email.utils
 import json
 import logging
@@ -121,29 +127,42 @@ def _scrub_obj(obj: Any, secret: str | None) -> Any:
 
 
 def retry_after_s(headers: Mapping[str, str] | None, now: float | None = None) -> float | None:
-    """Seconds asked for by `retry-after-ms` or `Retry-After` (seconds or an HTTP date)."""
-    if not headers:
-        return None
-    lower = {str(k).lower(): str(v) for k, v in headers.items()}
+    """Seconds asked for by `retry-after-ms` or `Retry-After` (seconds or an HTTP date; a date
+    already past asks for 0); None when neither header holds a time (absent, or junk)."""
+    return retry_after(headers, now)[0]
+
+
+def retry_after(headers: Mapping[str, str] | None, now: float | None = None) -> tuple[float | None, str | None]:
+    """(seconds asked for, or None; the header as sent, or None when there is none): see
+    `retry_after_s`. A negative, infinite or unreadable value asks for nothing."""
+    lower = {str(k).lower(): str(v).strip() for k, v in (headers or {}).items()}
+    sent = [f"{name}: {_short(lower[name])}" for name in ("retry-after-ms", "retry-after") if name in lower]
     if "retry-after-ms" in lower:
-        try:
-            return max(0.0, float(lower["retry-after-ms"]) / 1000.0)
-        except ValueError:
-            pass
+        ms = _seconds(lower["retry-after-ms"])
+        if ms is not None:
+            return ms / 1000.0, sent[0]
     value = lower.get("retry-after")
     if value is None:
-        return None
+        return None, "; ".join(sent) or None
+    seconds = _seconds(value)
+    if seconds is None:
+        try:
+            when = email.utils.parsedate_to_datetime(value)
+            if when.tzinfo is None:  # "-0000" or no zone: HTTP dates are in GMT
+                when = when.replace(tzinfo=datetime.UTC)
+            seconds = max(0.0, when.timestamp() - (time.time() if now is None else now))
+        except (TypeError, ValueError, OverflowError, IndexError):
+            seconds = None
+    return seconds, "; ".join(sent)
+
+
+def _seconds(text: str) -> float | None:
+    """A finite number >= 0 of seconds (or ms) in `text`; None otherwise."""
     try:
-        return max(0.0, float(value))
+        value = float(text)
     except ValueError:
-        pass
-    try:
-        when = email.utils.parsedate_to_datetime(value)
-    except (TypeError, ValueError):
         return None
-    if when is None:
-        return None
-    return max(0.0, when.timestamp() - (time.time() if now is None else now))
+    return value if math.isfinite(value) and value >= 0 else None
 
 
 def message_text(body: dict[str, Any]) -> str | None:
@@ -193,12 +212,15 @@ class Completion:
 
 
 class _Failed(Exception):
-    """A failed attempt: retried (after `wait_hint_s` at least) unless `retry` is False."""
+    """A failed attempt: retried (after `wait_hint_s` at least) unless `retry` is False;
+    `asked`: the Retry-After header as sent."""
 
-    def __init__(self, message: str, wait_hint_s: float | None = None, retry: bool = True) -> None:
+    def __init__(self, message: str, wait_hint_s: float | None = None, retry: bool = True,
+                 asked: str | None = None) -> None:
         super().__init__(message)
         self.wait_hint_s = wait_hint_s
         self.retry = retry
+        self.asked = asked
 
 
 class VLMClient:
@@ -209,13 +231,16 @@ class VLMClient:
     model: the model name the endpoint serves.
     api_key: None reads the environment (see module docs).
     timeout_s: the most one request may take, whole answer included (0 < t <= 3600);
-    max_retries: retries after the first attempt (0..10).
-    base_delay_s, max_delay_s, max_retry_after_s: backoff settings.
+    max_retries: retries after the first attempt (0..10); a query, attempts and waits
+        together, takes at most `query_budget_s` = (1 + max_retries) * timeout_s.
+    base_delay_s, max_delay_s: backoff settings; max_retry_after_s: the longest one wait may
+        take (and at most timeout_s), whatever a server's Retry-After asks.
     cache_dir: response cache folder (None: no cache).
     use_response_format: send the JSON-schema response_format when the
         endpoint supports it.
     temperature, max_tokens: sent only when set.
-    sleep: the wait function (tests pass a recorder); seed: jitter seed.
+    sleep: the wait function (tests pass a recorder); clock: the monotonic clock the query's
+        time is measured on (tests pass one that the recorder advances); seed: jitter seed.
     """
 
     def __init__(self, base_url: str, model: str, api_key: str | None = None,
@@ -223,7 +248,8 @@ class VLMClient:
                  max_delay_s: float = 30.0, max_retry_after_s: float = 120.0,
                  cache_dir: str | os.PathLike[str] | None = None, use_response_format: bool = True,
                  temperature: float | None = None, max_tokens: int | None = None,
-                 sleep: Callable[[float], None] | None = None, seed: int = 0) -> None:
+                 sleep: Callable[[float], None] | None = None, seed: int = 0,
+                 clock: Callable[[], float] | None = None) -> None:
         self.base_url = base_url
         self.model = model
         self.api_key = check_api_key(api_key) if api_key else api_key
@@ -239,6 +265,7 @@ class VLMClient:
         self.temperature = temperature
         self.max_tokens = max_tokens
         self.sleep = sleep
+        self.clock = clock
         self.seed = seed
         self._openai: Any = None
         self._rng = random.Random(seed)
@@ -256,6 +283,16 @@ class VLMClient:
     @property
     def endpoint_id(self) -> str:
         return f"{self.base_url.rstrip('/')} {self.model}"
+
+    @property
+    def query_budget_s(self) -> float:
+        """The longest one query may take, attempts and waits together."""
+        return (1 + self.max_retries) * self.timeout_s
+
+    @property
+    def max_wait_s(self) -> float:
+        """The longest one wait before a retry may take."""
+        return min(self.timeout_s, self.max_retry_after_s)
 
     @property
     def url(self) -> str:
@@ -347,13 +384,21 @@ class VLMClient:
 
     def _attempts(self, messages: list[dict[str, Any]], fmt: dict[str, Any] | None,
                   out: Completion) -> dict[str, Any] | None:
-        """Send until an answer comes (its body), or until the retries run out (None; out.error)."""
+        """Send until an answer comes (its body), or until the retries or the query's time
+        (`query_budget_s`) run out (None; out.error)."""
         secret = self._key()
         named_format = False
+        clock = self.clock or time.monotonic
+        deadline = clock() + self.query_budget_s
         while True:
+            left = deadline - clock()
+            if left <= 0:  # a format fallback after an attempt that used the last of the time
+                out.error = (f"gave up after {out.attempts} attempt(s): the query's "
+                             f"{self.query_budget_s:g} s ({self._budget_text()}) are used up")
+                return None
             out.attempts += 1
             try:
-                body = self._send(messages, fmt)
+                body = self._send(messages, fmt, min(self.timeout_s, left))
             except _FormatRejected as exc:
                 named_format, fmt = exc.named_format, None
                 out.errors.append(scrub(str(exc), secret))
@@ -364,19 +409,41 @@ class VLMClient:
                 if out.retries >= self.max_retries or not exc.retry:
                     out.error = f"gave up after {out.attempts} attempt(s): {out.errors[-1]}"
                     return None
-                self._wait(out, exc.wait_hint_s)
+                stop = self._wait(out, exc, deadline - clock())
+                if stop is not None:
+                    out.error = scrub(f"gave up after {out.attempts} attempt(s): {out.errors[-1]}; {stop}", secret)
+                    return None
                 continue
             if out.format_fallback:
                 self._fell_back(named_format)
             return body
 
-    def _wait(self, out: Completion, hint_s: float | None) -> None:
-        wait = self._backoff(out.retries, hint_s)
+    def _wait(self, out: Completion, failed: _Failed, left_s: float) -> str | None:
+        """Wait before the next retry; or, when the wait the server asks for (or the backoff)
+        does not fit, why not (the query stops without waiting)."""
+        hint_s = failed.wait_hint_s
+        if hint_s is not None and hint_s > min(self.max_wait_s, left_s):
+            if hint_s > self.max_wait_s:
+                room = (f"more than the {self.max_wait_s:g} s a wait may take (--timeout-s "
+                        f"{self.timeout_s:g}, at most {self.max_retry_after_s:g} s)")
+            else:
+                room = f"more than the {max(left_s, 0.0):.3g} s left of the query's {self._budget_text()}"
+            return (f"the endpoint {self.endpoint_id} asked to wait {hint_s:g} s before a retry "
+                    f"({failed.asked}), {room}; not retried")
+        wait = min(self._backoff(out.retries, hint_s), self.max_wait_s)
+        if wait >= left_s:
+            return (f"no time left for a retry: the next would wait {wait:.3g} s, and "
+                    f"{max(left_s, 0.0):.3g} s are left of the query's {self._budget_text()}")
         out.waits_s.append(wait)
         out.retries += 1
         log.info("VLM request failed (%s); retry %d of %d in %.2f s",
                  out.errors[-1], out.retries, self.max_retries, wait)
         (self.sleep or time.sleep)(wait)
+        return None
+
+    def _budget_text(self) -> str:
+        return (f"{self.query_budget_s:g} s ((1 + --max-retries {self.max_retries}) x "
+                f"--timeout-s {self.timeout_s:g})")
 
     def _keep(self, fields: dict[str, Any], body: dict[str, Any], out: Completion,
               accept: Accept | None) -> None:
@@ -404,14 +471,15 @@ class VLMClient:
     def _backoff(self, retry: int, hint_s: float | None) -> float:
         delay = min(self.max_delay_s, self.base_delay_s * (2.0 ** retry))
         delay *= 0.5 + 0.5 * self._rng.random()
-        if hint_s is not None:
-            delay = max(delay, min(hint_s, self.max_retry_after_s))
-        return delay
+        return delay if hint_s is None else max(delay, hint_s)
 
-    def _send(self, messages: list[dict[str, Any]], fmt: dict[str, Any] | None) -> dict[str, Any]:
-        """One attempt: the response body, or _Failed / _FormatRejected / ServiceError."""
+    def _send(self, messages: list[dict[str, Any]], fmt: dict[str, Any] | None,
+              limit_s: float | None = None) -> dict[str, Any]:
+        """One attempt, given `limit_s` (timeout_s, or less when the query's time runs out):
+        the response body, or _Failed / _FormatRejected / ServiceError."""
+        limit = self.timeout_s if limit_s is None else min(limit_s, self.timeout_s)
         client = self._client()
-        text = self._in_time(lambda: self._post(client, messages, fmt))
+        text = self._in_time(lambda: self._post(client, messages, fmt, limit), limit)
         try:
             body_json = json.loads(text)
         except (json.JSONDecodeError, RecursionError) as exc:  # RecursionError: nested too deeply
@@ -420,9 +488,10 @@ class VLMClient:
             raise _Failed(f"response has no choices[0].message: {_short(text)}")
         return body_json
 
-    def _in_time(self, call: Callable[[], str]) -> str:
-        """call() in a worker thread, given up after timeout_s however slowly the answer arrives
-        (a blocked read is not interrupted: the worker ends on its own, see extract.http)."""
+    def _in_time(self, call: Callable[[], str], limit_s: float | None = None) -> str:
+        """call() in a worker thread, given up after limit_s (timeout_s) however slowly the answer
+        arrives (a blocked read is not interrupted: the worker ends on its own, see extract.http)."""
+        limit = self.timeout_s if limit_s is None else limit_s
         box: dict[str, Any] = {}
 
         def run() -> None:
@@ -433,30 +502,36 @@ class VLMClient:
 
         worker = threading.Thread(target=run, name="vlm-request", daemon=True)
         worker.start()
-        worker.join(self.timeout_s)
+        worker.join(limit)
         if worker.is_alive():
             self._openai = None  # its connection is still busy: the next attempt opens another
-            raise _Failed(f"timeout: no complete answer within {self.timeout_s:g} s")
+            raise _Failed(f"timeout: no complete answer within {_limit_text(limit, self.timeout_s)}")
         if "error" in box:
             raise box["error"]
         return box["text"]
 
-    def _post(self, client: Any, messages: list[dict[str, Any]], fmt: dict[str, Any] | None) -> str:
-        """The request through `openai`; the body text of a 2xx answer."""
+    def _post(self, client: Any, messages: list[dict[str, Any]], fmt: dict[str, Any] | None,
+              limit_s: float | None = None) -> str:
+        """The request through `openai`, answered within limit_s (timeout_s); the body text of
+        a 2xx answer."""
         import openai
 
         from vsmp_imu.extract.http import AnswerRefused, AnswerTooSlow
 
+        limit = self.timeout_s if limit_s is None else limit_s
         body = self._body(messages, fmt)
         kwargs = {k: v for k, v in body.items() if k not in ("model", "messages")}
+        if limit < self.timeout_s:
+            kwargs["timeout"] = limit  # the request's deadline in extract.http too
         try:
             raw = client.chat.completions.with_raw_response.create(
                 model=body["model"], messages=body["messages"], **kwargs)
             return raw.text
         except openai.APITimeoutError as exc:
             slow = isinstance(exc.__cause__, AnswerTooSlow)
-            raise _Failed(f"timeout: the answer was still arriving after {self.timeout_s:g} s" if slow
-                          else f"timeout after {self.timeout_s:g} s") from exc
+            within = _limit_text(limit, self.timeout_s)
+            raise _Failed(f"timeout: the answer was still arriving after {within}" if slow
+                          else f"timeout after {within}") from exc
         except openai.APIConnectionError as exc:
             if isinstance(exc.__cause__, AnswerRefused):
                 raise _Failed(str(exc.__cause__)) from exc
@@ -479,9 +554,10 @@ class VLMClient:
             return _FormatRejected(f"HTTP {status} with response_format ({detail}); "
                                    "retrying as plain text", named)
         if status in RETRY_STATUSES or status >= 500:
-            hint = retry_after_s(headers)
-            extra = f", Retry-After {hint:g} s" if hint is not None else ""
-            return _Failed(f"HTTP {status}{extra}: {detail}", hint)
+            hint, sent = retry_after(headers)
+            extra = (f", Retry-After {hint:g} s" if hint is not None
+                     else f" ({sent}: not a time, ignored)" if sent else "")
+            return _Failed(f"HTTP {status}{extra}: {detail}", hint, asked=sent)
         return ServiceError(f"the endpoint answered HTTP {status}: {scrub(detail, self._key())}"
                             + _status_hint(status), allowed="check --vlm-base-url, --vlm-model and the key in "
                             + " or ".join(API_KEY_ENV_VARS))
@@ -491,6 +567,13 @@ class _FormatRejected(Exception):
     def __init__(self, message: str, named_format: bool) -> None:
         super().__init__(message)
         self.named_format = named_format  # the error names the response format
+
+
+def _limit_text(limit_s: float, timeout_s: float) -> str:
+    """'120 s', or '3.5 s (what was left of the query's time)' for a shortened attempt."""
+    if limit_s >= timeout_s:
+        return f"{timeout_s:g} s"
+    return f"{limit_s:.3g} s (what was left of the query's time)"
 
 
 def _short(text: str) -> str:

@@ -7,7 +7,8 @@
   refused (its size is unknown until it is decoded).
 - A bounded answer: a body over `MAX_RESPONSE_BYTES` is refused, from its
   Content-Length or while it is read, and so is a body still arriving at the
-  request's deadline (`total_s` after it was sent).
+  request's deadline (`total_s` after it was sent, or the request's own read
+  timeout when that is shorter: the last attempt of a query running out of time).
 """
 
 from __future__ import annotations
@@ -33,10 +34,13 @@ class AnswerTooSlow(httpx2.ReadTimeout):
 
 def http_client(total_s: float) -> httpx2.Client:
     """An httpx2 client whose requests follow no redirect and whose answers are bounded in
-    size and in time (`total_s` from the request's start to the body's end)."""
+    size and in time (`total_s`, or a request's shorter timeout, from the request's start to
+    the body's end)."""
 
     def start(request: httpx2.Request) -> None:
-        request.extensions[_DEADLINE] = time.monotonic() + total_s
+        read = (request.extensions.get("timeout") or {}).get("read")
+        limit = total_s if read is None else min(total_s, read)
+        request.extensions[_DEADLINE] = time.monotonic() + limit
 
     return httpx2.Client(timeout=total_s, follow_redirects=False, headers={"Accept-Encoding": "identity"},
                          event_hooks={"request": [start], "response": [_bound]})

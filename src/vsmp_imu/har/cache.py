@@ -36,7 +36,7 @@ VLM = "vlm"  # vlm_dir()
 CACHE_FOLDERS = {
     SAMPLES: "generated samples of `evaluate` and `demo`; remade, with the same result, when needed",
     HAPT_CACHE: "the parsed HAPT dataset; parsed again when needed",
-    VLM: "VLM answers of `smp extract` and `video pool`; asked again (new requests) when needed",
+    VLM: "VLM answers of `smp extract`, `video pool` and the imugpt describer; asked again (new requests) when needed",
 }
 # Folders a plain `cache clear` keeps: VLM answers are paid requests whose answers may not come
 # back the same; `cache clear --all` or `--only vlm` removes them.
