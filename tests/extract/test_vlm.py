@@ -269,6 +269,25 @@ def test_cli_timeout_and_retries_are_range_checked_before_any_work(cli, videos, 
     assert not (tmp_path / "a.raw").exists() and not (tmp_path / "m.json").exists()
 
 
+@pytest.mark.parametrize("command", ["extract", "pool"])
+def test_cli_a_cache_dir_that_cannot_be_written_is_refused_before_any_request(chat_server, cli, videos, tmp_path,
+                                                                             command):
+    """A file where the VLM cache folder should be: `smp extract` failed after the first paid answer."""
+    (tmp_path / "notes.txt").write_text("mine")
+    with chat_server([], default=ok("walking_valid_1.json")) as server:
+        vlm = ("--vlm-base-url", server.url, "--vlm-model", "m", "--cache-dir", tmp_path / "notes.txt")
+        if command == "extract":
+            args = ("smp", "extract", videos["counter"], "--label", "walking", "-o", tmp_path / "a.json", *vlm)
+        else:
+            (tmp_path / "pool" / "walking").mkdir(parents=True)
+            (tmp_path / "pool" / "walking" / "a.avi").write_bytes(videos["counter"].read_bytes())
+            args = ("video", "pool", tmp_path / "pool", "--checker", "vlm", "-o", tmp_path / "m.json", *vlm)
+        code, _, err = cli(*args)
+    assert code == 2 and err.startswith(f"{tmp_path / 'notes.txt'}: field '--cache-dir': exists and is a file")
+    assert server.requests == [] and (tmp_path / "notes.txt").read_text() == "mine"
+    assert not (tmp_path / "a.raw").exists() and not (tmp_path / "m.json").exists()
+
+
 def test_client_limits_for_api_users():
     from vsmp_imu.errors import ConfigError
 

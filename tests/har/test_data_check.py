@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pandas as pd
+import pytest
 import yaml
 
 from vsmp_imu.imu import ImuSimulator
@@ -120,9 +121,28 @@ def test_a_sensor_askew_on_the_body_is_taken_up_by_the_mounting(cli, tmp_path):
 def test_user_mistakes_exit_2(cli, tmp_path):
     path = _dataset(tmp_path / "ds", ActivityLibrary.load())
     code, _, err = cli("data", "check", path, "--source", f"smp:{tmp_path / 'nowhere'}", "-o", tmp_path / "c")
-    assert code == 2 and "nowhere" in err
+    assert code == 2 and err.startswith(f"{tmp_path / 'nowhere'}: field '--source': SMP source folder not found")
     code, _, err = cli("data", "check", tmp_path / "missing.yaml", "-o", tmp_path / "c")
     assert code == 2 and "missing.yaml" in err
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (("--overlap", "0.999"), "Invalid value for '--overlap': must be a finite number in 0..0.9, not 0.999"),
+    (("--overlap", "-1"), "Invalid value for '--overlap': must be a finite number in 0..0.9, not -1"),
+    (("--overlap", "nan"), "Invalid value for '--overlap': must be a finite number in 0..0.9, not nan"),
+    (("--window-s", "0.1"), "Invalid value for '--window-s': must be a finite number in 0.5..30, not 0.1"),
+    (("--backend", "mocap"), "field '--backend': unknown motion backend 'mocap'. "
+                             "Allowed: procedural, compiled, hymotion."),
+    (("--source", "youtube"), "field '--source': unknown source 'youtube'. Allowed: library, smp:DIR, video:DIR."),
+    (("--source", "smp:"), "field '--source': source 'smp' needs a folder: smp:DIR."),
+])
+def test_bad_options_are_refused_before_the_dataset_loads(cli, tmp_path, args, says):
+    """The bounds and words of `evaluate` (an overlap of 0.999 made a window every few samples: four
+    minutes on HAPT); the missing dataset file would be the error if the dataset loaded first."""
+    code, _, err = cli("data", "check", tmp_path / "missing.yaml", *args, "-o", tmp_path / "c")
+    text = " ".join(err.replace("│", " ").split())
+    assert code == 2 and says in text, text
+    assert "missing.yaml" not in text and not (tmp_path / "c").exists()
 
 
 def test_turning_the_other_way_is_flagged_and_the_same_way_is_not(cli, tmp_path):

@@ -68,6 +68,48 @@ def test_out_of_range_options_exit_2(cli, tmp_path, args, option, allowed):
     assert not (tmp_path / "out" / "results.json").exists()
 
 
+@pytest.mark.parametrize("value", ["0.999", "0.95", "-1", "nan", "inf"])
+@pytest.mark.parametrize("command", ["evaluate", "dataset info"])
+def test_overlap_is_bounded_alike_in_evaluate_and_dataset_info(cli, tmp_path, command, value):
+    """A hop of a thousandth of a window made a thousand times the windows (GBs in a minute): both
+    commands take 0..0.9 and say so in the same words, before the dataset loads."""
+    args = (("evaluate", "--dataset", "hapt", "-o", tmp_path / "out") if command == "evaluate"
+            else ("dataset", "info", "hapt"))
+    code, _, err = cli(*args, "--overlap", value)
+    text = " ".join(err.replace("│", " ").split())
+    assert code == 2 and f"Invalid value for '--overlap': must be a finite number in 0..0.9, not {value}" in text
+
+
+def test_dataset_info_takes_the_largest_overlap_evaluate_takes(cli):
+    code, out, _ = cli("dataset", "info", "hapt", "--overlap", "0.9", "--json")
+    assert code == 0 and json.loads(out)["overlap"] == 0.9
+
+
+def test_dataset_info_measure_of_an_unknown_class_names_the_option(cli):
+    code, _, err = cli("dataset", "info", "hapt", "--measure", "FLYING")
+    assert code == 2 and err.startswith("field '--measure': unknown class 'FLYING'. Allowed: WALKING,")
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (("--backend", "mocap"), "field '--backend': unknown motion backend 'mocap'. "
+                             "Allowed: procedural, compiled, hymotion."),
+    (("--source", "youtube"), "field '--source': unknown source 'youtube'. Allowed: library, smp:DIR, video:DIR."),
+    (("--source", "smp:"), "field '--source': source 'smp' needs a folder: smp:DIR."),
+    (("--source", "smp:MISSING"), "MISSING: field '--source': SMP source folder not found. "
+                                  "Allowed: library, smp:DIR, video:DIR (an existing folder)."),
+    (("--source", "video:MISSING"), "MISSING: field '--source': video source folder not found."),
+])
+def test_backend_and_source_are_named_and_refused_before_the_dataset_loads(cli, tmp_path, args, says):
+    """Named by the option typed, even where no method animates or reads SMPs (--methods real):
+    the missing dataset file would be the error if the dataset loaded first."""
+    missing = str(tmp_path / "nowhere")
+    args = tuple(a.replace("MISSING", missing) for a in args)
+    code, _, err = cli("evaluate", "--dataset", tmp_path / "missing.yaml", "--methods", "real", *args,
+                       "-o", tmp_path / "out")
+    assert code == 2 and says.replace("MISSING", missing) in err, err
+    assert "missing.yaml" not in err and not (tmp_path / "out" / "results.json").exists()
+
+
 def test_a_cuda_device_without_cuda_exits_2(cli, tmp_path):
     torch = pytest.importorskip("torch")
     if torch.cuda.is_available():

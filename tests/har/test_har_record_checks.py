@@ -188,3 +188,12 @@ def test_report_check_refuses_a_bad_committed_record_with_exit_2(report_repo, cl
     path.write_text("\n")
     code, _, err = cli("report", "--root", root, "--check")
     assert code == 2 and err == f"{path}: holds no record."
+
+
+def test_import_refuses_a_root_under_which_nothing_can_be_written_before_reading_the_run(tmp_path, cli):
+    """--root a file: once a NotADirectoryError at the copy, naming no option."""
+    (tmp_path / "README.md").write_text("mine")
+    code, _, err = cli("report", "import", tmp_path / "no_run", "--name", "x", "--command", "vsmp-imu evaluate x",
+                       "--root", tmp_path / "README.md")
+    assert code == 2 and f"field '--root': '{tmp_path / 'README.md'}' is a file, so nothing can be written" in err
+    assert (tmp_path / "README.md").read_text() == "mine"

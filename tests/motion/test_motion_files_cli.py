@@ -149,7 +149,8 @@ def test_cli_synth_never_swaps_a_look_alike_activity(cli, tmp_path, library):
 
 @pytest.mark.parametrize(("args", "words"), [
     (("motion", "synth", "moonwalk_backwards", "--seed", "1", "-o", "x.npz"), "neither an SMP file"),
-    (("motion", "synth", "walking", "--seed", "1", "--backend", "mocap", "-o", "x.npz"), "unknown motion backend"),
+    (("motion", "synth", "walking", "--seed", "1", "--backend", "mocap", "-o", "x.npz"),
+     "field '--backend': unknown motion backend 'mocap'. Allowed: procedural, compiled, hymotion."),
     (("motion", "synth", "walking", "--seed", "1", "--backend", "hymotion", "-o", "x.npz"), "HY-Motion"),
     (("motion", "synth", "--seed", "1", "-o", "x.npz"), "give an SMP"),
     (("motion", "info", "missing.npz"), "file not found"),
@@ -158,3 +159,23 @@ def test_cli_user_mistakes_exit_2(cli, tmp_path, monkeypatch, args, words):
     monkeypatch.chdir(tmp_path)
     code, _, err = cli(*args)
     assert code == 2 and words in err
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (("render", "--keyframes", "k.png", "--n", "0"), "field '--n': 0 keyframes cannot be drawn. Allowed: 1..60."),
+    (("render", "--n", "61"), "field '--n': 61 keyframes cannot be drawn. Allowed: 1..60."),
+    (("render", "--view", "400"), "field '--view': 400 is not a camera azimuth. Allowed: -360..360 degrees."),
+    (("render", "--view", "nan"), "field '--view': nan is not a camera azimuth."),
+    (("bvh", "--scale", "0"), "field '--scale': 0 is not a usable unit scale. Allowed: 0.01..1000"),
+])
+def test_cli_render_and_bvh_range_errors_name_the_option_typed(cli, tmp_path, walk, monkeypatch, args, says):
+    """The checks' own names for the settings (n, yaw_deg, scale) become the options, before
+    anything is drawn or written."""
+    monkeypatch.chdir(tmp_path)
+    walk.save(tmp_path / "w.npz")
+    command, *rest = args
+    out = "w.gif" if command == "render" else "w.bvh"
+    code, _, err = cli("motion", command, "w.npz", "-o", out, *rest)
+    assert code == 2 and says in err, err
+    assert "field 'n'" not in err and "yaw_deg" not in err and "field 'scale'" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w.npz"]

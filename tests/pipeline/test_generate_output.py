@@ -37,6 +37,21 @@ def test_generate_refuses_a_folder_of_the_users_files(cli, tmp_path):
         "smps", "summary.json"]
 
 
+@pytest.mark.parametrize(("args", "says"), [
+    (("--backend", "mocap"), "field '--backend': unknown motion backend 'mocap'. "
+                             "Allowed: procedural, compiled, hymotion."),
+    (("--source", "youtube"), "field '--source': unknown source 'youtube'. Allowed: library, smp:DIR, video:DIR."),
+    (("--source", "smp:MISSING"), "MISSING: field '--source': SMP source folder not found."),
+])
+def test_generate_names_backend_and_source_and_refuses_them_before_the_dataset_loads(cli, tmp_path, args, says):
+    missing = str(tmp_path / "nowhere")
+    args = tuple(a.replace("MISSING", missing) for a in args)
+    code, _, err = cli("generate", "--dataset", tmp_path / "missing.yaml", "--holdout", "1", *args,
+                       "-o", tmp_path / "out")
+    assert code == 2 and says.replace("MISSING", missing) in err, err
+    assert "missing.yaml" not in err and not (tmp_path / "out").exists()
+
+
 def test_generate_refuses_the_folder_of_another_fold_and_redoes_its_own(cli, tmp_path):
     out = tmp_path / "out"
     assert _generate(cli, out, "p1")[0] == 0

@@ -185,11 +185,28 @@ def test_generate_numbers_out_of_range(capsys, tmp_path, small_dataset, option, 
     (["generate", "--dataset", "hapt", "--holdout", "1", "--gpus-per-task", "nan"], "--gpus-per-task",
      "0..8, not nan"),
     (["data", "check", "hapt", "--window-s", "nan"], "--window-s", "0.5..30, not nan"),
+    (["data", "check", "hapt", "--overlap", "nan"], "--overlap", "0..0.9, not nan"),
+    (["video", "pose", "V", "--height-m", "nan"], "--height-m", "0.5..2.5, not nan"),
+    (["video", "pool", "P", "--threshold", "nan"], "--threshold", "0..1, not nan"),
 ])
 def test_a_number_option_that_is_nan_or_inf_is_called_not_finite(capsys, tmp_path, argv, option, allowed):
     code, text = run_main(capsys, *argv, "-o", tmp_path / "out")
     text = " ".join(text.replace("│", " ").split())
     assert code == 2 and f"Invalid value for '{option}': must be a finite number in {allowed}" in text, text
+
+
+@pytest.mark.parametrize("argv, option, allowed", [
+    (["video", "pose", "V", "--height-m", "3"], "--height-m", "0.5..2.5, not 3"),  # a traceback after tracking
+    (["video", "pose", "V", "--height-m", "0"], "--height-m", "0.5..2.5, not 0"),
+    (["video", "pool", "P", "--threshold", "1.5"], "--threshold", "0..1, not 1.5"),  # named 'threshold'
+    (["video", "pool", "P", "--threshold", "-0.1"], "--threshold", "0..1, not -0.1"),
+    (["data", "check", "hapt", "--overlap", "0.999"], "--overlap", "0..0.9, not 0.999"),  # minutes of windows
+])
+def test_a_number_option_out_of_its_range_is_refused_before_any_work(capsys, tmp_path, argv, option, allowed):
+    code, text = run_main(capsys, *argv, "-o", tmp_path / "out")
+    text = " ".join(text.replace("│", " ").split())
+    assert code == 2 and f"Invalid value for '{option}': must be a finite number in {allowed}" in text, text
+    assert not (tmp_path / "out").exists()
 
 
 def case_imu_number(tmp_path, library, motion):

@@ -260,6 +260,12 @@ def print_warnings(lines: list[str]) -> None:
     for line in lines:
         console_err.print(f"[bold yellow]warning:[/] {shown(line)}", highlight=False, soft_wrap=True)
 
+# What the generation spec's errors call a setting -> the option of `generate` and `evaluate`
+# that sets it (`option_names`).
+SPEC_OPTIONS = {"source": "--source", "backend": "--backend", "k": "--k", "k_unseen": "--k-unseen",
+                "level_parts": "--level-parts", "refill": "--refill", "workers": "--workers",
+                "executor": "--executor", "unseen_intensity": "--unseen-intensity"}
+
 # Grounding options shared by `generate` and `evaluate` (one definition, one help text).
 PER_CLASS_RANK = typer.Option(True, "--per-class-rank/--pooled-rank",
                               help="rank grounding per class where a class has real windows enough "

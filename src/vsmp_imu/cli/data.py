@@ -10,7 +10,15 @@ import typer
 from rich import box
 from rich.table import Table
 
-from vsmp_imu.cli.common import console, finite_range, library_dirs, output_dir, print_warnings
+from vsmp_imu.cli.common import (
+    console,
+    finite_range,
+    library_dirs,
+    option_names,
+    output_dir,
+    print_warnings,
+)
+from vsmp_imu.cli.har import MAX_OVERLAP
 
 data_app = typer.Typer(help="Your own data: check it against the activity files before an evaluation.",
                        no_args_is_help=True)
@@ -40,6 +48,7 @@ def _sources(source: str, library, info):
 
 
 @data_app.command("check")
+@option_names({"source": "--source", "backend": "--backend"})
 def check_cmd(
     dataset: str = typer.Argument(..., help="dataset .yaml file (or a registered dataset name)"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
@@ -48,8 +57,9 @@ def check_cmd(
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     samples: int = typer.Option(3, "--samples", min=1, max=50, help="simulated executions per class"),
     window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
-                                   help="window length in seconds"),
-    overlap: float = typer.Option(0.5, "--overlap", help="overlap of neighbouring windows, [0, 1)"),
+                                   help="window length in seconds, 0.5..30"),
+    overlap: float = typer.Option(0.5, "--overlap", callback=finite_range(0.0, MAX_OVERLAP),
+                                  help=f"overlap of neighbouring windows, 0..{MAX_OVERLAP:g}"),
     output: Path = typer.Option(..., "--output", "-o", help="folder for check.json and check.png"),
     mounting: bool = typer.Option(True, "--mounting/--no-mounting",
                                   help="turn the simulated windows by the sensor mounting estimated from the "
@@ -61,9 +71,13 @@ def check_cmd(
     output_dir(output)
     from vsmp_imu.har.datasets import load_dataset
     from vsmp_imu.io import write_json
+    from vsmp_imu.motion.backends import check_backend
     from vsmp_imu.pipeline.check import DataCheck
+    from vsmp_imu.pipeline.sources import check_source
     from vsmp_imu.smp.library import ActivityLibrary
 
+    check_backend(backend, "--backend")  # before the dataset loads
+    check_source(source, "--source")
     dirs = tuple(str(p) for p in library_dirs(library))
     ds = load_dataset(dataset, data_dir)
     print_warnings(ds.warnings)

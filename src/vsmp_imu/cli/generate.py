@@ -20,6 +20,7 @@ from vsmp_imu.cli.common import (
     POSTURE_LEVELS,
     SEEN_INTENSITY,
     SIDE_EVIDENCE,
+    SPEC_OPTIONS,
     TEXTURE,
     UNSEEN_INTENSITY,
     WINDOW_LEVELS,
@@ -28,6 +29,7 @@ from vsmp_imu.cli.common import (
     executor_options,
     finite_range,
     library_dirs,
+    option_names,
     output_dir,
     print_warnings,
 )
@@ -35,6 +37,7 @@ from vsmp_imu.cli.common import (
 SOURCE_HELP = "library | smp:DIR (SMP files) | video:DIR (clips per activity folder, or a pool manifest)"
 
 
+@option_names(SPEC_OPTIONS)
 def generate_cmd(
     dataset: str = typer.Option(..., "--dataset", help="Dataset name (hapt, hapt12, ...) or a dataset YAML"),
     holdout: str = typer.Option(..., "--holdout", help="Held-out subject: none of its data is used"),
@@ -88,8 +91,12 @@ def generate_cmd(
     executor_options(executor, address)
     output_dir(cache_dir, "--cache-dir")
     from vsmp_imu.app import FoldRequest, generate_fold, plan_fold
+    from vsmp_imu.motion.backends import check_backend
+    from vsmp_imu.pipeline.sources import check_source
     from vsmp_imu.pipeline.spec import GenerationSpec, intensity_bounds
 
+    check_backend(backend, "--backend")  # before the dataset loads
+    check_source(source, "--source")
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, sim_in_the_loop=not no_sim_loop,
         rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,

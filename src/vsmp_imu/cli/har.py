@@ -24,6 +24,7 @@ from vsmp_imu.cli.common import (
     POSTURE_LEVELS,
     SEEN_INTENSITY,
     SIDE_EVIDENCE,
+    SPEC_OPTIONS,
     TEXTURE,
     UNSEEN_INTENSITY,
     WINDOW_LEVELS,
@@ -32,6 +33,7 @@ from vsmp_imu.cli.common import (
     console_err,
     executor_options,
     finite_range,
+    option_names,
     output_dir,
     parse_csv,
     path_text,
@@ -120,6 +122,7 @@ def budget_defaults(protocol: str, alpha: float | None, policy: str | None) -> t
             policy if policy is not None else default_policy)
 
 
+@option_names(SPEC_OPTIONS)
 def evaluate_cmd(
     dataset: str = typer.Option(
         ...,
@@ -236,9 +239,11 @@ def evaluate_cmd(
     from vsmp_imu.har.backbones import BACKBONES
     from vsmp_imu.har.output import claim
     from vsmp_imu.motion.backends import check_backend
+    from vsmp_imu.pipeline.sources import check_source
     from vsmp_imu.pipeline.spec import GenerationSpec, intensity_bounds
 
     check_backend(backend, "--backend")  # before the dataset loads, even where no method animates
+    check_source(source, "--source")  # likewise, even where no method reads SMPs
     chosen_backbones = _once(parse_csv(backbones, tuple(BACKBONES), "--backbones"), "--backbones")
     share_selection = share_default(protocol, chosen_backbones, share_selection)
     alpha, policy = budget_defaults(protocol, alpha, policy)
@@ -558,7 +563,8 @@ def info_cmd(
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
     window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
                                    help="window length in seconds, 0.5..30"),
-    overlap: float = typer.Option(0.5, "--overlap"),
+    overlap: float = typer.Option(0.5, "--overlap", callback=finite_range(0.0, MAX_OVERLAP),
+                                  help=f"overlap of neighbouring windows, 0..{MAX_OVERLAP:g}"),
     measure: str = typer.Option(
         None, "--measure", help="a static class: print its mean acceleration per channel"
     ),
@@ -572,10 +578,10 @@ def info_cmd(
     print_warnings(ds.warnings)
     info = ds.describe(window_s, overlap)
     if measure:
-        info["measured_mean_acc"] = {
-            "class": measure,
-            **measure_static_gravity(ds.windows(window_s, overlap), measure),
-        }
+        windows = ds.windows(window_s, overlap)
+        with option_names({"label": "--measure"}):  # a class the dataset does not have
+            measured = measure_static_gravity(windows, measure)
+        info["measured_mean_acc"] = {"class": measure, **measured}
     if as_json:
         typer.echo(json.dumps(info, indent=2))
         return

@@ -14,6 +14,7 @@ from vsmp_imu.cli.common import (
     finite_range,
     library_dirs,
     naming,
+    option_names,
     output_file,
     shown,
 )
@@ -60,6 +61,7 @@ def _load_motion(path: Path):
 
 
 @motion_app.command("synth")
+@option_names({"backend": "--backend", "model_path": "--model-path"})
 def synth_cmd(
     smp: str = typer.Argument(None, help="SMP file (.json/.yaml) or activity name; optional with --prompt"),
     seed: int = typer.Option(..., "--seed", help="generation seed (same seed, same bytes)"),
@@ -124,11 +126,8 @@ def render_cmd(
         render_keyframes,
     )
 
-    try:
+    with option_names({"n": "--n", "yaw_deg": "--view"}):
         check_render_options(n, view)
-    except ValidationError as exc:
-        option = {"n": "--n", "yaw_deg": "--view"}[exc.field]
-        raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
 
     motion = _load_motion(motion_file)
     with console.status("[bold]rendering[/]..."), naming(motion_file):
@@ -154,10 +153,8 @@ def bvh_cmd(
     distinct_files({"--output": output}, {"the input motion": motion_file})
     from vsmp_imu.motion.bvh import check_scale, write_bvh
 
-    try:
+    with option_names({"scale": "--scale"}):
         check_scale(scale)
-    except ValidationError as exc:
-        raise ConfigError(exc.message, field="--scale", allowed=exc.allowed) from None
     motion = _load_motion(motion_file)
     with naming(motion_file):
         write_bvh(motion, output, scale=scale)

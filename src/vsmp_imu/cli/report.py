@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, console_err, parse_csv, shown
+from vsmp_imu.cli.common import console, console_err, output_dir, parse_csv, shown
 
 report_app = typer.Typer(
     help="Rebuild the measured tables of README.md and docs/ from the records in results/ "
@@ -91,6 +91,7 @@ def import_cmd(
     from vsmp_imu.har.records import import_run
     from vsmp_imu.har.study_records import import_study, study_of
 
+    output_dir(root / "results", "--root")  # root/results/NAME/ can be written, before any record is read
     if study_of(command):
         folder = import_study(run_dir, name, command, root / "results", commit or _head_commit(), note)
     else:

@@ -224,14 +224,12 @@ def _backend(name: str) -> None:
 
 def _generation(source: str, k: int, backend: str, workers: int, library: list[Path] | None,
                 clips: Path | None = None):
-    from vsmp_imu.pipeline.sources import parse_source
+    from vsmp_imu.pipeline.sources import check_source
     from vsmp_imu.pipeline.spec import GenerationSpec
 
     _check_ints((k, 1, K_MAX, "--k"), (workers, 1, JOBS_MAX, "--workers"))
     _backend(backend)
-    _, folder = parse_source(source)
-    if folder is not None and not folder.is_dir():
-        raise ConfigError("no such folder", file=folder, field="--source", allowed="library, smp:DIR, video:DIR")
+    check_source(source, "--source")
     return GenerationSpec(source=source, k=k, backend=backend, workers=workers,
                           library_dirs=tuple(str(p) for p in (library or [])), clips=str(clips) if clips else None)
 

@@ -21,6 +21,7 @@ from vsmp_imu.cli.common import (
     distinct_files,
     finite_range,
     library_dirs,
+    option_names,
     output_dir,
     output_file,
     shown,
@@ -28,7 +29,7 @@ from vsmp_imu.cli.common import (
 from vsmp_imu.cli.smp import smp_app
 from vsmp_imu.errors import ConfigError, ExtractionError, InputFileError
 from vsmp_imu.io import write_json, write_text
-from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M
+from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M, SKELETON_HEIGHT_M
 from vsmp_imu.progress import progress
 
 video_app = typer.Typer(help="Video inspection: probe clips, sample frames, pose tracks, "
@@ -52,11 +53,8 @@ def _sampler(n_frames: int | None, preset: str | None, size_px: int = 512, n_opt
     if preset is not None:
         get_preset(preset)  # a clear error for an unknown name
     sampler = FrameSampler(n_frames=n_frames, preset=preset, size_px=size_px)
-    try:
+    with option_names({"n_frames": n_option, "size_px": "--size"}):
         sampler.settings()  # range checks before a clip is opened
-    except ConfigError as exc:
-        option = {"n_frames": n_option, "size_px": "--size"}.get(exc.field or "", exc.field)
-        raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
     return sampler
 
 
@@ -86,13 +84,12 @@ def _client(base_url: str | None, model: str | None, cache_dir: Path | None, no_
     if not base_url or not model:
         raise ConfigError("the VLM needs --vlm-base-url and --vlm-model (the key is read from "
                           "VSMP_VLM_API_KEY or OPENAI_API_KEY)", field="--vlm-base-url")
+    if not no_cache:  # a cache folder that cannot be written fails before a paid request, not after
+        output_dir(cache_dir, "--cache-dir")
     cache = None if no_cache else (cache_dir or vlm_dir())
-    try:
+    with option_names({"timeout_s": "--timeout-s", "max_retries": "--max-retries"}):
         return VLMClient(base_url, model, timeout_s=timeout_s, max_retries=max_retries,
                          cache_dir=cache, use_response_format=not no_response_format)
-    except ConfigError as exc:
-        option = {"timeout_s": "--timeout-s", "max_retries": "--max-retries"}.get(exc.field or "", exc.field)
-        raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
 
 
 def _library(library: list[Path] | None):
@@ -263,11 +260,8 @@ def extract_cmd(
 
 def _check_vlm(vlm: Any) -> None:
     """The extractor's range checks, before any request, naming the options."""
-    try:
+    with option_names({"n_queries": "--n-queries"}):
         vlm.check()
-    except ConfigError as exc:
-        option = {"n_queries": "--n-queries"}.get(exc.field or "", exc.field)
-        raise ConfigError(exc.message, field=option, allowed=exc.allowed) from None
 
 
 def _print_pose(extraction: Any) -> None:
@@ -331,7 +325,9 @@ def pose_cmd(
     max_fps: float = typer.Option(30.0, "--max-fps", help="Frames per second processed at most (> 0)"),
     window: str = typer.Option("all", "--window", help="all: the whole clip; longest: the longest "
                                "run of one tracked person"),
-    height_m: float = typer.Option(DEFAULT_HEIGHT_M, "--height-m", help="Body height of the skeleton"),
+    height_m: float = typer.Option(DEFAULT_HEIGHT_M, "--height-m", callback=finite_range(*SKELETON_HEIGHT_M),
+                                   help=f"Body height of the skeleton (m), "
+                                        f"{SKELETON_HEIGHT_M[0]:g}..{SKELETON_HEIGHT_M[1]:g}"),
 ) -> None:
     """MediaPipe pose -> SMPL-22 motion (.npz), gaps marked in its meta."""
     output_file(output)
@@ -362,7 +358,8 @@ def pose_cmd(
 def pool_cmd(
     pool_dir: Path = typer.Argument(..., help="Folder POOL/<activity>/<clip>"),
     checker: str = typer.Option("pose", "--checker", help="pose | vlm"),
-    threshold: float = typer.Option(0.6, "--threshold", help="Minimum confidence to retain a clip"),
+    threshold: float = typer.Option(0.6, "--threshold", callback=finite_range(0.0, 1.0),
+                                    help="Minimum confidence to retain a clip, 0..1"),
     output: Path = typer.Option(..., "-o", "--output", help="Manifest to write (.json)"),
     n_frames: int | None = typer.Option(None, "--n-frames", help="vlm: frames per clip"),
     base_url: str | None = BASE_URL_OPTION,

@@ -72,6 +72,7 @@ _SMPL22_OFFSETS_170 = np.array(
 )
 SMPL22_OFFSETS_170 = _SMPL22_OFFSETS_170  # read-only use: bone directions of the default body
 DEFAULT_HEIGHT_M = 1.70
+SKELETON_HEIGHT_M = (0.5, 2.5)  # the body heights a skeleton may be scaled to (m)
 # Height of the pelvis joint above the floor in the rest pose (ankle ~0.08 m up).
 _PELVIS_HEIGHT_170 = 0.0914 + 0.3752 + 0.3980 + 0.08
 
@@ -157,8 +158,9 @@ def smpl22_skeleton(height_m: float = DEFAULT_HEIGHT_M, proportions: np.ndarray 
     `proportions` (J,) optionally rescales each bone (1 = SMPL neutral), for
     per-seed body variation.
     """
-    if not 0.5 <= height_m <= 2.5:
-        raise ValueError(f"height_m must be within 0.5..2.5 m, got {height_m}")
+    if not SKELETON_HEIGHT_M[0] <= height_m <= SKELETON_HEIGHT_M[1]:
+        raise ValueError(f"height_m must be within {SKELETON_HEIGHT_M[0]:g}..{SKELETON_HEIGHT_M[1]:g} m, "
+                         f"got {height_m}")
     offsets = _SMPL22_OFFSETS_170 * (height_m / DEFAULT_HEIGHT_M)
     if proportions is not None:
         offsets = offsets * np.asarray(proportions, dtype=float)[:, None]

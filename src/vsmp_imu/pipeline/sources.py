@@ -134,3 +134,15 @@ def parse_source(text: str) -> tuple[str, Path | None]:
     if not rest:
         raise ConfigError(f"source '{kind}' needs a folder: {kind}:DIR", field="source")
     return kind, Path(rest)
+
+
+def check_source(text: str, field: str = "source") -> None:
+    """Refuse, before any work, a source `make_smp_source` would not take: an unknown kind, a
+    kind without its folder, a folder that is not there (`field`: the option that named it)."""
+    try:
+        kind, folder = parse_source(text)
+    except ConfigError as exc:
+        raise exc.in_field(field) from None
+    if folder is not None and not folder.is_dir():
+        raise ConfigError(f"{'SMP' if kind == 'smp' else kind} source folder not found", file=folder, field=field,
+                          allowed="library, smp:DIR, video:DIR (an existing folder)")
