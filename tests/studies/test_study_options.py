@@ -48,7 +48,26 @@ def no_work(monkeypatch):
 def test_an_integer_out_of_range_is_refused_before_any_work(cli, tmp_path, args, option):
     code, _, err = cli("study", args[0], "-o", tmp_path / "out", *args[1:])
     assert code == 2
-    assert f"field '{option}'" in err and "Allowed: an integer in" in err, err
+    text = " ".join(err.replace("│", " ").split())  # the message box, unwrapped
+    assert f"Invalid value for '{option}': must be an integer in" in text, err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("args, message", [
+    (("ablation", "--alpha", "5"), "'--alpha': must be a finite number in 0.1..2, not 5"),
+    (("granularity", "--alpha", "nan"), "'--alpha': must be a finite number in 0.1..2, not nan"),
+    (("realism", "--alpha", "0"), "'--alpha': must be a finite number in 0.1..2, not 0"),
+    (("ablation", "--alphas", "0.5,3"), "'--alphas': each value must be a finite number in 0.1..2, not '3'"),
+    (("ablation", "--alphas", "0.5,half"), "'--alphas': each value must be a finite number in 0.1..2, not 'half'"),
+    (("ablation", "--budget", "0"), "'--budget': must be a finite number above 0 and at most 100, not 0"),
+    (("granularity", "--protocol", "low-resource", "--budget", "inf"),
+     "'--budget': must be a finite number above 0 and at most 100, not inf"),
+    (("realism", "--encoder-windows", "-3"), "'--encoder-windows': must be an integer >= 0, not -3"),
+])
+def test_a_number_out_of_range_is_refused_in_the_common_wording(cli, tmp_path, args, message):
+    code, _, err = cli("study", args[0], "-o", tmp_path / "out", *args[1:])
+    assert code == 2
+    assert f"Invalid value for {message}" in " ".join(err.replace("│", " ").split()), err
 
 
 @pytest.mark.parametrize("study", ["ablation", "granularity"])

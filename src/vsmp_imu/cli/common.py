@@ -34,16 +34,57 @@ def parse_csv(value: str, allowed: tuple[str, ...] | None = None, option: str = 
     return items
 
 
-def finite_range(lo: float, hi: float) -> Callable[[float | None], float | None]:
-    """The callback of a float option in lo..hi: NaN and inf are refused as not finite (typer's
-    own min/max check calls NaN larger than the maximum)."""
+# -- number options: a range checked by the option's callback, before any work, in one wording --
+def finite_range(lo: float, hi: float, *, low_open: bool = False) -> Callable[[float | None], float | None]:
+    """The callback of a float option in lo..hi (`low_open`: above lo, at most hi): NaN and inf
+    are refused as not finite (typer's own min/max check calls NaN larger than the maximum)."""
 
     def check(value: float | None) -> float | None:
-        if value is not None and not (math.isfinite(value) and lo <= value <= hi):
-            raise typer.BadParameter(f"must be a finite number in {lo:g}..{hi:g}, not {value:g}")
+        if value is not None and not _finite_in(value, lo, hi, low_open):
+            raise typer.BadParameter(f"must be {_finite_text(lo, hi, low_open)}, not {value:g}")
         return value
 
     return check
+
+
+def finite_list(lo: float, hi: float) -> Callable[[str], str]:
+    """The callback of an option that lists numbers ('0.1,0.5'): each a finite number in lo..hi.
+    The text passes unchanged (`parse_csv` splits it); an empty list is left to `parse_csv`."""
+
+    def check(text: str) -> str:
+        for item in (v.strip() for v in text.split(",")):
+            try:
+                ok = not item or _finite_in(float(item), lo, hi, False)
+            except ValueError:
+                ok = False
+            if not ok:
+                raise typer.BadParameter(f"each value must be {_finite_text(lo, hi, False)}, not '{item}'")
+        return text
+
+    return check
+
+
+def int_range(lo: int, hi: int | None = None) -> Callable[[int | None], int | None]:
+    """The callback of an integer option in lo..hi (None: no upper bound); typer's own min/max
+    would also change the option's help (it shows the range)."""
+
+    def check(value: int | None) -> int | None:
+        if value is not None and not (lo <= value and (hi is None or value <= hi)):
+            allowed = f"an integer >= {lo}" if hi is None else f"an integer in {lo}..{hi}"
+            raise typer.BadParameter(f"must be {allowed}, not {value}")
+        return value
+
+    return check
+
+
+def _finite_in(value: float, lo: float, hi: float, low_open: bool) -> bool:
+    return math.isfinite(value) and (lo < value if low_open else lo <= value) and value <= hi
+
+
+def _finite_text(lo: float, hi: float, low_open: bool) -> str:
+    if low_open:
+        return f"a finite number above {lo:g} and at most {hi:g}"
+    return f"a finite number in {lo:g}..{hi:g}"
 
 
 def library_dirs(library: list[Path] | None) -> list[Path]:

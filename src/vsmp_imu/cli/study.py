@@ -7,7 +7,17 @@ from pathlib import Path
 
 import typer
 
-from vsmp_imu.cli.common import console, library_dirs, option_names, output_dir, parse_csv, shown
+from vsmp_imu.cli.common import (
+    console,
+    finite_list,
+    finite_range,
+    int_range,
+    library_dirs,
+    option_names,
+    output_dir,
+    parse_csv,
+    shown,
+)
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.progress import progress
 from vsmp_imu.studies.folders import claim_study_folder, study_folder
@@ -21,19 +31,25 @@ DATASET_OPTION = typer.Option("hapt12", "--dataset", "-d", help=DATASET_HELP)
 DATA_DIR_OPTION = typer.Option(None, "--data-dir", help="Folder of a downloaded dataset")
 BACKBONE_OPTION = typer.Option("rf", "--backbone", help="rf | rf-seg | dclstm | dclstm-attn | bilstm-attn")
 BACKEND_OPTION = typer.Option("procedural", "--backend", help="Motion backend: procedural | compiled | hymotion")
-# Integer options are checked by `_check_ints` before any work (messages in the project's
-# style); the upper bounds are generous multiples of what the paper and the defaults use.
+# Number options are checked by their callbacks (cli.common's ranges) before any work; the
+# integers' upper bounds are generous multiples of what the paper and the defaults use.
 SEED_MAX = 2**32 - 1  # numpy's and scikit-learn's seed range
 SEEDS_MAX = 1000  # as `evaluate --seeds`
 JOBS_MAX = 256  # as `evaluate --jobs` and `--workers`
 EPOCHS_MAX = 100_000  # as `evaluate --max-epochs` and `--patience`
 K_MAX = 64  # as `evaluate --k`
-WORKERS_OPTION = typer.Option(1, "--workers", help=f"Generation workers (1..{JOBS_MAX})")
-MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", help=f"Neural backbones: epoch limit (1..{EPOCHS_MAX})")
-PATIENCE_OPTION = typer.Option(None, "--patience", help=f"Neural backbones: early stopping (1..{EPOCHS_MAX})")
+SEED_RANGE, SEEDS_RANGE, JOBS_RANGE = int_range(0, SEED_MAX), int_range(1, SEEDS_MAX), int_range(1, JOBS_MAX)
+EPOCHS_RANGE, K_RANGE = int_range(1, EPOCHS_MAX), int_range(1, K_MAX)
+ALPHA_RANGE = finite_range(0.1, 2.0)
+BUDGET_RANGE = finite_range(0.0, 100.0, low_open=True)  # a label budget in percent
+WORKERS_OPTION = typer.Option(1, "--workers", callback=JOBS_RANGE, help=f"Generation workers (1..{JOBS_MAX})")
+MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", callback=EPOCHS_RANGE,
+                                 help=f"Neural backbones: epoch limit (1..{EPOCHS_MAX})")
+PATIENCE_OPTION = typer.Option(None, "--patience", callback=EPOCHS_RANGE,
+                               help=f"Neural backbones: early stopping (1..{EPOCHS_MAX})")
 SOURCE_OPTION = typer.Option("library", "--source", help="VSMP source SMPs: library | smp:DIR | video:DIR")
-SEEDS_OPTION = typer.Option(1, "--seeds", help=f"Seeds 0..N-1 (N 1..{SEEDS_MAX})")
-JOBS_OPTION = typer.Option(None, "--jobs", help=f"CPU threads of the backbone (1..{JOBS_MAX})")
+SEEDS_OPTION = typer.Option(1, "--seeds", callback=SEEDS_RANGE, help=f"Seeds 0..N-1 (N 1..{SEEDS_MAX})")
+JOBS_OPTION = typer.Option(None, "--jobs", callback=JOBS_RANGE, help=f"CPU threads of the backbone (1..{JOBS_MAX})")
 SEED_HELP = f"(0..{SEED_MAX})"
 # what the studies' errors call a setting -> the option that sets it (`option_names`)
 GENERATION_OPTIONS = {"backend": "--backend", "source": "--source", "k": "--k", "workers": "--workers"}
@@ -63,7 +79,8 @@ def _library(library: list[Path] | None):
 def control_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder (report.md, results.json, "
                                 "cases.csv, control_results.png; cache/ makes a rerun fast)"),
-    seeds: int = typer.Option(5, "--seeds", help=f"Generation seeds per level: 0..N-1 (N 1..{SEEDS_MAX})"),
+    seeds: int = typer.Option(5, "--seeds", callback=SEEDS_RANGE,
+                              help=f"Generation seeds per level: 0..N-1 (N 1..{SEEDS_MAX})"),
     backend: str = BACKEND_OPTION,
     data_dir: Path | None = typer.Option(None, "--data-dir", help="UTD-MHAD inertial files: ground "
                                          "to them and validate labels with them (default: ground "
@@ -80,7 +97,6 @@ def control_cmd(
     from vsmp_imu.studies.control import ATTRIBUTES, ControlStudy
     from vsmp_imu.studies.control_report import write_control_outputs
 
-    _check_ints((seeds, 1, SEEDS_MAX, "--seeds"))
     _backend(backend)
     study = ControlStudy(
         seeds=range(seeds),
@@ -112,7 +128,8 @@ def audit_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     groups: Path | None = typer.Option(None, "--groups", help="CSV clip,group (default: "
                                        "PRED/clips.csv when present)"),
-    min_valid: int = typer.Option(3, "--min-valid", help="Valid responses needed to aggregate (1..100)"),
+    min_valid: int = typer.Option(3, "--min-valid", callback=int_range(1, 100),
+                                  help="Valid responses needed to aggregate (1..100)"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """SMP extraction audit: field accuracy, failure accounting, uncertainty calibration."""
@@ -120,7 +137,6 @@ def audit_cmd(
     from vsmp_imu.studies.audit import ExtractionAudit, load_audit_inputs
     from vsmp_imu.studies.audit_report import write_audit_outputs
 
-    _check_ints((min_valid, 1, 100, "--min-valid"))
     clips = load_audit_inputs(pred, ref, groups)
     claim_study_folder(output, "audit")
     results = ExtractionAudit(_library(library), min_valid).run(clips)
@@ -141,7 +157,7 @@ def case_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     video: Path | None = typer.Option(None, "--video", help="Source clip (frames and the pose "
                                       "extractor's SMP; needs the video extra)"),
-    seed: int = typer.Option(0, "--seed", help=f"Motion and IMU noise seed {SEED_HELP}"),
+    seed: int = typer.Option(0, "--seed", callback=SEED_RANGE, help=f"Motion and IMU noise seed {SEED_HELP}"),
     location: str | None = typer.Option(None, "--location", help="Sensor location (default: the "
                                         "activity's dataset location)"),
     library: list[Path] = LIBRARY_OPTION,
@@ -150,7 +166,6 @@ def case_cmd(
     _output(output, "case")
     from vsmp_imu.studies.case import CaseStudy, write_case_outputs
 
-    _check_ints((seed, 0, SEED_MAX, "--seed"))
     if location is not None:
         from vsmp_imu.imu.placement import get_placement
 
@@ -172,18 +187,9 @@ def _folds(text: str) -> tuple[str, ...] | None:
     return None if text.strip().lower() == "all" else tuple(parse_csv(text, option="--folds"))
 
 
-def _check_range(value: float | None, low: float, high: float, option: str, low_open: bool = False) -> None:
-    if value is None:
-        return
-    ok = (low < value if low_open else low <= value) and value <= high
-    if not ok:
-        raise ConfigError(f"{value:g} is out of range", field=option,
-                          allowed=f"{low:g} {'<' if low_open else '<='} value <= {high:g}")
-
-
 def _protocol(protocol: str, budget: float | None, default: float | None = None) -> float | None:
     """The label budget of a study's protocol: low-resource needs one (`default` when not
-    given), the others take none (as `evaluate --budgets`)."""
+    given), the others take none (as `evaluate --budgets`); --budget's range is its callback's."""
     if protocol not in STUDY_PROTOCOLS:
         raise ConfigError(f"the studies do not run protocol '{protocol}'", field="--protocol",
                           allowed=", ".join(STUDY_PROTOCOLS))
@@ -196,23 +202,13 @@ def _protocol(protocol: str, budget: float | None, default: float | None = None)
     if budget is None:
         raise ConfigError("the low-resource protocol needs --budget", field="--budget",
                           allowed="a percentage in (0, 100]")
-    _check_range(budget, 0, 100, "--budget", low_open=True)
     return budget
-
-
-def _check_ints(*checks: tuple[int | None, int, int, str]) -> None:
-    """Each (value, low, high, option): an integer option in low..high (None: not given)."""
-    for value, low, high, option in checks:
-        if value is not None and not low <= value <= high:
-            raise ConfigError(f"{value} is out of range", field=option, allowed=f"an integer in {low}..{high}")
 
 
 def _backbone(name: str, max_epochs: int | None, patience: int | None, jobs: int | None) -> dict:
     from vsmp_imu.har.backbones import BACKBONES, option_params
 
     parse_csv(name, tuple(BACKBONES), "--backbone")
-    _check_ints((max_epochs, 1, EPOCHS_MAX, "--max-epochs"), (patience, 1, EPOCHS_MAX, "--patience"),
-                (jobs, 1, JOBS_MAX, "--jobs"))
     return option_params(name, jobs=jobs, max_epochs=max_epochs, patience=patience)
 
 
@@ -227,7 +223,6 @@ def _generation(source: str, k: int, backend: str, workers: int, library: list[P
     from vsmp_imu.pipeline.sources import check_source
     from vsmp_imu.pipeline.spec import GenerationSpec
 
-    _check_ints((k, 1, K_MAX, "--k"), (workers, 1, JOBS_MAX, "--workers"))
     _backend(backend)
     check_source(source, "--source")
     return GenerationSpec(source=source, k=k, backend=backend, workers=workers,
@@ -242,21 +237,22 @@ def ablation_cmd(
     dataset: str = DATASET_OPTION,
     data_dir: Path | None = DATA_DIR_OPTION,
     protocol: str = typer.Option("low-resource", "--protocol", help=PROTOCOL_HELP),
-    budget: float | None = typer.Option(None, "--budget", help="Label budget in percent (low-resource only; "
-                                        "default 5)"),
+    budget: float | None = typer.Option(None, "--budget", callback=BUDGET_RANGE,
+                                        help="Label budget in percent (low-resource only; default 5)"),
     folds: str = FOLDS_OPTION,
     seeds: int = SEEDS_OPTION,
     backbone: str = BACKBONE_OPTION,
-    alpha: float = typer.Option(0.5, "--alpha", help="Synthetic-to-real ratio of the 2x2 and the "
-                                "component ablations (0.1..2.0)"),
-    alphas: str = typer.Option("0.1,0.25,0.5,1.0,2.0", "--alphas", help="Ratios of the alpha part"),
+    alpha: float = typer.Option(0.5, "--alpha", callback=ALPHA_RANGE, help="Synthetic-to-real ratio of the 2x2 "
+                                "and the component ablations (0.1..2.0)"),
+    alphas: str = typer.Option("0.1,0.25,0.5,1.0,2.0", "--alphas", callback=finite_list(0.1, 2.0),
+                               help="Ratios of the alpha part"),
     parts: str = typer.Option("caption,components,grounding,alpha", "--parts",
                               help="Subset of caption, components, grounding, alpha"),
     source: str = typer.Option("library", "--source", help="Source SMPs: library | smp:DIR | video:DIR"),
-    k: int = typer.Option(4, "--k", help=f"SMP variants (slots) per source SMP, 1..4 (without the caption "
-                          f"part 1..{K_MAX})"),
-    max_rounds: int = typer.Option(6, "--max-rounds", help="Matched 2x2: generation rounds (first "
-                                   "attempt plus replenishments; 1..100)"),
+    k: int = typer.Option(4, "--k", callback=K_RANGE, help=f"SMP variants (slots) per source SMP, 1..4 (without "
+                          f"the caption part 1..{K_MAX})"),
+    max_rounds: int = typer.Option(6, "--max-rounds", callback=int_range(1, 100), help="Matched 2x2: generation "
+                                   "rounds (first attempt plus replenishments; 1..100)"),
     backend: str = BACKEND_OPTION,
     workers: int = WORKERS_OPTION,
     max_epochs: int | None = MAX_EPOCHS_OPTION,
@@ -270,14 +266,7 @@ def ablation_cmd(
     from vsmp_imu.studies.ablation_report import write_ablation_outputs
 
     budget = _protocol(protocol, budget, default=5.0)
-    _check_range(alpha, 0.1, 2.0, "--alpha")
-    try:
-        alpha_values = tuple(float(a) for a in parse_csv(alphas, option="--alphas"))
-    except ValueError:
-        raise ConfigError(f"'{alphas}' is not a list of numbers", field="--alphas") from None
-    for a in alpha_values:
-        _check_range(a, 0.1, 2.0, "--alphas")
-    _check_ints((seeds, 1, SEEDS_MAX, "--seeds"), (max_rounds, 1, 100, "--max-rounds"))
+    alpha_values = tuple(float(a) for a in parse_csv(alphas, option="--alphas"))
     chosen = tuple(parse_csv(parts, PARTS, "--parts"))
     if "caption" in chosen and not 1 <= k <= 4:
         raise ConfigError(f"{k} is out of range", field="--k", allowed="1..4 (the matched 2x2 has four slots)")
@@ -309,15 +298,15 @@ def granularity_cmd(
     methods: str = typer.Option("real,imutube,imugpt,vsmp", "--methods", help="Methods to compare"),
     backbone: str = BACKBONE_OPTION,
     protocol: str = typer.Option("lopo", "--protocol", help=PROTOCOL_HELP),
-    budget: float | None = typer.Option(None, "--budget", help="Label budget in percent (low-resource "
-                                        "only, where it is needed)"),
+    budget: float | None = typer.Option(None, "--budget", callback=BUDGET_RANGE,
+                                        help="Label budget in percent (low-resource only, where it is needed)"),
     folds: str = FOLDS_OPTION,
     seeds: int = SEEDS_OPTION,
-    alpha: float = typer.Option(0.5, "--alpha", help="Synthetic-to-real ratio (0.1..2.0)"),
+    alpha: float = typer.Option(0.5, "--alpha", callback=ALPHA_RANGE, help="Synthetic-to-real ratio (0.1..2.0)"),
     clips: Path | None = typer.Option(None, "--clips", help="Source clips for IMUTube (one folder per "
                                       "activity)"),
     source: str = SOURCE_OPTION,
-    k: int = typer.Option(4, "--k", help=f"SMP variants per source SMP (1..{K_MAX})"),
+    k: int = typer.Option(4, "--k", callback=K_RANGE, help=f"SMP variants per source SMP (1..{K_MAX})"),
     backend: str = BACKEND_OPTION,
     workers: int = WORKERS_OPTION,
     max_epochs: int | None = MAX_EPOCHS_OPTION,
@@ -332,8 +321,6 @@ def granularity_cmd(
     from vsmp_imu.studies.methods import method_names
 
     budget = _protocol(protocol, budget)
-    _check_range(alpha, 0.1, 2.0, "--alpha")
-    _check_ints((seeds, 1, SEEDS_MAX, "--seeds"))
     study = GranularityStudy(
         dataset=dataset, data_dir=data_dir, taxonomy=taxonomy,
         methods=tuple(parse_csv(methods, method_names(), "--methods")), backbone=backbone,
@@ -358,9 +345,7 @@ FILTERS_MAX, HIDDEN_MAX, BATCH_MAX = 1024, 2048, 4096
 
 
 def _encoder(filters: int, hidden: int, batch_size: int, jobs: int | None) -> dict:
-    """The realism encoder's parameters, each option in its range."""
-    _check_ints((filters, 1, FILTERS_MAX, "--filters"), (hidden, 1, HIDDEN_MAX, "--hidden"),
-                (batch_size, 1, BATCH_MAX, "--batch-size"), (jobs, 1, JOBS_MAX, "--jobs"))
+    """The realism encoder's parameters."""
     encoder = {"n_filters": filters, "hidden": hidden, "batch_size": batch_size}
     if jobs:
         encoder["n_threads"] = jobs
@@ -375,28 +360,34 @@ def realism_cmd(
     data_dir: Path | None = DATA_DIR_OPTION,
     fold: str | None = typer.Option(None, "--fold", help="Held-out subject (default: the first)"),
     methods: str = typer.Option("vsmp,imugpt,classical", "--methods", help="Synthetic methods"),
-    seed: int = typer.Option(0, "--seed", help=f"Seed of the split, encoder and generation {SEED_HELP}"),
-    alpha: float = typer.Option(0.5, "--alpha", help="Synthetic windows per real training window"),
-    max_per_class: int = typer.Option(150, "--max-per-class", help="Cap on synthetic windows per class "
-                                      "(1..100000)"),
-    epochs: int = typer.Option(8, "--epochs", help=f"Encoder epochs at most (CPU: keep modest; 1..{EPOCHS_MAX})"),
-    patience: int = typer.Option(3, "--patience", help=f"Encoder early-stopping patience (1..{EPOCHS_MAX})"),
-    encoder_windows: int = typer.Option(3000, "--encoder-windows", help="Real windows the encoder "
-                                        "trains on (class-stratified subset; 0 = all)"),
-    val_windows: int = typer.Option(1000, "--val-windows", help="Validation windows for early stopping "
-                                    "(class-stratified subset; 0 = all)"),
-    filters: int = typer.Option(64, "--filters", help=f"Encoder convolution filters (paper: 64; 1..{FILTERS_MAX})"),
-    hidden: int = typer.Option(128, "--hidden", help=f"Encoder LSTM units (paper: 128; 1..{HIDDEN_MAX})"),
-    batch_size: int = typer.Option(128, "--batch-size", help=f"Encoder mini-batch (paper: 1024 on a GPU; "
-                                   f"1..{BATCH_MAX})"),
+    seed: int = typer.Option(0, "--seed", callback=SEED_RANGE,
+                             help=f"Seed of the split, encoder and generation {SEED_HELP}"),
+    alpha: float = typer.Option(0.5, "--alpha", callback=ALPHA_RANGE, help="Synthetic windows per real training window"),
+    max_per_class: int = typer.Option(150, "--max-per-class", callback=int_range(1, 100_000),
+                                      help="Cap on synthetic windows per class (1..100000)"),
+    epochs: int = typer.Option(8, "--epochs", callback=EPOCHS_RANGE,
+                               help=f"Encoder epochs at most (CPU: keep modest; 1..{EPOCHS_MAX})"),
+    patience: int = typer.Option(3, "--patience", callback=EPOCHS_RANGE,
+                                 help=f"Encoder early-stopping patience (1..{EPOCHS_MAX})"),
+    # no upper bound: more windows than the data has means all of them
+    encoder_windows: int = typer.Option(3000, "--encoder-windows", callback=int_range(0),
+                                        help="Real windows the encoder trains on (class-stratified subset; 0 = all)"),
+    val_windows: int = typer.Option(1000, "--val-windows", callback=int_range(0), help="Validation windows for "
+                                    "early stopping (class-stratified subset; 0 = all)"),
+    filters: int = typer.Option(64, "--filters", callback=int_range(1, FILTERS_MAX),
+                                help=f"Encoder convolution filters (paper: 64; 1..{FILTERS_MAX})"),
+    hidden: int = typer.Option(128, "--hidden", callback=int_range(1, HIDDEN_MAX),
+                               help=f"Encoder LSTM units (paper: 128; 1..{HIDDEN_MAX})"),
+    batch_size: int = typer.Option(128, "--batch-size", callback=int_range(1, BATCH_MAX),
+                                   help=f"Encoder mini-batch (paper: 1024 on a GPU; 1..{BATCH_MAX})"),
     layer: str = typer.Option("conv", "--layer", help="Embedding: conv (final convolutional layer, "
                               "time-averaged; the paper's) | lstm (last LSTM state)"),
     clips: Path | None = typer.Option(None, "--clips", help="Source clips for IMUTube"),
     source: str = SOURCE_OPTION,
-    k: int = typer.Option(4, "--k", help=f"SMP variants per source SMP (1..{K_MAX})"),
+    k: int = typer.Option(4, "--k", callback=K_RANGE, help=f"SMP variants per source SMP (1..{K_MAX})"),
     backend: str = BACKEND_OPTION,
     workers: int = WORKERS_OPTION,
-    jobs: int | None = typer.Option(None, "--jobs", help=f"CPU threads of the encoder (1..{JOBS_MAX})"),
+    jobs: int | None = typer.Option(None, "--jobs", callback=JOBS_RANGE, help=f"CPU threads of the encoder (1..{JOBS_MAX})"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Feature-space realism: class-wise centroid distances in DeepConvLSTM embeddings, PCA, KS,
@@ -406,12 +397,6 @@ def realism_cmd(
     from vsmp_imu.studies.realism import LAYERS, RealismStudy
     from vsmp_imu.studies.realism_report import write_realism_outputs
 
-    _check_range(alpha, 0.1, 2.0, "--alpha")
-    _check_ints((seed, 0, SEED_MAX, "--seed"), (max_per_class, 1, 100_000, "--max-per-class"),
-                (epochs, 1, EPOCHS_MAX, "--epochs"), (patience, 1, EPOCHS_MAX, "--patience"))
-    for value, option in ((encoder_windows, "--encoder-windows"), (val_windows, "--val-windows")):
-        if value < 0:  # no upper bound: more windows than the data has means all of them
-            raise ConfigError(f"{value} is out of range", field=option, allowed="0 (all) or a positive integer")
     parse_csv(layer, LAYERS, "--layer")
     encoder = _encoder(filters, hidden, batch_size, jobs)
     study = RealismStudy(
