@@ -12,6 +12,7 @@ from vsmp_imu.cli.common import (
     distinct_files,
     finite_range,
     naming,
+    option_names,
     output_file,
     parse_csv,
     shown,
@@ -47,7 +48,7 @@ def simulate_cmd(
     distinct_files({"--output": output, "--plot": plot}, {"the input motion": motion_file})
     if plot is not None:
         _image_file(plot, "--plot")
-    from vsmp_imu.errors import ConfigError, ValidationError
+    from vsmp_imu.errors import ConfigError
     from vsmp_imu.imu import ImuSimulator, get_placement
     from vsmp_imu.imu.kinematics import PLACEMENT_CUTOFF
 
@@ -63,16 +64,9 @@ def simulate_cmd(
     motion = Motion.load(motion_file)
     cutoff = PLACEMENT_CUTOFF if smoothing_hz is None else smoothing_hz or None
     sim = ImuSimulator(fs, noise=not no_noise, seed=seed, smoothing_hz=cutoff, trim_s=trim_s)
-    try:
+    with naming(motion_file), option_names(_OPTIONS):  # e.g. a motion shorter than the --trim-s margins
         rec = sim.simulate(motion, placements[0]) if len(placements) == 1 else \
             sim.simulate_many(motion, placements)
-    except ValidationError as exc:
-        if exc.file:
-            raise
-        if exc.field in _OPTIONS:  # e.g. a motion shorter than the --trim-s margins
-            raise ConfigError(exc.message, file=motion_file, field=_OPTIONS[exc.field],
-                              allowed=exc.allowed) from exc
-        raise exc.in_file(motion_file) from exc
     rec.meta["motion_file"] = str(motion_file)
     rec.save_csv(output)
     console.print(f"[green]wrote[/] {shown(output)}: {rec.n_samples} samples at {rec.fs_hz:g} Hz, "

@@ -194,12 +194,8 @@ def resample_cmd(
     output_file(output)
     distinct_files({"--output": output}, {"the input motion": motion_file})
     source = _load_motion(motion_file)
-    try:
+    with naming(motion_file), option_names({"fps": "--fps"}):
         motion = source.resample(fps)
-    except ValidationError as exc:
-        if exc.field != "fps":
-            raise exc.in_file(motion_file) from exc
-        raise ConfigError(exc.message, file=motion_file, field="--fps", allowed=exc.allowed) from exc
     motion.save(output)
     console.print(f"[green]wrote[/] {shown(output)}: {motion.n_frames} frames at {motion.fps:g} fps")
 
