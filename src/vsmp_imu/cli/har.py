@@ -33,6 +33,7 @@ from vsmp_imu.cli.common import (
     console_err,
     executor_options,
     finite_range,
+    int_range,
     option_names,
     output_dir,
     parse_csv,
@@ -48,6 +49,8 @@ dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_
 
 
 MAX_OVERLAP = 0.9  # a hop of a tenth of a window: ten times the windows of no overlap
+# the lower bound of the integer options whose upper one is typer's `max` (shown in the help)
+POSITIVE = int_range(1)
 
 
 def _once(items: list[str], option: str) -> tuple[str, ...]:
@@ -101,11 +104,6 @@ def _parse_groups(items: list[str] | None) -> dict[str, tuple[str, ...]]:
             name, members = part.split("=", 1)
             groups[name.strip()] = tuple(parse_csv(members, option="--report-groups"))
     return groups
-
-
-def _positive(value: int | None, option: str) -> None:
-    if value is not None and value < 1:
-        raise ConfigError(f"{value} is out of range", field=option, allowed="an integer >= 1")
 
 
 def budget_defaults(protocol: str, alpha: float | None, policy: str | None) -> tuple[float, str]:
@@ -165,11 +163,12 @@ def evaluate_cmd(
     overlap: float = typer.Option(0.5, "--overlap", callback=finite_range(0.0, MAX_OVERLAP),
                                   help=f"overlap of neighbouring windows, 0..{MAX_OVERLAP:g}"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
-    max_epochs: int = typer.Option(None, "--max-epochs", max=100000, help="neural backbones: epoch limit"),
+    max_epochs: int = typer.Option(None, "--max-epochs", max=100000, callback=POSITIVE,
+                                   help="neural backbones: epoch limit"),
     patience: int = typer.Option(
-        None, "--patience", max=100000, help="neural backbones: early-stopping patience"
+        None, "--patience", max=100000, callback=POSITIVE, help="neural backbones: early-stopping patience"
     ),
-    jobs: int = typer.Option(None, "--jobs", max=256, help="CPU threads for RF and PyTorch"),
+    jobs: int = typer.Option(None, "--jobs", max=256, callback=POSITIVE, help="CPU threads for RF and PyTorch"),
     device: str = typer.Option(None, "--device", show_default=False,
                                help="neural backbones: cpu | cuda | cuda:N | mps | auto [default: cpu]"),
     class_weight: str = typer.Option(
@@ -207,7 +206,7 @@ def evaluate_cmd(
     event_durations: bool = EVENT_DURATIONS,
     cadence: bool = CADENCE,
     side_evidence: bool = SIDE_EVIDENCE,
-    workers: int = typer.Option(1, "--workers", max=256, help="generation workers"),
+    workers: int = typer.Option(1, "--workers", max=256, callback=POSITIVE, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
     address: str = typer.Option(None, "--address", help="Ray cluster address (--executor ray)"),
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder"),
@@ -247,10 +246,6 @@ def evaluate_cmd(
     chosen_backbones = _once(parse_csv(backbones, tuple(BACKBONES), "--backbones"), "--backbones")
     share_selection = share_default(protocol, chosen_backbones, share_selection)
     alpha, policy = budget_defaults(protocol, alpha, policy)
-    _positive(max_epochs, "--max-epochs")
-    _positive(patience, "--patience")
-    _positive(jobs, "--jobs")
-    _positive(workers, "--workers")
     class_weight, share = weighting(chosen_backbones, class_weight, synthetic_weight)
     request = EvalRequest(
         dataset=dataset, output=output, protocol=protocol,

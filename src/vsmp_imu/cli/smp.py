@@ -16,8 +16,16 @@ from rich import box
 from rich.table import Table
 from rich.text import Text
 
-from vsmp_imu.cli.common import console, distinct_files, library_dirs, output_file, safe_text, shown
-from vsmp_imu.errors import ConfigError, ExtractionError, InputFileError, ValidationError, VsmpError
+from vsmp_imu.cli.common import (
+    console,
+    distinct_files,
+    int_range,
+    library_dirs,
+    output_file,
+    safe_text,
+    shown,
+)
+from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError, VsmpError
 from vsmp_imu.io import atomic_text, write_json
 from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
 from vsmp_imu.smp.aggregate import aggregate, library_activity
@@ -170,7 +178,8 @@ def repair_cmd(
 def aggregate_cmd(
     raws: list[Path] = typer.Argument(..., help="Raw responses for one clip"),
     output: Path | None = typer.Option(None, "-o", "--output", help="Write the final SMP here"),
-    min_valid: int = typer.Option(3, "--min-valid", help="Discard the clip below this many valid responses"),
+    min_valid: int = typer.Option(3, "--min-valid", callback=int_range(1),
+                                  help="Discard the clip below this many valid responses"),
     no_refine: bool = typer.Option(False, "--no-refine", help="Skip the four consistency checks"),
     report_file: Path | None = typer.Option(None, "--report", help="Write the full report (JSON)"),
     library: list[Path] = LIBRARY_OPTION,
@@ -179,8 +188,6 @@ def aggregate_cmd(
     output_file(output)
     output_file(report_file, "--report")
     distinct_files({"--output": output, "--report": report_file}, {"a raw response": raws})
-    if min_valid < 1:
-        raise ConfigError(f"{min_valid} is out of range", field="--min-valid", allowed="an integer >= 1")
     lib = _library(library)
     results = [parse_response(_read_raw(p)) for p in raws]
     for path, res in zip(raws, results, strict=True):
