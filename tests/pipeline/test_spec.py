@@ -16,7 +16,7 @@ import typer
 from vsmp_imu.cli import app
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.methods import REGISTRY, make, method_params
-from vsmp_imu.pipeline.spec import PIPELINE_FIELDS, GenerationSpec
+from vsmp_imu.pipeline.spec import INTENSITY, PIPELINE_FIELDS, GenerationSpec
 
 # spec field -> option of `vsmp-imu generate`
 GENERATE_OPTIONS = {
@@ -112,3 +112,38 @@ def test_bad_values_are_config_errors_naming_the_field():
         with pytest.raises(ConfigError) as err:
             GenerationSpec(**bad)
         assert err.value.field == name
+
+
+# the grounding options given away from their defaults -> the spec fields they set
+GROUNDING_ARGS = ("--pooled-rank", "--gravity-norm", "--motion-fit", "--no-texture", "--no-window-levels",
+                  "--level-parts", "4", "--posture-levels", "--no-pooled-calibration", "--calibrate-unseen-postures",
+                  "--unseen-intensity", "0.5,1.5", "--seen-intensity", "--event-durations", "--no-cadence",
+                  "--no-side-evidence")
+GROUNDING_FIELDS = {"per_class_rank": False, "gravity_norm": True, "motion_fit": True, "texture": False,
+                    "window_levels": False, "level_parts": 4, "posture_levels": True, "pooled_calibration": False,
+                    "nominal_unseen_postures": False, "unseen_intensity": (0.5, 1.5), "seen_intensity": True,
+                    "event_durations": True, "cadence": False, "side_evidence": False}
+
+
+@pytest.mark.parametrize("command, planner", [("generate", "plan_fold"), ("evaluate", "evaluation")])
+def test_the_grounding_options_reach_the_spec(monkeypatch, tmp_path, command, planner):
+    """`generate` and `evaluate` share the grounding options (cli.common.grounding_options):
+    each value, given or left at its default, reaches the command's GenerationSpec."""
+    from typer.testing import CliRunner
+
+    seen = []
+
+    def plan(spec, request):
+        seen.append(spec)
+        raise ConfigError("stop")
+
+    monkeypatch.setattr(f"vsmp_imu.app.{planner}", plan)
+    where = ("--holdout", "1") if command == "generate" else ()
+    for extra in (GROUNDING_ARGS, ()):
+        result = CliRunner().invoke(app, [command, "--dataset", "hapt12", *where, *extra, "-o", str(tmp_path / "o")])
+        assert isinstance(result.exception, ConfigError) and result.exception.message == "stop", result.output
+    given, default = ({f: getattr(spec, f) for f in GROUNDING_FIELDS} for spec in seen)
+    assert given == GROUNDING_FIELDS
+    click_app = typer.main.get_command(app)
+    options = {p.name: p.default for p in click_app.commands[command].params}
+    assert default == {**{f: options[f] for f in GROUNDING_FIELDS}, "unseen_intensity": INTENSITY}

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import contextlib
+import functools
+import inspect
 import math
 import os
 import tempfile
@@ -18,7 +20,7 @@ from rich.segment import Segment
 from rich.text import Text
 
 from vsmp_imu.errors import ConfigError, VsmpError
-from vsmp_imu.pipeline.spec import INTENSITY, GenerationSpec
+from vsmp_imu.pipeline.spec import INTENSITY, GenerationSpec, intensity_bounds
 from vsmp_imu.terminal import safe_text
 
 
@@ -366,3 +368,42 @@ K_UNSEEN = typer.Option(
          "samples rest on its SMP alone; --k for the others)")
 MOTION_FIT = typer.Option(False, "--motion-fit",
                           help="fit each class's motion parameters to D_stat before synthesis (VSMP-IMU)")
+
+# The grounding options in the order the help lists them: parameter -> (type, option).
+GROUNDING_OPTIONS: dict[str, tuple[type, Any]] = {
+    "per_class_rank": (bool, PER_CLASS_RANK), "gravity_norm": (bool, GRAVITY_NORM), "motion_fit": (bool, MOTION_FIT),
+    "texture": (bool, TEXTURE), "window_levels": (bool, WINDOW_LEVELS), "level_parts": (int, LEVEL_PARTS),
+    "posture_levels": (bool, POSTURE_LEVELS), "pooled_calibration": (bool, POOLED_CALIBRATION),
+    "nominal_unseen_postures": (bool, NOMINAL_UNSEEN_POSTURES), "unseen_intensity": (str, UNSEEN_INTENSITY),
+    "seen_intensity": (bool, SEEN_INTENSITY), "event_durations": (bool, EVENT_DURATIONS), "cadence": (bool, CADENCE),
+    "side_evidence": (bool, SIDE_EVIDENCE),
+}
+
+
+def grounding_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """A command (`generate`, `evaluate`) whose parameter `grounding` stands for the grounding
+    options: its command line has GROUNDING_OPTIONS in that parameter's place (the same names,
+    defaults, help and order wherever they are used), and the command gets their values as one
+    dict `grounding` (`grounding_spec` makes them GenerationSpec fields)."""
+    signature = inspect.signature(command, eval_str=True)
+    params: list[inspect.Parameter] = []
+    for param in signature.parameters.values():
+        if param.name != "grounding":
+            params.append(param)
+            continue
+        params += [inspect.Parameter(name, param.kind, default=option, annotation=kind)
+                   for name, (kind, option) in GROUNDING_OPTIONS.items()]
+
+    @functools.wraps(command)
+    def run(**values: Any) -> Any:
+        grounding = {name: values.pop(name) for name in GROUNDING_OPTIONS}
+        return command(**values, grounding=grounding)
+
+    run.__signature__ = signature.replace(parameters=params)  # type: ignore[attr-defined]
+    run.__annotations__ = {p.name: p.annotation for p in params}
+    return run
+
+
+def grounding_spec(grounding: dict[str, Any]) -> dict[str, Any]:
+    """The grounding options' values as GenerationSpec fields (--unseen-intensity parsed)."""
+    return {**grounding, "unseen_intensity": intensity_bounds(grounding["unseen_intensity"])}

@@ -8,26 +8,14 @@ from pathlib import Path
 import typer
 
 from vsmp_imu.cli.common import (
-    CADENCE,
-    EVENT_DURATIONS,
-    GRAVITY_NORM,
     K_UNSEEN,
-    LEVEL_PARTS,
-    MOTION_FIT,
-    NOMINAL_UNSEEN_POSTURES,
-    PER_CLASS_RANK,
-    POOLED_CALIBRATION,
-    POSTURE_LEVELS,
-    SEEN_INTENSITY,
-    SIDE_EVIDENCE,
     SPEC_OPTIONS,
-    TEXTURE,
-    UNSEEN_INTENSITY,
-    WINDOW_LEVELS,
     K,
     console,
     executor_options,
     finite_range,
+    grounding_options,
+    grounding_spec,
     library_dirs,
     option_names,
     output_dir,
@@ -38,6 +26,7 @@ SOURCE_HELP = "library | smp:DIR (SMP files) | video:DIR (clips per activity fol
 
 
 @option_names(SPEC_OPTIONS)
+@grounding_options
 def generate_cmd(
     dataset: str = typer.Option(..., "--dataset", help="Dataset name (hapt, hapt12, ...) or a dataset YAML"),
     holdout: str = typer.Option(..., "--holdout", help="Held-out subject: none of its data is used"),
@@ -66,20 +55,7 @@ def generate_cmd(
     no_sim_loop: bool = typer.Option(False, "--no-sim-loop", help="Ablation: eta* = 0"),
     no_rank: bool = typer.Option(False, "--no-rank", help="Ablation: no rank grounding"),
     no_filter: bool = typer.Option(False, "--no-filter", help="Ablation: no quality filter"),
-    per_class_rank: bool = PER_CLASS_RANK,
-    gravity_norm: bool = GRAVITY_NORM,
-    motion_fit: bool = MOTION_FIT,
-    texture: bool = TEXTURE,
-    window_levels: bool = WINDOW_LEVELS,
-    level_parts: int = LEVEL_PARTS,
-    posture_levels: bool = POSTURE_LEVELS,
-    pooled_calibration: bool = POOLED_CALIBRATION,
-    nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
-    unseen_intensity: str = UNSEEN_INTENSITY,
-    seen_intensity: bool = SEEN_INTENSITY,
-    event_durations: bool = EVENT_DURATIONS,
-    cadence: bool = CADENCE,
-    side_evidence: bool = SIDE_EVIDENCE,
+    grounding: dict | None = None,  # stands for the grounding options (`grounding_options`)
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
     library: list[Path] = typer.Option(None, "--library", help="Extra activity-library folder (repeatable)"),
@@ -93,18 +69,13 @@ def generate_cmd(
     from vsmp_imu.app import FoldRequest, generate_fold, plan_fold
     from vsmp_imu.motion.backends import check_backend
     from vsmp_imu.pipeline.sources import check_source
-    from vsmp_imu.pipeline.spec import GenerationSpec, intensity_bounds
+    from vsmp_imu.pipeline.spec import GenerationSpec
 
     check_backend(backend, "--backend")  # before the dataset loads
     check_source(source, "--source")
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, sim_in_the_loop=not no_sim_loop,
-        rank_grounding=not no_rank, quality_filter=not no_filter, per_class_rank=per_class_rank,
-        motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
-        window_levels=window_levels, level_parts=level_parts, posture_levels=posture_levels,
-        pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
-        unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
-        event_durations=event_durations, cadence=cadence,
+        rank_grounding=not no_rank, quality_filter=not no_filter, **grounding_spec(grounding),
         refine=not no_refine, uncertainty_conditioned=not no_uncertainty,
         library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None,

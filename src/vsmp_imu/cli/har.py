@@ -12,27 +12,15 @@ import typer
 from rich.table import Table
 
 from vsmp_imu.cli.common import (
-    CADENCE,
-    EVENT_DURATIONS,
-    GRAVITY_NORM,
     K_UNSEEN,
-    LEVEL_PARTS,
-    MOTION_FIT,
-    NOMINAL_UNSEEN_POSTURES,
-    PER_CLASS_RANK,
-    POOLED_CALIBRATION,
-    POSTURE_LEVELS,
-    SEEN_INTENSITY,
-    SIDE_EVIDENCE,
     SPEC_OPTIONS,
-    TEXTURE,
-    UNSEEN_INTENSITY,
-    WINDOW_LEVELS,
     K,
     console,
     console_err,
     executor_options,
     finite_range,
+    grounding_options,
+    grounding_spec,
     int_range,
     option_names,
     output_dir,
@@ -121,6 +109,7 @@ def budget_defaults(protocol: str, alpha: float | None, policy: str | None) -> t
 
 
 @option_names(SPEC_OPTIONS)
+@grounding_options
 def evaluate_cmd(
     dataset: str = typer.Option(
         ...,
@@ -192,20 +181,7 @@ def evaluate_cmd(
     k: int = K,
     k_unseen: int = K_UNSEEN,
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
-    per_class_rank: bool = PER_CLASS_RANK,
-    gravity_norm: bool = GRAVITY_NORM,
-    motion_fit: bool = MOTION_FIT,
-    texture: bool = TEXTURE,
-    window_levels: bool = WINDOW_LEVELS,
-    level_parts: int = LEVEL_PARTS,
-    posture_levels: bool = POSTURE_LEVELS,
-    pooled_calibration: bool = POOLED_CALIBRATION,
-    nominal_unseen_postures: bool = NOMINAL_UNSEEN_POSTURES,
-    unseen_intensity: str = UNSEEN_INTENSITY,
-    seen_intensity: bool = SEEN_INTENSITY,
-    event_durations: bool = EVENT_DURATIONS,
-    cadence: bool = CADENCE,
-    side_evidence: bool = SIDE_EVIDENCE,
+    grounding: dict | None = None,  # stands for the grounding options (`grounding_options`)
     workers: int = typer.Option(1, "--workers", max=256, callback=POSITIVE, help="generation workers"),
     executor: str = typer.Option("local", "--executor", help="generation executor: local | ray"),
     address: str = typer.Option(None, "--address", help="Ray cluster address (--executor ray)"),
@@ -239,7 +215,7 @@ def evaluate_cmd(
     from vsmp_imu.har.output import claim
     from vsmp_imu.motion.backends import check_backend
     from vsmp_imu.pipeline.sources import check_source
-    from vsmp_imu.pipeline.spec import GenerationSpec, intensity_bounds
+    from vsmp_imu.pipeline.spec import GenerationSpec
 
     check_backend(backend, "--backend")  # before the dataset loads, even where no method animates
     check_source(source, "--source")  # likewise, even where no method reads SMPs
@@ -258,14 +234,9 @@ def evaluate_cmd(
         synthetic_weight=share,
         unseen=_once(parse_csv(unseen, option="--unseen"), "--unseen") if unseen is not None else ())
     spec = GenerationSpec(
-        source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend, per_class_rank=per_class_rank,
-        motion_fit=motion_fit, gravity_norm=gravity_norm, side_evidence=side_evidence, texture=texture,
-        window_levels=window_levels, level_parts=level_parts, posture_levels=posture_levels,
-        pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
-        unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
-        event_durations=event_durations, cadence=cadence,
-        library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
-        workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
+        source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend,
+        **grounding_spec(grounding), library_dirs=tuple(str(p) for p in (library or [])), refill=refill,
+        executor=executor, workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)
     _, folds = run.windows_and_folds()  # checked before the folder is claimed
     claim(run)  # refuses a folder whose records were made with other settings or data
