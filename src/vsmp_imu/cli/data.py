@@ -11,14 +11,14 @@ from rich import box
 from rich.table import Table
 
 from vsmp_imu.cli.common import (
+    OVERLAP,
+    WINDOW_S,
     console,
-    finite_range,
     library_dirs,
     option_names,
     output_dir,
     print_warnings,
 )
-from vsmp_imu.cli.har import MAX_OVERLAP
 
 data_app = typer.Typer(help="Your own data: check it against the activity files before an evaluation.",
                        no_args_is_help=True)
@@ -56,10 +56,8 @@ def check_cmd(
     library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder (repeatable)"),
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     samples: int = typer.Option(3, "--samples", min=1, max=50, help="simulated executions per class"),
-    window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
-                                   help="window length in seconds, 0.5..30"),
-    overlap: float = typer.Option(0.5, "--overlap", callback=finite_range(0.0, MAX_OVERLAP),
-                                  help=f"overlap of neighbouring windows, 0..{MAX_OVERLAP:g}"),
+    window_s: float = WINDOW_S,
+    overlap: float = OVERLAP,
     output: Path = typer.Option(..., "--output", "-o", help="folder for check.json and check.png"),
     mounting: bool = typer.Option(True, "--mounting/--no-mounting",
                                   help="turn the simulated windows by the sensor mounting estimated from the "

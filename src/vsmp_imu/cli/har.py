@@ -13,12 +13,13 @@ from rich.table import Table
 
 from vsmp_imu.cli.common import (
     K_UNSEEN,
+    OVERLAP,
     SPEC_OPTIONS,
+    WINDOW_S,
     K,
     console,
     console_err,
     executor_options,
-    finite_range,
     grounding_options,
     grounding_spec,
     int_range,
@@ -36,7 +37,6 @@ from vsmp_imu.progress import progress
 dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_is_help=True)
 
 
-MAX_OVERLAP = 0.9  # a hop of a tenth of a window: ten times the windows of no overlap
 # the lower bound of the integer options whose upper one is typer's `max` (shown in the help)
 POSITIVE = int_range(1)
 
@@ -147,10 +147,8 @@ def evaluate_cmd(
         help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform) "
              "[default: uniform for tstr, tail for unseen, else scarcity]"),
     rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
-    window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
-                                   help="window length in seconds, 0.5..30"),
-    overlap: float = typer.Option(0.5, "--overlap", callback=finite_range(0.0, MAX_OVERLAP),
-                                  help=f"overlap of neighbouring windows, 0..{MAX_OVERLAP:g}"),
+    window_s: float = WINDOW_S,
+    overlap: float = OVERLAP,
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
     max_epochs: int = typer.Option(None, "--max-epochs", max=100000, callback=POSITIVE,
                                    help="neural backbones: epoch limit"),
@@ -527,10 +525,8 @@ def list_cmd() -> None:
 def info_cmd(
     name: str = typer.Argument(..., help="dataset name or dataset .yaml file"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
-    window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0),
-                                   help="window length in seconds, 0.5..30"),
-    overlap: float = typer.Option(0.5, "--overlap", callback=finite_range(0.0, MAX_OVERLAP),
-                                  help=f"overlap of neighbouring windows, 0..{MAX_OVERLAP:g}"),
+    window_s: float = WINDOW_S,
+    overlap: float = OVERLAP,
     measure: str = typer.Option(
         None, "--measure", help="a static class: print its mean acceleration per channel"
     ),
