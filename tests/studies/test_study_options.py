@@ -122,3 +122,27 @@ def test_an_unknown_control_activity_names_the_option(monkeypatch, cli, tmp_path
     code, _, err = cli("study", "control", "-o", tmp_path / "out", "--activities", "walk")
     assert code == 2
     assert "field '--activities'" in err, err
+
+
+@pytest.mark.parametrize("study", ["ablation", "granularity"])
+def test_the_shared_run_options_reach_the_study(monkeypatch, cli, tmp_path, study):
+    """--backend, --workers, --library and the backbone's --max-epochs, --patience and --jobs
+    (one definition, `run_options`) reach the study's generation spec and backbone."""
+    import importlib
+
+    seen = {}
+
+    def run(self, *_args, **_kwargs):
+        seen.update(options=self.options, backbone_params=self.backbone_params)
+        raise AssertionError("stop")
+
+    module = importlib.import_module(f"vsmp_imu.studies.{study}")
+    monkeypatch.setattr(getattr(module, STUDIES[study]), "run", run)
+    library = tmp_path / "lib"
+    library.mkdir()
+    with pytest.raises(AssertionError, match="stop"):
+        cli("study", study, "-o", tmp_path / "out", "--backbone", "dclstm", "--backend", "compiled",
+            "--workers", "2", "--max-epochs", "3", "--patience", "2", "--jobs", "4", "--library", library)
+    options = seen["options"]
+    assert (options.backend, options.workers, options.library_dirs) == ("compiled", 2, (str(library),))
+    assert seen["backbone_params"] == {"n_threads": 4, "max_epochs": 3, "patience": 2}

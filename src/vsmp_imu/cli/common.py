@@ -386,28 +386,38 @@ GROUNDING_OPTIONS: dict[str, tuple[type, Any]] = {
 }
 
 
-def grounding_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """A command (`generate`, `evaluate`) whose parameter `grounding` stands for the grounding
-    options: its command line has GROUNDING_OPTIONS in that parameter's place (the same names,
-    defaults, help and order wherever they are used), and the command gets their values as one
-    dict `grounding` (`grounding_spec` makes them GenerationSpec fields)."""
-    signature = inspect.signature(command, eval_str=True)
-    params: list[inspect.Parameter] = []
-    for param in signature.parameters.values():
-        if param.name != "grounding":
-            params.append(param)
-            continue
-        params += [inspect.Parameter(name, param.kind, default=option, annotation=kind)
-                   for name, (kind, option) in GROUNDING_OPTIONS.items()]
+def option_group(name: str, options: dict[str, tuple[Any, Any]]) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """A decorator of commands that share a run of options: the command's parameter `name`
+    stands for `options` (parameter -> (type, typer option)). Its command line has them in that
+    parameter's place, with the same names, defaults, help and order wherever they are used, and
+    the command gets their values as one dict, `name`."""
 
-    @functools.wraps(command)
-    def run(**values: Any) -> Any:
-        grounding = {name: values.pop(name) for name in GROUNDING_OPTIONS}
-        return command(**values, grounding=grounding)
+    def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
+        signature = inspect.signature(command, eval_str=True)
+        if name not in signature.parameters:
+            raise TypeError(f"{command.__name__} has no parameter '{name}' to put its options in")
+        params: list[inspect.Parameter] = []
+        for param in signature.parameters.values():
+            if param.name != name:
+                params.append(param)
+                continue
+            params += [inspect.Parameter(option, param.kind, default=info, annotation=kind)
+                       for option, (kind, info) in options.items()]
 
-    run.__signature__ = signature.replace(parameters=params)  # type: ignore[attr-defined]
-    run.__annotations__ = {p.name: p.annotation for p in params}
-    return run
+        @functools.wraps(command)
+        def run(**values: Any) -> Any:
+            group = {option: values.pop(option) for option in options}
+            return command(**values, **{name: group})
+
+        run.__signature__ = signature.replace(parameters=params)  # type: ignore[attr-defined]
+        run.__annotations__ = {p.name: p.annotation for p in params}
+        return run
+
+    return decorate
+
+
+# `generate` and `evaluate`: the parameter `grounding` stands for the grounding options.
+grounding_options = option_group("grounding", GROUNDING_OPTIONS)
 
 
 def grounding_spec(grounding: dict[str, Any]) -> dict[str, Any]:

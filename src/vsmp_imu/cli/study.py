@@ -3,6 +3,7 @@ ablations, activity granularity, realism)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import typer
@@ -13,6 +14,7 @@ from vsmp_imu.cli.common import (
     finite_range,
     int_range,
     library_dirs,
+    option_group,
     option_names,
     output_dir,
     parse_csv,
@@ -57,6 +59,12 @@ CONTROL_OPTIONS = {"backend": "--backend", "activities": "--activities", "contro
                    "seeds": "--seeds"}
 CASE_OPTIONS = {"activity": "--activity", "location": "--location"}
 FOLDS_OPTION = typer.Option("all", "--folds", help="'all' or held-out subjects, e.g. 1,2,3,4,5")
+# The options `ablation` and `granularity` end with: generation (--backend, --workers, --library)
+# and the backbone's training; the parameter `run` of each stands for them (`option_group`).
+run_options = option_group("run", {
+    "backend": (str, BACKEND_OPTION), "workers": (int, WORKERS_OPTION),
+    "max_epochs": (int | None, MAX_EPOCHS_OPTION), "patience": (int | None, PATIENCE_OPTION),
+    "jobs": (int | None, JOBS_OPTION), "library": (list[Path], LIBRARY_OPTION)})
 STUDY_PROTOCOLS = ("lopo", "low-resource", "long-tail")  # the studies' protocols (no unseen, tstr)
 PROTOCOL_HELP = " | ".join(STUDY_PROTOCOLS)
 
@@ -66,6 +74,21 @@ def _output(output: Path, study: str) -> None:
     takes it, right before the work)."""
     output_dir(output)
     study_folder(study).check(output)
+
+
+def _run_study(study, output: Path, name: str, write: Callable, label: str | None = None) -> tuple:
+    """Claim the output folder (right before the work), run the study under a progress bar
+    (`label`, default its name) and write its outputs: (results, the paths written)."""
+    claim_study_folder(output, name)
+    with progress(label or name) as update:
+        results = study.run(output, progress=update)
+    return results, write(results, output)
+
+
+def _print_skipped(skipped: dict[str, str]) -> None:
+    """The methods a study skipped, each with its reason."""
+    for method, reason in skipped.items():
+        console.print(f"skipped {shown(method)}: {shown(reason)}", highlight=False)
 
 
 def _library(library: list[Path] | None):
@@ -103,10 +126,7 @@ def control_cmd(
         activities=parse_csv(activities, option="--activities") if activities else None,
         attributes=parse_csv(controls, ATTRIBUTES, "--controls") if controls else None,
         backend=backend, library=_library(library), noise=not no_noise, data_dir=data_dir)
-    claim_study_folder(output, "control")
-    with progress("controllability") as update:
-        results = study.run(output, progress=update)
-    paths = write_control_outputs(results, output)
+    results, paths = _run_study(study, output, "control", write_control_outputs, "controllability")
     for attribute, s in results.summary.items():
         cp = s["checkpoints"]
         if attribute == "symmetry":
@@ -231,6 +251,7 @@ def _generation(source: str, k: int, backend: str, workers: int, library: list[P
 
 @study_app.command("ablation")
 @option_names(GENERATION_OPTIONS)
+@run_options
 def ablation_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder (report.md, results.json, "
                                 "ablation.png, runs/, cache/)"),
@@ -253,12 +274,7 @@ def ablation_cmd(
                           f"the caption part 1..{K_MAX})"),
     max_rounds: int = typer.Option(6, "--max-rounds", callback=int_range(1, 100), help="Matched 2x2: generation "
                                    "rounds (first attempt plus replenishments; 1..100)"),
-    backend: str = BACKEND_OPTION,
-    workers: int = WORKERS_OPTION,
-    max_epochs: int | None = MAX_EPOCHS_OPTION,
-    patience: int | None = PATIENCE_OPTION,
-    jobs: int | None = JOBS_OPTION,
-    library: list[Path] = LIBRARY_OPTION,
+    run: dict | None = None,  # stands for the options of `run_options`
 ) -> None:
     """Ablations: matched caption-SMP 2x2, components, sensor grounding, alpha sensitivity."""
     _output(output, "ablation")
@@ -273,12 +289,9 @@ def ablation_cmd(
     study = AblationStudy(
         dataset=dataset, data_dir=data_dir, protocol=protocol, budget=budget, folds=_folds(folds),
         seeds=seeds, backbone=backbone, alpha=alpha, alphas=alpha_values, max_rounds=max_rounds, parts=chosen,
-        options=_generation(source, k, backend, workers, library),
-        backbone_params=_backbone(backbone, max_epochs, patience, jobs))
-    claim_study_folder(output, "ablation")
-    with progress("ablation") as update:
-        results = study.run(output, progress=update)
-    paths = write_ablation_outputs(results, output)
+        options=_generation(source, k, run["backend"], run["workers"], run["library"]),
+        backbone_params=_backbone(backbone, run["max_epochs"], run["patience"], run["jobs"]))
+    results, paths = _run_study(study, output, "ablation", write_ablation_outputs)
     for name, part in results.parts.items():
         rows = part["rows"].values() if isinstance(part.get("rows"), dict) else part.get("rows", [])
         text = ", ".join(f"{'alpha ' + format(r['alpha'], 'g') if 'alpha' in r else r['method']} "
@@ -289,6 +302,7 @@ def ablation_cmd(
 
 @study_app.command("granularity")
 @option_names(GENERATION_OPTIONS)
+@run_options
 def granularity_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Output folder"),
     dataset: str = DATASET_OPTION,
@@ -307,12 +321,7 @@ def granularity_cmd(
                                       "activity)"),
     source: str = SOURCE_OPTION,
     k: int = typer.Option(4, "--k", callback=K_RANGE, help=f"SMP variants per source SMP (1..{K_MAX})"),
-    backend: str = BACKEND_OPTION,
-    workers: int = WORKERS_OPTION,
-    max_epochs: int | None = MAX_EPOCHS_OPTION,
-    patience: int | None = PATIENCE_OPTION,
-    jobs: int | None = JOBS_OPTION,
-    library: list[Path] = LIBRARY_OPTION,
+    run: dict | None = None,  # stands for the options of `run_options`
 ) -> None:
     """Per-class precision/recall/F1 and group Macro-F1 under an activity taxonomy."""
     _output(output, "granularity")
@@ -325,14 +334,10 @@ def granularity_cmd(
         dataset=dataset, data_dir=data_dir, taxonomy=taxonomy,
         methods=tuple(parse_csv(methods, method_names(), "--methods")), backbone=backbone,
         protocol=protocol, budget=budget, folds=_folds(folds), seeds=seeds, alpha=alpha,
-        options=_generation(source, k, backend, workers, library, clips),
-        backbone_params=_backbone(backbone, max_epochs, patience, jobs))
-    claim_study_folder(output, "granularity")
-    with progress("granularity") as update:
-        results = study.run(output, progress=update)
-    paths = write_granularity_outputs(results, output)
-    for m, reason in results.skipped.items():
-        console.print(f"skipped {shown(m)}: {shown(reason)}", highlight=False)
+        options=_generation(source, k, run["backend"], run["workers"], run["library"], clips),
+        backbone_params=_backbone(backbone, run["max_epochs"], run["patience"], run["jobs"]))
+    results, paths = _run_study(study, output, "granularity", write_granularity_outputs)
+    _print_skipped(results.skipped)
     for row in results.groups:
         if row["macro_f1_mean"] is not None:
             console.print(f"{shown(row['method'])} / {shown(row['group'])}: {100 * row['macro_f1_mean']:.2f}", highlight=False)
@@ -405,12 +410,8 @@ def realism_cmd(
         max_per_class=max_per_class, epochs=epochs, patience=patience,
         encoder_windows=encoder_windows or None, val_windows=val_windows or None, layer=layer,
         encoder_params=encoder, options=_generation(source, k, backend, workers, library, clips))
-    claim_study_folder(output, "realism")
-    with progress("realism") as update:
-        results = study.run(output, progress=update)
-    paths = write_realism_outputs(results, output)
-    for m, reason in results.skipped.items():
-        console.print(f"skipped {shown(m)}: {shown(reason)}", highlight=False)
+    results, paths = _run_study(study, output, "realism", write_realism_outputs)
+    _print_skipped(results.skipped)
     for row in results.methods:
         d, auc = row["mean_distance"], row["c2st_mean_auc"]
         console.print(f"{shown(row['method'])}: mean centroid distance {'n/a' if d is None else f'{d:.3f}'}, "
