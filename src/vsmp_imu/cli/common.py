@@ -47,7 +47,12 @@ def finite_range(lo: float, hi: float) -> Callable[[float | None], float | None]
 
 
 def library_dirs(library: list[Path] | None) -> list[Path]:
-    """The user's extra activity-library folders given by --library (repeatable)."""
+    """The user's extra activity-library folders given by --library (repeatable), each an
+    existing folder (checked before any work, whether or not the run reads the library)."""
+    for folder in library or []:
+        if not folder.is_dir():
+            raise ConfigError("not found" if not folder.exists() else "is not a folder", file=folder,
+                              field="--library", allowed="a folder of activity files (docs/smp.md)")
     return list(library or [])
 
 

@@ -33,6 +33,7 @@ from vsmp_imu.cli.common import (
     console_err,
     executor_options,
     finite_range,
+    library_dirs,
     option_names,
     output_dir,
     parse_csv,
@@ -269,7 +270,7 @@ def evaluate_cmd(
         pooled_calibration=pooled_calibration, nominal_unseen_postures=nominal_unseen_postures,
         unseen_intensity=intensity_bounds(unseen_intensity), seen_intensity=seen_intensity,
         event_durations=event_durations, cadence=cadence,
-        library_dirs=tuple(str(p) for p in (library or [])), refill=refill, executor=executor,
+        library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill, executor=executor,
         workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)
     _, folds = run.windows_and_folds()  # checked before the folder is claimed
