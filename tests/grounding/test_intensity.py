@@ -29,7 +29,8 @@ def test_the_bounds_read_off_or_a_range_and_refuse_anything_else():
     assert intensity_bounds("off") is None and intensity_bounds(None) is None
     assert intensity_bounds("0.7,2") == (0.7, 2.0)
     assert intensity_bounds("1,1") == (1.0, 1.0)
-    for bad in ("2,1", "0,2", "-1,2", "a,b", "1", "1,2,3", "nan,2", "1,inf"):
+    assert intensity_bounds("0.1,10") == (0.1, 10.0)
+    for bad in ("2,1", "0,2", "-1,2", "a,b", "1", "1,2,3", "nan,2", "1,inf", "1,1e9", "0.5,10.5"):
         with pytest.raises(ConfigError, match="intensity range"):
             intensity_bounds(bad)
     assert GenerationSpec(unseen_intensity=[0.5, 1.5]).unseen_intensity == (0.5, 1.5)  # as records store it

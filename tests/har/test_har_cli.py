@@ -98,6 +98,7 @@ def test_dataset_info_measure_of_an_unknown_class_names_the_option(cli):
     (("--source", "smp:MISSING"), "MISSING: field '--source': SMP source folder not found. "
                                   "Allowed: library, smp:DIR, video:DIR (an existing folder)."),
     (("--source", "video:MISSING"), "MISSING: field '--source': video source folder not found."),
+    (("--library", "MISSING"), "MISSING: field '--library': not found. Allowed: a folder of activity files"),
 ])
 def test_backend_and_source_are_named_and_refused_before_the_dataset_loads(cli, tmp_path, args, says):
     """Named by the option typed, even where no method animates or reads SMPs (--methods real):
@@ -325,3 +326,13 @@ def test_the_weights_default_to_balanced_classes_and_half_weight_synthetic_windo
     assert weighting(("rf", "rf-unweighable"), None, None) == ("none", None)
     assert "rf-unweighable" in capsys.readouterr().out  # the fallback is said, not silent
     assert weighting(("rf", "rf-unweighable"), "balanced", None) == ("balanced", 0.5)  # refused by the check
+
+
+def test_a_library_that_is_a_file_is_refused_by_every_command_that_takes_one(cli, tmp_path):
+    a_file = tmp_path / "walk.yaml"
+    a_file.write_text("name: walk\n")
+    for argv in (("evaluate", "--dataset", "hapt", "--methods", "real", "-o", tmp_path / "out"),
+                 ("smp", "library", "list"), ("motion", "synth", "walking", "--seed", "0", "-o", tmp_path / "m.npz")):
+        code, _, err = cli(*argv, "--library", a_file)
+        assert code == 2 and "field '--library': is not a folder" in err, (argv, err)
+    assert not (tmp_path / "out").exists() and not (tmp_path / "m.npz").exists()

@@ -90,7 +90,12 @@ def _finite_text(lo: float, hi: float, low_open: bool) -> str:
 
 
 def library_dirs(library: list[Path] | None) -> list[Path]:
-    """The user's extra activity-library folders given by --library (repeatable)."""
+    """The user's extra activity-library folders given by --library (repeatable), each an
+    existing folder (checked before any work, whether or not the run reads the library)."""
+    for folder in library or []:
+        if not folder.is_dir():
+            raise ConfigError("not found" if not folder.exists() else "is not a folder", file=folder,
+                              field="--library", allowed="a folder of activity files (docs/smp.md)")
     return list(library or [])
 
 

@@ -23,6 +23,7 @@ from vsmp_imu.cli.common import (
     grounding_options,
     grounding_spec,
     int_range,
+    library_dirs,
     option_names,
     output_dir,
     parse_csv,
@@ -233,7 +234,7 @@ def evaluate_cmd(
         unseen=_once(parse_csv(unseen, option="--unseen"), "--unseen") if unseen is not None else ())
     spec = GenerationSpec(
         source=source, alpha=alpha, policy=policy, k=k, k_unseen=k_unseen, backend=backend,
-        **grounding_spec(grounding), library_dirs=tuple(str(p) for p in (library or [])), refill=refill,
+        **grounding_spec(grounding), library_dirs=tuple(str(p) for p in library_dirs(library)), refill=refill,
         executor=executor, workers=workers, address=address, cache_dir=str(cache_dir) if cache_dir else None)
     run = evaluation(spec, request)
     _, folds = run.windows_and_folds()  # checked before the folder is claimed

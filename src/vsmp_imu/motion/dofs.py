@@ -42,7 +42,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from vsmp_imu.motion.quat import compose, euler, multiply
+from vsmp_imu.motion.quat import compose, euler, multiply, multiply_components
 from vsmp_imu.motion.skeleton import SMPL22_JOINTS, SMPL22_OFFSETS_170
 
 CENTER_DOFS: tuple[str, ...] = (
@@ -261,8 +261,9 @@ def _side_rotations(values: np.ndarray, side: str, pelvis_tilt: np.ndarray) -> d
     return out
 
 
-def dofs_to_local_quats(values: np.ndarray) -> np.ndarray:
-    """Local joint rotations (T, 22, 4 xyzw) from DOF values (T, N_DOFS) in degrees."""
+def local_quats_reference(values: np.ndarray) -> np.ndarray:
+    """`dofs_to_local_quats` written joint by joint: the formulas, and the reference the fast form
+    equals to the bit (tests/motion/test_motion_vectorised.py)."""
     values = np.asarray(values, dtype=float)
     t = values.shape[0]
     out = np.zeros((t, len(SMPL22_JOINTS), 4))
@@ -282,3 +283,142 @@ def dofs_to_local_quats(values: np.ndarray) -> np.ndarray:
         for joint, q in _side_rotations(values, side, tilt).items():
             out[:, _J[joint]] = q
     return out
+
+
+# -- the same rotations, all joints at once ------------------------------------------------
+# Each joint rotation above is a chain of principal-axis rotations (`euler`); spine1, the elbows
+# and the wrists take one more product. The fast form lists the chains with the operations that
+# form their angles, evaluates every angle with one numpy call per kind of operation, and
+# multiplies step k of all the chains that have one in one product on component-first arrays
+# (4, chains, T). Each element sees the operations of the joint-by-joint form in their order
+# (zeros of `axis_angle` included), so the result is equal to the bit. A formula changed above
+# changes here too: tests/motion/test_motion_vectorised.py fails until both agree.
+def _chains() -> list[tuple[str, str, list[tuple]]]:
+    """(name, axes, angles): angle specs ("r", dof) radians, ("neg", dof) negated, ("mul", dof, c)
+    c * radians, ("minus", dof, c) radians - c, ("neg_minus_tilt", dof), ("tilt",), ("neg_tilt",)."""
+    chains = [
+        ("pelvis", "YXZX", [("r", "root_yaw"), ("r", "root_pitch"), ("neg", "root_roll"), ("tilt",)]),
+        *((joint, "YXZ", [("mul", "trunk_twist", w), ("mul", "trunk_flex", w), ("mul", "trunk_lean", -w)])
+          for joint, w in _SPINE_WEIGHTS.items()),
+        ("spine1_tilt", "X", [("neg_tilt",)]),
+        ("neck", "YX", [("mul", "head_turn", 0.4), ("r", "neck_flex")]),
+        ("head", "YXZ", [("mul", "head_turn", 0.6), ("r", "head_flex"), ("neg", "head_tilt")]),
+    ]
+    for side in SIDES:
+        def d(stem: str, side: str = side) -> str:
+            return f"{side}_{stem}"
+
+        chains += [
+            (d("collar"), "YZ", [("neg", d("collar_protract")), ("r", d("collar_elev"))]),
+            (d("shoulder"), "YXZX", [("neg", d("shoulder_horiz")), ("neg", d("shoulder_flex")),
+                                     ("minus", d("shoulder_abd"), np.pi / 2.0), ("r", d("shoulder_rot"))]),
+            (d("elbow_flex"), "Y", [("neg", d("elbow_flex"))]),
+            (d("wrist_own"), "XZY", [("r", d("wrist_rot")), ("neg", d("wrist_flex")), ("r", d("wrist_dev"))]),
+            (d("hip"), "XZY", [("neg_minus_tilt", d("hip_flex")), ("r", d("hip_abd")), ("neg", d("hip_rot"))]),
+            (d("knee"), "X", [("r", d("knee_flex"))]),
+            (d("ankle"), "XZ", [("neg", d("ankle_flex")), ("neg", d("ankle_inv"))]),
+            (d("foot"), "X", [("neg", d("toe_flex"))]),
+        ]
+    return sorted(chains, key=lambda c: -len(c[1]))  # stable: longest first, so step k is a prefix
+
+
+class _Plan:
+    """The chains' index tables (built once)."""
+
+    def __init__(self) -> None:
+        chains = _chains()
+        self.chain = {name: i for i, (name, _, _) in enumerate(chains)}
+        steps = max(len(axes) for _, axes, _ in chains)
+        # angle rows step by step: the rows of step k are a slice, its chains a prefix
+        specs: list[tuple] = []
+        self.steps: list[tuple[slice, np.ndarray]] = []
+        for k in range(steps):
+            members = [(axes[k], angles[k]) for _, axes, angles in chains if len(axes) > k]
+            self.steps.append((slice(len(specs), len(specs) + len(members)),
+                               np.array([_AXIS[a] for a, _ in members])))
+            specs += [spec for _, spec in members]
+        # the forearm twist (pronation) turns by the wrist's first angle: step 0's row of that chain
+        self.pronation = np.array([self.chain[f"{side}_wrist_own"] for side in SIDES])
+        self.n_rows = len(specs)
+        self.kinds: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        for kind in ("r", "neg", "mul", "minus", "neg_minus_tilt", "tilt", "neg_tilt"):
+            rows = [i for i, spec in enumerate(specs) if spec[0] == kind]
+            cols = [DOF_INDEX[specs[i][1]] if len(specs[i]) > 1 else -1 for i in rows]
+            consts = [specs[i][2] if len(specs[i]) > 2 else 0.0 for i in rows]
+            self.kinds[kind] = (np.array(rows, dtype=int), np.array(cols, dtype=int), np.array(consts)[:, None])
+        self.forearm_axis = np.array([FOREARM_AXIS[side] for side in SIDES]).T[:, :, None]  # (3, side, 1)
+        # the extra products (a * b): spine1 after the tilt's undoing; elbow flexion * pronation;
+        # undone pronation * the wrist's own rotation
+        self.extra_joints = np.array([_J["spine1"], _J["left_elbow"], _J["right_elbow"], _J["left_wrist"],
+                                      _J["right_wrist"]])
+        c = self.chain
+        self.extra_a = np.array([c["spine1_tilt"], c["left_elbow_flex"], c["right_elbow_flex"]])
+        self.extra_b = np.array([c["spine1"], c["left_wrist_own"], c["right_wrist_own"]])
+        plain = [name for name in c if name in _J and name != "spine1"]
+        self.plain_joints = np.array([_J[name] for name in plain])
+        self.plain_chains = np.array([c[name] for name in plain])
+        self.right_joints = np.array([i for i, name in enumerate(SMPL22_JOINTS) if name.startswith("right_")])
+
+
+_AXIS = {"X": 0, "Y": 1, "Z": 2}
+_PLAN = _Plan()
+
+
+def _angles(values: np.ndarray) -> np.ndarray:
+    """(rows, T) angles in radians of the plan's rows, each formed as the joint-by-joint form does."""
+    plan = _PLAN
+    rad = np.radians(values).T  # (N_DOFS, T)
+    flex = rad[DOF_INDEX["trunk_flex"]]
+    tilt = rad[DOF_INDEX["pelvis_tilt"]] + PELVIS_FLEX_SHARE * flex
+    out = np.empty((plan.n_rows, values.shape[0]))
+    rows, cols, consts = plan.kinds["r"]
+    out[rows] = rad[cols]
+    rows, cols, consts = plan.kinds["neg"]
+    out[rows] = -rad[cols]
+    rows, cols, consts = plan.kinds["mul"]
+    out[rows] = consts * rad[cols]
+    rows, cols, consts = plan.kinds["minus"]
+    out[rows] = rad[cols] - consts
+    rows, cols, consts = plan.kinds["neg_minus_tilt"]
+    out[rows] = -rad[cols] - tilt
+    out[plan.kinds["tilt"][0]] = tilt
+    out[plan.kinds["neg_tilt"][0]] = -tilt
+    return out
+
+
+def local_quats_components(values: np.ndarray) -> np.ndarray:
+    """Local joint rotations as component-first quaternions (4 xyzw, 22, T) from DOF values
+    (T, N_DOFS) in degrees (`dofs_to_local_quats`, transposed)."""
+    plan = _PLAN
+    values = np.asarray(values, dtype=float)
+    half = 0.5 * _angles(values)
+    sin, cos = np.sin(half), np.cos(half)
+    t = values.shape[0]
+    chains = None
+    for rows, axes in plan.steps:
+        n = len(axes)
+        q = np.zeros((4, n, t))  # axis_angle: the angle's axis and w; zeros elsewhere
+        q[axes, np.arange(n)] = sin[rows]
+        q[3] = cos[rows]
+        if chains is None:
+            chains = q
+        else:
+            multiply_components(chains[:, :n], q, out=chains[:, :n])
+    pronation = np.empty((4, 2, t))
+    pronation[:3] = sin[plan.pronation] * plan.forearm_axis
+    pronation[3] = cos[plan.pronation]
+    a = np.concatenate([chains[:, plan.extra_a], pronation * _INVERSE[:, None, None]], axis=1)
+    b = np.concatenate([chains[:, plan.extra_b[:1]], pronation, chains[:, plan.extra_b[1:]]], axis=1)
+    out = np.empty((4, len(SMPL22_JOINTS), t))
+    out[:, plan.plain_joints] = chains[:, plan.plain_chains]
+    out[:, plan.extra_joints] = multiply_components(a, b)
+    out[1:3, plan.right_joints] *= -1.0  # the mirror image (x, -y, -z, w)
+    return out
+
+
+def dofs_to_local_quats(values: np.ndarray) -> np.ndarray:
+    """Local joint rotations (T, 22, 4 xyzw) from DOF values (T, N_DOFS) in degrees.
+
+    All joints at once (`local_quats_components`); equal to the bit to `local_quats_reference`.
+    """
+    return np.ascontiguousarray(local_quats_components(values).transpose(2, 1, 0))

@@ -48,15 +48,14 @@ from vsmp_imu.motion.dofs import (
     N_DOFS,
     RIGHT_COLUMNS,
     ROTATION_COLUMNS,
-    dofs_to_local_quats,
     limits_array,
+    local_quats_components,
     mirror_dofs,
     soft_limit,
 )
 from vsmp_imu.motion.measure import lowpass
 from vsmp_imu.motion.motion import Motion
-from vsmp_imu.motion.quat import axis_angle, multiply, rotate
-from vsmp_imu.motion.quat import forward_kinematics as fast_fk
+from vsmp_imu.motion.quat import axis_angle, forward_kinematics_components, multiply, rotate
 from vsmp_imu.motion.recipe import PathTurns, Recipe, recipe_for_entry
 from vsmp_imu.motion.skeleton import (
     DEFAULT_HEIGHT_M,
@@ -300,11 +299,11 @@ class ProceduralBackend:
 
         skeleton, height = _body(seed, plan.activity)
         s = height / DEFAULT_HEIGHT_M
-        local = dofs_to_local_quats(dofs)
+        local = local_quats_components(dofs)  # (4, J, T): the layout the kinematics work in
         root = np.zeros((n, 3))
         root[:, 0] = dofs[:, DOF_INDEX["root_dx"]] * s
         root[:, 2] = dofs[:, DOF_INDEX["root_dz"]] * s
-        pos, rot = fast_fk(skeleton.offsets, skeleton.parents, local, root)
+        pos, rot = forward_kinematics_components(skeleton.offsets, skeleton.parents, local, root)
         floors = _stair_floors(plan, t) if recipe.locomotion.startswith("stairs") else None
         lift = np.zeros(n)
         if recipe.grounding == "lowest":

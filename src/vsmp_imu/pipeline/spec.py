@@ -31,17 +31,22 @@ EXECUTORS = ("local", "ray")
 INTENSITY = (0.7, 2.0)  # the measured intensity spread of a class without real windows
 
 
+# the largest intensity factor: ten times a window's gyroscope deviations is beyond any human
+# execution of one activity (a factor of 1e9 was taken and made windows of 1e9 rad/s)
+MAX_INTENSITY = 10.0
+
+
 def intensity_bounds(text: str | None, field: str = "--unseen-intensity") -> tuple[float, float] | None:
-    """`--unseen-intensity`: "off" (None) or "LO,HI" with 0 < LO <= HI."""
+    """`--unseen-intensity`: "off" (None) or "LO,HI" with 0 < LO <= HI <= MAX_INTENSITY."""
     if text is None or text.strip().lower() == "off":
         return None
     try:
         lo, hi = (float(p) for p in text.split(","))
     except ValueError:
         lo = hi = math.nan
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi <= MAX_INTENSITY):
         raise ConfigError(f"'{text}' is not an intensity range", field=field,
-                          allowed="off, or LO,HI with 0 < LO <= HI (e.g. 0.7,2.0)")
+                          allowed=f"off, or LO,HI with 0 < LO <= HI <= {MAX_INTENSITY:g} (e.g. 0.7,2.0)")
     return lo, hi
 
 
