@@ -332,7 +332,8 @@ def test_a_library_that_is_a_file_is_refused_by_every_command_that_takes_one(cli
     a_file = tmp_path / "walk.yaml"
     a_file.write_text("name: walk\n")
     for argv in (("evaluate", "--dataset", "hapt", "--methods", "real", "-o", tmp_path / "out"),
-                 ("smp", "library", "list"), ("motion", "synth", "walking", "--seed", "0", "-o", tmp_path / "m.npz")):
+                 ("smp", "library", "list"), ("motion", "synth", "walking", "--seed", "0", "-o", tmp_path / "m.npz"),
+                 ("study", "ablation", "--dataset", "hapt12", "-o", tmp_path / "study")):
         code, _, err = cli(*argv, "--library", a_file)
         assert code == 2 and "field '--library': is not a folder" in err, (argv, err)
-    assert not (tmp_path / "out").exists() and not (tmp_path / "m.npz").exists()
+    assert not any((tmp_path / name).exists() for name in ("out", "m.npz", "study"))

@@ -246,7 +246,7 @@ def _generation(source: str, k: int, backend: str, workers: int, library: list[P
     _backend(backend)
     check_source(source, "--source")
     return GenerationSpec(source=source, k=k, backend=backend, workers=workers,
-                          library_dirs=tuple(str(p) for p in (library or [])), clips=str(clips) if clips else None)
+                          library_dirs=tuple(str(p) for p in library_dirs(library)), clips=str(clips) if clips else None)
 
 
 @study_app.command("ablation")
