@@ -26,6 +26,7 @@ from vsmp_imu.har.dataset import (
     imu_channel_names,
     inner_root,
 )
+from vsmp_imu.har.datasets.matfile import MatFileError, load_mat
 
 # Canonical activity-library names in dataset order a1..a27.
 UTD_MHAD_ACTIONS = (
@@ -104,8 +105,6 @@ class UTDMHAD(HarDataset):
         return found(files, "no UTD-MHAD files found (expected a*_s*_t*_inertial.mat)", root)
 
     def _load(self) -> list[Recording]:
-        from scipy.io import loadmat
-
         recs = []
         for path in self._paths:
             action, subject, trial = (int(g) for g in FILE_PATTERN.match(path.name).groups())
@@ -113,7 +112,10 @@ class UTDMHAD(HarDataset):
                 self.skipped.append(f"{path.name}: action {action} out of range 1..27")
                 continue
             try:
-                mat = loadmat(path)
+                mat = load_mat(path)
+            except MatFileError as exc:  # refused before scipy's reader could crash on it
+                self.skipped.append(f"{path.name}: unreadable ({exc})")
+                continue
             except Exception as exc:  # scipy raises several types for broken files
                 self.skipped.append(f"{path.name}: unreadable ({type(exc).__name__})")
                 continue
