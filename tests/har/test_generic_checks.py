@@ -9,7 +9,7 @@ import shutil
 import pandas as pd
 import pytest
 
-from vsmp_imu.errors import ValidationError
+from vsmp_imu.errors import InputFileError, ValidationError
 from vsmp_imu.har.datasets import load_dataset
 from vsmp_imu.har.datasets.generic import MAX_RATE_HZ, REPEATS_NOTED, REPEATS_REFUSED
 
@@ -69,6 +69,36 @@ def test_ids_are_read_as_written(root):
     frame["subject"] = "1"
     frame.to_csv(csv, index=False)
     assert sorted(load_dataset(root / "dataset.yaml").windows().unique_subjects()) == ["01", "1", "p3"]
+
+
+def test_na_words_are_ids_and_labels_not_empty_cells(root):
+    """pandas reads 'NA', 'None', 'null' as missing: a subject's initials and a 'None' activity were
+    refused as empty cells although the cells are not empty."""
+    for name, subject, walk, none in (("p1", "NA", "null", "None"), ("p2", "p2", "null", "None")):
+        csv = root / "data" / f"{name}.csv"
+        frame = pd.read_csv(csv, dtype=str, keep_default_na=False)
+        frame["subject"] = subject
+        frame["label"] = frame["label"].replace({"walk": walk, "none": none})
+        frame.to_csv(csv, index=False)
+    path = _edit(root, "labels: [walk, sit]", "labels: [walk, sit, 'null']")
+    path = _edit(root, "unlabelled: [none]", "unlabelled: [none, 'None']")
+    ds = load_dataset(path)
+    assert sorted(ds.windows().unique_subjects()) == ["NA", "p2", "p3"]
+    assert ds.info.label_names == ("walk", "sit", "null")
+    csv = root / "data" / "p3.csv"  # a truly empty cell is still refused
+    frame = pd.read_csv(csv, dtype=str, keep_default_na=False)
+    frame.loc[3, "label"] = ""
+    frame.to_csv(csv, index=False)
+    _refused(path, "p3.csv", "field 'label'", "1 empty value(s), first at data row 4")
+
+
+def test_a_table_without_rows_is_refused(root):
+    """A header-only file (a failed export) silently took its subject out of the dataset."""
+    csv = root / "data" / "p2.csv"
+    csv.write_text(csv.read_text().splitlines()[0] + "\n")
+    with pytest.raises(InputFileError) as err:
+        load_dataset(root / "dataset.yaml")
+    assert "p2.csv" in err.value.render() and "no data rows" in err.value.render()
 
 
 def test_a_time_column_in_milliseconds_names_the_time_column(root):

@@ -182,13 +182,23 @@ def _location_note(loc: LocationSpec) -> str:
 
 
 def _read_table(path: Path, text_columns: list[str]) -> pd.DataFrame:
-    """The table, with `text_columns` (subject, label, session) read as written: '01' is not '1'."""
+    """The table, with `text_columns` (subject, label, session) read as written: '01' is not '1', and
+    'NA', 'None' or 'null' are a subject's initials or a label, not an empty cell (pandas' default)."""
     try:
         if path.suffix.lower() == ".parquet":
-            return pd.read_parquet(path)
-        return pd.read_csv(path, dtype=dict.fromkeys(text_columns, str))
+            frame = pd.read_parquet(path)
+        else:
+            # only a truly empty cell is missing in a text column; numeric columns keep pandas' words
+            # ('nan', 'NA', ...), which the numeric check then refuses with their row
+            na_words = {col: [""] for col in text_columns}
+            frame = pd.read_csv(path, dtype=dict.fromkeys(text_columns, str), keep_default_na=False,
+                                na_values=na_words)
     except Exception as exc:  # pandas/pyarrow raise many types for a broken table
         raise InputFileError(f"cannot read table ({type(exc).__name__}: {exc})", file=path) from exc
+    if frame.empty:
+        raise InputFileError("the table holds no data rows (a header at most)", file=path,
+                             allowed="a table with at least one row; take an empty file out of the data folder")
+    return frame
 
 
 class GenericDataset(HarDataset):
