@@ -89,7 +89,7 @@ def test_na_words_are_ids_and_labels_not_empty_cells(root):
     frame = pd.read_csv(csv, dtype=str, keep_default_na=False)
     frame.loc[3, "label"] = ""
     frame.to_csv(csv, index=False)
-    _refused(path, "p3.csv", "field 'label'", "1 empty value(s), first at data row 4")
+    _refused(path, "p3.csv", "field 'label'", "1 empty or blank value(s), first at data row 4")
 
 
 def test_a_table_without_rows_is_refused(root):
@@ -99,6 +99,37 @@ def test_a_table_without_rows_is_refused(root):
     with pytest.raises(InputFileError) as err:
         load_dataset(root / "dataset.yaml")
     assert "p2.csv" in err.value.render() and "no data rows" in err.value.render()
+
+
+def _relabel(root, name: str, old: str, new: str) -> None:
+    csv = root / "data" / f"{name}.csv"
+    frame = pd.read_csv(csv, dtype=str, keep_default_na=False)
+    frame.loc[frame["label"] == old, "label"] = new
+    frame.to_csv(csv, index=False)
+
+
+@pytest.mark.parametrize("declared,variant,words", [
+    (False, "walk ", ("field 'label'", "'walk' and 'walk '", "one spelling per class")),
+    (False, "Walk", ("field 'label'", "'Walk' and 'walk'")),
+    (True, "Walk", ("field 'labels'", "'walk' and 'Walk'")),
+    (False, "  ", ("p1.csv", "field 'label'", "200 empty or blank value(s), first at data row 1")),
+    (True, "walk ", ("field 'labels'", "label value(s) 'walk ' are not declared")),
+])
+def test_class_names_that_look_alike_are_refused(root, declared, variant, words):
+    """'walk ' and 'walk' (or 'Walk') were two classes printed alike and given one activity's
+    synthetic windows; a label of spaces was a class with a blank name."""
+    _relabel(root, "p1", "walk", variant)
+    path = root / "dataset.yaml"
+    if not declared:
+        path = _edit(root, "labels: [walk, sit]", "# labels from the data")
+    elif variant == "Walk":
+        path = _edit(root, "labels: [walk, sit]", "labels: [walk, sit, Walk]")
+    _refused(path, *words)
+
+
+def test_a_declared_class_without_rows_is_warned(root):
+    ds = load_dataset(_edit(root, "labels: [walk, sit]", "labels: [walk, sit, run]"))
+    assert len(ds.warnings) == 1 and "'run' declared in labels are in no row" in ds.warnings[0]
 
 
 def test_a_time_column_in_milliseconds_names_the_time_column(root):

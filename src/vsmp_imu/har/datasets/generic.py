@@ -218,6 +218,7 @@ class GenericDataset(HarDataset):
         self.spec = validate_model(GenericSpec, raw, self.yaml_path)
         self.tables = self._tables()
         self._time_notes: list[str] = []
+        self._label_notes: list[str] = []
         self._frames = {p: self._checked(p) for p in self.tables}
         labels = self._labels()
         channels = _channel_names(self.spec)
@@ -261,7 +262,7 @@ class GenericDataset(HarDataset):
             pad_short=self.spec.pad_short,
             groups={k: tuple(v) for k, v in self.spec.groups.items()},
         )
-        self.warnings = self._axes_warnings() + self._unit_warnings() + self._time_notes
+        self.warnings = self._axes_warnings() + self._unit_warnings() + self._time_notes + self._label_notes
 
     # -- conventions -----------------------------------------------------------------------
     def _body_axes(self, loc: LocationSpec, placement: str, index: int) -> tuple[str, str, str] | None:
@@ -404,10 +405,12 @@ class GenericDataset(HarDataset):
         for col in [spec.subject_column, spec.label_column] + (
             [spec.session_column] if spec.session_column else []
         ):
-            missing = np.flatnonzero(frame[col].isna().to_numpy())
+            # a cell of spaces shows as empty in every table and would be a class or a person of its own
+            blank = frame[col].isna() | (frame[col].astype(str).str.strip() == "")
+            missing = np.flatnonzero(blank.to_numpy())
             if len(missing):
                 raise ValidationError(
-                    f"{len(missing)} empty value(s), first at data row {missing[0] + 1}",
+                    f"{len(missing)} empty or blank value(s), first at data row {missing[0] + 1}",
                     file=path,
                     field=col,
                 )
@@ -452,15 +455,38 @@ class GenericDataset(HarDataset):
             unknown = sorted(seen - set(spec.labels), key=natural_key)
             if unknown:
                 raise ValidationError(
-                    f"label value(s) {', '.join(unknown)} are not declared",
+                    f"label value(s) {', '.join(v if v == v.strip() else repr(v) for v in unknown)} are not declared",
                     file=self.yaml_path,
                     field="labels",
                     allowed=", ".join(spec.labels),
                 )
-            return self._share_classes(tuple(spec.labels))
+            absent = [name for name in spec.labels if name not in seen]
+            if absent:
+                self._label_notes.append(
+                    f"{self.yaml_path}: class(es) {', '.join(map(repr, absent))} declared in labels are in no "
+                    "row of the recordings: they get no window and no score (a misspelling in labels or in "
+                    "the data?).")
+            return self._share_classes(self._distinct(tuple(spec.labels)))
         if not seen:
             raise ValidationError("no labelled rows", file=self.yaml_path, field="label_column")
-        return self._share_classes(tuple(sorted(seen, key=natural_key)))
+        return self._share_classes(self._distinct(tuple(sorted(seen, key=natural_key))))
+
+    def _distinct(self, labels: tuple[str, ...]) -> tuple[str, ...]:
+        """`labels`, once no two differ only in case or surrounding spaces: such classes look alike in
+        every table and link to one activity (class names match activities case-insensitively)."""
+        by_key: dict[str, list[str]] = {}
+        for name in labels:
+            by_key.setdefault(name.strip().casefold(), []).append(name)
+        alike = [names for names in by_key.values() if len(names) > 1]
+        if alike:
+            field = "labels" if self.spec.labels is not None else self.spec.label_column
+            raise ValidationError(
+                "class names that differ only in case or surrounding spaces: "
+                + "; ".join(" and ".join(map(repr, names)) for names in alike)
+                + " (they would be separate classes given the same activity's synthetic windows)",
+                file=self.yaml_path, field=field,
+                allowed="one spelling per class (fix the label values in the recordings)")
+        return labels
 
     def _share_classes(self, labels: tuple[str, ...]) -> tuple[str, ...]:
         """`labels`, once class_min_share names only classes among them."""
