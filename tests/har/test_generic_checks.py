@@ -53,6 +53,13 @@ def _refused(path, *words: str) -> str:
      ("class_min_share.walk", "<= 1")),
     ("labels: [walk, sit]", "labels: [walk, sit]\nclass_min_share: {wlak: 0.5}",
      ("field 'class_min_share'", "unknown class(es) wlak", "walk, sit")),
+    # one column in two roles: the classes became the 'subjects' of leave-one-subject-out,
+    # a channel the clock, a class one recording of discontiguous runs
+    ("subject_column: subject", "subject_column: label",
+     ("column 'label' is both subject_column and label_column",)),
+    ("time_column: t", "time_column: ax", ("column 'ax' is both time_column and locations[0].acc",)),
+    ("label_column: label", "label_column: label\nsession_column: label",
+     ("column 'label' is both label_column and session_column",)),
 ])
 def test_a_spec_that_would_change_the_data_silently_is_refused(root, old, new, words):
     _refused(_edit(root, old, new), *words)
@@ -130,6 +137,24 @@ def test_class_names_that_look_alike_are_refused(root, declared, variant, words)
 def test_a_declared_class_without_rows_is_warned(root):
     ds = load_dataset(_edit(root, "labels: [walk, sit]", "labels: [walk, sit, run]"))
     assert len(ds.warnings) == 1 and "'run' declared in labels are in no row" in ds.warnings[0]
+
+
+def test_one_table_saved_twice_is_refused(root):
+    """p1.csv and p1.parquet (a table converted, the original left beside it) were both read: the
+    subject's windows twice, under one recording id."""
+    pd.read_csv(root / "data" / "p1.csv").to_parquet(root / "data" / "p1.parquet")
+    with pytest.raises(InputFileError) as err:
+        load_dataset(root / "dataset.yaml")
+    assert "p1.csv and p1.parquet share a name" in err.value.render()
+
+
+def test_a_column_named_twice_in_a_header_is_refused(root):
+    """pandas renames the second 'ax' to 'ax.1', and the first was taken without a word."""
+    csv = root / "data" / "p2.csv"
+    frame = pd.read_csv(csv)
+    frame.insert(4, "ax.x", frame["ax"] * 9.81)
+    frame.rename(columns={"ax.x": "ax"}).to_csv(csv, index=False)
+    _refused(root / "dataset.yaml", "p2.csv", "field 'ax'", "appear twice in the header")
 
 
 def test_a_time_column_in_milliseconds_names_the_time_column(root):

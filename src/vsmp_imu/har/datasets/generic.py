@@ -119,6 +119,7 @@ class GenericSpec(BaseModel):
         if len(set(names)) != len(names):
             raise ValueError("each location may appear once")
         _once("column", [c for loc in self.locations for c in loc.acc + (loc.gyr or [])], "feeds two channels")
+        self._distinct_roles()
         if self.labels is not None:
             _once("class", self.labels, "is declared twice in labels")
             if any(not name.strip() for name in self.labels):
@@ -127,6 +128,26 @@ class GenericSpec(BaseModel):
             if both:
                 raise ValueError(f"{', '.join(both)}: both a class (labels) and no class (unlabelled)")
         return self
+
+
+    def _distinct_roles(self) -> None:
+        """Each column has one role: subject_column: label made every class a 'subject' (leave one
+        class out, scored as leave one subject out) and time_column: ax a channel the clock."""
+        roles: list[tuple[str, str]] = [(self.subject_column, "subject_column"), (self.label_column, "label_column")]
+        roles += [(col, key) for col, key in ((self.session_column, "session_column"),
+                                               (self.time_column, "time_column")) if col]
+        roles += [(col, f"locations[{i}].{kind}") for i, loc in enumerate(self.locations)
+                  for kind in ("acc", "gyr") for col in getattr(loc, kind) or []]
+        sides = [(loc.side_column, f"locations[{i}].side_column") for i, loc in enumerate(self.locations)
+                 if loc.side_column]
+        taken: dict[str, str] = {}
+        for col, key in roles + sides:
+            other = taken.get(col)
+            # a side column may also be the session column (one session per side)
+            if other and not (key.endswith("side_column") and other in ("session_column",)) \
+                    and not (key.endswith("side_column") and other.endswith("side_column")):
+                raise ValueError(f"column '{col}' is both {other} and {key}; each column has one role")
+            taken.setdefault(col, key)
 
 
 def _once(what: str, names: list[str], problem: str) -> None:
@@ -181,9 +202,10 @@ def _location_note(loc: LocationSpec) -> str:
     return "; ".join(parts)
 
 
-def _read_table(path: Path, text_columns: list[str]) -> pd.DataFrame:
+def _read_table(path: Path, text_columns: list[str], used_columns: frozenset[str] = frozenset()) -> pd.DataFrame:
     """The table, with `text_columns` (subject, label, session) read as written: '01' is not '1', and
     'NA', 'None' or 'null' are a subject's initials or a label, not an empty cell (pandas' default)."""
+    header: list[str] = []
     try:
         if path.suffix.lower() == ".parquet":
             frame = pd.read_parquet(path)
@@ -193,8 +215,15 @@ def _read_table(path: Path, text_columns: list[str]) -> pd.DataFrame:
             na_words = {col: [""] for col in text_columns}
             frame = pd.read_csv(path, dtype=dict.fromkeys(text_columns, str), keep_default_na=False,
                                 na_values=na_words)
+            header = [str(v) for v in pd.read_csv(path, header=None, nrows=1, dtype=str,
+                                                  keep_default_na=False).iloc[0]] if len(frame.columns) else []
     except Exception as exc:  # pandas/pyarrow raise many types for a broken table
         raise InputFileError(f"cannot read table ({type(exc).__name__}: {exc})", file=path) from exc
+    if header:
+        twice = sorted({name for name in header if header.count(name) > 1 and name in used_columns})
+        if twice:  # pandas renames the second 'ax' to 'ax.1' and the first would be taken silently
+            raise ValidationError(f"column(s) {', '.join(twice)} appear twice in the header", file=path,
+                                  field=twice[0], allowed="each column name once")
     if frame.empty:
         raise InputFileError("the table holds no data rows (a header at most)", file=path,
                              allowed="a table with at least one row; take an empty file out of the data folder")
@@ -361,6 +390,13 @@ class GenericDataset(HarDataset):
             tables = sorted(p for p in target.iterdir() if p.suffix.lower() in TABLE_SUFFIXES)
             if not tables:
                 raise InputFileError("no .csv or .parquet files in the data folder", file=target)
+            stems: dict[str, Path] = {}
+            for path in tables:  # recordings are named (and sessions default) by the file's stem
+                if (first := stems.setdefault(path.stem.casefold(), path)) is not path:
+                    raise InputFileError(
+                        f"{first.name} and {path.name} share a name: one table saved twice (as CSV and "
+                        "Parquet) would be read twice, and recordings are named by the file name",
+                        file=target, allowed="one table per name in the data folder")
             return tables
         if not target.exists():
             raise InputFileError("data file or folder not found", file=target)
@@ -373,11 +409,11 @@ class GenericDataset(HarDataset):
     def _checked(self, path: Path) -> pd.DataFrame:
         spec = self.spec
         ids = [spec.subject_column, spec.label_column] + ([spec.session_column] if spec.session_column else [])
-        frame = _read_table(path, ids)
         needed = [spec.subject_column, spec.label_column]
         needed += [c for c in (spec.session_column, spec.time_column) if c]
         needed += [col for _, col, _ in _channel_names(spec)]
         needed += [loc.side_column for loc in spec.locations if loc.side_column]
+        frame = _read_table(path, ids, frozenset(needed))
         for col in needed:
             if col not in frame.columns:
                 raise ValidationError(
