@@ -193,6 +193,21 @@ def test_a_value_too_large_once_converted_names_the_csv(root):
     _refused(root / "dataset.yaml", "p2.csv", "field 'gx'", "too large", "data row 5")
 
 
+def test_a_value_beyond_any_wearable_sensor_is_warned_with_its_row(root):
+    """-9999 (a fill value) in a file declared in g was loaded as 9999 g without a word: it swamps
+    its windows' statistics (data check then said the simulation moves '0.0x as much')."""
+    csv = root / "data" / "p2.csv"
+    frame = pd.read_csv(csv)
+    frame.loc[6, "ax"] = -9999.0
+    frame.loc[[8, 9], "gz"] = 1e5  # deg/s
+    frame.loc[10, "ay"] = 16.0  # a hard impact: within a wearable accelerometer's range
+    frame.to_csv(csv, index=False)
+    warnings = load_dataset(root / "dataset.yaml").warnings
+    assert len(warnings) == 2, warnings
+    assert "p2.csv: 1 value(s) of column 'ax' beyond" in warnings[0] and "data row 7: -9999 g" in warnings[0]
+    assert "2 value(s) of column 'gz'" in warnings[1] and "data row 9: 100000 deg/s" in warnings[1]
+
+
 def test_one_file_in_another_unit_is_named(root):
     assert load_dataset(root / "dataset.yaml").warnings == []
     csv = root / "data" / "p3.csv"

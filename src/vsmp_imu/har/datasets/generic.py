@@ -46,6 +46,10 @@ TABLE_SUFFIXES = (".csv", ".parquet")
 # sampling rates a wearable dataset can have: below 1 Hz a 2 s window holds too few samples,
 # above 10 kHz the value is a typo (an IMU samples at tens to a few thousand Hz)
 MIN_RATE_HZ, MAX_RATE_HZ = 1.0, 10_000.0
+# beyond these no wearable IMU reads (high-g accelerometers reach a few hundred g, gyroscopes a few
+# thousand deg/s): a value past them is a fill value or a damaged row, warned with its row
+ACC_MAX_G, GYR_MAX_DEG_S = 400.0, 5000.0
+ACC_MAX_M_S2, GYR_MAX_RAD_S = ACC_MAX_G * STANDARD_GRAVITY_M_S2, float(np.deg2rad(GYR_MAX_DEG_S))
 # shares of rows repeating their recording's previous time: noted above the first, refused above the second
 REPEATS_NOTED, REPEATS_REFUSED = 0.01, 0.10
 
@@ -248,6 +252,7 @@ class GenericDataset(HarDataset):
         self.tables = self._tables()
         self._time_notes: list[str] = []
         self._label_notes: list[str] = []
+        self._range_notes: list[str] = []
         self._frames = {p: self._checked(p) for p in self.tables}
         labels = self._labels()
         channels = _channel_names(self.spec)
@@ -291,7 +296,7 @@ class GenericDataset(HarDataset):
             pad_short=self.spec.pad_short,
             groups={k: tuple(v) for k, v in self.spec.groups.items()},
         )
-        self.warnings = self._axes_warnings() + self._unit_warnings() + self._time_notes + self._label_notes
+        self.warnings = self._axes_warnings() + self._unit_warnings() + self._time_notes + self._label_notes + self._range_notes
 
     # -- conventions -----------------------------------------------------------------------
     def _body_axes(self, loc: LocationSpec, placement: str, index: int) -> tuple[str, str, str] | None:
@@ -464,6 +469,16 @@ class GenericDataset(HarDataset):
                     raise ValidationError(
                         f"{len(bad)} value(s) too large to be a sensor reading in {unit}, first at data row "
                         f"{bad[0] + 1}", file=path, field=col)
+                limit, shown = (ACC_MAX_M_S2, f"{ACC_MAX_G:g} g") if to_si is acc_to_si else \
+                    (GYR_MAX_RAD_S, f"{GYR_MAX_DEG_S:g} deg/s")
+                values = frame[col].to_numpy(np.float64)
+                odd = np.flatnonzero(np.abs(to_si(values, unit)) > limit)
+                if len(odd):  # finite, but beyond any wearable sensor: a fill value (-9999) or a damaged row
+                    self._range_notes.append(
+                        f"{path}: {len(odd)} value(s) of column '{col}' beyond what a wearable sensor reads "
+                        f"({shown}), first at data row {odd[0] + 1}: {values[odd[0]]:.6g} {unit}. A marker for "
+                        "a missing sample or a damaged row? Such values dominate every statistic of their "
+                        "windows; remove or fix those rows.")
 
     def _check_repeats(self, path: Path, frame: pd.DataFrame) -> None:
         """Rows whose time repeats an earlier row's in their recording are dropped when resampled:
