@@ -208,6 +208,14 @@ def test_a_value_beyond_any_wearable_sensor_is_warned_with_its_row(root):
     assert "2 value(s) of column 'gz'" in warnings[1] and "data row 9: 100000 deg/s" in warnings[1]
 
 
+@pytest.mark.parametrize("rate,words", [("500", "interpolated 10x up"), ("10", "resampled 5x down")])
+def test_fs_hz_far_from_the_time_columns_rate_is_warned(root, rate, words):
+    """fs_hz: 500 on readings 20 ms apart was resampled onto 500 Hz without a word."""
+    warnings = load_dataset(_edit(root, "fs_hz: 50 ", f"fs_hz: {rate} ")).warnings
+    assert len(warnings) == 1 and f"fs_hz is {rate} Hz but the time column 't' steps at 50 Hz" in warnings[0]
+    assert words in warnings[0]
+
+
 def test_one_file_in_another_unit_is_named(root):
     assert load_dataset(root / "dataset.yaml").warnings == []
     csv = root / "data" / "p3.csv"

@@ -50,6 +50,8 @@ MIN_RATE_HZ, MAX_RATE_HZ = 1.0, 10_000.0
 # thousand deg/s): a value past them is a fill value or a damaged row, warned with its row
 ACC_MAX_G, GYR_MAX_DEG_S = 400.0, 5000.0
 ACC_MAX_M_S2, GYR_MAX_RAD_S = ACC_MAX_G * STANDARD_GRAVITY_M_S2, float(np.deg2rad(GYR_MAX_DEG_S))
+# fs_hz this many times above or below the time column's median rate is warned
+RATE_MISMATCH = 1.5
 # shares of rows repeating their recording's previous time: noted above the first, refused above the second
 REPEATS_NOTED, REPEATS_REFUSED = 0.01, 0.10
 
@@ -549,6 +551,8 @@ class GenericDataset(HarDataset):
 
     def _rate(self) -> float:
         if self.spec.fs_hz is not None:
+            if self.spec.time_column:
+                self._rate_note(float(self.spec.fs_hz))
             return float(self.spec.fs_hz)
         steps = []
         for frame in self._frames.values():
@@ -570,6 +574,30 @@ class GenericDataset(HarDataset):
                 "(or give fs_hz)", file=self.yaml_path, field="time_column",
                 allowed=f"times in seconds, a rate of {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz")
         return float(round(rate)) if abs(rate - round(rate)) < 0.01 * rate else round(rate, 3)
+
+    def _rate_note(self, fs_hz: float) -> None:
+        """Warn where fs_hz is far from the rate the time column steps at: fs_hz: 500 on 50 Hz
+        readings made ten interpolated samples of each reading, silently."""
+        steps = []
+        for frame in self._frames.values():
+            dt = np.diff(np.sort(frame[self.spec.time_column].to_numpy(np.float64)))
+            steps.append(dt[dt > 0])
+        steps = np.concatenate(steps)
+        if not len(steps):
+            return
+        measured = 1.0 / float(np.median(steps))
+        if fs_hz > RATE_MISMATCH * measured:
+            self._time_notes.append(
+                f"{self.yaml_path}: fs_hz is {fs_hz:g} Hz but the time column '{self.spec.time_column}' steps "
+                f"at {measured:.4g} Hz (median): the recordings are interpolated {fs_hz / measured:.3g}x up and "
+                "the new samples hold no new motion. Give the device's rate as fs_hz, or leave fs_hz out to "
+                "use the time column's.")
+        elif fs_hz * RATE_MISMATCH < measured:
+            self._time_notes.append(
+                f"{self.yaml_path}: fs_hz is {fs_hz:g} Hz but the time column '{self.spec.time_column}' steps "
+                f"at {measured:.4g} Hz (median): the recordings are resampled {measured / fs_hz:.3g}x down by "
+                "linear interpolation, without a low-pass filter (motion faster than fs_hz/2 aliases). "
+                "Leave fs_hz out to keep the time column's rate.")
 
     # -- recordings ------------------------------------------------------------------------
     def _load(self) -> list[Recording]:
