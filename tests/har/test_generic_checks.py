@@ -231,3 +231,17 @@ def test_gravity_declared_removed_but_present_is_warned(root):
     warnings = load_dataset(path).warnings
     assert warnings and all("gravity_included is false" in w for w in warnings)
     assert {w.split("class '")[1].split("'")[0] for w in warnings} == {"walk", "sit"}
+
+
+def test_a_subject_without_windows_is_named_by_evaluate(cli, root):
+    """p3 (0.6 s of data) was silently no fold of --folds all, and --folds p3 called it 'not in
+    dataset' although dataset info lists it."""
+    csv = root / "data" / "p3.csv"
+    pd.read_csv(csv).iloc[:30].to_csv(csv, index=False)
+    path = root / "dataset.yaml"
+    args = ("evaluate", "--dataset", path, "--methods", "real", "--backbones", "rf", "--seeds", "1")
+    code, _, err = cli(*args, "--folds", "p3", "-o", root / "ev3")
+    assert code == 2 and "p3: in the recordings but no labelled window of 2 s" in err and "0.58 s" in err, err
+    code, _, err = cli(*args, "--folds", "all", "-o", root / "ev")
+    assert code == 0 and "subject(s) p3 give no labelled window of 2 s and are no fold" in err, err
+    assert err.count("are no fold") == 1

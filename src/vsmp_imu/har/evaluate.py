@@ -25,7 +25,7 @@ from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.backbones import BACKBONES, make_backbone
 from vsmp_imu.har.backbones import RUN_PARAMS as BACKBONE_RUN_PARAMS
 from vsmp_imu.har.dataset import HarDataset
-from vsmp_imu.har.holdout import require_windows
+from vsmp_imu.har.holdout import longest_recording, require_windows, source_of
 from vsmp_imu.har.metrics import evaluate_predictions, group_macro_f1, mean_std, unseen_metrics
 from vsmp_imu.har.noharm import (
     HARM_P,
@@ -314,13 +314,24 @@ class Evaluation:
         available = windows.unique_subjects()
         require_two_subjects(available, self.dataset)
         require_two_classes(windows, self.dataset)
+        windowless = [s for s in self.dataset.subjects if s not in available]
         if self.config.folds is None:
+            if windowless:  # a subject dataset info lists would otherwise just be missing from the folds
+                note = (f"{source_of(self.dataset) or self.config.dataset}: subject(s) {', '.join(windowless)} "
+                        f"give no labelled window of {self.config.window_s:g} s and are no fold (recordings "
+                        "shorter than a window, or no class labelled over one)")
+                if note not in self.dataset.warnings:
+                    self.dataset.warnings.append(note)
             return available
         wanted = [str(f) for f in self.config.folds]
         bad = [f for f in wanted if f not in available]
         if bad:
+            empty = [f for f in bad if f in windowless]
             raise ConfigError(
-                f"fold(s) {', '.join(bad)} not in dataset '{self.config.dataset}'",
+                f"fold(s) {', '.join(bad)} not in dataset '{self.config.dataset}'" + (
+                    f" ({', '.join(empty)}: in the recordings but no labelled window of "
+                    f"{self.config.window_s:g} s; longest recording "
+                    f"{longest_recording(self.dataset, empty[0])})" if empty else ""),
                 field="--folds",
                 allowed="all, or subjects " + ", ".join(available),
             )
