@@ -157,6 +157,19 @@ def test_a_column_named_twice_in_a_header_is_refused(root):
     _refused(root / "dataset.yaml", "p2.csv", "field 'ax'", "appear twice in the header")
 
 
+@pytest.mark.parametrize("how,words", [
+    ({"header": False}, ("field 'subject'", "column missing; none of the declared columns is in the first row",
+                         "without a header row")),
+    ({"sep": ";"}, ("field 'subject'", "one column holding ';': columns must be separated by commas")),
+])
+def test_a_table_without_a_header_or_with_another_separator_says_so(root, how, words):
+    """Both were refused with 'column missing' and the first data row, or the whole header, as the
+    allowed column names."""
+    csv = root / "data" / "p2.csv"
+    pd.read_csv(csv).to_csv(csv, index=False, **how)
+    _refused(root / "dataset.yaml", "p2.csv", *words)
+
+
 def test_a_time_column_in_milliseconds_names_the_time_column(root):
     for csv in (root / "data").glob("*.csv"):
         frame = pd.read_csv(csv)

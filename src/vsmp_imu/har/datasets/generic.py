@@ -423,8 +423,15 @@ class GenericDataset(HarDataset):
         frame = _read_table(path, ids, frozenset(needed))
         for col in needed:
             if col not in frame.columns:
+                names = [str(c) for c in frame.columns]
+                hint = ""
+                if len(names) == 1 and (sep := next((c for c in ";\t|" if c in names[0]), None)):
+                    hint = f"; the header is one column holding {sep!r}: columns must be separated by commas"
+                elif not set(needed) & set(names):
+                    hint = ("; none of the declared columns is in the first row: a table without a header "
+                            "row? (the first row must name the columns)")
                 raise ValidationError(
-                    "column missing",
+                    "column missing" + hint,
                     file=path,
                     field=col,
                     allowed=", ".join(map(str, frame.columns)),
