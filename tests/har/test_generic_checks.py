@@ -258,3 +258,15 @@ def test_a_subject_without_windows_is_named_by_evaluate(cli, root):
     code, _, err = cli(*args, "--folds", "all", "-o", root / "ev")
     assert code == 0 and "subject(s) p3 give no labelled window of 2 s and are no fold" in err, err
     assert err.count("are no fold") == 1
+
+
+def test_a_dataset_name_with_slashes_stays_inside_the_output_folder(cli, root):
+    """The name went into the confusion figure's file name as written: 'name: ../../../escaped' wrote
+    the PNG beside the output folder ('confusion_..' became a folder in it)."""
+    path = _edit(root, "name: my_waist_phone", "name: ../../../escaped")
+    out = root / "a" / "b" / "ev"
+    code, _, err = cli("evaluate", "--dataset", path, "--methods", "real", "--backbones", "rf", "--folds", "p1",
+                       "-o", out)
+    assert code == 0, err
+    assert [p for p in root.rglob("*escaped*") if out not in p.parents] == []
+    assert [p.name for p in out.iterdir() if "escaped" in p.name] == ["confusion_..-..-..-escaped_lopo_full_rf_real.png"]

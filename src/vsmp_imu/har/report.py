@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -343,7 +344,9 @@ def write_report(results: dict[str, Any], output_dir: str | Path) -> list[Path]:
         unseen = block.get("unseen_classes")
         hidden = () if unseen is None else ("unseen-" + "+".join(unseen),)
         parts = (block["dataset"], block["protocol"], budget, *hidden, block["backbone"], block["method"])
-        name = "confusion_" + "_".join(parts) + ".png"
+        # a dataset or class name is the user's text: a '/' in it ('sit/stand', a name '../x') would
+        # put the figure in another folder, or outside the output folder
+        name = "confusion_" + "_".join(re.sub(r"[/\\\x00-\x1f\x7f]", "-", str(p)) for p in parts) + ".png"
         title = (
             f"{block['dataset']} {block['protocol']}"
             + ("" if block["budget"] is None else f" {block['budget']:g}%")
