@@ -134,6 +134,13 @@ def test_class_names_that_look_alike_are_refused(root, declared, variant, words)
     _refused(path, *words)
 
 
+def test_a_class_spelled_like_an_unlabelled_value_is_refused(root):
+    """'None' in one file beside unlabelled 'none' was a class of its own."""
+    _relabel(root, "p1", "none", "None")
+    _refused(_edit(root, "labels: [walk, sit]", "# labels from the data"), "field 'label'",
+             "'None' are a class, while unlabelled lists 'none'", "'None' added to unlabelled")
+
+
 def test_a_declared_class_without_rows_is_warned(root):
     ds = load_dataset(_edit(root, "labels: [walk, sit]", "labels: [walk, sit, run]"))
     assert len(ds.warnings) == 1 and "'run' declared in labels are in no row" in ds.warnings[0]

@@ -538,8 +538,16 @@ class GenericDataset(HarDataset):
         for name in labels:
             by_key.setdefault(name.strip().casefold(), []).append(name)
         alike = [names for names in by_key.values() if len(names) > 1]
+        field = "labels" if self.spec.labels is not None else self.spec.label_column
+        for none in self.spec.unlabelled:  # 'None' as a class beside unlabelled 'none'
+            names = by_key.get(none.strip().casefold(), [])
+            if names:
+                raise ValidationError(
+                    f"label value(s) {', '.join(map(repr, names))} are a class, while unlabelled lists {none!r}: "
+                    "they differ only in case or surrounding spaces", file=self.yaml_path, field=field,
+                    allowed=f"one spelling (fix the label values in the recordings), or {names[0]!r} added to "
+                            "unlabelled")
         if alike:
-            field = "labels" if self.spec.labels is not None else self.spec.label_column
             raise ValidationError(
                 "class names that differ only in case or surrounding spaces: "
                 + "; ".join(" and ".join(map(repr, names)) for names in alike)
