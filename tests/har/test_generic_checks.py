@@ -277,3 +277,14 @@ def test_a_dataset_name_with_slashes_stays_inside_the_output_folder(cli, root):
     assert code == 0, err
     assert [p for p in root.rglob("*escaped*") if out not in p.parents] == []
     assert [p.name for p in out.iterdir() if "escaped" in p.name] == ["confusion_..-..-..-escaped_lopo_full_rf_real.png"]
+
+
+def test_hidden_files_are_skipped_and_tables_in_subfolders_warned(root):
+    """A Mac's '._p1.csv' beside p1.csv stopped the dataset (cannot read table); tables in a
+    subfolder were left out without a word."""
+    (root / "data" / "._p1.csv").write_bytes(b"\x00\x05\x16\x07\x00\x02\x00\x00Mac OS X        ")
+    (root / "data" / "more").mkdir()
+    shutil.copy(root / "data" / "p1.csv", root / "data" / "more" / "p4.csv")
+    ds = load_dataset(root / "dataset.yaml")
+    assert [p.name for p in ds.tables] == ["p1.csv", "p2.csv", "p3.csv"]
+    assert len(ds.warnings) == 1 and "subfolder(s) more are not read" in ds.warnings[0]

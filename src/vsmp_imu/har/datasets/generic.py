@@ -251,6 +251,7 @@ class GenericDataset(HarDataset):
         if not isinstance(raw, dict):
             raise ValidationError("expected a mapping of dataset settings", file=self.yaml_path)
         self.spec = validate_model(GenericSpec, raw, self.yaml_path)
+        self._data_notes: list[str] = []
         self.tables = self._tables()
         self._time_notes: list[str] = []
         self._label_notes: list[str] = []
@@ -298,7 +299,7 @@ class GenericDataset(HarDataset):
             pad_short=self.spec.pad_short,
             groups={k: tuple(v) for k, v in self.spec.groups.items()},
         )
-        self.warnings = self._axes_warnings() + self._unit_warnings() + self._time_notes + self._label_notes + self._range_notes
+        self.warnings = self._axes_warnings() + self._unit_warnings() + self._time_notes + self._label_notes + self._range_notes + self._data_notes
 
     # -- conventions -----------------------------------------------------------------------
     def _body_axes(self, loc: LocationSpec, placement: str, index: int) -> tuple[str, str, str] | None:
@@ -394,7 +395,15 @@ class GenericDataset(HarDataset):
         if not target.is_absolute():
             target = self.yaml_path.parent / target
         if target.is_dir():
-            tables = sorted(p for p in target.iterdir() if p.suffix.lower() in TABLE_SUFFIXES)
+            # hidden files are no tables: '._p1.csv' is the resource fork a Mac leaves on a USB stick
+            tables = sorted(p for p in target.iterdir()
+                            if p.suffix.lower() in TABLE_SUFFIXES and not p.name.startswith("."))
+            nested = sorted(p.name for p in target.iterdir() if p.is_dir() and not p.name.startswith(".")
+                            and any(q.suffix.lower() in TABLE_SUFFIXES for q in p.rglob("*")))
+            if nested:
+                self._data_notes.append(
+                    f"{target}: the tables in subfolder(s) {', '.join(nested)} are not read (only the data "
+                    "folder's own .csv/.parquet files are); point data at each folder, or move the files up.")
             if not tables:
                 raise InputFileError("no .csv or .parquet files in the data folder", file=target)
             stems: dict[str, Path] = {}
