@@ -288,3 +288,17 @@ def test_hidden_files_are_skipped_and_tables_in_subfolders_warned(root):
     ds = load_dataset(root / "dataset.yaml")
     assert [p.name for p in ds.tables] == ["p1.csv", "p2.csv", "p3.csv"]
     assert len(ds.warnings) == 1 and "subfolder(s) more are not read" in ds.warnings[0]
+
+
+def test_a_gyroscope_in_deg_s_declared_rad_s_is_warned(root):
+    """Walking at a median of ~100 deg/s read as 100 rad/s without a word."""
+    for csv in (root / "data").glob("*.csv"):
+        frame = pd.read_csv(csv)
+        frame[["gx", "gy", "gz"]] *= 30.0  # ~100 deg/s, a wrist or thigh while walking
+        frame.to_csv(csv, index=False)
+    assert load_dataset(root / "dataset.yaml").warnings == []
+    warnings = load_dataset(_edit(root, "gyr_unit: deg/s", "gyr_unit: rad/s")).warnings
+    units = [w for w in warnings if "look like deg/s; set gyr_unit: deg/s" in w]
+    assert [w.split("class '")[1].split("'")[0] for w in units] == ["walk"], warnings
+    # the fastest readings are also past any gyroscope's range, which says the unit may be why
+    assert all("or deg/s values declared as rad/s" in w for w in warnings if w not in units)

@@ -50,6 +50,9 @@ MIN_RATE_HZ, MAX_RATE_HZ = 1.0, 10_000.0
 # thousand deg/s): a value past them is a fill value or a damaged row, warned with its row
 ACC_MAX_G, GYR_MAX_DEG_S = 400.0, 5000.0
 ACC_MAX_M_S2, GYR_MAX_RAD_S = ACC_MAX_G * STANDARD_GRAVITY_M_S2, float(np.deg2rad(GYR_MAX_DEG_S))
+# a class's median rotation rate above this (rad/s, ~570 deg/s) reads deg/s declared as rad/s: a body
+# segment turns at a few rad/s at most for a moment, its median over a class is far lower
+GYR_MEDIAN_MAX_RAD_S = 10.0
 # fs_hz this many times above or below the time column's median rate is warned
 RATE_MISMATCH = 1.5
 # shares of rows repeating their recording's previous time: noted above the first, refused above the second
@@ -366,6 +369,27 @@ class GenericDataset(HarDataset):
                     out.append(f"{path}: at '{loc.name}' class(es) {', '.join(k for k, _, _ in odd)} read a median "
                                f"acceleration unlike the other files' (first: '{label}', {g:.3g} g with acc_unit "
                                f"{loc.acc_unit}, locations[{i}]): {hint}")
+            if loc.gyr and loc.gyr_unit == "rad/s":
+                out += self._gyro_unit_warnings(loc, i)
+        return out
+
+    def _gyro_unit_warnings(self, loc: LocationSpec, index: int) -> list[str]:
+        """A class turning at a median of over GYR_MEDIAN_MAX_RAD_S with gyr_unit rad/s: deg/s values
+        declared as rad/s read 57 times too fast (the other way round reads as nearly still, which a
+        still class also does, so it is not told)."""
+        rates: dict[str, list[np.ndarray]] = {}
+        for frame in self._frames.values():
+            norm = np.linalg.norm(frame[loc.gyr].to_numpy(np.float64), axis=1)
+            for label, rows in pd.Series(norm).groupby(frame[self.spec.label_column].astype(str).values):
+                if label not in self.spec.unlabelled:
+                    rates.setdefault(label, []).append(rows.to_numpy())
+        out = []
+        for label, parts in sorted(rates.items()):
+            rate = float(np.median(np.concatenate(parts)))
+            if rate > GYR_MEDIAN_MAX_RAD_S:
+                out.append(f"{self.yaml_path}: class '{label}' at '{loc.name}' turns at a median {rate:.3g} rad/s "
+                           f"({np.rad2deg(rate):.3g} deg/s) with gyr_unit rad/s (locations[{index}]): the values "
+                           "look like deg/s; set gyr_unit: deg/s.")
         return out
 
     def _median_g(self, loc: LocationSpec) -> dict[str, dict[Path, np.ndarray]]:
@@ -495,7 +519,8 @@ class GenericDataset(HarDataset):
                     self._range_notes.append(
                         f"{path}: {len(odd)} value(s) of column '{col}' beyond what a wearable sensor reads "
                         f"({shown}), first at data row {odd[0] + 1}: {values[odd[0]]:.6g} {unit}. A marker for "
-                        "a missing sample or a damaged row? Such values dominate every statistic of their "
+                        "a missing sample or a damaged row" + (" (or deg/s values declared as rad/s)"
+                                                                  if unit == "rad/s" else "") + "? Such values dominate every statistic of their "
                         "windows; remove or fix those rows.")
 
     def _check_repeats(self, path: Path, frame: pd.DataFrame) -> None:
