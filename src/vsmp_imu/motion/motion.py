@@ -291,6 +291,9 @@ def _meta(arr: np.ndarray) -> dict[str, Any]:
         meta = json.loads(str(arr))
     except ValueError as exc:  # JSONDecodeError, an integer too long to convert
         raise ValidationError(f"not JSON ({exc})", field="meta") from None
+    except RecursionError:  # json.loads gives up near 1000 nested lists or objects
+        raise ValidationError("the JSON nests lists or objects too deeply to read", field="meta",
+                              allowed="a JSON object nested at most a few hundred levels") from None
     if not isinstance(meta, dict):
         raise ValidationError(f"must be a JSON object {{...}}, got {str(arr)[:40]!r}", field="meta")
     return meta
