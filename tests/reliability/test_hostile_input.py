@@ -189,6 +189,33 @@ def row_repetitions_augment(i: Inputs) -> Row:
                "reps.json", "<= 1000", absent=(out,))
 
 
+def _huge_label(d: dict) -> None:
+    d["activity_label"] = "x" * 10_000_000
+
+
+def _huge_description(d: dict) -> None:
+    d["motion_primitives"][0]["description"] = "y " * 5_000_000
+
+
+def row_huge_label_synth(i: Inputs) -> Row:
+    """A 10 MB label: `motion synth` matched it against the library for minutes (over 1 GiB)."""
+    out = i.tmp / "m.npz"
+    return Row(["motion", "synth", _smp_file(i, "label.json", _huge_label), "--seed", "0", "-o", out],
+               "label.json", "field 'activity_label': String should have at most 1000 characters", absent=(out,))
+
+
+def row_huge_label_augment(i: Inputs) -> Row:
+    out = i.tmp / "v.jsonl"
+    return Row(["smp", "augment", _smp_file(i, "label.json", _huge_label), "-k", "3", "-o", out],
+               "label.json", "Allowed: text of at most 1000 characters", absent=(out,))
+
+
+def row_huge_description_validate(i: Inputs) -> Row:
+    """The message shows the start of the refused text, not all 10 MB of it."""
+    return Row(["smp", "validate", _smp_file(i, "desc.json", _huge_description)], "desc.json",
+               "motion_primitives[0].description': String should have at most 1000 characters (got 'y y y")
+
+
 def row_durations_synth(i: Inputs) -> Row:
     out = i.tmp / "m.npz"
     return Row(["motion", "synth", _smp_file(i, "dur.json", _huge_durations), "--seed", "0", "-o", out],
@@ -460,6 +487,7 @@ def test_hostile_input_exits_2_with_one_paragraph(name, tmp_path, motion_file):
     assert text.count("error:") == 1, text
     assert row.names in text and row.says in text, f"expected '{row.names}' and '{row.says}' in: {text}"
     assert [p for p in row.absent if p.exists()] == [] and leftovers(tmp_path) == []
+    assert len(text) < 5000, f"a message of {len(text)} characters"
 
 
 @pytest.mark.parametrize("damage", [b"", b"PK\x03\x04 cut short"])
