@@ -163,6 +163,27 @@ def row_video_fifo(i: Inputs) -> Row:
     return Row(["video", "info", fifo], "clip.avi", "expected a video file, found a FIFO")
 
 
+def row_smp_fifo(i: Inputs) -> Row:
+    """Opening a FIFO no one writes to waited for ever (`smp validate`, `motion synth`, `imu plot`)."""
+    fifo = i.tmp / "walk.json"
+    os.mkfifo(fifo)
+    out = i.tmp / "m.npz"
+    return Row(["motion", "synth", fifo, "--seed", "0", "-o", out], "walk.json",
+               "expected a file, found a FIFO (named pipe)", absent=(out,))
+
+
+def row_motion_fifo(i: Inputs) -> Row:
+    fifo = i.tmp / "walk.npz"
+    os.mkfifo(fifo)
+    out = i.tmp / "x.csv"
+    return Row(["imu", "simulate", fifo, "-o", out], "walk.npz", "expected a file, found a FIFO", absent=(out,))
+
+
+def row_smp_dev_zero(i: Inputs) -> Row:
+    """/dev/zero has size 0, so the 16 MiB limit let it be read: a MemoryError traceback."""
+    return Row(["smp", "validate", "/dev/zero"], "/dev/zero", "expected a file, found a character device")
+
+
 # -- SMP numbers: validate, augment and synth agree ---------------------------------------------
 def _huge_count(d: dict) -> None:
     d["temporal_structure"]["repetition_count"] = 10**30

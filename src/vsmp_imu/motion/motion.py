@@ -20,7 +20,7 @@ from scipy.interpolate import interp1d
 from scipy.spatial.transform import Rotation, Slerp
 
 from vsmp_imu.errors import InputFileError, ValidationError
-from vsmp_imu.io import write_bytes
+from vsmp_imu.io import check_regular_file, write_bytes
 from vsmp_imu.motion.skeleton import SMPL22_JOINTS, SMPL22_PARENTS, estimate_height
 from vsmp_imu.smp.schema import MAX_MOTION_S
 
@@ -225,6 +225,7 @@ def _check_npz_file(path: Path) -> None:
         raise InputFileError("file not found", file=path)
     if path.is_dir():
         raise InputFileError("is a folder, not a motion file", file=path, allowed=_NPZ_ALLOWED)
+    check_regular_file(path)
     try:
         with path.open("rb") as fh:
             head = fh.read(4)
