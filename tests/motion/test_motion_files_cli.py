@@ -177,6 +177,26 @@ def test_cli_user_mistakes_exit_2(cli, tmp_path, monkeypatch, args, words):
 
 
 @pytest.mark.parametrize(("args", "says"), [
+    (("motion", "synth", "walking", "--seed", "0", "-o", "w.parquet"),
+     "w.parquet: field '--output': a motion is written as .npz, not under '.parquet'. Allowed: a file name ending in .npz."),
+    (("motion", "synth", "walking", "--seed", "0", "-o", "w"), "w: field '--output': a motion is written as .npz, not "
+     "under a name without one."),
+    (("motion", "resample", "w.npz", "--fps", "60", "-o", "w.csv"), "w.csv: field '--output': a motion is written as .npz"),
+    (("imu", "simulate", "w.npz", "-o", "w.parquet"),
+     "w.parquet: field '--output': an IMU recording is written as .csv, not under '.parquet'. Allowed: a file name "
+     "ending in .csv."),
+])
+def test_an_output_named_for_another_format_is_refused(cli, tmp_path, walk, monkeypatch, args, says):
+    """A motion went into 'w.csv' as a zip and an IMU CSV into 'w.parquet' as text, each under a
+    name that said another format."""
+    monkeypatch.chdir(tmp_path)
+    walk.save(tmp_path / "w.npz")
+    code, _, err = cli(*args)
+    assert code == 2 and says in " ".join(err.split()), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w.npz"]
+
+
+@pytest.mark.parametrize(("args", "says"), [
     (("render", "--keyframes", "k.png", "--n", "0"), "field '--n': 0 keyframes cannot be drawn. Allowed: 1..60."),
     (("render", "--n", "61"), "field '--n': 61 keyframes cannot be drawn. Allowed: 1..60."),
     (("render", "--view", "400"), "field '--view': 400 is not a camera azimuth. Allowed: -360..360 degrees."),
