@@ -8,6 +8,7 @@ import json
 import os
 import re
 import socket
+import stat
 import sys
 import tempfile
 import time
@@ -181,6 +182,23 @@ MAX_NESTING = 100
 MAX_ALIAS_NODES = 1_000_000
 
 
+_SPECIAL_FILES = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"),
+                  (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
+
+
+def check_regular_file(path: str | Path) -> None:
+    """Refuse an input that is a FIFO, socket or device: opening a FIFO no one writes to waits
+    for ever, and /dev/zero never ends (its size reads 0, so no size limit stops it)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:  # missing or unreadable: the caller's own open says so
+        return
+    kind = next((name for test, name in _SPECIAL_FILES if test(mode)), None)
+    if kind is not None:
+        raise InputFileError(f"expected a file, found {kind}", file=path,
+                             allowed="a regular file (a pipe or a device may never end)")
+
+
 def read_text(path: str | Path, max_bytes: int | None = None, newline: str | None = None) -> str:
     """A UTF-8 text file; `newline` as `open` takes it (None: any line end read as LF, "": as written)."""
     path = Path(path)
@@ -188,6 +206,7 @@ def read_text(path: str | Path, max_bytes: int | None = None, newline: str | Non
         raise InputFileError("file not found", file=path)
     if path.is_dir():
         raise InputFileError("expected a file, found a directory", file=path)
+    check_regular_file(path)
     if max_bytes is not None and path.stat().st_size > max_bytes:
         raise InputFileError(f"the file has {path.stat().st_size} bytes, more than this kind of file may have",
                              file=path, allowed=f"at most {max_bytes // 2**20} MiB")

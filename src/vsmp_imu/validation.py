@@ -34,6 +34,8 @@ def _allowed(error: dict[str, Any]) -> str | None:
     ctx = error.get("ctx") or {}
     if "expected" in ctx:
         return str(ctx["expected"])
+    if error.get("type") == "string_too_long":
+        return f"text of at most {ctx['max_length']} characters"
     tags = [str(item).removeprefix("constrained-") for item in error["loc"] if isinstance(item, str)]
     kind = next((NUMBER_KINDS[t] for t in reversed(tags) if t in NUMBER_KINDS), None)
     bounds = " and ".join(f"{BOUNDS[k]} {v}" for k, v in ctx.items() if k in BOUNDS)
@@ -54,6 +56,18 @@ def _first_branch(errors: list[dict[str, Any]], field: str | None) -> tuple[dict
     return first, " or ".join(allowed) or None
 
 
+SHOWN_INPUT_CHARS = 60  # of a refused value in a message; a 10 MB label is not printed whole
+
+
+def _shortened(value: Any) -> str:
+    """The repr of a refused value, cut to SHOWN_INPUT_CHARS with its length said."""
+    text = repr(value)
+    if len(text) <= SHOWN_INPUT_CHARS:
+        return text
+    size = f", {len(value)} characters" if isinstance(value, str) else ""
+    return f"{text[:SHOWN_INPUT_CHARS]}...{size}"
+
+
 def validation_error(exc: pydantic.ValidationError, file: str | Path | None = None) -> ValidationError:
     """The first problem as a ValidationError; the others listed in the message."""
     errors = exc.errors()
@@ -61,7 +75,7 @@ def validation_error(exc: pydantic.ValidationError, file: str | Path | None = No
     first, allowed = _first_branch(errors, field)
     msg = first["msg"].removeprefix("Value error, ")  # a model's own check speaks for itself
     if "input" in first and not isinstance(first["input"], dict | list):
-        msg += f" (got {first['input']!r})"
+        msg += f" (got {_shortened(first['input'])})"
     others = sorted({_loc(e["loc"]) for e in errors[1:]} - {field})
     if others:
         msg += f"; {len(others)} more field(s) invalid: {', '.join(others[:5])}"

@@ -60,6 +60,8 @@ DAMAGE = {  # name: (the damaged keys from the motion, the field named, words of
     "parent_cycle": (lambda m: {"parents": _set(_set(m.parents, 1, 2), 2, 1)}, "parents", "cycle"),
     "root_self": (lambda m: {"parents": _set(m.parents, 0, 0)}, "parents", "has 0"),
     "float_parents": (lambda m: {"parents": np.array(m.parents, dtype=float)}, "parents", "integers"),
+    "meta_deep": (lambda m: {"meta": np.array('{"a": ' + "[" * 100_000 + "]" * 100_000 + "}")}, "meta",
+                  "nests lists or objects too deeply"),
     "names_twice": (lambda m: {"joint_names": _set(m.joint_names, 1, "pelvis")}, "joint_names", "more than once"),
 }
 
@@ -118,6 +120,32 @@ def test_bvh_of_a_motion_with_another_skeleton_keeps_every_joint(cli, tmp_path, 
     assert code == 2 and err.startswith(f"{path}: field 'joint_names'") and "pelvis" in err
     code, _, _ = cli("motion", "bvh", path, "-o", tmp_path / "m.bvh")
     assert code == 0 and len(read_bvh(tmp_path / "m.bvh").joint_names) == walk.n_joints
+
+
+def test_bvh_of_a_skeleton_chained_deeper_than_python_recursion(cli, tmp_path):
+    """A 3000-joint chain once stopped `motion bvh` with a RecursionError traceback."""
+    n = 3000
+    positions = np.zeros((2, n, 3))
+    positions[:, :, 1] = np.arange(n) * 1e-3
+    rotations = np.zeros((2, n, 4))
+    rotations[..., 3] = 1.0
+    chain = Motion(positions, rotations, 30.0, tuple(f"j{i}" for i in range(n)), (-1, *range(n - 1)))
+    out = tmp_path / "chain.bvh"
+    code, _, err = cli("motion", "bvh", chain.save(tmp_path / "chain.npz"), "-o", out)
+    assert code == 0, err
+    back = read_bvh(out)
+    assert back.parents == [-1, *range(n - 1)] and back.frames.shape == (2, 6 + 3 * (n - 1))
+
+
+@pytest.mark.parametrize(("name", "says"), [("MOTION", "is a BVH keyword"), ("a{b}", "has '{'"),
+                                            ("hip}", "has '}'"), ("x\x1b[31m", "has '\\x1b'")])
+def test_bvh_refuses_a_joint_name_that_would_break_its_structure(cli, tmp_path, walk, name, says):
+    """Such a name was written into the hierarchy as it was: a BVH that reads back wrong or not at all."""
+    path = _save(tmp_path, walk, joint_names=_set(walk.joint_names, 5, name))
+    out = tmp_path / "m.bvh"
+    code, _, err = cli("motion", "bvh", path, "-o", out)
+    assert code == 2 and err.startswith(f"{path}: field 'joint_names': joint 5's name"), err
+    assert says in err and "not a BVH keyword" in err and not out.exists()
 
 
 @pytest.mark.parametrize("scale", ["nan", "inf", "0", "-1", "1e308"])

@@ -51,6 +51,21 @@ def test_render_gif_and_keyframes(tmp_path, walk):
     assert {p.name for p in tmp_path.iterdir()} == {"walk.gif", "walk.png"}  # no temporary left
 
 
+def test_a_motion_whose_meta_holds_megabytes_is_drawn_with_a_short_title(cli, tmp_path, walk):
+    """A 1 MB `activity` in a motion file's meta went whole into every frame's title: `motion
+    render` of 20 frames ran past 90 s and 700 MB, and SIGTERM then ended in a traceback."""
+    from vsmp_imu.motion.render import TITLE_TEXT_CHARS, _title
+
+    big = Motion(walk.positions[:20], walk.rotations[:20], walk.fps, walk.joint_names, walk.parents,
+                 {**walk.meta, "activity": "x" * 1_000_000, "backend": "b" * 1000, "seed": 10**500})
+    title = _title(big, 3)
+    assert len(title) < 4 * TITLE_TEXT_CHARS and title.endswith("frame 3/19 (0.10 s)")
+    assert title.startswith("x" * (TITLE_TEXT_CHARS - 1) + "\u2026 | ")
+    assert _title(walk, 0).startswith("walking | procedural | seed 4 | ")  # short values as they were
+    code, _, err = cli("motion", "render", big.save(tmp_path / "big.npz"), "-o", tmp_path / "big.gif")
+    assert code == 0, err
+
+
 def test_a_long_motion_is_shown_by_at_most_max_gif_frames_in_real_time(walk):
     from vsmp_imu.motion.render import MAX_GIF_FRAMES, gif_step
 
@@ -159,6 +174,26 @@ def test_cli_user_mistakes_exit_2(cli, tmp_path, monkeypatch, args, words):
     monkeypatch.chdir(tmp_path)
     code, _, err = cli(*args)
     assert code == 2 and words in err
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (("motion", "synth", "walking", "--seed", "0", "-o", "w.parquet"),
+     "w.parquet: field '--output': a motion is written as .npz, not under '.parquet'. Allowed: a file name ending in .npz."),
+    (("motion", "synth", "walking", "--seed", "0", "-o", "w"), "w: field '--output': a motion is written as .npz, not "
+     "under a name without one."),
+    (("motion", "resample", "w.npz", "--fps", "60", "-o", "w.csv"), "w.csv: field '--output': a motion is written as .npz"),
+    (("imu", "simulate", "w.npz", "-o", "w.parquet"),
+     "w.parquet: field '--output': an IMU recording is written as .csv, not under '.parquet'. Allowed: a file name "
+     "ending in .csv."),
+])
+def test_an_output_named_for_another_format_is_refused(cli, tmp_path, walk, monkeypatch, args, says):
+    """A motion went into 'w.csv' as a zip and an IMU CSV into 'w.parquet' as text, each under a
+    name that said another format."""
+    monkeypatch.chdir(tmp_path)
+    walk.save(tmp_path / "w.npz")
+    code, _, err = cli(*args)
+    assert code == 2 and says in " ".join(err.split()), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w.npz"]
 
 
 @pytest.mark.parametrize(("args", "says"), [

@@ -163,6 +163,27 @@ def row_video_fifo(i: Inputs) -> Row:
     return Row(["video", "info", fifo], "clip.avi", "expected a video file, found a FIFO")
 
 
+def row_smp_fifo(i: Inputs) -> Row:
+    """Opening a FIFO no one writes to waited for ever (`smp validate`, `motion synth`, `imu plot`)."""
+    fifo = i.tmp / "walk.json"
+    os.mkfifo(fifo)
+    out = i.tmp / "m.npz"
+    return Row(["motion", "synth", fifo, "--seed", "0", "-o", out], "walk.json",
+               "expected a file, found a FIFO (named pipe)", absent=(out,))
+
+
+def row_motion_fifo(i: Inputs) -> Row:
+    fifo = i.tmp / "walk.npz"
+    os.mkfifo(fifo)
+    out = i.tmp / "x.csv"
+    return Row(["imu", "simulate", fifo, "-o", out], "walk.npz", "expected a file, found a FIFO", absent=(out,))
+
+
+def row_smp_dev_zero(i: Inputs) -> Row:
+    """/dev/zero has size 0, so the 16 MiB limit let it be read: a MemoryError traceback."""
+    return Row(["smp", "validate", "/dev/zero"], "/dev/zero", "expected a file, found a character device")
+
+
 # -- SMP numbers: validate, augment and synth agree ---------------------------------------------
 def _huge_count(d: dict) -> None:
     d["temporal_structure"]["repetition_count"] = 10**30
@@ -187,6 +208,33 @@ def row_repetitions_augment(i: Inputs) -> Row:
     out = i.tmp / "v.jsonl"
     return Row(["smp", "augment", _smp_file(i, "reps.json", _huge_count), "-k", "3", "-o", out],
                "reps.json", "<= 1000", absent=(out,))
+
+
+def _huge_label(d: dict) -> None:
+    d["activity_label"] = "x" * 10_000_000
+
+
+def _huge_description(d: dict) -> None:
+    d["motion_primitives"][0]["description"] = "y " * 5_000_000
+
+
+def row_huge_label_synth(i: Inputs) -> Row:
+    """A 10 MB label: `motion synth` matched it against the library for minutes (over 1 GiB)."""
+    out = i.tmp / "m.npz"
+    return Row(["motion", "synth", _smp_file(i, "label.json", _huge_label), "--seed", "0", "-o", out],
+               "label.json", "field 'activity_label': String should have at most 1000 characters", absent=(out,))
+
+
+def row_huge_label_augment(i: Inputs) -> Row:
+    out = i.tmp / "v.jsonl"
+    return Row(["smp", "augment", _smp_file(i, "label.json", _huge_label), "-k", "3", "-o", out],
+               "label.json", "Allowed: text of at most 1000 characters", absent=(out,))
+
+
+def row_huge_description_validate(i: Inputs) -> Row:
+    """The message shows the start of the refused text, not all 10 MB of it."""
+    return Row(["smp", "validate", _smp_file(i, "desc.json", _huge_description)], "desc.json",
+               "motion_primitives[0].description': String should have at most 1000 characters (got 'y y y")
 
 
 def row_durations_synth(i: Inputs) -> Row:
@@ -460,6 +508,7 @@ def test_hostile_input_exits_2_with_one_paragraph(name, tmp_path, motion_file):
     assert text.count("error:") == 1, text
     assert row.names in text and row.says in text, f"expected '{row.names}' and '{row.says}' in: {text}"
     assert [p for p in row.absent if p.exists()] == [] and leftovers(tmp_path) == []
+    assert len(text) < 5000, f"a message of {len(text)} characters"
 
 
 @pytest.mark.parametrize("damage", [b"", b"PK\x03\x04 cut short"])

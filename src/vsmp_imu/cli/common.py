@@ -143,6 +143,15 @@ def output_file(path: Path | None, option: str = "--output") -> Path | None:
     return path
 
 
+def output_suffix(path: Path, suffix: str, what: str, option: str = "--output") -> None:
+    """The file a command writes in one format must be named for it: a motion written to
+    'x.parquet' would be a zip under a name that says otherwise."""
+    if path.suffix.lower() != suffix:
+        given = f"'{path.suffix}'" if path.suffix else "a name without one"
+        raise ConfigError(f"{what} is written as {suffix}, not under {given}", file=path,
+                          field=option, allowed=f"a file name ending in {suffix}")
+
+
 def output_dir(path: Path | None, option: str = "--output") -> Path | None:
     """Check that `path` is, or can become, a folder we may write in (None: nothing to check)."""
     if path is None:

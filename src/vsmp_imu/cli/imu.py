@@ -14,6 +14,7 @@ from vsmp_imu.cli.common import (
     naming,
     option_names,
     output_file,
+    output_suffix,
     parse_csv,
     shown,
 )
@@ -46,6 +47,7 @@ def simulate_cmd(
     output_file(output)
     output_file(plot, "--plot")
     distinct_files({"--output": output, "--plot": plot}, {"the input motion": motion_file})
+    output_suffix(output, ".csv", "an IMU recording")
     if plot is not None:
         _image_file(plot, "--plot")
     from vsmp_imu.errors import ConfigError

@@ -16,6 +16,7 @@ from vsmp_imu.cli.common import (
     naming,
     option_names,
     output_file,
+    output_suffix,
     shown,
 )
 from vsmp_imu.errors import ConfigError, ValidationError
@@ -78,6 +79,7 @@ def synth_cmd(
     """Generate one motion and write it as .npz."""
     output_file(output)
     distinct_files({"--output": output}, {"the input SMP": _smp_file(smp)})
+    output_suffix(output, ".npz", "a motion")
     from vsmp_imu.motion import get_backend
 
     if smp is None and prompt is None:
@@ -193,6 +195,7 @@ def resample_cmd(
     """Write the motion at another frame rate."""
     output_file(output)
     distinct_files({"--output": output}, {"the input motion": motion_file})
+    output_suffix(output, ".npz", "a motion")
     source = _load_motion(motion_file)
     with naming(motion_file), option_names({"fps": "--fps"}):
         motion = source.resample(fps)

@@ -26,7 +26,7 @@ from vsmp_imu.cli.common import (
     shown,
 )
 from vsmp_imu.errors import ExtractionError, InputFileError, ValidationError, VsmpError
-from vsmp_imu.io import atomic_text, write_json
+from vsmp_imu.io import atomic_text, check_regular_file, write_json
 from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
 from vsmp_imu.smp.aggregate import aggregate, library_activity
 from vsmp_imu.smp.augment import SMPAugmenter, check_output_size
@@ -67,6 +67,7 @@ def _read_raw(path: Path) -> bytes:
         raise InputFileError("file not found", file=path)
     if path.is_dir():
         raise InputFileError("expected a file, found a directory", file=path)
+    check_regular_file(path)
     return path.read_bytes()
 
 

@@ -64,6 +64,25 @@ def check_scale(scale: float) -> None:
                               allowed=f"{MIN_SCALE:g}..{MAX_SCALE:g} (1 = metres, 100 = centimetres)")
 
 
+# Words a BVH reader takes for structure wherever they stand (Blender's importer reads
+# "JOINT MOTION" as the end of the hierarchy); a joint name may be none of them.
+BVH_KEYWORDS = ("HIERARCHY", "ROOT", "JOINT", "End", "Site", "OFFSET", "CHANNELS", "MOTION", "Frames:",
+                "Frame", "Time:")
+_BVH_NAME_ALLOWED = ("joint names without braces, quotes or control characters that are not a BVH "
+                     "keyword (" + ", ".join(BVH_KEYWORDS) + ")")
+
+
+def _check_joint_names(names: tuple[str, ...]) -> None:
+    """Refuse a joint name that would change the BVH's structure: a brace opens or closes a
+    block, a keyword starts one; a control character is not text a reader expects."""
+    for j, name in enumerate(names):
+        bad = [c for c in name if c in '{}"' or not c.isprintable()]
+        if bad or name in BVH_KEYWORDS:
+            what = f"has {bad[0]!r}" if bad else "is a BVH keyword"
+            raise ValidationError(f"joint {j}'s name {name!r} {what}, so the BVH would not read back",
+                                  field="joint_names", allowed=_BVH_NAME_ALLOWED)
+
+
 def bvh_text(motion: Motion, scale: float = 1.0) -> str:
     """The BVH file content of a motion."""
     check_scale(scale)
@@ -76,11 +95,19 @@ def bvh_text(motion: Motion, scale: float = 1.0) -> str:
     if len(roots) != 1:
         raise ValidationError(f"a BVH needs exactly one root joint, the motion has {len(roots)}",
                               field="parents")
+    _check_joint_names(motion.joint_names)
     offsets = _offsets(motion) * scale
     lines = ["HIERARCHY"]
     order: list[int] = []
-
-    def emit(j: int, depth: int) -> None:
+    # depth first, with a stack of its own: a skeleton may chain thousands of joints, deeper
+    # than Python's recursion goes
+    todo: list[tuple[int, int] | str] = [(roots[0], 0)]
+    while todo:
+        item = todo.pop()
+        if isinstance(item, str):  # a block's closing brace, once its children are written
+            lines.append(item)
+            continue
+        j, depth = item
         pad = "  " * depth
         kind = "ROOT" if motion.parents[j] < 0 else "JOINT"
         lines.append(f"{pad}{kind} {motion.joint_names[j]}")
@@ -91,18 +118,14 @@ def bvh_text(motion: Motion, scale: float = 1.0) -> str:
         else:
             lines.append(f"{pad}  CHANNELS 3 Zrotation Xrotation Yrotation")
         order.append(j)
-        if children[j]:
-            for c in children[j]:
-                emit(c, depth + 1)
-        else:
+        if not children[j]:
             end = _end_site(motion, j, offsets)
             lines.append(f"{pad}  End Site")
             lines.append(f"{pad}  {{")
             lines.append(f"{pad}    OFFSET {end[0]:.6f} {end[1]:.6f} {end[2]:.6f}")
             lines.append(f"{pad}  }}")
-        lines.append(f"{pad}}}")
-
-    emit(roots[0], 0)
+        todo.append(f"{pad}}}")
+        todo.extend((c, depth + 1) for c in reversed(children[j]))
     local = _local_rotations(motion)
     eulers = np.stack([local[j].as_euler(EULER_ORDER, degrees=True) for j in order], axis=1)
     root_pos = motion.positions[:, roots[0]] * scale

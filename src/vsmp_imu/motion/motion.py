@@ -20,7 +20,7 @@ from scipy.interpolate import interp1d
 from scipy.spatial.transform import Rotation, Slerp
 
 from vsmp_imu.errors import InputFileError, ValidationError
-from vsmp_imu.io import write_bytes
+from vsmp_imu.io import check_regular_file, write_bytes
 from vsmp_imu.motion.skeleton import SMPL22_JOINTS, SMPL22_PARENTS, estimate_height
 from vsmp_imu.smp.schema import MAX_MOTION_S
 
@@ -225,6 +225,7 @@ def _check_npz_file(path: Path) -> None:
         raise InputFileError("file not found", file=path)
     if path.is_dir():
         raise InputFileError("is a folder, not a motion file", file=path, allowed=_NPZ_ALLOWED)
+    check_regular_file(path)
     try:
         with path.open("rb") as fh:
             head = fh.read(4)
@@ -291,6 +292,9 @@ def _meta(arr: np.ndarray) -> dict[str, Any]:
         meta = json.loads(str(arr))
     except ValueError as exc:  # JSONDecodeError, an integer too long to convert
         raise ValidationError(f"not JSON ({exc})", field="meta") from None
+    except RecursionError:  # json.loads gives up near 1000 nested lists or objects
+        raise ValidationError("the JSON nests lists or objects too deeply to read", field="meta",
+                              allowed="a JSON object nested at most a few hundred levels") from None
     if not isinstance(meta, dict):
         raise ValidationError(f"must be a JSON object {{...}}, got {str(arr)[:40]!r}", field="meta")
     return meta

@@ -62,15 +62,25 @@ def _bone_colors(motion: Motion) -> list[str]:
     return colors
 
 
+TITLE_TEXT_CHARS = 60  # of each provenance value in a title: a file's meta may hold megabytes
+
+
+def _cut(value: object) -> str:
+    """A provenance value as title text, cut to TITLE_TEXT_CHARS (matplotlib lays out every
+    character of a title on every frame: a 1 MB label once held `motion render` for minutes)."""
+    text = str(value)
+    return text if len(text) <= TITLE_TEXT_CHARS else text[:TITLE_TEXT_CHARS - 1] + "\u2026"
+
+
 def _title(motion: Motion, frame: int) -> str:
     activity = motion.meta.get("activity") or motion.meta.get("activity_label") or "motion"
     seed = motion.meta.get("seed")
     backend = motion.meta.get("backend")
-    parts = [str(activity)]
+    parts = [_cut(activity)]
     if backend:
-        parts.append(str(backend))
+        parts.append(_cut(backend))
     if seed is not None:
-        parts.append(f"seed {seed}")
+        parts.append(f"seed {_cut(seed)}")
     parts.append(f"frame {frame}/{motion.n_frames - 1} ({frame / motion.fps:.2f} s)")
     return " | ".join(parts)
 

@@ -54,6 +54,10 @@ MAX_ORDER_INDEX = 1000  # an order position; an SMP has a handful of primitives
 # At most this many motion primitives and sequence items: the library's longest activity has
 # 6, and refinement compares items pairwise, so an answer with thousands would stall it.
 MAX_PRIMITIVES = 64
+# At most this many characters in any text of an SMP (a label, a name, a description): the
+# library's longest is a 134-character description. Labels and names are matched against the
+# library's and the lexicon's, so a label of megabytes once stalled `motion synth` for minutes.
+MAX_TEXT_CHARS = 1000
 
 
 def _number(lo: float, hi: float):
@@ -121,7 +125,7 @@ LARGE_DISPLACEMENT_M = 2.5
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, str_max_length=MAX_TEXT_CHARS)
 
 
 class MotionPrimitive(_Strict):
