@@ -314,7 +314,8 @@ class Evaluation:
         available = windows.unique_subjects()
         require_two_subjects(available, self.dataset)
         require_two_classes(windows, self.dataset)
-        windowless = [s for s in self.dataset.subjects if s not in available]
+        # the subjects a dataset lists (a HarDataset; a stand-in without them names none)
+        windowless = [s for s in getattr(self.dataset, "subjects", ()) if s not in available]
         if self.config.folds is None:
             if windowless:  # a subject dataset info lists would otherwise just be missing from the folds
                 note = (f"{source_of(self.dataset) or self.config.dataset}: subject(s) {', '.join(windowless)} "
