@@ -253,18 +253,21 @@ def test_cli_option_errors(cli, videos, tmp_path):
     assert code == 2 and "not both" in err
 
 
+def _vlm_command(command: str, videos, tmp_path, vlm: tuple) -> tuple:
+    """`smp extract` of one clip into a.json, or `video pool` of a one-clip pool into m.json, with `vlm`."""
+    if command == "extract":
+        return ("smp", "extract", videos["counter"], "--label", "walking", "-o", tmp_path / "a.json", *vlm)
+    (tmp_path / "pool" / "walking").mkdir(parents=True)
+    (tmp_path / "pool" / "walking" / "a.avi").write_bytes(videos["counter"].read_bytes())
+    return ("video", "pool", tmp_path / "pool", "--checker", "vlm", "-o", tmp_path / "m.json", *vlm)
+
+
 @pytest.mark.parametrize("option,value", [("--timeout-s", v) for v in ("-1", "nan", "inf", "0", "3601")]
                          + [("--max-retries", v) for v in ("-1", "11")])
 @pytest.mark.parametrize("command", ["extract", "pool"])
 def test_cli_timeout_and_retries_are_range_checked_before_any_work(cli, videos, tmp_path, option, value, command):
     vlm = ("--vlm-base-url", "http://127.0.0.1:9/v1", "--vlm-model", "m", option, value)
-    if command == "extract":
-        args = ("smp", "extract", videos["counter"], "--label", "walking", "-o", tmp_path / "a.json", *vlm)
-    else:
-        (tmp_path / "pool" / "walking").mkdir(parents=True)
-        (tmp_path / "pool" / "walking" / "a.avi").write_bytes(videos["counter"].read_bytes())
-        args = ("video", "pool", tmp_path / "pool", "--checker", "vlm", "-o", tmp_path / "m.json", *vlm)
-    code, _, err = cli(*args)
+    code, _, err = cli(*_vlm_command(command, videos, tmp_path, vlm))
     assert code == 2 and f"field '{option}': '" in err and "Allowed: a " in err
     assert not (tmp_path / "a.raw").exists() and not (tmp_path / "m.json").exists()
 
@@ -276,13 +279,7 @@ def test_cli_a_cache_dir_that_cannot_be_written_is_refused_before_any_request(ch
     (tmp_path / "notes.txt").write_text("mine")
     with chat_server([], default=ok("walking_valid_1.json")) as server:
         vlm = ("--vlm-base-url", server.url, "--vlm-model", "m", "--cache-dir", tmp_path / "notes.txt")
-        if command == "extract":
-            args = ("smp", "extract", videos["counter"], "--label", "walking", "-o", tmp_path / "a.json", *vlm)
-        else:
-            (tmp_path / "pool" / "walking").mkdir(parents=True)
-            (tmp_path / "pool" / "walking" / "a.avi").write_bytes(videos["counter"].read_bytes())
-            args = ("video", "pool", tmp_path / "pool", "--checker", "vlm", "-o", tmp_path / "m.json", *vlm)
-        code, _, err = cli(*args)
+        code, _, err = cli(*_vlm_command(command, videos, tmp_path, vlm))
     assert code == 2 and err.startswith(f"{tmp_path / 'notes.txt'}: field '--cache-dir': exists and is a file")
     assert server.requests == [] and (tmp_path / "notes.txt").read_text() == "mine"
     assert not (tmp_path / "a.raw").exists() and not (tmp_path / "m.json").exists()
