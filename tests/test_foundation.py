@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from vsmp_imu.errors import ValidationError, VsmpError
+from vsmp_imu.errors import ValidationError, VsmpError, some_of
 from vsmp_imu.io import atomic_path, read_structured, write_json
 
 
@@ -18,6 +18,27 @@ def test_error_message_names_file_field_and_allowed():
     assert text.startswith("a.json: field 'execution_attributes.tempo': bad value 'zoom'.")
     assert text.endswith("Allowed: slow, medium, fast, unknown.")
     assert isinstance(err, VsmpError)
+
+
+def test_a_long_list_in_a_message_is_cut_to_its_first_items():
+    assert some_of(["a", "b"]) == "a, b"
+    assert some_of(range(5)) == "0, 1, 2, 3, 4"
+    assert some_of(range(3000), 3) == "0, 1, 2 and 2997 more"
+
+
+def test_a_skeleton_of_thousands_of_joints_is_named_in_one_short_paragraph():
+    import numpy as np
+
+    from vsmp_imu.motion.motion import Motion
+
+    n = 3000
+    rotations = np.zeros((2, n, 4))
+    rotations[..., 3] = 1.0
+    motion = Motion(np.zeros((2, n, 3)), rotations, 30.0, tuple(f"j{i}" for i in range(n)),
+                    (-1, *range(n - 1)))
+    with pytest.raises(ValidationError) as caught:
+        motion.joint_index("pelvis")
+    assert caught.value.render().endswith("Allowed: " + ", ".join(f"j{i}" for i in range(30)) + " and 2970 more.")
 
 
 def test_atomic_write_leaves_nothing_on_failure(tmp_path):

@@ -86,3 +86,10 @@ class SampleError(VsmpError):
     a motion with non-finite joints, an SMP variant with a field out of range). The pipeline
     records the sample as failed, with this message, and goes on; any other exception in a
     sample is a bug and fails the run."""
+
+
+def some_of(items, shown: int = 5) -> str:
+    """'a, b, c, d, e and 3 more': the first `shown` of `items` (as text) for a message, so that
+    a list of thousands (a motion's joints, a folder's files) stays one paragraph."""
+    items = [str(item) for item in items]
+    return ", ".join(items[:shown]) + (f" and {len(items) - shown} more" if len(items) > shown else "")

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vsmp_imu.errors import ConfigError
+from vsmp_imu.errors import ConfigError, some_of
 from vsmp_imu.io import is_temp_name, write_json
 
 MAX_RUN_FILE_BYTES = 16 * 2**20  # a larger run file is not one a command wrote
@@ -36,8 +36,7 @@ def entries(folder: Path, field: str = "--output") -> list[Path]:
 
 def listing(found: Iterable[Path]) -> str:
     """'a, b, c, d, e and 3 more': the first names in sorted order."""
-    names = sorted(p.name for p in found)
-    return ", ".join(names[:SHOWN]) + (f" and {len(names) - SHOWN} more" if len(names) > SHOWN else "")
+    return some_of(sorted(p.name for p in found), SHOWN)
 
 
 def read_json_object(path: Path, max_bytes: int = MAX_RUN_FILE_BYTES) -> dict[str, Any] | None:

@@ -19,7 +19,7 @@ import numpy as np
 from scipy.interpolate import interp1d
 from scipy.spatial.transform import Rotation, Slerp
 
-from vsmp_imu.errors import InputFileError, ValidationError
+from vsmp_imu.errors import InputFileError, ValidationError, some_of
 from vsmp_imu.io import check_regular_file, write_bytes
 from vsmp_imu.motion.skeleton import SMPL22_JOINTS, SMPL22_PARENTS, estimate_height
 from vsmp_imu.smp.schema import MAX_MOTION_S
@@ -122,7 +122,7 @@ class Motion:
             return self.joint_names.index(name)
         except ValueError:
             raise ValidationError(
-                f"no joint named '{name}'", field="joint", allowed=", ".join(self.joint_names)
+                f"no joint named '{name}'", field="joint", allowed=some_of(self.joint_names, 30)
             ) from None
 
     def body_height_m(self) -> float:
@@ -322,8 +322,7 @@ def _check_parents(parents: tuple[int, ...]) -> None:
         raise ValidationError(f"a skeleton has one root (parent -1), this one has {roots}", field="parents")
     cut = _cut_off(parents)
     if cut:
-        shown = ", ".join(map(str, cut[:10])) + (f" and {len(cut) - 10} more" if len(cut) > 10 else "")
-        raise ValidationError(f"joint(s) {shown} do not descend from the root (a cycle in their parents)",
+        raise ValidationError(f"joint(s) {some_of(cut, 10)} do not descend from the root (a cycle in their parents)",
                               field="parents")
 
 

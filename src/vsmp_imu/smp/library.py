@@ -25,7 +25,7 @@ import pydantic
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from rapidfuzz import fuzz, process
 
-from vsmp_imu.errors import ValidationError
+from vsmp_imu.errors import ValidationError, some_of
 from vsmp_imu.io import read_structured
 from vsmp_imu.smp._text import INSTRUCTION_WORDS, NEGATION_WORDS, norm_name, words
 from vsmp_imu.smp.schema import SMP
@@ -66,8 +66,7 @@ def steering_words(label: str) -> list[str]:
 
 
 def _listing(candidates: Sequence[tuple[str, float]], shown: int = 5) -> str:
-    text = ", ".join(f"{name} ({score:.0f})" for name, score in candidates[:shown])
-    return text + (f" and {len(candidates) - shown} more" if len(candidates) > shown else "")
+    return some_of([f"{name} ({score:.0f})" for name, score in candidates], shown)
 
 
 class _LibraryFile(BaseModel):
