@@ -80,6 +80,8 @@ def _pyproject(group: Group) -> str:
         # so no cache filled by the unmutated stats run (compile_recipe, the SMP library) is inherited
         'process_isolation = "forkserver"',
         "use_git_change_detection = false",
+        # tests that check a doc's table against the code read docs/ beside tests/
+        'also_copy = ["docs"]',
         "",
     ]
     return "\n".join(lines)
@@ -92,6 +94,7 @@ def _prepare(group: Group) -> Path:
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
     shutil.copytree(ROOT / "src", where / "src", ignore=ignore)
     shutil.copytree(ROOT / "tests", where / "tests", ignore=ignore)
+    shutil.copytree(ROOT / "docs", where / "docs", ignore=ignore)
     (where / "pyproject.toml").write_text(_pyproject(group))
     return where
 

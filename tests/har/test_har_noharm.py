@@ -442,3 +442,125 @@ def test_harm_without_evidence_reports_its_count_and_mean():
     assert (empty.n, empty.p) == (0, 1.0) and math.isnan(empty.mean_change)
     flat = harm(np.zeros(50))
     assert (flat.n, flat.mean_change, flat.p) == (50, 0.0, 1.0)
+
+
+# -- what the mutation run of noharm.py found untested (docs/mutation-report.md) --------------------
+def _level_windows(labels, subject, names=("a", "b", "c")):
+    """One window per label, channel 1 at the label's value."""
+    X = np.zeros((len(labels), 20, len(CHANNELS)), np.float32)
+    X[:, :, 1] = np.asarray(labels)[:, None]
+    return Windows(X, np.asarray(labels), np.full(len(labels), subject), names, CHANNELS, 10.0)
+
+
+class _FixedModel:
+    """Gives every window probability `p_true` for its own class (its level), the rest spread evenly."""
+
+    def __init__(self, p_true: float, n_classes: int = 3):
+        self.p_true, self.classes_ = p_true, np.arange(n_classes)
+
+    def predict_proba(self, X):
+        level = np.rint(X[:, 0, 1]).astype(int)
+        out = np.full((len(X), len(self.classes_)), (1 - self.p_true) / (len(self.classes_) - 1))
+        out[np.arange(len(X)), level] = self.p_true
+        return out
+
+
+def test_true_class_score_weighs_each_class_alike():
+    from vsmp_imu.har.noharm import true_class_score
+
+    proba = np.array([[0.9, 0.05, 0.05], [0.7, 0.2, 0.1], [0.2, 0.6, 0.2], [0.4, 0.4, 0.2]])
+    labels = np.array([0, 0, 1, 2])
+    # class 0: (0.9 + 0.7) / 2 = 0.8; class 1: 0.6; class 2: 0.2; each class weighs a third
+    assert true_class_score(proba, labels) == pytest.approx(1.6 / 3)
+
+
+def test_amount_takes_the_best_share_even_where_every_score_rounds_alike():
+    """Share 0.25 scores 0.9, every other 0.8 (both round to 1): 0.25 is chosen, and the reason
+    lists every share's score."""
+    real, val = _level_windows([0, 1, 2] * 4, "1"), _level_windows([0, 1, 2] * 5, "2")
+    synthetic = _level_windows([0] * 8 + [1] * 8 + [2] * 8, "synthetic")
+    quarter = len(real) + 6  # two windows of each class
+
+    choice = ShareSelector("amount").choose(lambda w: _FixedModel(0.9 if len(w) == quarter else 0.8),
+                                            real, synthetic, val)
+    assert {s.share for s in choice.values()} == {0.25}
+    assert choice[0].reason == ("share 0.25 chosen: validation p(true class), classes weighted equally, per share "
+                                "0: 0.8000, 0.125: 0.8000, 0.25: 0.9000, 0.5: 0.8000, 1: 0.8000")
+    assert (choice[1].offered, choice[1].kept, choice[1].n_val, choice[1].judged) == (8, 2, 5, True)
+
+
+def test_amount_without_validation_windows_of_a_class_says_it_was_not_judged():
+    real, synthetic = _level_windows([0, 1, 2] * 4, "1"), _level_windows([0, 1, 2] * 4, "synthetic")
+    choice = ShareSelector("amount").choose(lambda w: _FixedModel(0.8), real, synthetic,
+                                            _level_windows([0, 1] * 5, "2"))
+    assert choice[2].judged is False and choice[2].n_val == 0 and choice[0].judged is True
+    one = ShareSelector("amount").choose(lambda w: _FixedModel(0.8), real, synthetic, _level_windows([0, 1, 2], "2"))
+    assert one[2].judged is True and one[2].n_val == 1
+    nothing = ShareSelector("amount").choose(lambda w: _FixedModel(0.8), real, synthetic, real[:0])
+    assert [(s.share, s.offered, s.kept) for s in nothing.values()] == [(1.0, 4, 4)] * 3
+    assert nothing[0].reason == "no validation windows: kept all (the amount cannot be chosen)"
+
+
+def test_every_class_after_an_unjudged_one_gets_its_own_choice():
+    """Class 0 has too few validation windows of its own (kept unjudged, with its counts); the classes
+    after it are still judged."""
+    from vsmp_imu.har.noharm import MIN_OWN_VALIDATION
+
+    real = _level_windows([0, 1, 2] * 4, "1")
+    val = _level_windows([0] + [1, 2] * MIN_OWN_VALIDATION, "2")
+    synthetic = _level_windows([0] * 3 + [1] * 5 + [2] * 7, "synthetic")
+    choice = ShareSelector("class").choose(lambda w: _FixedModel(0.8), real, synthetic, val)
+    assert sorted(choice) == [0, 1, 2]
+    assert (choice[0].share, choice[0].offered, choice[0].kept, choice[0].judged) == (1.0, 3, 3, False)
+    assert choice[0].reason == (f"kept unjudged: 1 validation window of the class, fewer than {MIN_OWN_VALIDATION} "
+                                "(the others' windows alone would charge the class for being learnt at all)")
+    assert choice[1].judged is True and choice[2].judged is True
+    assert (choice[2].offered, choice[2].kept) == (7, 7)  # no change in p: no harm, kept
+
+
+def test_one_synthetic_window_is_enough_to_be_judged():
+    from vsmp_imu.har.noharm import MIN_OWN_VALIDATION
+
+    real = _level_windows([0, 1, 2] * 4, "1")
+    val = _level_windows([0, 1, 2] * MIN_OWN_VALIDATION, "2")
+    one = _level_windows([1], "synthetic")
+    for mode in ("class", "method"):
+        choice = ShareSelector(mode).choose(lambda w: _FixedModel(0.8), real, one, val)
+        assert list(choice) == [1] and choice[1].judged is True and choice[1].offered == 1
+
+
+def test_the_method_guard_on_a_class_without_validation_windows_reports_no_mean():
+    """Only the first of three classes offers windows, and the last class has no validation window:
+    the method's decision covers the offered class, and the class without windows of its own reports
+    no mean change and no judgement of its own."""
+    real = _level_windows([0, 1, 2] * 4, "1")
+    val = _level_windows([0, 1] * 10, "2")
+    synthetic = _level_windows([0] * 4, "synthetic")
+    assert list(ShareSelector("method").choose(lambda w: _FixedModel(0.8), real, synthetic, val)) == [0]
+    synthetic = _level_windows([0] * 4 + [2] * 4, "synthetic")
+    choice = ShareSelector("method").choose(lambda w: _FixedModel(0.8), real, synthetic, val)
+    assert choice[2].mean_change is None and choice[2].judged is False and choice[0].judged is True
+    assert choice[0].mean_change == 0.0
+
+
+def test_an_older_record_with_one_validation_window_was_judged():
+    from vsmp_imu.har.noharm import unjudged
+
+    assert unjudged({"share": 1.0, "n_val": 0}) and not unjudged({"share": 1.0, "n_val": 1})
+
+
+def test_the_class_guard_fits_nothing_where_only_unjudged_classes_offer_windows():
+    """Classes 0 and 1 have validation windows enough but offer no synthetic window; class 2 offers
+    some but has too few validation windows: nothing to decide, so no backbone is fitted."""
+    from vsmp_imu.har.noharm import MIN_OWN_VALIDATION
+
+    fits = []
+
+    def counted(windows):
+        fits.append(len(windows))
+        return _FixedModel(0.8)
+
+    real = _level_windows([0, 1, 2] * 4, "1")
+    val = _level_windows([0, 1] * MIN_OWN_VALIDATION + [2], "2")
+    choice = ShareSelector("class").choose(counted, real, _level_windows([2] * 5, "synthetic"), val)
+    assert fits == [] and list(choice) == [2] and choice[2].judged is False
