@@ -69,12 +69,13 @@ def test_out_of_range_options_exit_2(cli, tmp_path, args, option, allowed):
 
 
 @pytest.mark.parametrize("value", ["0.999", "0.95", "-1", "nan", "inf"])
-@pytest.mark.parametrize("command", ["evaluate", "dataset info"])
-def test_overlap_is_bounded_alike_in_evaluate_and_dataset_info(cli, tmp_path, command, value):
-    """A hop of a thousandth of a window made a thousand times the windows (GBs in a minute): both
-    commands take 0..0.9 and say so in the same words, before the dataset loads."""
-    args = (("evaluate", "--dataset", "hapt", "-o", tmp_path / "out") if command == "evaluate"
-            else ("dataset", "info", "hapt"))
+@pytest.mark.parametrize("command", ["evaluate", "dataset info", "generate"])
+def test_overlap_is_bounded_alike_in_every_windowing_command(cli, tmp_path, command, value):
+    """A hop of a thousandth of a window made a thousand times the windows (GBs in a minute): the
+    commands take 0..0.9 and say so in the same words, before the dataset loads (generate took 0.95)."""
+    args = {"evaluate": ("evaluate", "--dataset", "hapt", "-o", tmp_path / "out"),
+            "dataset info": ("dataset", "info", "hapt"),
+            "generate": ("generate", "--dataset", "hapt", "--holdout", "1", "-o", tmp_path / "out")}[command]
     code, _, err = cli(*args, "--overlap", value)
     text = " ".join(err.replace("│", " ").split())
     assert code == 2 and f"Invalid value for '--overlap': must be a finite number in 0..0.9, not {value}" in text

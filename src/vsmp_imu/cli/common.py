@@ -323,7 +323,7 @@ SPEC_OPTIONS = {"source": "--source", "backend": "--backend", "k": "--k", "k_uns
                 "level_parts": "--level-parts", "refill": "--refill", "workers": "--workers",
                 "executor": "--executor", "unseen_intensity": "--unseen-intensity"}
 
-# The windows of `evaluate`, `dataset info` and `data check` (one definition, one help text).
+# The windows of `evaluate`, `generate`, `dataset info` and `data check` (one definition, one help text).
 MAX_OVERLAP = 0.9  # a hop of a tenth of a window: ten times the windows of no overlap
 WINDOW_S = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0), help="window length in seconds, 0.5..30")
 OVERLAP = typer.Option(0.5, "--overlap", callback=finite_range(0.0, MAX_OVERLAP),
