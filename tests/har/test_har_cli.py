@@ -39,8 +39,10 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
     "args,option,allowed",
     [
         (("--alpha", "5"), "--alpha", "0.1 <= alpha <= 2"),
-        (("--protocol", "low-resource", "--budgets", "0,5"), "--budgets", "(0, 100]"),
-        (("--protocol", "low-resource", "--budgets", "150"), "--budgets", "(0, 100]"),
+        (("--protocol", "low-resource", "--budgets", "0,5"), "--budgets", "[0.01, 100]"),
+        (("--protocol", "low-resource", "--budgets", "150"), "--budgets", "[0.01, 100]"),
+        (("--protocol", "low-resource", "--budgets", "1e-9"), "--budgets", "[0.01, 100]"),  # 1 window a class
+        (("--protocol", "tstr", "--budgets", "0.001"), "--budgets", "[0.01, 100]"),
         (("--budgets", "5"), "--budgets", "low-resource"),
         (("--folds", "1,99"), "--folds", "subjects 1, 2, 3"),
         (("--seeds", "0"), "--seeds", ">= 1"),
@@ -53,7 +55,9 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
         (("--workers", "0"), "--workers", ">= 1"),
         (("--max-epochs", "0"), "--max-epochs", ">= 1"),
         (("--policy", "greedy"), "--policy", "uniform, tail, scarcity"),
-        (("--protocol", "long-tail", "--rho", "1"), "--rho", "rho > 1"),
+        (("--protocol", "long-tail", "--rho", "1"), "--rho", "1 < rho <= 1000"),
+        (("--protocol", "long-tail", "--rho", "1e12"), "--rho", "1 < rho <= 1000"),  # the tails at 1 window
+        (("--protocol", "long-tail", "--rho", "inf"), "--rho", "1 < rho <= 1000"),
         (("--backbones", "dclstm", "--device", "tpu9"), "--device", "cpu, cuda, cuda:N, mps, auto"),
         (("--class-weight", "equal"), "--class-weight", "none, balanced"),
         (("--class-weight", "none,balanced"), "--class-weight", "none, balanced"),
