@@ -143,13 +143,16 @@ def output_file(path: Path | None, option: str = "--output") -> Path | None:
     return path
 
 
-def output_suffix(path: Path, suffix: str, what: str, option: str = "--output") -> None:
+def output_suffix(path: Path, suffix: str | tuple[str, ...], what: str, option: str = "--output") -> None:
     """The file a command writes in one format must be named for it: a motion written to
-    'x.parquet' would be a zip under a name that says otherwise."""
-    if path.suffix.lower() != suffix:
+    'x.parquet' would be a zip under a name that says otherwise. `suffix`: one, or the suffixes
+    of the formats the writer picks by name ('.json', '.yaml', '.yml')."""
+    suffixes = (suffix,) if isinstance(suffix, str) else suffix
+    if path.suffix.lower() not in suffixes:
         given = f"'{path.suffix}'" if path.suffix else "a name without one"
-        raise ConfigError(f"{what} is written as {suffix}, not under {given}", file=path,
-                          field=option, allowed=f"a file name ending in {suffix}")
+        named = suffixes[0] if len(suffixes) == 1 else f"{', '.join(suffixes[:-1])} or {suffixes[-1]}"
+        raise ConfigError(f"{what} is written as {named}, not under {given}", file=path,
+                          field=option, allowed=f"a file name ending in {named}")
 
 
 def output_dir(path: Path | None, option: str = "--output") -> Path | None:
