@@ -109,6 +109,14 @@ def _umask() -> int:
     return mask
 
 
+def file_name_part(text: object) -> str:
+    """A user's text (a dataset, class or label name) as part of a file name: a path separator
+    or a control character in it becomes '-'. A class 'sit/stand' or '../x' would put the file
+    in another folder, or outside the output folder. Join the part to other text (a prefix), so
+    that a name '..' alone never becomes the whole file name."""
+    return re.sub(r"[/\\\x00-\x1f\x7f]", "-", str(text))
+
+
 IMAGE_SUFFIXES = (".png", ".svg", ".pdf", ".jpg", ".jpeg", ".webp", ".tif", ".tiff", ".eps", ".ps")
 
 

@@ -39,8 +39,10 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
     "args,option,allowed",
     [
         (("--alpha", "5"), "--alpha", "0.1 <= alpha <= 2"),
-        (("--protocol", "low-resource", "--budgets", "0,5"), "--budgets", "(0, 100]"),
-        (("--protocol", "low-resource", "--budgets", "150"), "--budgets", "(0, 100]"),
+        (("--protocol", "low-resource", "--budgets", "0,5"), "--budgets", "[0.01, 100]"),
+        (("--protocol", "low-resource", "--budgets", "150"), "--budgets", "[0.01, 100]"),
+        (("--protocol", "low-resource", "--budgets", "1e-9"), "--budgets", "[0.01, 100]"),  # 1 window a class
+        (("--protocol", "tstr", "--budgets", "0.001"), "--budgets", "[0.01, 100]"),
         (("--budgets", "5"), "--budgets", "low-resource"),
         (("--folds", "1,99"), "--folds", "subjects 1, 2, 3"),
         (("--seeds", "0"), "--seeds", ">= 1"),
@@ -53,7 +55,9 @@ def test_dataset_info_json_for_fixture(cli, fixtures_dir):
         (("--workers", "0"), "--workers", ">= 1"),
         (("--max-epochs", "0"), "--max-epochs", ">= 1"),
         (("--policy", "greedy"), "--policy", "uniform, tail, scarcity"),
-        (("--protocol", "long-tail", "--rho", "1"), "--rho", "rho > 1"),
+        (("--protocol", "long-tail", "--rho", "1"), "--rho", "1 < rho <= 1000"),
+        (("--protocol", "long-tail", "--rho", "1e12"), "--rho", "1 < rho <= 1000"),  # the tails at 1 window
+        (("--protocol", "long-tail", "--rho", "inf"), "--rho", "1 < rho <= 1000"),
         (("--backbones", "dclstm", "--device", "tpu9"), "--device", "cpu, cuda, cuda:N, mps, auto"),
         (("--class-weight", "equal"), "--class-weight", "none, balanced"),
         (("--class-weight", "none,balanced"), "--class-weight", "none, balanced"),
@@ -69,12 +73,13 @@ def test_out_of_range_options_exit_2(cli, tmp_path, args, option, allowed):
 
 
 @pytest.mark.parametrize("value", ["0.999", "0.95", "-1", "nan", "inf"])
-@pytest.mark.parametrize("command", ["evaluate", "dataset info"])
-def test_overlap_is_bounded_alike_in_evaluate_and_dataset_info(cli, tmp_path, command, value):
-    """A hop of a thousandth of a window made a thousand times the windows (GBs in a minute): both
-    commands take 0..0.9 and say so in the same words, before the dataset loads."""
-    args = (("evaluate", "--dataset", "hapt", "-o", tmp_path / "out") if command == "evaluate"
-            else ("dataset", "info", "hapt"))
+@pytest.mark.parametrize("command", ["evaluate", "dataset info", "generate"])
+def test_overlap_is_bounded_alike_in_every_windowing_command(cli, tmp_path, command, value):
+    """A hop of a thousandth of a window made a thousand times the windows (GBs in a minute): the
+    commands take 0..0.9 and say so in the same words, before the dataset loads (generate took 0.95)."""
+    args = {"evaluate": ("evaluate", "--dataset", "hapt", "-o", tmp_path / "out"),
+            "dataset info": ("dataset", "info", "hapt"),
+            "generate": ("generate", "--dataset", "hapt", "--holdout", "1", "-o", tmp_path / "out")}[command]
     code, _, err = cli(*args, "--overlap", value)
     text = " ".join(err.replace("│", " ").split())
     assert code == 2 and f"Invalid value for '--overlap': must be a finite number in 0..0.9, not {value}" in text

@@ -9,6 +9,8 @@ from hypothesis import strategies as st
 
 from vsmp_imu.errors import ConfigError
 from vsmp_imu.har.protocols import (
+    MAX_RHO,
+    MIN_BUDGET,
     choose_val_subjects,
     head_tail,
     long_tail_counts,
@@ -99,9 +101,37 @@ def test_parse_budgets():
     assert parse_budgets(None, "low-resource") == (1.0, 5.0, 10.0, 25.0, 50.0)
     assert parse_budgets("1,5%", "low-resource") == (1.0, 5.0)
     assert parse_budgets("5", "lopo") == (None,)
-    for bad in ("0", "150", "x", "-1"):
+    for bad in ("0", "150", "x", "-1", "1e-9", "0.009"):
         with pytest.raises(ConfigError, match="--budgets"):
             parse_budgets(bad, "low-resource")
+    assert parse_budgets("0.01", "low-resource") == (0.01,)
+
+
+def test_budgets_below_the_smallest_only_repeat_it():
+    """MIN_BUDGET's reason: a class keeps 1 window at least, so below 0.01 % a class of up to 5000
+    windows keeps its 1 window whatever the budget; a smaller budget is the same protocol."""
+    counts = np.array([5000, 2449, 164, 1])
+    floor = low_resource_counts(counts, MIN_BUDGET)
+    assert floor.tolist() == [1, 1, 1, 1]
+    assert all((low_resource_counts(counts, b) == floor).all() for b in (1e-3, 1e-9))
+
+
+def test_rho_above_the_largest_class_is_not_delivered():
+    """MAX_RHO's reason: the tail keeps 1 window at least, so a ratio above the largest class's
+    windows is not the ratio trained on (HAPT12's pool: ~2450 windows in its largest class)."""
+    counts = np.array([2449, 2300, 2200, 1800, 250, 164])
+    assert long_tail_counts(counts, MAX_RHO).tolist() == [2449, 615, 155, 39, 10, 2]  # 1224:1, near 1000
+    assert long_tail_counts(counts, 1e12).tolist() == [2449, 10, 1, 1, 1, 1]  # 2449:1, four classes at 1
+
+
+@pytest.mark.parametrize("rho", [1.0, 1000.001, 1e12, float("inf"), float("nan")])
+def test_eval_config_refuses_a_rho_outside_1_to_1000(rho):
+    from vsmp_imu.har.evaluate import EvalConfig
+
+    with pytest.raises(ConfigError) as err:
+        EvalConfig("x", protocol="long-tail", rho=rho).check()
+    assert err.value.field == "--rho" and err.value.allowed == "1 < rho <= 1000"
+    assert EvalConfig("x", protocol="long-tail", rho=1000.0).check().rho == 1000.0
 
 
 def test_eval_config_budgets_follow_the_protocol():
@@ -118,3 +148,5 @@ def test_eval_config_budgets_follow_the_protocol():
         EvalConfig("x", protocol="tstr", budgets=(150.0,)).check()
     with pytest.raises(ConfigError, match="out of range"):
         EvalConfig("x", protocol="low-resource", budgets=(0.0,)).check()
+    with pytest.raises(ConfigError, match="out of range"):
+        EvalConfig("x", protocol="low-resource", budgets=(1e-9,)).check()

@@ -194,7 +194,7 @@ def test_parse_budgets_details():
         with pytest.raises(ConfigError) as err:
             parse_budgets(bad, "low-resource")
         assert err.value.message == message and err.value.field == "--budgets"
-        assert err.value.allowed == "percentages in (0, 100], e.g. 1,5,10,25,50"
+        assert err.value.allowed == "percentages in [0.01, 100], e.g. 1,5,10,25,50"
 
 
 def test_take_budget_draws_only_for_classes_over_budget():
@@ -248,13 +248,13 @@ def test_split_fold_draws_from_its_named_streams(tiny_dataset, protocol, budget)
     assert np.array_equal(split.val.X, pool.where_subjects(val).X)
 
 
-@pytest.mark.parametrize("budget", [None, 0.0, -1.0, 100.5])
+@pytest.mark.parametrize("budget", [None, 0.0, -1.0, 100.5, 1e-9])
 def test_split_fold_rejects_a_budget_out_of_range(tiny_dataset, budget):
     from vsmp_imu.har.protocols import split_fold
 
     windows = tiny_dataset.windows(window_s=2.0, overlap=0.5)
     with pytest.raises(ConfigError) as err:
         split_fold(windows, "3", "low-resource", seed=0, budget_percent=budget)
-    assert err.value.field == "budgets" and err.value.allowed == "0 < budget <= 100 (percent)"
+    assert err.value.field == "budgets" and err.value.allowed == "0.01 <= budget <= 100 (percent)"
     assert err.value.message == f"label budget {budget} out of range"
     assert len(split_fold(windows, "3", "low-resource", seed=0, budget_percent=100.0).fit) > 0

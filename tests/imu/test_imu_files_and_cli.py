@@ -66,6 +66,29 @@ def test_bad_csv_raises_input_file_error(tmp_path, text, match):
         read_imu_csv(path)
 
 
+@pytest.mark.parametrize("header, repeated", [
+    ("time_s,acc_x,acc_y,acc_x", "'acc_x'"),  # pandas read the second as 'acc_x.1'
+    ("time_s,acc_x,time_s,acc_y,acc_y", "'time_s', 'acc_y'"),
+    ('time_s,"a,b",a,"a,b"', "'a,b'"),  # a quoted name with a comma is one name
+])
+def test_a_column_named_twice_is_refused_naming_the_file_and_the_column(tmp_path, header, repeated):
+    path = tmp_path / "dup.csv"
+    n = header.count(",")
+    path.write_text("# fs_hz: 50\n" + header + "\n" + "".join(f"{t / 50}" + ",1" * n + "\n" for t in range(3)))
+    with pytest.raises(InputFileError) as err:
+        read_imu_csv(path)
+    assert err.value.file == str(path)
+    assert err.value.message == f"column(s) named more than once in the header: {repeated}"
+
+
+def test_cli_plot_of_a_csv_with_a_column_named_twice_exits_2(cli, tmp_path):
+    path = tmp_path / "dup.csv"
+    path.write_text("time_s,acc_x,acc_y,acc_x\n0,1,2,3\n0.02,1,2,3\n0.04,1,2,3\n")
+    code, _, err = cli("imu", "plot", path, "-o", tmp_path / "d.png")
+    assert code == 2 and "dup.csv" in err and "named more than once in the header: 'acc_x'" in err, err
+    assert not (tmp_path / "d.png").exists()
+
+
 def test_recording_checks_its_shape():
     with pytest.raises(ValidationError, match="channel names"):
         ImuRecording(np.zeros((5, 6)), ("acc_x",), 50.0)

@@ -182,6 +182,8 @@ def test_cli_user_mistakes_exit_2(cli, tmp_path, monkeypatch, args, words):
     (("motion", "synth", "walking", "--seed", "0", "-o", "w"), "w: field '--output': a motion is written as .npz, not "
      "under a name without one."),
     (("motion", "resample", "w.npz", "--fps", "60", "-o", "w.csv"), "w.csv: field '--output': a motion is written as .npz"),
+    (("motion", "bvh", "w.npz", "-o", "w.txt"),  # a BVH text went into 'w.txt'
+     "w.txt: field '--output': a BVH motion is written as .bvh, not under '.txt'. Allowed: a file name ending in .bvh."),
     (("imu", "simulate", "w.npz", "-o", "w.parquet"),
      "w.parquet: field '--output': an IMU recording is written as .csv, not under '.parquet'. Allowed: a file name "
      "ending in .csv."),

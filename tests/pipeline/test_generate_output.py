@@ -98,3 +98,40 @@ def test_claim_refuses_another_fold(tmp_path, other):
         claim_output(tmp_path, *other)
     assert err.value.field == "--output" and err.value.file == str(tmp_path)
     assert "for d with held-out subject p1" in err.value.message
+
+
+def test_a_class_name_with_separators_stays_one_file_name_inside_the_output(cli, tmp_path):
+    """The class is the user's text and goes into the names of smps/ and motions/: a '/' or '..'
+    never leaves the folder, and a backslash (a separator on Windows) is made '-' as in the
+    confusion figures' names (it was kept: 'holdout-p1__walk__..__x\\y__0000.json')."""
+    import shutil
+
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    root = tmp_path / "g"
+    shutil.copytree(GENERIC.parent, root)
+    label = "walk/../x\\y"
+    yaml_path = root / "dataset.yaml"
+    yaml_path.write_text(yaml_path.read_text().replace("labels: [walk, sit]", 'labels: ["walk/../x\\\\y", sit]'))
+    for csv in (root / "data").glob("*.csv"):
+        csv.write_text(csv.read_text().replace(",walk,", f",{label},"))
+    (root / "smps").mkdir()
+    library = ActivityLibrary.load()
+    for activity, name in (("walking", label), ("sitting", "sit")):
+        smp = library.get(activity).smp.model_dump(mode="json")
+        (root / "smps" / f"{activity}.json").write_text(json.dumps({**smp, "activity_label": name}))
+    out = tmp_path / "out"
+    code, _, err = cli("generate", "--dataset", yaml_path, "--holdout", "p1", "-o", out, "--k", "1", "--alpha", "0.2",
+                       "--source", f"smp:{root / 'smps'}")
+    assert code == 0, err
+    for folder, suffix in (("smps", ".json"), ("motions", ".npz")):
+        names = sorted(p.name for p in (out / folder).iterdir())
+        assert f"holdout-p1__walk__..__x-y__0000{suffix}" in names, names
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g", "out"]  # nothing beside the output folder
+
+
+def test_a_sample_file_stem_is_one_name_whatever_the_class():
+    from vsmp_imu.pipeline.sample import sample_stem
+
+    assert sample_stem("holdout-1/WALKING/0003") == "holdout-1__WALKING__0003"  # the names as they were
+    assert sample_stem("1/../../x\\y\n\x1b[31m/0000") == "1__..__..__x-y--[31m__0000"

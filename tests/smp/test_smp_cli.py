@@ -246,3 +246,36 @@ def test_library_list_fits_an_80_column_terminal(library):
     for entry in library:
         assert set(entry.smp.primitive_sequence) <= words, entry.name
         assert len(entry.name) > 20 or entry.name in words, entry.name
+
+
+SMP_WORDS = "an SMP is written as .json, .yaml or .yml"
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (("library", "show", "walking", "-o", "w.txt"), f"w.txt: field '--output': {SMP_WORDS}, not under '.txt'"),
+    (("repair", "raw.txt", "-o", "s"), f"s: field '--output': {SMP_WORDS}, not under a name without one"),
+    (("aggregate", "raw.txt", "raw.txt", "raw.txt", "-o", "s.npz"), f"{SMP_WORDS}, not under '.npz'"),
+    (("refine", "jj.json", "-o", "s.csv"), f"{SMP_WORDS}, not under '.csv'"),
+    (("intervene", "jj.json", "--attribute", "tempo", "--level", "fast", "-o", "s.jsonl"),
+     f"{SMP_WORDS}, not under '.jsonl'"),
+    (("extract", "clip.mp4", "--label", "walking", "--extractor", "pose", "-o", "s.txt"),
+     f"{SMP_WORDS}, not under '.txt'"),
+    (("augment", "jj.json", "-k", "2", "-o", "v.json"),
+     "v.json: field '--output': a file of SMP variants (one a line) is written as .jsonl, not under '.json'"),
+])
+def test_an_smp_output_named_for_another_format_is_refused(cli, tmp_path, jj, monkeypatch, args, says):
+    """Every smp command took any -o name: an SMP went into 's.csv' as JSON (and variants into
+    'v.json' as JSON lines), under a name that said another format."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "jj.json").write_text(jj.model_dump_json())
+    (tmp_path / "raw.txt").write_text(jj.model_dump_json())
+    code, _, err = cli("smp", *args)
+    assert code == 2 and says in " ".join(err.split()), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["jj.json", "raw.txt"]
+
+
+@pytest.mark.parametrize("name", ["s.json", "s.yaml", "s.YML"])
+def test_an_smp_output_takes_each_format_save_smp_writes(cli, tmp_path, jj_file, name):
+    code, _, err = cli("smp", "refine", jj_file, "-o", tmp_path / name)
+    assert code == 0, err
+    assert load_smp(tmp_path / name).activity_label == "jumping jacks"

@@ -45,13 +45,14 @@ def no_work(monkeypatch):
     (("ablation", "--alpha", "5"), "'--alpha': must be a finite number in 0.1..2, not 5"),
     (("ablation", "--alphas", "0.5,3"), "'--alphas': each value must be a finite number in 0.1..2, not '3'"),
     (("ablation", "--alphas", "0.5,half"), "'--alphas': each value must be a finite number in 0.1..2, not 'half'"),
-    (("ablation", "--budget", "0"), "'--budget': must be a finite number above 0 and at most 100, not 0"),
+    (("ablation", "--budget", "0"), "'--budget': must be a finite number in 0.01..100, not 0"),
+    (("ablation", "--budget", "1e-09"), "'--budget': must be a finite number in 0.01..100, not 1e-09"),
     (("granularity", "--workers", "0"), "'--workers': must be an integer in 1..256, not 0"),
     (("granularity", "--k", "0"), "'--k': must be an integer in 1..64, not 0"),
     (("granularity", "--max-epochs", "0"), "'--max-epochs': must be an integer in 1..100000, not 0"),
     (("granularity", "--alpha", "nan"), "'--alpha': must be a finite number in 0.1..2, not nan"),
     (("granularity", "--protocol", "low-resource", "--budget", "inf"),
-     "'--budget': must be a finite number above 0 and at most 100, not inf"),
+     "'--budget': must be a finite number in 0.01..100, not inf"),
     (("audit", "--pred", "p", "--ref", "r", "--min-valid", "101"), "'--min-valid': must be an integer in 1..100, not 101"),
 ])
 def test_a_number_out_of_range_is_refused_before_any_work(cli, tmp_path, args, says):

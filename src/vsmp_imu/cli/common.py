@@ -143,13 +143,16 @@ def output_file(path: Path | None, option: str = "--output") -> Path | None:
     return path
 
 
-def output_suffix(path: Path, suffix: str, what: str, option: str = "--output") -> None:
+def output_suffix(path: Path, suffix: str | tuple[str, ...], what: str, option: str = "--output") -> None:
     """The file a command writes in one format must be named for it: a motion written to
-    'x.parquet' would be a zip under a name that says otherwise."""
-    if path.suffix.lower() != suffix:
+    'x.parquet' would be a zip under a name that says otherwise. `suffix`: one, or the suffixes
+    of the formats the writer picks by name ('.json', '.yaml', '.yml')."""
+    suffixes = (suffix,) if isinstance(suffix, str) else suffix
+    if path.suffix.lower() not in suffixes:
         given = f"'{path.suffix}'" if path.suffix else "a name without one"
-        raise ConfigError(f"{what} is written as {suffix}, not under {given}", file=path,
-                          field=option, allowed=f"a file name ending in {suffix}")
+        named = suffixes[0] if len(suffixes) == 1 else f"{', '.join(suffixes[:-1])} or {suffixes[-1]}"
+        raise ConfigError(f"{what} is written as {named}, not under {given}", file=path,
+                          field=option, allowed=f"a file name ending in {named}")
 
 
 def output_dir(path: Path | None, option: str = "--output") -> Path | None:
@@ -323,7 +326,7 @@ SPEC_OPTIONS = {"source": "--source", "backend": "--backend", "k": "--k", "k_uns
                 "level_parts": "--level-parts", "refill": "--refill", "workers": "--workers",
                 "executor": "--executor", "unseen_intensity": "--unseen-intensity"}
 
-# The windows of `evaluate`, `dataset info` and `data check` (one definition, one help text).
+# The windows of `evaluate`, `generate`, `dataset info` and `data check` (one definition, one help text).
 MAX_OVERLAP = 0.9  # a hop of a tenth of a window: ten times the windows of no overlap
 WINDOW_S = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0), help="window length in seconds, 0.5..30")
 OVERLAP = typer.Option(0.5, "--overlap", callback=finite_range(0.0, MAX_OVERLAP),

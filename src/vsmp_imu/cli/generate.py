@@ -9,7 +9,9 @@ import typer
 
 from vsmp_imu.cli.common import (
     K_UNSEEN,
+    OVERLAP,
     SPEC_OPTIONS,
+    WINDOW_S,
     K,
     console,
     executor_options,
@@ -41,8 +43,8 @@ def generate_cmd(
     policy: str = typer.Option("scarcity", "--policy", help="Budget policy: uniform | tail | scarcity "
                                "(the paper: uniform)"),
     seed: int = typer.Option(0, "--seed"),
-    window_s: float = typer.Option(2.0, "--window-s", callback=finite_range(0.5, 30.0)),
-    overlap: float = typer.Option(0.5, "--overlap", callback=finite_range(0.0, 0.95)),
+    window_s: float = WINDOW_S,
+    overlap: float = OVERLAP,
     data_dir: Path | None = typer.Option(None, "--data-dir", help="Folder of a dataset we do not ship"),
     workers: int = typer.Option(1, "--workers", min=1, max=256, help="Parallel workers"),
     executor: str = typer.Option("local", "--executor", help="local | ray"),

@@ -127,8 +127,9 @@ def evaluate_cmd(
              "group such as transitions), or 'each' for leave-one-class-out",
     ),
     budgets: str = typer.Option(
-        None, "--budgets", help="label budgets in percent for low-resource (default 1,5,10,25,50) "
-                                "and tstr (default: every window grounds the synthetic ones)"
+        None, "--budgets", help="label budgets in percent, 0.01..100, for low-resource (default 1,5,10,25,50) "
+                                "and tstr (default: every window grounds the synthetic ones); a class keeps at "
+                                "least 1 window, so a smaller budget would only repeat 0.01's"
     ),
     backbones: str = typer.Option("rf", "--backbones", help="rf,rf-seg,dclstm,dclstm-attn,bilstm-attn"),
     methods: str = typer.Option(
@@ -147,7 +148,9 @@ def evaluate_cmd(
         None, "--policy", show_default=False,
         help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform) "
              "[default: uniform for tstr, tail for unseen, else scarcity]"),
-    rho: float = typer.Option(10.0, "--rho", help="long-tail: head-to-tail imbalance ratio (> 1)"),
+    rho: float = typer.Option(
+        10.0, "--rho", help="long-tail: head-to-tail imbalance ratio, above 1 and at most 1000 (a class keeps at "
+                            "least 1 window, so a ratio above the largest class's windows is not delivered)"),
     window_s: float = WINDOW_S,
     overlap: float = OVERLAP,
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),

@@ -147,12 +147,13 @@ def render_cmd(
 @motion_app.command("bvh")
 def bvh_cmd(
     motion_file: Path = typer.Argument(..., help="motion file (.npz)"),
-    output: Path = typer.Option(..., "-o", "--output", help="BVH file to write"),
+    output: Path = typer.Option(..., "-o", "--output", help="BVH file to write (.bvh)"),
     scale: float = typer.Option(1.0, "--scale", help="unit scale, 0.01..1000 (1 = metres, 100 = centimetres)"),
 ) -> None:
     """Export a motion as BVH (opens in Blender)."""
     output_file(output)
     distinct_files({"--output": output}, {"the input motion": motion_file})
+    output_suffix(output, ".bvh", "a BVH motion")
     from vsmp_imu.motion.bvh import check_scale, write_bvh
 
     with option_names({"scale": "--scale"}):

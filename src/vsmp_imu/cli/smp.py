@@ -22,6 +22,7 @@ from vsmp_imu.cli.common import (
     int_range,
     library_dirs,
     output_file,
+    output_suffix,
     safe_text,
     shown,
 )
@@ -31,6 +32,7 @@ from vsmp_imu.smp import load_smp, save_smp, smp_json_schema
 from vsmp_imu.smp.aggregate import aggregate, library_activity
 from vsmp_imu.smp.augment import SMPAugmenter, check_output_size
 from vsmp_imu.smp.intervene import ATTRIBUTES, intervene
+from vsmp_imu.smp.io import SMP_SUFFIXES
 from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.smp.refine import Refiner, RefineResult
 from vsmp_imu.smp.repair import RepairReport, parse_response
@@ -93,6 +95,13 @@ def _print_refine(result: RefineResult) -> None:
                       highlight=False, markup=False)
 
 
+def smp_suffix(output: Path | None) -> None:
+    """-o of a command that writes one SMP: a file named for its format, .json or .yaml
+    (None: the SMP is printed)."""
+    if output is not None:
+        output_suffix(output, SMP_SUFFIXES, "an SMP")
+
+
 def _write_or_print(smp: SMP, output: Path | None) -> None:
     if output is None:
         typer.echo(json.dumps(smp.model_dump(mode="json"), indent=2, sort_keys=True))
@@ -152,19 +161,21 @@ def library_show_cmd(
 ) -> None:
     """Print (or write) an activity's library SMP."""
     output_file(output)
+    smp_suffix(output)
     _write_or_print(_library(library).get(name).smp, output)
 
 
 @smp_app.command("repair")
 def repair_cmd(
     raw: Path = typer.Argument(..., help="Raw model response (any text)"),
-    output: Path | None = typer.Option(None, "-o", "--output", help="Write the repaired SMP here"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the repaired SMP here (.json/.yaml)"),
     report_file: Path | None = typer.Option(None, "--report", help="Write the repair report (JSON)"),
 ) -> None:
     """Parse and repair one raw response; exit 2 with the reason when it is rejected."""
     output_file(output)
     output_file(report_file, "--report")
     distinct_files({"--output": output, "--report": report_file}, {"the raw response": raw})
+    smp_suffix(output)
     result = parse_response(_read_raw(raw))
     _print_repair(str(raw), result.report)
     if report_file is not None:
@@ -178,7 +189,7 @@ def repair_cmd(
 @smp_app.command("aggregate")
 def aggregate_cmd(
     raws: list[Path] = typer.Argument(..., help="Raw responses for one clip"),
-    output: Path | None = typer.Option(None, "-o", "--output", help="Write the final SMP here"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the final SMP here (.json/.yaml)"),
     min_valid: int = typer.Option(3, "--min-valid", callback=int_range(1),
                                   help="Discard the clip below this many valid responses"),
     no_refine: bool = typer.Option(False, "--no-refine", help="Skip the four consistency checks"),
@@ -189,6 +200,7 @@ def aggregate_cmd(
     output_file(output)
     output_file(report_file, "--report")
     distinct_files({"--output": output, "--report": report_file}, {"a raw response": raws})
+    smp_suffix(output)
     lib = _library(library)
     results = [parse_response(_read_raw(p)) for p in raws]
     for path, res in zip(raws, results, strict=True):
@@ -217,12 +229,13 @@ def aggregate_cmd(
 @smp_app.command("refine")
 def refine_cmd(
     file: str = typer.Argument(..., help=SMP_ARG_HELP),
-    output: Path | None = typer.Option(None, "-o", "--output", help="Write the refined SMP here"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the refined SMP here (.json/.yaml)"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Run the four consistency checks and print every correction."""
     output_file(output)
     distinct_files({"--output": output}, {"the input SMP": Path(file)})
+    smp_suffix(output)
     result = Refiner(_library(library)).refine(_smp_arg(file, library))
     _print_refine(result)
     if output is not None:
@@ -245,6 +258,7 @@ def augment_cmd(
     output_file(output)
     output_file(provenance, "--provenance")
     distinct_files({"--output": output, "--provenance": provenance}, {"the input SMP": Path(file)})
+    output_suffix(output, ".jsonl", "a file of SMP variants (one a line)")
     smp = _smp_arg(file, library)
     check_output_size(smp, k, field="-k")
     augmenter = SMPAugmenter(uncertainty_conditioned=not no_uncertainty)
@@ -274,12 +288,13 @@ def intervene_cmd(
     attribute: str = typer.Option(..., "--attribute", help=f"One of: {', '.join(ATTRIBUTES)}"),
     level: str = typer.Option(..., "--level", help="slow|medium|fast, small|medium|large, a count, "
                               "a duration factor, symmetric|asymmetric"),
-    output: Path | None = typer.Option(None, "-o", "--output", help="Write the SMP here"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the SMP here (.json/.yaml)"),
     library: list[Path] = LIBRARY_OPTION,
 ) -> None:
     """Change exactly one attribute (controllability interventions)."""
     output_file(output)
     distinct_files({"--output": output}, {"the input SMP": Path(file)})
+    smp_suffix(output)
     smp = _smp_arg(file, library)
     _write_or_print(intervene(smp, attribute, level, _central_primitive(smp, library)), output)
 

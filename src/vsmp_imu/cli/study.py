@@ -21,6 +21,7 @@ from vsmp_imu.cli.common import (
     shown,
 )
 from vsmp_imu.errors import ConfigError
+from vsmp_imu.har.protocols import MIN_BUDGET
 from vsmp_imu.progress import progress
 from vsmp_imu.studies.folders import claim_study_folder, study_folder
 
@@ -43,7 +44,7 @@ K_MAX = 64  # as `evaluate --k`
 SEED_RANGE, SEEDS_RANGE, JOBS_RANGE = int_range(0, SEED_MAX), int_range(1, SEEDS_MAX), int_range(1, JOBS_MAX)
 EPOCHS_RANGE, K_RANGE = int_range(1, EPOCHS_MAX), int_range(1, K_MAX)
 ALPHA_RANGE = finite_range(0.1, 2.0)
-BUDGET_RANGE = finite_range(0.0, 100.0, low_open=True)  # a label budget in percent
+BUDGET_RANGE = finite_range(MIN_BUDGET, 100.0)  # a label budget in percent, as evaluate's --budgets
 WORKERS_OPTION = typer.Option(1, "--workers", callback=JOBS_RANGE, help=f"Generation workers (1..{JOBS_MAX})")
 MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", callback=EPOCHS_RANGE,
                                  help=f"Neural backbones: epoch limit (1..{EPOCHS_MAX})")
@@ -221,7 +222,7 @@ def _protocol(protocol: str, budget: float | None, default: float | None = None)
     budget = default if budget is None else budget
     if budget is None:
         raise ConfigError("the low-resource protocol needs --budget", field="--budget",
-                          allowed="a percentage in (0, 100]")
+                          allowed="a percentage in 0.01..100")
     return budget
 
 

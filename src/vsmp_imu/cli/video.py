@@ -26,7 +26,7 @@ from vsmp_imu.cli.common import (
     output_file,
     shown,
 )
-from vsmp_imu.cli.smp import smp_app
+from vsmp_imu.cli.smp import smp_app, smp_suffix
 from vsmp_imu.errors import ConfigError, ExtractionError, InputFileError
 from vsmp_imu.io import write_json, write_text
 from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M, SKELETON_HEIGHT_M
@@ -172,6 +172,7 @@ def extract_cmd(
     report_next_to = side_paths(output)[1] if output is not None else None
     distinct_files({"--output": output, "the report next to --output": report_next_to, "--motion-out": motion_out},
                    {"the video": video})
+    smp_suffix(output)
     _max_fps(max_fps)
     if extractor not in EXTRACTORS:
         raise ConfigError(f"unknown extractor '{extractor}'", field="--extractor",

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import re
 import time
 from collections.abc import Callable, Sequence
@@ -42,6 +41,7 @@ from vsmp_imu.har.protocols import (
     DEFAULT_BUDGETS,
     DEFAULT_RHO,
     DEFAULT_VAL_FRACTION,
+    MAX_RHO,
     check_protocol,
     parse_budgets,
     require_two_classes,
@@ -164,8 +164,8 @@ class EvalConfig:
             )
         if not self.seeds:
             raise ConfigError("need at least one seed", field="--seeds", allowed="N >= 1")
-        if not self.rho > 1 or not math.isfinite(self.rho):  # NaN fails both
-            raise ConfigError(f"rho {self.rho:g} out of range", field="--rho", allowed="a finite rho > 1")
+        if not 1 < self.rho <= MAX_RHO:  # NaN fails it
+            raise ConfigError(f"rho {self.rho:g} out of range", field="--rho", allowed=f"1 < rho <= {MAX_RHO:g}")
         check_mode(self.share_selection)
         if self.protocol == "tstr" and self.share_selection != "off":
             raise ConfigError("tstr trains on synthetic windows only: there is no real-only model to weigh "

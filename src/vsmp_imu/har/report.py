@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -12,7 +11,7 @@ import numpy as np
 from vsmp_imu.har.backbones import DISPLAY_NAMES
 from vsmp_imu.har.measures import Metric, paired_test
 from vsmp_imu.har.synthetic import METHOD_DISPLAY
-from vsmp_imu.io import atomic_path, write_text
+from vsmp_imu.io import atomic_path, file_name_part, write_text
 
 
 def _pct(mean: float | None, std: float | None) -> str:
@@ -344,9 +343,8 @@ def write_report(results: dict[str, Any], output_dir: str | Path) -> list[Path]:
         unseen = block.get("unseen_classes")
         hidden = () if unseen is None else ("unseen-" + "+".join(unseen),)
         parts = (block["dataset"], block["protocol"], budget, *hidden, block["backbone"], block["method"])
-        # a dataset or class name is the user's text: a '/' in it ('sit/stand', a name '../x') would
-        # put the figure in another folder, or outside the output folder
-        name = "confusion_" + "_".join(re.sub(r"[/\\\x00-\x1f\x7f]", "-", str(p)) for p in parts) + ".png"
+        # a dataset or class name is the user's text ('sit/stand', '../x'): `file_name_part`
+        name = "confusion_" + "_".join(file_name_part(p) for p in parts) + ".png"
         title = (
             f"{block['dataset']} {block['protocol']}"
             + ("" if block["budget"] is None else f" {block['budget']:g}%")

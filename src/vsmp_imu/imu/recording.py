@@ -14,8 +14,10 @@ column and channel columns works; fs_hz is then taken from the time column).
 
 from __future__ import annotations
 
+import csv
 import io
 import json
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,7 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vsmp_imu.errors import InputFileError, ValidationError
+from vsmp_imu.errors import InputFileError, ValidationError, some_of
 from vsmp_imu.imu.channels import TIME_COLUMN, split_channel
 from vsmp_imu.io import read_text, write_text
 
@@ -134,6 +136,16 @@ def _parse_comments(lines: list[str], path: Path) -> tuple[float | None, dict[st
     return fs_hz, meta
 
 
+def _check_unique_columns(header: str, path: Path) -> None:
+    """A name twice in the header: pandas reads the second as 'acc_x.1', so either column could
+    be taken for the channel."""
+    counts = Counter(next(csv.reader([header]), []))
+    repeated = [f"'{name}'" for name, n in counts.items() if n > 1]
+    if repeated:
+        raise InputFileError(f"column(s) named more than once in the header: {some_of(repeated)}", file=path,
+                             allowed="one column per channel name")
+
+
 def read_imu_csv(path: str | Path) -> ImuRecording:
     """Read a recording CSV (see the module docstring for the format)."""
     path = Path(path)
@@ -147,6 +159,7 @@ def read_imu_csv(path: str | Path) -> ImuRecording:
         frame = pd.read_csv(io.StringIO(text), skiprows=n_comments)
     except (ValueError, pd.errors.ParserError) as exc:
         raise InputFileError(f"not a readable CSV ({exc})", file=path) from exc
+    _check_unique_columns(lines[n_comments], path)
     if TIME_COLUMN not in frame.columns:
         raise InputFileError(f"no '{TIME_COLUMN}' column", file=path,
                              allowed=f"a header '{TIME_COLUMN},<channels...>'")

@@ -31,7 +31,7 @@ from vsmp_imu.har.windows import Windows
 from vsmp_imu.io import write_bytes, write_json, write_text
 from vsmp_imu.output_folder import entries, listing, read_json_object
 from vsmp_imu.pipeline.fold import FoldOutput
-from vsmp_imu.pipeline.sample import json_default
+from vsmp_imu.pipeline.sample import json_default, sample_stem
 
 RUN_FILE = "generate.json"  # the dataset and held-out subject of a `generate` folder (claim_output)
 OUTPUT_FILES = ("synthetic.parquet", "prompts.jsonl", "summary.json")  # and smps/*.json, motions/*.npz
@@ -110,7 +110,7 @@ def write_output(folder: Path, out: FoldOutput, extra_summary: dict[str, Any]) -
     w = out.windows
     write_parquet(folder / "synthetic.parquet", parquet_table(out, out.generated, w.channel_names, w.fs_hz))
     for task in out.tasks:
-        write_text(folder / "smps" / f"{task.key.replace('/', '__')}.json",
+        write_text(folder / "smps" / f"{sample_stem(task.key)}.json",
                    json.dumps(json.loads(task.smp_json), indent=2, sort_keys=True) + "\n")
     prompts, seen = [], set()
     for result in out.samples:

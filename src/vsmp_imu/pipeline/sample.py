@@ -46,7 +46,7 @@ from vsmp_imu.imu import (
     sensor_readings,
     simulate_kinematics,
 )
-from vsmp_imu.io import write_bytes
+from vsmp_imu.io import file_name_part, write_bytes
 from vsmp_imu.motion import Motion
 from vsmp_imu.pipeline.records import LocationProvenance, MotionSummary, Provenance
 from vsmp_imu.seeding import rng_for
@@ -439,10 +439,16 @@ def _textured(signals: dict[str, np.ndarray], task: SampleTask) -> dict[str, np.
             for name, sig in sorted(signals.items())}
 
 
+def sample_stem(key: str) -> str:
+    """The file name (without suffix) of a sample's SMP and motion: its key 'fold/class/slot' as
+    'fold__class__slot', the class being the user's text (`file_name_part`)."""
+    return file_name_part(key.replace("/", "__"))
+
+
 def motion_file(task: SampleTask) -> Path | None:
     if not task.motion_dir:
         return None
-    return Path(task.motion_dir) / f"{task.key.replace('/', '__')}.npz"
+    return Path(task.motion_dir) / f"{sample_stem(task.key)}.npz"
 
 
 def cached_synthesize(args: tuple[SampleTask, str | None]) -> SampleResult:

@@ -8,6 +8,9 @@ from vsmp_imu.io import read_structured, write_structured
 from vsmp_imu.smp.schema import SMP
 from vsmp_imu.validation import validate_model
 
+# The names an SMP file is written under: JSON, or YAML (`write_structured` picks by the suffix).
+SMP_SUFFIXES = (".json", ".yaml", ".yml")
+
 
 def smp_from_dict(data: object, file: str | Path | None = None) -> SMP:
     """Validate a parsed mapping into an SMP (errors name the file and field)."""

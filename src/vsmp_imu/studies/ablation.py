@@ -179,7 +179,7 @@ class AblationStudy:
             self.budget = None
         elif self.budget is None:
             raise ConfigError("the low-resource protocol needs a label budget", field="--budget",
-                              allowed="a percentage in (0, 100]")
+                              allowed="a percentage in 0.01..100")
         self.dataset = resolve_dataset_name(self.dataset)
 
     # -- set-up ------------------------------------------------------------------------------
