@@ -50,6 +50,24 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_stop_right_after_the_temporary_is_made_leaves_nothing(tmp_path, monkeypatch):
+    """Ctrl-C or SIGTERM (`vsmp_imu.cli.Interrupted`) landing between mkstemp and the cleanup's
+    `try` left the hidden temporary behind (a `motion render` stopped as it began)."""
+    import os
+
+    close = os.close
+
+    def stopped(fd):
+        close(fd)
+        monkeypatch.undo()  # the stop comes once
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "close", stopped)
+    with pytest.raises(KeyboardInterrupt), atomic_path(tmp_path / "out.gif"):
+        pass
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_atomic_write_uses_the_usual_file_mode(tmp_path):
     import os
 

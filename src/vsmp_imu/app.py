@@ -156,6 +156,9 @@ class EvalRequest:
     # None: windows weigh as their backbone's class weight says; S: a class's synthetic windows
     # together S times its real ones (`vsmp_imu.har.weights`; needs --class-weight balanced)
     synthetic_weight: float | None = None
+    # per method, parameters of its own beside the spec's (imugpt's describer_url and
+    # describer_model): recorded in its method_params, so part of the run's settings
+    method_options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 def evaluation(spec: GenerationSpec, request: EvalRequest):
@@ -176,6 +179,9 @@ def evaluation(spec: GenerationSpec, request: EvalRequest):
     if spec.cache_dir is None:
         spec = replace(spec, cache_dir=str(samples_dir()))
     params = method_params(request.methods, spec)
+    for name, options in request.method_options.items():
+        if name in params:
+            params[name] = {**params[name], **options}
     ds = load_dataset(request.dataset, request.data_dir)
     size, _ = window_geometry(ds.info.fs_hz, request.window_s, request.overlap)  # range checks before any work
     check_level_parts(spec, size, request.window_s, ds.info.fs_hz)

@@ -36,16 +36,16 @@ def atomic_path(path: str | Path, suffix: str | None = None, mode: int | None = 
         suffix=suffix if suffix is not None else path.suffix + ".tmp",
         dir=path.parent,
     )
-    os.close(fd)
-    tmp_path = Path(tmp)
-    try:
+    try:  # from the file's creation on: a stop (Ctrl-C, SIGTERM) before the yield left it behind
+        os.close(fd)
+        tmp_path = Path(tmp)
         yield tmp_path
         if tmp_path.exists():
             tmp_path.chmod(0o666 & ~_umask() if mode is None else mode)  # mkstemp makes 0600
         os.replace(tmp_path, path)
     finally:
-        if tmp_path.exists():
-            tmp_path.unlink()
+        if os.path.exists(tmp):
+            os.unlink(tmp)
 
 
 # .<name>.<host>~<pid>.<random><suffix>, as written by atomic_path

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 import sys
 from pathlib import Path
@@ -172,3 +173,50 @@ def test_imutube_from_a_real_clip(context, tmp_path):
     assert (tmp_path / "pool" / "sitting" / (clip.name + ".pose.npz")).exists()
     records = [r for r in method.last_output_.records if r.windowed]
     assert records and all(r.provenance.source == f"video:{clip.name}" for r in records)
+
+
+GENERIC = Path(__file__).resolve().parents[1] / "fixtures" / "datasets" / "generic" / "dataset.yaml"
+
+
+def test_evaluate_asks_the_describer_its_options_name_and_records_it(cli, tmp_path, monkeypatch):
+    """`evaluate --describer-url/--describer-model` (the describer was settable from Python only):
+    the imugpt descriptions come from that endpoint and model, the run's settings and results
+    name it, and a rerun into the folder without it is refused (its windows would differ)."""
+    monkeypatch.setenv("VSMP_IMU_CACHE", str(tmp_path / "cache"))
+    walk = json.dumps({"descriptions": ["A person walks briskly.", "A person walks slowly with small steps."]})
+    sit = json.dumps({"descriptions": ["A person sits down on a chair.", "A person sits still, relaxed."]})
+    out = tmp_path / "out"
+    args = ("evaluate", "--dataset", GENERIC, "--methods", "real,imugpt", "--folds", "p1", "--jobs", "1", "-o", out)
+    with ChatServer([Reply(200, walk), Reply(200, sit)]) as server:
+        code, stdout, err = cli(*args, "--describer-url", server.url, "--describer-model", "writer")
+    assert code == 0, stdout + err
+    assert [r["body"]["model"] for r in server.requests] == ["writer", "writer"]  # one per class, then cached
+    prompts = [r["body"]["messages"][0]["content"] for r in server.requests]
+    assert any("'walk" in p for p in prompts) and any("'sit" in p for p in prompts)
+    describer = {"describer_url": server.url, "describer_model": "writer"}
+    settings = json.loads((out / "evaluate.json").read_text())["methods"]
+    assert describer.items() <= settings["imugpt"].items() and "describer_url" not in settings["real"]
+    params = json.loads((out / "results.json").read_text())["config"]["method_params"]
+    assert describer.items() <= params["imugpt"].items()
+    code, _, err = cli(*args)  # the templated descriptions: other windows, other records
+    assert code == 2 and "imugpt's describer_url" in err
+
+
+@pytest.mark.parametrize("options,field", [
+    (("--describer-url", "localhost:8000/v1"), "--describer-url"),
+    (("--describer-url", "ftp://host/v1"), "--describer-url"),
+    (("--describer-url", "http://"), "--describer-url"),
+    (("--describer-url", "http://host /v1"), "--describer-url"),
+    (("--describer-url", "http://host:port/v1"), "--describer-url"),
+    (("--describer-model", "writer"), "--describer-model"),  # a model of no endpoint
+])
+def test_evaluate_refuses_a_describer_that_names_no_endpoint_before_any_work(cli, tmp_path, options, field):
+    code, _, err = cli("evaluate", "--dataset", tmp_path / "missing.yaml", "--methods", "real,imugpt", *options,
+                       "-o", tmp_path / "out")
+    assert code == 2 and f"field '{field}'" in err and "missing.yaml" not in err
+
+
+def test_evaluate_refuses_a_describer_no_chosen_method_asks(cli, tmp_path):
+    code, _, err = cli("evaluate", "--dataset", "hapt12", "--methods", "real,vsmp", "--describer-url",
+                       "http://localhost:8000/v1", "-o", tmp_path / "out")
+    assert code == 2 and "field '--describer-url'" in err and "imugpt" in err

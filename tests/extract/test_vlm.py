@@ -263,9 +263,10 @@ def _vlm_command(command: str, videos, tmp_path, vlm: tuple) -> tuple:
 
 
 @pytest.mark.parametrize("option,value", [("--timeout-s", v) for v in ("-1", "nan", "inf", "0", "3601")]
-                         + [("--max-retries", v) for v in ("-1", "11")])
+                         + [("--max-retries", v) for v in ("-1", "11")]
+                         + [("--vlm-base-url", v) for v in ("localhost:8000/v1", "ftp://h/v1", "http://h /v1")])
 @pytest.mark.parametrize("command", ["extract", "pool"])
-def test_cli_timeout_and_retries_are_range_checked_before_any_work(cli, videos, tmp_path, option, value, command):
+def test_cli_base_url_timeout_and_retries_are_checked_before_any_work(cli, videos, tmp_path, option, value, command):
     vlm = ("--vlm-base-url", "http://127.0.0.1:9/v1", "--vlm-model", "m", option, value)
     code, _, err = cli(*_vlm_command(command, videos, tmp_path, vlm))
     assert code == 2 and f"field '{option}': '" in err and "Allowed: a " in err

@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -10,6 +16,9 @@ from vsmp_imu.errors import InputFileError
 from vsmp_imu.motion import Motion
 from vsmp_imu.motion.bvh import read_bvh, write_bvh
 from vsmp_imu.motion.render import render_gif, render_keyframes
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "reliability"))
+from reliability_support import TEMP_NAME, cli_command, wait_for  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -64,6 +73,54 @@ def test_a_motion_whose_meta_holds_megabytes_is_drawn_with_a_short_title(cli, tm
     assert _title(walk, 0).startswith("walking | procedural | seed 4 | ")  # short values as they were
     code, _, err = cli("motion", "render", big.save(tmp_path / "big.npz"), "-o", tmp_path / "big.gif")
     assert code == 0, err
+
+
+@pytest.mark.parametrize("stop_at", [1, 4])  # the first drawing (no frame grabbed yet), a later one
+def test_a_stopped_render_writes_no_gif_and_keeps_the_stop(tmp_path, walk, monkeypatch, stop_at):
+    """matplotlib writes the frames grabbed so far as a GIF on the way out of a stop too (seconds
+    of work for a file thrown away) and, with none grabbed yet, raised IndexError over it."""
+    from vsmp_imu.motion import render
+
+    saved, calls, draw = [], [], render._Scene.draw
+    monkeypatch.setattr(Image.Image, "save", lambda self, *args, **kwargs: saved.append(args))
+
+    def stopping(self, frame, title=None):
+        calls.append(frame)
+        if len(calls) == stop_at:
+            raise KeyboardInterrupt
+        draw(self, frame, title)
+
+    monkeypatch.setattr(render._Scene, "draw", stopping)
+    with pytest.raises(KeyboardInterrupt):
+        render_gif(walk, tmp_path / "w.gif", size_px=100)
+    assert saved == [] and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_render_stopped_by_sigterm_or_ctrl_c_ends_cleanly(tmp_path, walk, sig):
+    """SIGTERM or Ctrl-C while `motion render` draws: exit 128 + signal with one line, no file
+    under the output name and no temporary (stopped before a frame was grabbed, it ended in
+    matplotlib's IndexError traceback, exit 1)."""
+    repeat = 10  # 20 s: 200 frames to draw, seconds of work
+    long = Motion(np.tile(walk.positions, (repeat, 1, 1)), np.tile(walk.rotations, (repeat, 1, 1)), walk.fps,
+                  walk.joint_names, walk.parents, dict(walk.meta))
+    path = long.save(tmp_path / "long.npz")
+    proc = subprocess.Popen(cli_command("motion", "render", path, "-o", tmp_path / "long.gif"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:  # the render has started once its temporary GIF exists
+        wait_for(lambda: proc.poll() is not None or any(TEMP_NAME.match(p.name) for p in tmp_path.iterdir()),
+                 timeout_s=120, step_s=0.01)
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.005)  # past mkstemp's last lines: a stop inside them can still leave the temporary
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 128 + sig, err
+    assert "Traceback" not in err and " ".join(err.split()) == f"stopped by {sig.name}."
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["long.npz"]
 
 
 def test_a_long_motion_is_shown_by_at_most_max_gif_frames_in_real_time(walk):

@@ -193,6 +193,15 @@ def evaluate_cmd(
     cache_dir: Path = typer.Option(None, "--cache-dir", parser=path_text, metavar="DIR",
                                    help="generated-sample cache (default: the cache directory, see `vsmp-imu cache "
                                         "info`); its samples are kept below the same size cap"),
+    describer_url: str = typer.Option(
+        None, "--describer-url", show_default=False, metavar="URL",
+        help="imugpt: an OpenAI-compatible endpoint (e.g. http://localhost:8000/v1; the key is read from "
+             "VSMP_VLM_API_KEY or OPENAI_API_KEY) whose chat model writes the activity descriptions "
+             "[default: none: the baseline's built-in templated descriptions, library captions x modifiers]"),
+    describer_model: str = typer.Option(
+        None, "--describer-model", show_default=False, metavar="NAME",
+        help="imugpt: the model --describer-url serves that writes the descriptions [default: an empty "
+             "name, which a server of one model takes]"),
     share_selection: str = typer.Option(
         None, "--share-selection", show_default=False,
         help="do no harm: drop a method's synthetic windows where they measurably lower the validation "
@@ -222,13 +231,15 @@ def evaluate_cmd(
     check_backend(backend, "--backend")  # before the dataset loads, even where no method animates
     check_source(source, "--source")  # likewise, even where no method reads SMPs
     chosen_backbones = _once(parse_csv(backbones, tuple(BACKBONES), "--backbones"), "--backbones")
+    chosen_methods = _once(parse_csv(methods, option="--methods"), "--methods")
+    describer = describer_options(describer_url, describer_model, chosen_methods)
     share_selection = share_default(protocol, chosen_backbones, share_selection)
     alpha, policy = budget_defaults(protocol, alpha, policy)
     class_weight, share = weighting(chosen_backbones, class_weight, synthetic_weight)
     request = EvalRequest(
         dataset=dataset, output=output, protocol=protocol,
         budgets=_parse_budgets(budgets),
-        backbones=chosen_backbones, methods=_once(parse_csv(methods, option="--methods"), "--methods"),
+        backbones=chosen_backbones, methods=chosen_methods, method_options=describer,
         folds=_parse_folds(folds), seeds=seeds, only_seeds=_parse_seeds(only_seeds), rho=rho, window_s=window_s, overlap=overlap,
         data_dir=data_dir, backbone_params=_backbone_params(chosen_backbones, max_epochs, patience, jobs, device,
                                                              class_weight),
@@ -253,6 +264,25 @@ def evaluate_cmd(
         f"[green]wrote[/] {shown(output / 'results.json')}, {shown(written[0])} and "
         f"{len(written) - 1} confusion matrices"
     )
+
+
+def describer_options(url: str | None, model: str | None, methods: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """`--describer-url` / `--describer-model` as the imugpt method's parameters (recorded with
+    the run, part of its settings); none without a URL."""
+    from vsmp_imu.extract.client import api_key_from_env, check_base_url
+
+    if url is None:
+        if model is not None:
+            raise ConfigError("--describer-model names the model of a describer endpoint", field="--describer-model",
+                              allowed="it together with --describer-url URL")
+        return {}
+    if "imugpt" not in methods:
+        raise ConfigError("only the imugpt method asks a describer", field="--describer-url",
+                          allowed="--methods with imugpt, or no --describer-url")
+    with option_names({"base_url": "--describer-url"}):
+        check_base_url(url)
+    api_key_from_env()  # a key a request could not carry fails now, not in the first fold
+    return {"imugpt": {"describer_url": url, "describer_model": model or ""}}
 
 
 def _check_folders(output: Path, cache_dir: Path | None) -> None:

@@ -87,7 +87,7 @@ def _client(base_url: str | None, model: str | None, cache_dir: Path | None, no_
     if not no_cache:  # a cache folder that cannot be written fails before a paid request, not after
         output_dir(cache_dir, "--cache-dir")
     cache = None if no_cache else (cache_dir or vlm_dir())
-    with option_names({"timeout_s": "--timeout-s", "max_retries": "--max-retries"}):
+    with option_names({"base_url": "--vlm-base-url", "timeout_s": "--timeout-s", "max_retries": "--max-retries"}):
         return VLMClient(base_url, model, timeout_s=timeout_s, max_retries=max_retries,
                          cache_dir=cache, use_response_format=not no_response_format)
 

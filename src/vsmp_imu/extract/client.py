@@ -49,6 +49,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
+from urllib.parse import urlsplit
 
 from vsmp_imu.errors import ConfigError, DependencyError, ServiceError
 from vsmp_imu.extract.cache import ResponseCache
@@ -105,6 +106,21 @@ def check_max_retries(value: int) -> int:
         raise ConfigError(f"'{value}' is not a number of retries", field="max_retries",
                           allowed=f"a whole number from 0 to {MAX_RETRIES}")
     return value
+
+
+def check_base_url(url: str) -> str:
+    """`url` when it can name an endpoint: http:// or https:// with a host, no space or control
+    character (anything else failed only at the first request, after its retries)."""
+    try:
+        parts = urlsplit(url)
+        parts.port  # noqa: B018 - a port that is not a number raises ValueError
+    except (TypeError, ValueError):
+        parts = None
+    if parts is None or parts.scheme not in ("http", "https") or not parts.hostname or any(
+            ch.isspace() or not ch.isprintable() for ch in url):
+        raise ConfigError(f"'{url}' is not the URL of an endpoint", field="base_url",
+                          allowed="a URL with http:// or https:// and a host, e.g. http://localhost:8000/v1")
+    return url
 
 
 def scrub(text: str, secret: str | None) -> str:
@@ -250,7 +266,7 @@ class VLMClient:
                  temperature: float | None = None, max_tokens: int | None = None,
                  sleep: Callable[[float], None] | None = None, seed: int = 0,
                  clock: Callable[[], float] | None = None) -> None:
-        self.base_url = base_url
+        self.base_url = check_base_url(base_url)
         self.model = model
         self.api_key = check_api_key(api_key) if api_key else api_key
         if not api_key:

@@ -7,6 +7,7 @@ axes and a floor grid. Left limbs are blue, right limbs red, the trunk dark.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from pathlib import Path
 
@@ -170,7 +171,6 @@ def render_gif(motion: Motion, path: str | Path, fps: float | None = None, size_
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
-    from matplotlib.animation import FuncAnimation, PillowWriter
 
     _check(motion)
     check_render_options(yaw_deg=yaw_deg)
@@ -180,17 +180,39 @@ def render_gif(motion: Motion, path: str | Path, fps: float | None = None, size_
     try:
         scene = _Scene(ax, motion, yaw_deg=yaw_deg)
         fig.subplots_adjust(left=0.02, right=0.98, bottom=0.02, top=0.9)
-
-        def update(i: int):
-            scene.draw(frames[i], _title(motion, frames[i]))
-            return (scene.lines, scene.dots)
-
-        anim = FuncAnimation(fig, update, frames=len(frames), blit=False)
-        with atomic_path(path, suffix=".gif") as tmp:
-            anim.save(str(tmp), writer=PillowWriter(fps=motion.fps / step))
+        writer = _gif_writer(motion.fps / step)
+        with atomic_path(path, suffix=".gif") as tmp, writer.saving(fig, str(tmp), dpi=fig.dpi):
+            for frame in frames:
+                scene.draw(frame, _title(motion, frame))
+                writer.grab_frame()
     finally:
         plt.close(fig)
     return Path(path)
+
+
+def _gif_writer(fps: float):
+    """matplotlib's PillowWriter, less the GIF of the frames drawn so far when the drawing stops
+    (Ctrl-C, SIGTERM, an error): matplotlib writes it on the way out of an error too, seconds of
+    work for a file that is thrown away, and with no frame yet its IndexError hid the stop."""
+    from matplotlib.animation import PillowWriter
+
+    class GifWriter(PillowWriter):
+        stopped = False
+
+        @contextlib.contextmanager
+        def saving(self, *args, **kwargs):
+            with super().saving(*args, **kwargs):
+                try:
+                    yield self
+                except BaseException:
+                    self.stopped = True
+                    raise
+
+        def finish(self) -> None:
+            if not self.stopped:
+                super().finish()
+
+    return GifWriter(fps=fps)
 
 
 def keyframe_indices(motion: Motion, n: int = 6) -> np.ndarray:
