@@ -142,3 +142,115 @@ def test_the_command_line_default_is_the_library_default():
 
     assert LEVEL_PARTS.default == PARTS == GenerationSpec().level_parts
     assert f"with {floors.WINDOW_LEVELS.floor} real windows" in WINDOW_LEVELS.help
+
+
+def test_each_bad_input_names_its_own_field():
+    """The error names the argument that is wrong: synthetic, real or X, and the channels when
+    the two sides disagree."""
+    good, bad = np.zeros((30, 10, 2)), np.zeros((30, 10))
+    labels = np.zeros(30, int)
+    with pytest.raises(ValidationError, match=r"^field 'synthetic': synthetic must be windows") as err:
+        LevelMap().fit(bad, labels, good, labels, classes=[0])
+    assert err.value.field == "synthetic"
+    with pytest.raises(ValidationError, match=r"^field 'real': real must be windows") as err:
+        LevelMap().fit(good, labels, bad, labels, classes=[0])
+    assert err.value.field == "real"
+    with pytest.raises(ValidationError, match="channels") as err:
+        LevelMap().fit(good, labels, np.zeros((30, 10, 3)), labels, classes=[0])
+    assert err.value.field == "channels"
+    fitted = LevelMap().fit(good, labels, good, labels, classes=[0])
+    with pytest.raises(ValidationError, match=r"^field 'X': X must be windows") as err:
+        fitted.transform(bad, labels)
+    assert err.value.field == "X"
+
+
+def test_float32_real_windows_map_as_their_float64_values():
+    """The fold hands D_rank's windows over as float32: their means are taken in float64, so the
+    map is the one their float64 values give."""
+    rng = np.random.default_rng(21)
+    real = _windows(np.c_[rng.normal(-3.0, 1.0, 40), rng.normal(5.0, 0.5, 40)], seed=22, n_t=128).astype(np.float32)
+    syn = _windows(np.c_[rng.normal(1.0, 0.3, 40), rng.normal(2.0, 2.0, 40)], seed=23, n_t=128).astype(np.float32)
+    y = np.full(40, 1)
+    from32 = LevelMap().fit(syn, y, real, y, classes=[1]).transform(syn, y)
+    from64 = LevelMap().fit(syn.astype(np.float64), y, real.astype(np.float64), y, classes=[1]).transform(syn, y)
+    assert from32.dtype == np.float64
+    assert np.array_equal(from32, from64)
+
+
+def test_a_class_without_synthetic_windows_is_not_reported_and_the_next_class_still_maps():
+    """An event class the generation has no windows of is neither mapped nor listed as having too
+    few real windows (it has 30), and the classes after it are still fitted."""
+    rng = np.random.default_rng(12)
+    syn = _windows(rng.normal(0, 1, (30, 2)), seed=13)
+    real = _windows(rng.normal(5, 1, (60, 2)), seed=14)
+    y_syn, y_real = np.full(30, 2), np.repeat([1, 2], 30)
+    levels = LevelMap().fit(syn, y_syn, real, y_real, classes=[1, 2])
+    assert levels.skipped_ == {}
+    assert set(levels.classes_) == {2}
+    assert not np.allclose(levels.transform(syn, y_syn), syn)
+
+
+def test_one_synthetic_window_is_too_few_and_said_so():
+    rng = np.random.default_rng(15)
+    syn = _windows(rng.normal(0, 1, (1, 2)), seed=16)
+    real = _windows(rng.normal(5, 1, (30, 2)), seed=17)
+    levels = LevelMap().fit(syn, np.full(1, 3), real, np.full(30, 3), classes=[3])
+    assert levels.skipped_ == {3: 30} and levels.classes_ == {}
+    assert np.array_equal(levels.transform(syn, np.full(1, 3)), syn)
+
+
+def test_min_windows_synthetic_windows_are_enough():
+    """The floor holds for the synthetic side as for the real one: exactly `min_windows` windows map."""
+    rng = np.random.default_rng(18)
+    syn = _windows(rng.normal(0, 1, (MIN_WINDOWS, 2)), seed=19)
+    real = _windows(rng.normal(5, 1, (30, 2)), seed=20)
+    levels = LevelMap().fit(syn, np.full(MIN_WINDOWS, 6), real, np.full(30, 6), classes=[6])
+    assert levels.skipped_ == {} and set(levels.classes_) == {6}
+    short = LevelMap().fit(syn[:-1], np.full(MIN_WINDOWS - 1, 6), real, np.full(30, 6), classes=[6])
+    assert short.skipped_ == {6: 30} and short.classes_ == {}
+
+
+def test_a_class_with_too_few_real_windows_does_not_stop_the_classes_after_it():
+    rng = np.random.default_rng(24)
+    syn = _windows(rng.normal(0, 1, (60, 2)), seed=25)
+    y_syn = np.repeat([2, 5], 30)
+    real = _windows(rng.normal(5, 1, (33, 2)), seed=26)
+    y_real = np.r_[np.full(3, 2), np.full(30, 5)]
+    levels = LevelMap().fit(syn, y_syn, real, y_real, classes=[2, 5])
+    assert levels.skipped_ == {2: 3}
+    assert set(levels.classes_) == {5}
+    out = levels.transform(syn, y_syn)
+    assert np.array_equal(out[y_syn == 2], syn[y_syn == 2])
+    assert not np.allclose(out[y_syn == 5], syn[y_syn == 5])
+
+
+def test_the_reported_shift_is_the_mean_absolute_shift_per_channel_to_four_decimals():
+    """`classes_[c]["mean_abs_shift"]`, per channel, is the mean over the fit's synthetic windows of
+    how far transform moves each window (levels away from zero, so a shift and a level differ)."""
+    rng = np.random.default_rng(27)
+    syn = _windows(np.c_[rng.normal(10.0, 0.5, 60), rng.normal(-4.0, 0.4, 60)], seed=28)
+    real = _windows(np.c_[rng.normal(12.5, 0.5, 80), rng.normal(-3.0, 0.4, 80)], seed=29)
+    y_syn, y_real = np.full(60, 4), np.full(80, 4)
+    levels = LevelMap().fit(syn, y_syn, real, y_real, classes=[4])
+    moved = (levels.transform(syn, y_syn) - syn).mean(axis=1)  # (N, C): each window's constant shift
+    reported = levels.classes_[4]["mean_abs_shift"]
+    assert len(reported) == 2
+    assert reported == pytest.approx(np.abs(moved).mean(axis=0), abs=5e-5)
+    assert reported[0] == pytest.approx(2.5, abs=0.3) and reported[1] == pytest.approx(1.0, abs=0.3)
+    assert all(v == round(v, 4) for v in reported) and any(v != round(v, 3) for v in reported)
+
+
+def test_halves_shift_linearly_between_their_centres():
+    """parts=2: flat over the first and last quarter, a straight line between the halves' centres."""
+    course = shift_course(np.array([[1.0, 10.0, 5.0, -5.0]]), 40, 2)  # one window: (part 0: c0, c1), (part 1: c0, c1)
+    assert course.shape == (1, 40, 2)
+    t = np.arange(40)
+    want = np.stack([np.interp(t, [10, 30], [1.0, 5.0]), np.interp(t, [10, 30], [10.0, -5.0])], axis=1)
+    assert np.allclose(course[0], want)
+    rng = np.random.default_rng(30)
+    syn = _windows(rng.normal(0, 1, (30, 2)), seed=31, n_t=40)
+    real = _windows(rng.normal(5, 1, (30, 2)), seed=32, n_t=40)
+    y = np.full(30, 0)
+    out = LevelMap(parts=2).fit(syn, y, real, y, classes=[0]).transform(syn, y)
+    assert out.shape == syn.shape
+    assert np.median(part_means(out, 2), axis=0) == pytest.approx(np.median(part_means(real, 2), axis=0), abs=0.5)

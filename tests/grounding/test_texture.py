@@ -101,3 +101,21 @@ def test_channel_and_shape_errors_name_the_field(rng):
         model.apply(np.zeros((400, 3)), 0, rng)
     with pytest.raises(ValidationError, match=r"\(N, T, C\)"):
         TextureModel(FS).fit(np.zeros((40, 200)), np.zeros(40, int))
+
+
+def test_the_shortest_window_is_the_one_the_zero_phase_filter_takes(rng):
+    """At 50 Hz the order-4 band-passes have 4 sections: sosfiltfilt pads 3 x 9 = 27 samples and needs
+    a longer signal, so 28 samples fit and get texture and 27 are too short (the summary says 28)."""
+    sos = butter(4, LF_BAND_HZ, btype="band", fs=FS, output="sos")
+    sosfiltfilt(sos, np.zeros((28, 2)), axis=0)  # the filter takes 28 samples ...
+    with pytest.raises(ValueError):
+        sosfiltfilt(sos, np.zeros((27, 2)), axis=0)  # ... and not 27
+    labels = np.zeros(40, int)
+    fitted = TextureModel(FS).fit(_sines(40, 28, 1.0, 0.5, rng), labels)
+    assert fitted.reason_ is None and fitted.mapping(0) == "class"
+    short = TextureModel(FS).fit(_sines(40, 27, 1.0, 0.5, rng), labels)
+    assert short.reason_ == "windows of 27 samples are too short to filter: that needs 28"
+    model = TextureModel(FS).fit(_sines(40, 200, 1.0, 0.5, rng), labels)
+    smooth = _sines(1, 28, 1.0, 0.0, rng)[0]
+    assert np.abs(model.apply(smooth, 0, np.random.default_rng(2)) - smooth).max() > 1e-3
+    assert np.array_equal(model.apply(smooth[:27], 0, np.random.default_rng(2)), smooth[:27])
