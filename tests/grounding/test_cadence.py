@@ -75,3 +75,51 @@ def test_the_step_rate_is_read_at_the_trunk_where_there_is_one():
     assert cadence.reading_location(["left_lower_leg", "right_wrist", "chest"]) == "chest"
     assert cadence.reading_location(["right_wrist", "waist", "back"]) == "waist"
     assert cadence.reading_location(["right_wrist", "left_lower_leg"]) == "right_wrist"
+
+
+def test_exactly_min_windows_are_enough():
+    values, reason = cadence.class_cadence(_walk(np.full(cadence.MIN_WINDOWS, 1.8)), FS)
+    assert reason == f"{cadence.MIN_WINDOWS} real windows"
+    assert values == pytest.approx(np.full(cadence.MIN_WINDOWS, 1.8), abs=0.06)
+
+
+def test_a_windows_rate_does_not_depend_on_the_windows_read_with_it():
+    """Each window's own mean magnitude is removed: a slow, weak step read next to a window of a
+    larger magnitude (another subject's sensor offset) gives the rate it gives alone."""
+    t = np.arange(100) / FS
+    acc = np.zeros((2, 100, 3))
+    acc[0, :, 0] = 9.81 + 0.2 * np.sin(2 * np.pi * 1.2 * t)
+    acc[1, :, 0] = 9.81 + 4.0 + 2.5 * np.sin(2 * np.pi * 2.0 * t)
+    alone = np.r_[cadence.step_rates(acc[:1], FS), cadence.step_rates(acc[1:], FS)]
+    assert alone == pytest.approx([1.2, 2.0], abs=0.03)
+    assert (cadence.step_rates(acc, FS) == alone).all()
+
+
+def test_float32_windows_are_read_in_float64():
+    """Windows keep float32 (har.windows); the magnitude and its mean are taken in float64, so the
+    rates are those of the same values held as float64, also for near-still windows whose noise
+    (1e-5 m/s^2) is about ten float32 steps at gravity."""
+    rng = np.random.default_rng(0)
+    acc = (np.array([9.81, 0.3, -0.2]) + rng.normal(0, 1e-5, (60, 100, 3))).astype(np.float32)
+    assert (cadence.step_rates(acc, FS) == cadence.step_rates(acc.astype(np.float64), FS)).all()
+
+
+def test_a_window_longer_than_the_fft_is_read_whole():
+    """A 40 s window (2000 samples, more than N_FFT) whose walk starts halfway: the rate is the walk's."""
+    n = 2000
+    assert n > cadence.N_FFT
+    t = np.arange(n) / FS
+    acc = np.zeros((1, n, 3))
+    acc[0, :, 0] = 9.81
+    acc[0, n // 2:, 0] += 2.5 * np.sin(2 * np.pi * 1.8 * t[n // 2:])
+    assert cadence.step_rates(acc, FS) == pytest.approx([1.8], abs=0.01)
+
+
+@pytest.mark.parametrize("rate_hz", list(cadence.BAND_HZ))
+def test_the_step_band_includes_its_ends(rate_hz):
+    """At 64 Hz the spectrum has a bin at exactly 1 and 3 Hz (1/16 Hz apart): a step at either end is read there."""
+    fs_hz = 64.0
+    t = np.arange(128) / fs_hz
+    acc = np.zeros((1, 128, 3))
+    acc[0, :, 0] = 9.81 + np.sin(2 * np.pi * rate_hz * t)
+    assert cadence.step_rates(acc, fs_hz)[0] == rate_hz

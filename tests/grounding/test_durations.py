@@ -85,3 +85,105 @@ def test_the_scale_times_the_active_span_to_the_target_within_its_bounds():
     assert dur.scale_for(3.0, 2.0) == pytest.approx(1.5)
     assert dur.scale_for(30.0, 2.0) == dur.SCALE_BOUNDS[1]
     assert dur.scale_for(0.1, 2.0) == dur.SCALE_BOUNDS[0]
+
+
+def _runs(runs: list[int], recordings: list[str] | None = None, hop: int = STEP) -> Windows:
+    """Class-1 windows in runs of the given lengths, one hop apart, each run followed by a class-0
+    window; the runs in recording r0 unless `recordings` names one per run."""
+    recordings = recordings or ["r0"] * len(runs)
+    ys, recs, starts, pos = [], [], [], {}
+    for n, rec in zip(runs, recordings, strict=True):
+        p = pos.get(rec, hop)
+        ys += [1] * n + [0]
+        starts += [p + i * hop for i in range(n + 1)]
+        recs += [rec] * (n + 1)
+        pos[rec] = p + (n + 1) * hop
+    n = len(ys)
+    return Windows(np.zeros((n, SIZE, 1)), np.array(ys), np.full(n, "1"), ("rest", "event"), ("acc_x",), FS,
+                   meta={"recording": np.array(recs), "start": np.array(starts)})
+
+
+def _meta(start: list[int], recording: list[str]) -> Windows:
+    n = len(start)
+    return Windows(np.zeros((n, SIZE, 1)), np.zeros(n, int), np.full(n, "1"), ("rest", "event"), ("acc_x",), FS,
+                   meta={"recording": np.array(recording), "start": np.array(start)})
+
+
+def test_the_hop_needs_two_windows_and_a_window_past_its_recordings_start():
+    assert dur.window_hop(_meta([192], ["r0"])) is None  # one window: its start is no hop
+    assert dur.window_hop(_meta([128, 192], ["r0", "r0"])) == 64
+    # windows that all open their recordings carry no hop (not a hop of 0)
+    assert dur.window_hop(_meta([0, 0, 0], ["r0", "r1", "r2"])) is None
+    # a hop of one sample, read from scattered windows whose other starts share a factor 2
+    assert dur.window_hop(_meta([0, 1, 4, 6], ["r0"] * 4)) == 1
+
+
+def test_a_class_with_no_windows_no_recordings_or_one_window_has_that_many_events():
+    w = _runs([3, 1, 2])
+    assert list(dur.event_runs(w, 1, STEP)) == [3, 1, 2]
+    absent = w[w.y == 0]
+    assert len(dur.event_runs(absent, 1, STEP)) == 0
+    assert dur.event_durations(absent, 1, STEP, SIZE, 0.5, FS)[1].startswith("0 event(s)")
+    one = w[np.r_[np.flatnonzero(w.y == 0), 0]]
+    assert list(dur.event_runs(one, 1, STEP)) == [1]
+    assert dur.event_durations(one, 1, STEP, SIZE, 0.5, FS)[1].startswith("1 event(s)")
+    for meta in ({"start": w.meta["start"]}, {"recording": w.meta["recording"]}, {}):
+        bare = Windows(w.X, w.y, w.subjects, w.label_names, w.channel_names, FS, meta=meta)
+        assert len(dur.event_runs(bare, 1, STEP)) == 0
+        assert dur.event_durations(bare, 1, STEP, SIZE, 0.5, FS)[1].startswith("0 event(s)")
+
+
+def test_exactly_min_events_events_are_enough():
+    runs = list(range(2, 2 + dur.MIN_EVENTS))
+    seconds, reason = dur.event_durations(_runs(runs), 1, STEP, SIZE, 0.5, FS)
+    assert reason == f"{dur.MIN_EVENTS} events"
+    # at share 0.5 an event of n windows lasts n hops
+    assert seconds == pytest.approx(np.array(runs) * STEP / FS)
+
+
+def test_runs_of_two_count_and_half_the_windows_in_runs_is_enough():
+    runs = [2, 2, 1, 1, 1, 1]  # 4 of 8 windows in runs of two
+    seconds, reason = dur.event_durations(_runs(runs), 1, STEP, SIZE, 1.0, FS)
+    assert reason == "6 events"
+    # at share 1 every window lies wholly inside: an event of n windows lasts n hops and one window
+    assert seconds == pytest.approx((np.array(runs) * STEP + SIZE) / FS)
+
+
+def test_a_class_mostly_of_lone_windows_says_how_many_stand_alone():
+    seconds, reason = dur.event_durations(_runs([2, 1, 1, 1, 1, 1, 1]), 1, STEP, SIZE, 0.5, FS)
+    assert len(seconds) == 0
+    assert reason == ("75 % of its windows stand alone: sampled window by window, "
+                      "not recorded as events")
+
+
+def test_a_draw_picks_an_event_and_a_place_in_its_hop_from_the_stream():
+    durations, hop_s = np.array([2.0, 3.5, 5.0]), 1.28
+    for seed in range(20):
+        stream = np.random.default_rng(seed)
+        event = durations[stream.integers(3)]
+        offset = stream.uniform(-0.5, 0.5)
+        assert dur.draw_duration(durations, hop_s, np.random.default_rng(seed)) == pytest.approx(
+            event + offset * hop_s)
+
+
+def test_the_shortest_event_spreads_over_its_hop():
+    """event_durations returns at least one hop; a draw of that covers half a hop either side."""
+    hop_s = 0.4
+    rng = np.random.default_rng(2)
+    draws = np.array([dur.draw_duration(np.array([hop_s]), hop_s, rng) for _ in range(200)])
+    assert draws.min() >= 0.5 * hop_s - 1e-12 and draws.max() <= 1.5 * hop_s + 1e-12
+    assert draws.min() < 0.55 * hop_s and draws.max() > 1.45 * hop_s
+    # an event shorter than half a hop is drawn as half a hop
+    assert dur.draw_duration(np.array([0.0]), hop_s, rng) == pytest.approx(0.5 * hop_s)
+
+
+def test_the_scale_of_a_short_active_span():
+    assert dur.scale_for(1.0, 0.5) == pytest.approx(2.0)
+    assert dur.scale_for(0.3, 0.25) == pytest.approx(1.2)
+
+
+def test_the_summary_keeps_count_median_and_quantiles_in_milliseconds():
+    values = np.array([1.00049, 2.00049, 3.00049, 4.00049, 5.00049])
+    assert dur.summary(values, "5 events") == {"used": True, "events": 5, "median_s": 3.0,
+                                               "q10_s": 1.4, "q90_s": 4.6}
+    assert np.median(values) == pytest.approx(3.00049)  # the 4th decimal the rounding drops
