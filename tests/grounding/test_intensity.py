@@ -136,3 +136,61 @@ def test_generate_prints_the_spread_matched_to_each_classes_real_windows():
         _print_summary(summary)
     assert ("intensity matched to the real windows: log spread added SIT_TO_STAND 0.37; none for 1 (as wide "
             "already, or too few windows)") in " ".join(captured.get().split())
+
+
+def test_the_log_intensity_is_the_log_rms_length_of_the_deviation_vector():
+    X = np.zeros((2, 4, 6))
+    X[0, :, 3:] = 0.5 + np.array([1.0, -1.0, 1.0, -1.0])[:, None] * [0.3, 0.3, 0.3]  # |dev| = 0.3 sqrt(3)
+    X[1, :, 3] = [2.0, 4.0, 2.0, 4.0]  # |dev| = 1 on one channel only
+    X[1, :, 4:] = -1.0
+    X[:, :, :3] = np.arange(4.0)[:, None]  # the accelerometer is not counted
+    np.testing.assert_allclose(log_intensity(X, np.array([3, 4, 5])), [np.log(0.3 * np.sqrt(3.0)), 0.0],
+                               atol=1e-8)
+
+
+def test_a_still_window_has_a_finite_log_intensity():
+    X = windows(n=3)
+    X[1, :, 3:] = 0.25  # the gyroscope at rest: no deviation at all
+    got = log_intensity(X, np.array([3, 4, 5]))
+    assert np.isfinite(got).all()
+    assert got[1] == pytest.approx(np.log(1e-9))
+    real = with_intensities(0.5, n=40, seed=5)
+    real[0, :, 3:] = 0.1
+    assert np.isfinite(missing_spread(real, with_intensities(0.2, n=40, seed=6), np.array([3, 4, 5])))
+
+
+def test_float32_windows_give_the_float64_log_intensity():
+    X = windows(n=20)  # float32, as generated windows are
+    got = log_intensity(X, np.array([3, 4, 5]))
+    assert got.dtype == np.float64
+    np.testing.assert_array_equal(got, log_intensity(X.astype(np.float64), np.array([3, 4, 5])))
+
+
+def test_the_spread_is_measured_from_exactly_the_floors_number_of_windows():
+    gyro = np.array([3, 4, 5])
+    real = with_intensities(0.6, n=MATCH_MIN_WINDOWS, seed=7)
+    synthetic = with_intensities(0.1, n=MATCH_MIN_WINDOWS, seed=8)
+    expected = np.sqrt(log_intensity(real, gyro).var() - log_intensity(synthetic, gyro).var())
+    assert expected > 0.3
+    assert missing_spread(real, synthetic, gyro) == pytest.approx(expected)
+
+
+def test_the_spread_of_a_single_channel_and_of_none():
+    real, synthetic = with_intensities(0.6, n=60, seed=9), with_intensities(0.1, n=60, seed=10)
+    one = np.array([4])
+    expected = np.sqrt(log_intensity(real, one).var() - log_intensity(synthetic, one).var())
+    assert expected > 0.3
+    assert missing_spread(real, synthetic, one) == pytest.approx(expected)
+    assert missing_spread(real, synthetic, np.array([], dtype=np.int64)) == 0.0
+
+
+def test_one_window_scaled_on_one_channel_moves_away_from_its_mean_by_its_factor():
+    X = np.zeros((3, 4, 2))
+    X[:, :, 0] = [1.0, 2.0, 3.0, 6.0]  # mean 3
+    X[:, :, 1] = [5.0, 5.0, 7.0, 7.0]
+    out = scale_deviations(X, np.array([np.nan, 2.0, np.nan]), np.array([0]))
+    np.testing.assert_array_equal(out[1, :, 0], [-1.0, 1.0, 3.0, 9.0])  # 3 + 2 (x - 3), not mirrored
+    np.testing.assert_array_equal(out[1, :, 1], X[1, :, 1])  # the other channel as it was
+    np.testing.assert_array_equal(out[[0, 2]], X[[0, 2]])  # windows without a factor as they were
+    shrunk = scale_deviations(X, np.array([0.5, np.nan, np.nan]), np.array([0, 1]))
+    np.testing.assert_array_equal(shrunk[0], [[2.0, 5.5], [2.5, 5.5], [3.0, 6.5], [4.5, 6.5]])
