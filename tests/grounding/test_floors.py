@@ -160,3 +160,40 @@ def test_a_label_budget_of_ten_windows():
     assert on == ("nominal mounting", "side from evidence", "cadence", "per-class rank map", "window levels",
                   "redundancy tau_nn")
     assert "D_stat statistics" in below and "class faithfulness" in below
+
+
+def test_class_evidence_counts_no_events_unless_given():
+    assert floors.class_evidence(500)[floors.TRAINING_EVENTS] == 0  # sampled window by window
+    assert floors.class_evidence(500, events=7)[floors.TRAINING_EVENTS] == 7
+
+
+def test_a_negative_window_count_is_named_in_the_error():
+    with pytest.raises(ValueError, match=r"^n_windows must be >= 0, got -3$"):
+        floors.class_evidence(-3)
+
+
+def test_stages_for_names_every_missing_kind():
+    counts = {k: 5 for k in floors.EVIDENCE if k not in (floors.D_RANK_SAMPLES, floors.VALIDATOR_WINDOWS)}
+    with pytest.raises(ValueError, match=r"^no count for D_rank samples, validator windows$"):
+        floors.stages_for(counts)
+
+
+def _training_floor(n):
+    return floors.Floor("probe", floors.TRAINING_WINDOWS, n, "windows", "texture", "-")
+
+
+def test_windows_for_searches_up_to_its_limit_and_no_further():
+    assert floors.windows_for(_training_floor(10_000), validator_share=0.8) == 10_000  # the default limit
+    assert floors.windows_for(_training_floor(10_001), validator_share=0.8) is None
+    assert floors.windows_for(_training_floor(7), limit=7, validator_share=0.8) == 7
+    assert floors.windows_for(_training_floor(8), limit=7, validator_share=0.8) is None
+
+
+def test_windows_for_passes_the_evidence_options_on():
+    # 200 D_rank samples: 2 windows of 100 samples (n = 4), 4 of 50 (n = 8)
+    assert floors.windows_for(floors.RANK_MAP) == 4
+    assert floors.windows_for(floors.RANK_MAP, window_samples=50) == 8
+    # 10 validator windows: floor(0.8 n) >= 10 at n = 13, floor(0.5 n) >= 10 at n = 20
+    assert floors.windows_for(floors.VALIDATOR) == 13
+    assert floors.windows_for(floors.VALIDATOR, validator_share=0.5) == 20
+    assert floors.windows_for(floors.EVENT_DURATIONS, events=5) == 0
