@@ -176,7 +176,11 @@ def test_waits_and_attempts_together_stay_within_the_query_budget(chat_server):
         done = c.complete(MESSAGES, {})
     assert not done.ok and done.retries < 2 and "no time left for a retry" in done.error
     assert all(e.startswith("timeout") for e in done.errors)
-    assert clock.elapsed() <= 0.6 + 0.15  # the budget, plus slack for a busy machine
+    # what the client chose: every attempt runs into its 0.2 s timeout, so its waits fit the
+    # 0.6 s budget only if it counted the attempts (wall time on a busy machine overshoots each
+    # timeout a little, so the wall clock is held to the budget only loosely)
+    assert len(done.errors) * 0.2 + sum(clock.waits) <= 0.6 + 1e-9
+    assert clock.elapsed() <= 0.6 + 1.0
 
 
 def test_the_last_attempt_gets_only_what_is_left_of_the_query(chat_server):
