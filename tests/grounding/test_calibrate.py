@@ -9,7 +9,13 @@ import numpy as np
 import pytest
 
 from vsmp_imu.grounding.align import Convention, axes_matrix
-from vsmp_imu.grounding.calibrate import ETA_HIGH, ETA_LOW, SimInTheLoopCalibrator, eta_rotation
+from vsmp_imu.grounding.calibrate import (
+    ETA_HIGH,
+    ETA_LOW,
+    SimInTheLoopCalibrator,
+    cem_update,
+    eta_rotation,
+)
 from vsmp_imu.grounding.stats import segment, summarize_windows
 from vsmp_imu.imu import VirtualSensor, draw_noise, sensor_readings, simulate_kinematics
 from vsmp_imu.units import STANDARD_GRAVITY_M_S2 as G
@@ -93,3 +99,15 @@ def test_eta_rotation_is_scipys_extrinsic_zxy():
     expected = Rotation.from_euler("zxy", eta[:, 0:3], degrees=True).as_matrix()
     assert np.allclose(eta_rotation(eta), expected, atol=1e-12)
     assert eta_rotation(eta[0]).shape == (1, 3, 3)
+
+
+def test_cem_update_of_one_population_keeps_the_lowest_losses_in_stable_order():
+    """One population (N, D) with losses (N,), as the motion fit calls it: the order by loss, ties in
+    candidate order, and the mean and std (at least the floor) of the n_elite best."""
+    candidates = np.arange(12, dtype=float).reshape(6, 2)
+    losses = np.array([3.0, 1.0, 2.0, 1.0, 5.0, 0.5])
+    order, mean, std = cem_update(candidates, losses, 3, np.array([0.0, 10.0]))
+    assert order.tolist() == [5, 1, 3, 2, 0, 4]
+    elite = candidates[[5, 1, 3]]
+    np.testing.assert_allclose(mean, elite.mean(axis=0))
+    np.testing.assert_allclose(std, [elite[:, 0].std(), 10.0])

@@ -2,12 +2,23 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from scipy.signal import butter, sosfiltfilt
 
 from vsmp_imu.errors import ValidationError
-from vsmp_imu.grounding.texture import HF_BAND_HZ, LF_BAND_HZ, TextureModel, bands
+from vsmp_imu.grounding.texture import (
+    HF_BAND_HZ,
+    LF_BAND_HZ,
+    TextureModel,
+    _unit_band_noise,
+    add_texture,
+    bands,
+    missing_amplitude,
+)
+from vsmp_imu.zero_phase import filtfilt
 
 FS = 50.0
 
@@ -119,3 +130,97 @@ def test_the_shortest_window_is_the_one_the_zero_phase_filter_takes(rng):
     smooth = _sines(1, 28, 1.0, 0.0, rng)[0]
     assert np.abs(model.apply(smooth, 0, np.random.default_rng(2)) - smooth).max() > 1e-3
     assert np.array_equal(model.apply(smooth[:27], 0, np.random.default_rng(2)), smooth[:27])
+
+
+def test_the_summary_section_lists_the_ratios_to_four_decimals_under_the_class_names(rng):
+    """`as_dict` is what the generation summary and provenance show: the pooled ratios and each class
+    with its own ratios, by label name, to 4 decimals (JSON lists); classes without their own are absent."""
+    a = _sines(20, 200, 1.0, 0.5, rng)
+    b = _sines(5, 200, 1.0, 0.3, rng)
+    model = TextureModel(FS, min_class_windows=20).fit(np.concatenate([a, b]), np.repeat([1, 0], [20, 5]))
+    report = json.loads(json.dumps(model.as_dict(["sit", "walk"])))
+    assert set(report) == {"pooled", "classes"}
+    assert list(report["classes"]) == ["walk"]  # class 1 by its name; "sit" (5 windows) has none
+    for shown, fitted in ((report["pooled"], model.pooled_), (report["classes"]["walk"], model.kappa(1))):
+        assert len(shown) == 2
+        for value, kappa in zip(shown, fitted, strict=True):
+            assert abs(value - kappa) <= 5e-5  # the fitted ratio ...
+            assert value == round(value, 4) and value != round(float(kappa), 5)  # ... to 4 decimals, not 5
+    assert report["classes"]["walk"] != report["pooled"]
+
+
+def test_a_class_with_exactly_the_floor_of_windows_gets_its_own_ratio(rng):
+    windows = np.concatenate([_sines(20, 200, 1.0, 0.5, rng), _sines(19, 200, 1.0, 0.2, rng)])
+    model = TextureModel(FS, min_class_windows=20).fit(windows, np.repeat([0, 1], [20, 19]))
+    assert model.mapping(0) == "class" and model.kappa(0) == pytest.approx([0.5, 0.5], rel=0.05)
+    assert model.mapping(1) == "pooled"
+
+
+def test_no_band_just_below_8_hz_and_the_reason_names_the_band():
+    """The band needs a top above 1.2 x 3 Hz = 0.45 x 8 Hz: at the largest rate below 8 Hz the top is
+    exactly 3.6 Hz (in floating point) and no band is left; at 8 Hz there is one."""
+    below = float(np.nextafter(8.0, 0.0))
+    assert bands(below) is None
+    assert bands(8.0) is not None
+    reason = TextureModel(7.5).fit(np.zeros((30, 100, 2)), np.zeros(30, int)).reason_
+    assert reason == "a sampling rate of 7.5 Hz leaves no room for the 3-12 Hz band: that needs 8 Hz"
+
+
+def test_the_errors_name_the_field_to_fix(rng):
+    model = TextureModel(FS).fit(_sines(40, 200, 1.0, 0.5, rng), np.zeros(40, int))
+    with pytest.raises(ValidationError) as err:
+        model.apply(np.zeros((400, 3)), 0, rng)
+    assert err.value.field == "channels" and "expected 2 channels, got 3" in str(err.value)
+    assert "field 'channels'" in str(err.value)
+    with pytest.raises(ValidationError) as err:
+        TextureModel(FS).fit(np.zeros((40, 200)), np.zeros(40, int))
+    assert err.value.field == "windows" and "expected windows (N, T, C), got shape (40, 200)" in str(err.value)
+    assert "field 'windows'" in str(err.value)
+
+
+def test_the_ratios_do_not_depend_on_the_units(rng):
+    """kappa is a ratio: windows in mm/s^2-sized numbers or in km/s^2-sized ones give the same."""
+    windows = _sines(40, 200, 1.0, 0.5, rng)
+    labels = np.zeros(40, int)
+    ref = TextureModel(FS).fit(windows, labels).pooled_
+    np.testing.assert_allclose(TextureModel(FS).fit(windows * 1e-3, labels).pooled_, ref, rtol=1e-9)
+    np.testing.assert_allclose(TextureModel(FS).fit(windows * 1e3, labels).pooled_, ref, rtol=1e-9)
+
+
+def test_the_results_depend_on_the_values_not_the_dtype_they_arrive_in(rng):
+    """float32 windows, signals and ratios give what their values give in float64, and the output is
+    float64 on every path (textured, nothing fitted, too short to filter)."""
+    windows = _sines(40, 200, 1.0, 0.5, rng).astype(np.float32)
+    labels = np.zeros(40, int)
+    model = TextureModel(FS).fit(windows, labels)
+    assert np.array_equal(model.pooled_, TextureModel(FS).fit(windows.astype(np.float64), labels).pooled_)
+    signal = (10 * _sines(1, 300, 1.0, 0.0, rng)[0]).astype(np.float32)
+    kappa = model.pooled_.astype(np.float32)
+    ref = add_texture(signal.astype(np.float64), kappa.astype(np.float64), FS, np.random.default_rng(3))
+    out = add_texture(signal, kappa, FS, np.random.default_rng(3))
+    assert out.dtype == np.float64 and np.array_equal(out, ref)
+    for unchanged in (add_texture(signal, None, FS, rng), add_texture(signal[:20], kappa, FS, rng)):
+        assert unchanged.dtype == np.float64
+
+
+def test_the_added_noise_has_unit_std_in_every_channel(rng):
+    """Each channel's texture is scaled by its own missing amplitude: the unit noise is unit per channel."""
+    noise = _unit_band_noise((120, 3), bands(FS)[1], FS, np.random.default_rng(4))
+    np.testing.assert_allclose(noise.std(axis=0), 1.0, rtol=1e-12)
+
+
+def test_the_envelopes_hold_the_edge_value_at_the_ends_of_the_signal(rng):
+    """The 1 s envelopes (moving means of the band energies) treat the signal as continuing at its end
+    values: the missing amplitude at every sample, the first and last half-second included."""
+    signal = np.cumsum(rng.normal(size=(300, 2)), axis=0) + rng.normal(size=(300, 2))
+    kappa = np.array([0.8, 1.5])
+    edges = bands(FS)
+    n = int(FS)  # 1 s
+
+    def envelope(band):
+        energy = filtfilt(butter(4, band, btype="band", fs=FS, output="sos"), signal, axis=0) ** 2
+        padded = np.pad(energy, ((n // 2, n - 1 - n // 2), (0, 0)), mode="edge")
+        return np.stack([np.convolve(padded[:, c], np.ones(n) / n, mode="valid") for c in range(2)], axis=1)
+
+    expected = np.sqrt(np.maximum(kappa ** 2 * envelope(edges[0]) - envelope(edges[1]), 0.0))
+    np.testing.assert_allclose(missing_amplitude(signal, kappa, edges, FS), expected, rtol=1e-9, atol=1e-12)
