@@ -52,7 +52,8 @@ GROUPS = (
     Group("imu", ("imu/*",), ("tests/imu",)),
     Group("filtering", ("filtering/*",), ("tests/filtering",)),
     Group("har", ("har/features.py", "har/protocols.py", "har/synthetic.py"),
-          ("tests/har/test_har_protocols.py", "tests/har/test_har_synthetic_features.py")),
+          ("tests/har/test_har_protocols.py", "tests/har/test_har_synthetic_features.py",
+           "tests/har/test_har_unseen.py", "tests/har/test_har_tstr.py")),  # the unseen and tstr splits
     Group("smp", ("smp/augment.py", "smp/schema.py"),
           ("tests/smp/test_smp_augment.py", "tests/smp/test_smp_exact_draws.py",
            "tests/smp/test_smp_library.py")),

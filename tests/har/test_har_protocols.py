@@ -107,6 +107,19 @@ def test_parse_budgets():
     assert parse_budgets("0.01", "low-resource") == (0.01,)
 
 
+def test_parse_budgets_edges():
+    """An empty item is skipped, not the end of the list; 100 % is a budget and 100.5 is not; only a
+    trailing '%' is taken off (a trailing letter is a typo, refused); tstr without budgets trains
+    on the whole pool, with them on each."""
+    assert parse_budgets("1,,5", "low-resource") == (1.0, 5.0)
+    assert parse_budgets(" 2 %, 100", "low-resource") == (2.0, 100.0)
+    for bad in ("100.5", "5X", "5%X"):
+        with pytest.raises(ConfigError, match="--budgets"):
+            parse_budgets(bad, "low-resource")
+    assert parse_budgets(None, "tstr") == (None,) and parse_budgets("", "tstr") == (None,)
+    assert parse_budgets("5,25", "tstr") == (5.0, 25.0)
+
+
 def test_budgets_below_the_smallest_only_repeat_it():
     """MIN_BUDGET's reason: a class keeps 1 window at least, so below 0.01 % a class of up to 5000
     windows keeps its 1 window whatever the budget; a smaller budget is the same protocol."""
