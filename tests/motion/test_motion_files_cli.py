@@ -244,6 +244,10 @@ def test_cli_user_mistakes_exit_2(cli, tmp_path, monkeypatch, args, words):
     (("imu", "simulate", "w.npz", "-o", "w.parquet"),
      "w.parquet: field '--output': an IMU recording is written as .csv, not under '.parquet'. Allowed: a file name "
      "ending in .csv."),
+    (("motion", "render", "w.npz", "-o", "w.png"),
+     "w.png: field '--output': the animation is written as .gif, not under '.png'. Allowed: a file name ending in .gif."),
+    (("video", "pose", "clip.mp4", "-o", "w.json"), "w.json: field '--output': a motion is written as .npz, not under "
+     "'.json'"),
 ])
 def test_an_output_named_for_another_format_is_refused(cli, tmp_path, walk, monkeypatch, args, says):
     """A motion went into 'w.csv' as a zip and an IMU CSV into 'w.parquet' as text, each under a

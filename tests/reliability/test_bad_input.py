@@ -335,6 +335,9 @@ def test_a_pool_manifest_never_replaces_a_clip_of_the_pool(capsys, tmp_path):
     code, text = run_main(capsys, "video", "pool", tmp_path / "pool", "-o", clip)
     assert code == 2 and "a clip of POOL and --output name the same file" in text, text
     assert clip.read_bytes() == b"\x00" * 64
+    code, text = run_main(capsys, "video", "pool", tmp_path / "pool", "-o", tmp_path / "manifest.csv")
+    assert code == 2 and "a pool manifest is written as .json, not under '.csv'" in " ".join(text.split()), text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pool"]
 
 
 def test_a_clip_longer_than_a_motion_is_refused_before_tracking(capsys, tmp_path):

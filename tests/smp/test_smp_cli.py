@@ -262,6 +262,14 @@ SMP_WORDS = "an SMP is written as .json, .yaml or .yml"
      f"{SMP_WORDS}, not under '.txt'"),
     (("augment", "jj.json", "-k", "2", "-o", "v.json"),
      "v.json: field '--output': a file of SMP variants (one a line) is written as .jsonl, not under '.json'"),
+    (("augment", "jj.json", "-k", "2", "-o", "v.jsonl", "--provenance", "p.json"),
+     "p.json: field '--provenance': the variants' provenance (one a line) is written as .jsonl, not under '.json'"),
+    (("repair", "raw.txt", "-o", "s.json", "--report", "r.txt"),
+     "r.txt: field '--report': a report is written as .json, not under '.txt'"),
+    (("aggregate", "raw.txt", "raw.txt", "raw.txt", "--report", "r"),
+     "r: field '--report': a report is written as .json, not under a name without one"),
+    (("extract", "clip.mp4", "--label", "walking", "--extractor", "pose", "-o", "s.json", "--motion-out", "m.bvh"),
+     "m.bvh: field '--motion-out': a motion is written as .npz, not under '.bvh'"),
 ])
 def test_an_smp_output_named_for_another_format_is_refused(cli, tmp_path, jj, monkeypatch, args, says):
     """Every smp command took any -o name: an SMP went into 's.csv' as JSON (and variants into

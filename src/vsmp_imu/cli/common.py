@@ -143,10 +143,12 @@ def output_file(path: Path | None, option: str = "--output") -> Path | None:
     return path
 
 
-def output_suffix(path: Path, suffix: str | tuple[str, ...], what: str, option: str = "--output") -> None:
+def output_suffix(path: Path | None, suffix: str | tuple[str, ...], what: str, option: str = "--output") -> None:
     """The file a command writes in one format must be named for it: a motion written to
     'x.parquet' would be a zip under a name that says otherwise. `suffix`: one, or the suffixes
-    of the formats the writer picks by name ('.json', '.yaml', '.yml')."""
+    of the formats the writer picks by name ('.json', '.yaml', '.yml'). None: no file asked for."""
+    if path is None:
+        return
     suffixes = (suffix,) if isinstance(suffix, str) else suffix
     if path.suffix.lower() not in suffixes:
         given = f"'{path.suffix}'" if path.suffix else "a name without one"

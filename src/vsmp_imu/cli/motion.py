@@ -115,9 +115,7 @@ def render_cmd(
     output_file(output)
     output_file(keyframes, "--keyframes")
     distinct_files({"--output": output, "--keyframes": keyframes}, {"the input motion": motion_file})
-    if output.suffix.lower() != ".gif":
-        raise ConfigError("the animation is written as a GIF", file=output, field="--output",
-                          allowed="a file name ending in .gif")
+    output_suffix(output, ".gif", "the animation")
     if keyframes is not None:
         check_image_path(keyframes, "--keyframes")
     from vsmp_imu.motion.render import (

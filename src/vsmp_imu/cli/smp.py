@@ -98,8 +98,7 @@ def _print_refine(result: RefineResult) -> None:
 def smp_suffix(output: Path | None) -> None:
     """-o of a command that writes one SMP: a file named for its format, .json or .yaml
     (None: the SMP is printed)."""
-    if output is not None:
-        output_suffix(output, SMP_SUFFIXES, "an SMP")
+    output_suffix(output, SMP_SUFFIXES, "an SMP")
 
 
 def _write_or_print(smp: SMP, output: Path | None) -> None:
@@ -176,6 +175,7 @@ def repair_cmd(
     output_file(report_file, "--report")
     distinct_files({"--output": output, "--report": report_file}, {"the raw response": raw})
     smp_suffix(output)
+    output_suffix(report_file, ".json", "a report", "--report")
     result = parse_response(_read_raw(raw))
     _print_repair(str(raw), result.report)
     if report_file is not None:
@@ -201,6 +201,7 @@ def aggregate_cmd(
     output_file(report_file, "--report")
     distinct_files({"--output": output, "--report": report_file}, {"a raw response": raws})
     smp_suffix(output)
+    output_suffix(report_file, ".json", "a report", "--report")
     lib = _library(library)
     results = [parse_response(_read_raw(p)) for p in raws]
     for path, res in zip(raws, results, strict=True):
@@ -259,6 +260,7 @@ def augment_cmd(
     output_file(provenance, "--provenance")
     distinct_files({"--output": output, "--provenance": provenance}, {"the input SMP": Path(file)})
     output_suffix(output, ".jsonl", "a file of SMP variants (one a line)")
+    output_suffix(provenance, ".jsonl", "the variants' provenance (one a line)", "--provenance")
     smp = _smp_arg(file, library)
     check_output_size(smp, k, field="-k")
     augmenter = SMPAugmenter(uncertainty_conditioned=not no_uncertainty)

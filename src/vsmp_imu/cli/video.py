@@ -24,6 +24,7 @@ from vsmp_imu.cli.common import (
     option_names,
     output_dir,
     output_file,
+    output_suffix,
     shown,
 )
 from vsmp_imu.cli.smp import smp_app, smp_suffix
@@ -173,6 +174,7 @@ def extract_cmd(
     distinct_files({"--output": output, "the report next to --output": report_next_to, "--motion-out": motion_out},
                    {"the video": video})
     smp_suffix(output)
+    output_suffix(motion_out, ".npz", "a motion", "--motion-out")
     _max_fps(max_fps)
     if extractor not in EXTRACTORS:
         raise ConfigError(f"unknown extractor '{extractor}'", field="--extractor",
@@ -333,6 +335,7 @@ def pose_cmd(
     """MediaPipe pose -> SMPL-22 motion (.npz), gaps marked in its meta."""
     output_file(output)
     distinct_files({"--output": output}, {"the video": video})
+    output_suffix(output, ".npz", "a motion")
     from vsmp_imu.extract.landmarks import MediaPipePoseEstimator
     from vsmp_imu.extract.posemeasure import longest_run
     from vsmp_imu.extract.retarget import track_to_motion
@@ -381,6 +384,7 @@ def pool_cmd(
         raise ConfigError(f"unknown checker '{checker}'", field="--checker", allowed=", ".join(CHECKERS))
     _max_fps(max_fps)
     distinct_files({"--output": output}, {"a clip of POOL": [clip for _, clip in pool_clips(pool_dir)]})
+    output_suffix(output, ".json", "a pool manifest")
     if checker == "vlm":
         client = _client(base_url, model, cache_dir, no_cache, timeout_s, max_retries, True)
         chk: Any = VLMClipChecker(client, _sampler(n_frames, None, n_option="--n-frames"))
