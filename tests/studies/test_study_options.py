@@ -139,3 +139,38 @@ def test_the_shared_run_options_reach_the_study(monkeypatch, cli, tmp_path, stud
     options = seen["options"]
     assert (options.backend, options.workers, options.library_dirs) == ("compiled", 2, (str(library),))
     assert seen["backbone_params"] == {"n_threads": 4, "max_epochs": 3, "patience": 2}
+
+
+@pytest.mark.parametrize("study, others", [("granularity", "real,vsmp"), ("realism", "vsmp,classical")])
+@pytest.mark.parametrize("args, option, says", [
+    (("--describer-url", "http://localhost:8000/v1"), "--describer-url", "only the imugpt method asks"),
+    (("--methods", "imugpt", "--describer-model", "writer"), "--describer-model", "--describer-url URL"),
+    (("--methods", "imugpt", "--describer-url", "localhost:8000/v1"), "--describer-url", "not the URL"),
+    (("--methods", "imugpt", "--describer-url", "ftp://host/v1"), "--describer-url", "not the URL"),
+])
+def test_a_describer_is_refused_before_any_work(cli, tmp_path, study, others, args, option, says):
+    """As `evaluate`'s (`cli.common.describer_options`): a describer without imugpt among
+    --methods, a model without a URL, a URL that names no endpoint."""
+    methods = () if "--methods" in args else ("--methods", others)
+    code, _, err = cli("study", study, "-o", tmp_path / "out", *methods, *args)
+    assert code == 2
+    assert f"field '{option}'" in err and says in err, err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("study", ["granularity", "realism"])
+def test_the_describer_reaches_the_study_as_imugpts_options(monkeypatch, cli, tmp_path, study):
+    import importlib
+
+    seen = {}
+
+    def run(self, *_args, **_kwargs):
+        seen["method_options"] = self.method_options
+        raise AssertionError("stop")
+
+    module = importlib.import_module(f"vsmp_imu.studies.{study}")
+    monkeypatch.setattr(getattr(module, STUDIES[study]), "run", run)
+    with pytest.raises(AssertionError, match="stop"):
+        cli("study", study, "-o", tmp_path / "out", "--describer-url", "http://localhost:8000/v1")
+    assert seen == {"method_options": {"imugpt": {"describer_url": "http://localhost:8000/v1",
+                                                  "describer_model": ""}}}

@@ -19,6 +19,7 @@ from vsmp_imu.cli.common import (
     K,
     console,
     console_err,
+    describer_options,
     executor_options,
     grounding_options,
     grounding_spec,
@@ -264,25 +265,6 @@ def evaluate_cmd(
         f"[green]wrote[/] {shown(output / 'results.json')}, {shown(written[0])} and "
         f"{len(written) - 1} confusion matrices"
     )
-
-
-def describer_options(url: str | None, model: str | None, methods: tuple[str, ...]) -> dict[str, dict[str, Any]]:
-    """`--describer-url` / `--describer-model` as the imugpt method's parameters (recorded with
-    the run, part of its settings); none without a URL."""
-    from vsmp_imu.extract.client import api_key_from_env, check_base_url
-
-    if url is None:
-        if model is not None:
-            raise ConfigError("--describer-model names the model of a describer endpoint", field="--describer-model",
-                              allowed="it together with --describer-url URL")
-        return {}
-    if "imugpt" not in methods:
-        raise ConfigError("only the imugpt method asks a describer", field="--describer-url",
-                          allowed="--methods with imugpt, or no --describer-url")
-    with option_names({"base_url": "--describer-url"}):
-        check_base_url(url)
-    api_key_from_env()  # a key a request could not carry fails now, not in the first fold
-    return {"imugpt": {"describer_url": url, "describer_model": model or ""}}
 
 
 def _check_folders(output: Path, cache_dir: Path | None) -> None:

@@ -10,6 +10,7 @@ import typer
 
 from vsmp_imu.cli.common import (
     console,
+    describer_options,
     finite_list,
     finite_range,
     int_range,
@@ -51,6 +52,15 @@ MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", callback=EPOCHS_RANGE,
 PATIENCE_OPTION = typer.Option(None, "--patience", callback=EPOCHS_RANGE,
                                help=f"Neural backbones: early stopping (1..{EPOCHS_MAX})")
 SOURCE_OPTION = typer.Option("library", "--source", help="VSMP source SMPs: library | smp:DIR | video:DIR")
+DESCRIBER_URL_OPTION = typer.Option(
+    None, "--describer-url", show_default=False, metavar="URL",
+    help="IMUGPT baseline: an OpenAI-compatible endpoint (e.g. http://localhost:8000/v1; key from "
+         "VSMP_VLM_API_KEY or OPENAI_API_KEY) whose chat model writes the activity descriptions (default: "
+         "none, the built-in templated descriptions)")
+DESCRIBER_MODEL_OPTION = typer.Option(
+    None, "--describer-model", show_default=False, metavar="NAME",
+    help="IMUGPT baseline: the model --describer-url serves that writes the descriptions (default: an "
+         "empty name, which a server of one model takes)")
 SEEDS_OPTION = typer.Option(1, "--seeds", callback=SEEDS_RANGE, help=f"Seeds 0..N-1 (N 1..{SEEDS_MAX})")
 JOBS_OPTION = typer.Option(None, "--jobs", callback=JOBS_RANGE, help=f"CPU threads of the backbone (1..{JOBS_MAX})")
 SEED_HELP = f"(0..{SEED_MAX})"
@@ -322,6 +332,8 @@ def granularity_cmd(
                                       "activity)"),
     source: str = SOURCE_OPTION,
     k: int = typer.Option(4, "--k", callback=K_RANGE, help=f"SMP variants per source SMP (1..{K_MAX})"),
+    describer_url: str | None = DESCRIBER_URL_OPTION,
+    describer_model: str | None = DESCRIBER_MODEL_OPTION,
     run: dict | None = None,  # stands for the options of `run_options`
 ) -> None:
     """Per-class precision/recall/F1 and group Macro-F1 under an activity taxonomy."""
@@ -331,11 +343,12 @@ def granularity_cmd(
     from vsmp_imu.studies.methods import method_names
 
     budget = _protocol(protocol, budget)
+    chosen = tuple(parse_csv(methods, method_names(), "--methods"))
     study = GranularityStudy(
-        dataset=dataset, data_dir=data_dir, taxonomy=taxonomy,
-        methods=tuple(parse_csv(methods, method_names(), "--methods")), backbone=backbone,
+        dataset=dataset, data_dir=data_dir, taxonomy=taxonomy, methods=chosen, backbone=backbone,
         protocol=protocol, budget=budget, folds=_folds(folds), seeds=seeds, alpha=alpha,
         options=_generation(source, k, run["backend"], run["workers"], run["library"], clips),
+        method_options=describer_options(describer_url, describer_model, chosen),
         backbone_params=_backbone(backbone, run["max_epochs"], run["patience"], run["jobs"]))
     results, paths = _run_study(study, output, "granularity", write_granularity_outputs)
     _print_skipped(results.skipped)
@@ -395,6 +408,8 @@ def realism_cmd(
     workers: int = WORKERS_OPTION,
     jobs: int | None = typer.Option(None, "--jobs", callback=JOBS_RANGE, help=f"CPU threads of the encoder (1..{JOBS_MAX})"),
     library: list[Path] = LIBRARY_OPTION,
+    describer_url: str | None = DESCRIBER_URL_OPTION,
+    describer_model: str | None = DESCRIBER_MODEL_OPTION,
 ) -> None:
     """Feature-space realism: class-wise centroid distances in DeepConvLSTM embeddings, PCA, KS,
     and a two-sample test (RF AUC) on the ECDF features."""
@@ -405,12 +420,13 @@ def realism_cmd(
 
     parse_csv(layer, LAYERS, "--layer")
     encoder = _encoder(filters, hidden, batch_size, jobs)
+    chosen = tuple(parse_csv(methods, method_names(), "--methods"))
     study = RealismStudy(
-        dataset=dataset, data_dir=data_dir, fold=fold,
-        methods=tuple(parse_csv(methods, method_names(), "--methods")), seed=seed, alpha=alpha,
+        dataset=dataset, data_dir=data_dir, fold=fold, methods=chosen, seed=seed, alpha=alpha,
         max_per_class=max_per_class, epochs=epochs, patience=patience,
         encoder_windows=encoder_windows or None, val_windows=val_windows or None, layer=layer,
-        encoder_params=encoder, options=_generation(source, k, backend, workers, library, clips))
+        encoder_params=encoder, options=_generation(source, k, backend, workers, library, clips),
+        method_options=describer_options(describer_url, describer_model, chosen))
     results, paths = _run_study(study, output, "realism", write_realism_outputs)
     _print_skipped(results.skipped)
     for row in results.methods:

@@ -25,7 +25,7 @@ import numpy as np
 
 from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.io import read_structured
-from vsmp_imu.methods import method, register_all
+from vsmp_imu.methods import register_all
 from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.smp._text import norm_name
 from vsmp_imu.smp.library import ActivityLibrary
@@ -34,6 +34,7 @@ from vsmp_imu.studies.methods import (
     load_study_dataset,
     paired_evaluation,
     spec_settings,
+    study_params,
     unavailable_reason,
 )
 
@@ -140,6 +141,8 @@ class GranularityStudy:
     alpha: float = 0.5
     options: GenerationSpec = field(default_factory=GenerationSpec)
     backbone_params: dict[str, Any] = field(default_factory=dict)
+    # per method, parameters of its own beside the spec's (imugpt's describer_url and describer_model)
+    method_options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.methods = tuple(check_methods(self.methods))
@@ -194,7 +197,7 @@ class GranularityStudy:
             backbones=(self.backbone,), methods=methods, folds=self.folds,
             seeds=tuple(range(self.seeds)), alpha=self.alpha,
             backbone_params={self.backbone: dict(self.backbone_params)} if self.backbone_params else {},
-            method_params={m: method(m).params(options) for m in methods if m != "real"},
+            method_params={m: study_params(m, options, self.method_options) for m in methods if m != "real"},
             report_groups=dict(groups))
 
         def update(description: str, done: int, total: int) -> None:
@@ -212,6 +215,7 @@ class GranularityStudy:
                       "backbone_params": self.backbone_params, "alpha": self.alpha,
                       "methods": list(methods), "requested_methods": list(self.methods),
                       "taxonomy_file": str(tax_path), "generation": spec_settings(options),
+                      "method_options": self.method_options,
                       "dataset_notes": study_ds.notes},
             taxonomy={g: [study_ds.original(m) for m in ms] for g, ms in groups.items()},
             ungrouped=[study_ds.original(n) for n in info.label_names if n not in grouped],

@@ -14,7 +14,14 @@ import numpy as np
 
 from vsmp_imu.studies.granularity import GranularityResults
 from vsmp_imu.studies.methods import method_display
-from vsmp_imu.studies.report import NA, fmt_num, markdown_table, save_figure, write_report
+from vsmp_imu.studies.report import (
+    NA,
+    describer_lines,
+    fmt_num,
+    markdown_table,
+    save_figure,
+    write_report,
+)
 
 FIGURE_NAME = "granularity.png"
 METHOD_COLORS = {"real": "#c05621", "classical": "#718096", "imutube": "#38a169", "imugpt": "#805ad5",
@@ -83,6 +90,7 @@ def granularity_markdown(r: GranularityResults) -> str:
            f"- **Taxonomy**: `{s['taxonomy_file']}`.",
            f"- Generation: backend `{s['generation']['backend']}`, source `{s['generation']['source']}`. "
            f"Wall time {r.elapsed_s / 60:.1f} min."]
+    out += describer_lines(s)
     out += [f"- Note: {n}." for n in s.get("dataset_notes", [])]
     for m, reason in r.skipped.items():
         out.append(f"- **Skipped {method_display(m)}**: {reason}.")

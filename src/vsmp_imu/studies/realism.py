@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from vsmp_imu.errors import ConfigError, VsmpError
-from vsmp_imu.methods import method, register_all
+from vsmp_imu.methods import register_all
 from vsmp_imu.pipeline.spec import GenerationSpec
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp.library import ActivityLibrary
@@ -53,6 +53,7 @@ from vsmp_imu.studies.methods import (
     check_methods,
     load_study_dataset,
     spec_settings,
+    study_params,
     unavailable_reason,
 )
 
@@ -203,6 +204,8 @@ class RealismStudy:
     encoder_params: dict[str, Any] = field(default_factory=dict)
     plot_per_class: int = 60
     options: GenerationSpec = field(default_factory=GenerationSpec)
+    # per method, parameters of its own beside the spec's (imugpt's describer_url and describer_model)
+    method_options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.methods = tuple(m for m in check_methods(self.methods) if m != "real")
@@ -319,7 +322,7 @@ class RealismStudy:
             reason = unavailable_reason(m, options, info.name, names, library)
             if reason is None:
                 try:
-                    syn = make_method(m, **method(m).params(options)).generate(context)
+                    syn = make_method(m, **study_params(m, options, self.method_options)).generate(context)
                     check_synthetic(split.fit, syn, m)
                     syn = take_budget(syn, budget, rng_for(self.seed, "take-budget", fold, m))
                     if len(syn) == 0:
@@ -340,6 +343,7 @@ class RealismStudy:
                       "alpha": self.alpha, "max_per_class": self.max_per_class,
                       "budget": {names[i]: int(n) for i, n in enumerate(budget)},
                       "requested_methods": list(self.methods), "generation": spec_settings(options),
+                      "method_options": self.method_options,
                       "dataset_notes": study_ds.notes, "protocol": "lopo (full training split)"},
             label_names=shown, channel_names=list(info.channel_names),
             encoder=encoder_info, skipped=skipped, methods=rows, pca=plot)

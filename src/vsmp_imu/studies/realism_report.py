@@ -25,7 +25,13 @@ from vsmp_imu.studies.realism import (
     SHUFFLED,
     RealismResults,
 )
-from vsmp_imu.studies.report import fmt_num, markdown_table, save_figure, write_report
+from vsmp_imu.studies.report import (
+    describer_lines,
+    fmt_num,
+    markdown_table,
+    save_figure,
+    write_report,
+)
 
 PCA_FIGURE = "realism_pca.png"
 DISTANCE_FIGURE = "realism_distance.png"
@@ -129,6 +135,7 @@ def realism_markdown(r: RealismResults) -> str:
            f"at most {s['max_per_class']} per class; the same budget and `FoldContext` for every method. "
            f"Backend `{s['generation']['backend']}`, source `{s['generation']['source']}`.",
            f"- Wall time {r.elapsed_s / 60:.1f} min."]
+    out += describer_lines(s)
     out += [f"- Note: {n}." for n in s.get("dataset_notes", [])]
     for m, reason in r.skipped.items():
         out.append(f"- **Skipped {method_display(m)}**: {reason}.")
