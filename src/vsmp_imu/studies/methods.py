@@ -31,11 +31,11 @@ def spec_settings(spec: GenerationSpec) -> dict[str, Any]:
     return {**{name: getattr(spec, name) for name in OPTION_FIELDS}, "clips": spec.clips}
 
 
-
 def study_params(name: str, spec: GenerationSpec, own: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """A method's parameters in a study: the spec's, as `evaluate` gives them, and its own
     (`own`, per method: imugpt's describer_url and describer_model), as `evaluate` adds them."""
     return {**registered(name).params(spec), **own.get(name, {})}
+
 
 def check_methods(names: Sequence[str]) -> list[str]:
     """The names, or a ConfigError naming the unknown ones."""
