@@ -8,8 +8,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from smp_helpers import make_smp, simple_smp
 
-from vsmp_imu.errors import ValidationError
-from vsmp_imu.smp.augment import SMPAugmenter, augment_variant
+from vsmp_imu.errors import ConfigError, ValidationError
+from vsmp_imu.smp import augment
+from vsmp_imu.smp.augment import SMPAugmenter, augment_variant, check_output_size
 from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.smp.schema import SMP, UNCERTAINTY_FIELDS, VARIANT_FIELDS, displacement_word
 
@@ -201,3 +202,86 @@ def test_invariants_hold_for_every_library_activity(name, library, seed, u, fiel
     # the library's own constraints
     for v in SMPAugmenter().augment(entry.smp, 3, seed):
         _assert_valid_variant(entry.smp, v)
+
+
+def test_full_uncertainty_leaves_empty_durations_and_a_displacement_word():
+    """u = 1 means radius 0: the nominal durations are not copied in, "small" stays a word."""
+    s = simple_smp(**{"primitive_durations": {"type": "unknown", "values": []},
+                      "execution_attributes.global_displacement": "small",
+                      "constraints.variant_fields": ["primitive_duration", "global_displacement"],
+                      "uncertainty.primitive_duration": 1.0, "uncertainty.global_displacement": 1.0})
+    for i in range(5):
+        v, changed = augment_variant(s, 0, i)
+        assert v == s and changed == {}
+
+
+def test_a_single_repetition_stays_single_below_one_cycle_of_radius():
+    # u = 0.9: radius 0.5 cycles, so 1 can move to no other integer
+    s = simple_smp(**{"temporal_structure.repetition_count": 1, "uncertainty.repetition_count": 0.9})
+    assert {v.repetition_count() for v in SMPAugmenter().augment(s, 30, seed=0)} == {1}
+    # u = 0: radius 5 cycles around 2, clipped at 1
+    s = make_smp(s, **{"temporal_structure.repetition_count": 2, "uncertainty.repetition_count": 0.0})
+    counts = {v.repetition_count() for v in SMPAugmenter().augment(s, 60, seed=0)}
+    assert min(counts) == 1 and max(counts) <= 7
+
+
+def test_percent_durations_keep_their_sum_of_100():
+    s = simple_smp(**{"primitive_durations.values": [30.0, 50.0, 20.0],
+                      "constraints.variant_fields": ["primitive_duration"]})
+    for v in SMPAugmenter().augment(s, 20, seed=1):
+        values = v.primitive_durations.values
+        assert sum(values) == pytest.approx(100.0, abs=1e-3) and values != [30.0, 50.0, 20.0]
+
+
+def test_unknown_relative_durations_stay_and_the_known_keep_their_sum():
+    s = simple_smp(**{"primitive_durations.values": [0.3, "unknown", 0.2],
+                      "constraints.variant_fields": ["primitive_duration"]})
+    for v in SMPAugmenter().augment(s, 20, seed=1):
+        first, middle, last = v.primitive_durations.values
+        assert middle == "unknown" and first + last == pytest.approx(0.5, abs=1e-3)
+
+
+def test_all_zero_relative_durations_stay_zero():
+    s = simple_smp(**{"primitive_durations.values": [0.0, 0.0, 0.0],
+                      "constraints.variant_fields": ["primitive_duration"]})
+    for i in range(5):
+        v, changed = augment_variant(s, 0, i)
+        assert v.primitive_durations.values == [0.0, 0.0, 0.0] and changed == {}
+
+
+def _smp_of_size(size: int) -> SMP:
+    """simple_smp padded so that its canonical line (with its newline) is `size` bytes."""
+    s = simple_smp(**{"motion_primitives.0.description": ""})
+    pad = size - 1 - len(s.canonical_json())
+    return make_smp(s, **{"motion_primitives.0.description": "x" * pad})
+
+
+def test_output_size_limit_allows_exactly_the_count_it_names(monkeypatch):
+    s = _smp_of_size(2500)
+    monkeypatch.setattr(augment, "MAX_OUTPUT_BYTES", 1_500_000)
+    check_output_size(s, 600)  # 600 x 2500 bytes is the limit itself
+    with pytest.raises(ConfigError) as err:
+        check_output_size(s, 601)
+    assert err.value.field == "k" and err.value.allowed == "at most 600 variants of this SMP"
+    with pytest.raises(ConfigError) as err:
+        check_output_size(s, 1400, field="-k")
+    assert err.value.field == "-k"
+    assert err.value.message == ("1400 variants of this 2,500-byte SMP would write about 4 MB, "
+                                 "more than the 2 MB limit")  # 3.5 and 1.5 MB, rounded
+
+
+def test_output_size_allows_one_variant_of_an_smp_near_the_limit(monkeypatch):
+    s = _smp_of_size(2500)
+    monkeypatch.setattr(augment, "MAX_OUTPUT_BYTES", 4000)
+    check_output_size(s, 1)
+    with pytest.raises(ConfigError) as err:
+        check_output_size(s, 2)
+    assert err.value.allowed == "at most 1 variants of this SMP"
+
+
+def test_output_size_default_limit_is_200_mb():
+    s = _smp_of_size(2500)
+    assert augment.MAX_OUTPUT_BYTES == 200 * 10**6
+    check_output_size(s, 80_000)
+    with pytest.raises(ConfigError, match="about 200 MB, more than the 200 MB limit"):
+        check_output_size(s, 80_001)

@@ -5,6 +5,7 @@ Each expected value is computed from the appendix rule and
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -64,7 +65,8 @@ def test_relative_durations_scale_then_renormalize_to_their_sum():
     raw = [v * x for v, x in zip([0.3, 0.5, 0.2], f, strict=True)]
     want = [round(v * 1.0 / sum(raw), 4) for v in raw]
     assert out.primitive_durations.values == want and out.primitive_durations.type == "relative"
-    assert changed["primitive_durations"]["before"] == {"type": "relative", "values": [0.3, 0.5, 0.2]}
+    assert changed["primitive_durations"] == {"before": {"type": "relative", "values": [0.3, 0.5, 0.2]},
+                                              "after": {"type": "relative", "values": want}}
 
 
 def test_absolute_durations_are_scaled_without_renormalizing_and_unknowns_stay():
@@ -100,14 +102,42 @@ def test_categorical_fields_flip_when_their_stream_falls_below_the_probability()
         assert out.execution_attributes.dominant_side == ("right" if side else "left")
         assert out.execution_attributes.symmetry == ("symmetric" if sym else "asymmetric")
         assert ("execution_attributes.dominant_side" in changed) == side
+        if side:
+            assert changed["execution_attributes.dominant_side"] == {"before": "left", "after": "right"}
+        if sym:
+            assert changed["execution_attributes.symmetry"] == {"before": "asymmetric", "after": "symmetric"}
         factor = _draw(smp, 1, index, "global_displacement").uniform(1 - (1 - U) * 0.25, 1 + (1 - U) * 0.25)
-        assert out.execution_attributes.global_displacement == round(max(1e-3, 1.0 * factor), 4)
+        extent = round(max(1e-3, 1.0 * factor), 4)
+        assert out.execution_attributes.global_displacement == extent
+        assert changed["execution_attributes.global_displacement"] == {"before": "small", "after": extent}
         flips["side"] += side
         flips["sym"] += sym
     assert flips["side"] > 0 and flips["sym"] > 0
     right = _category_smp(dominant_side="right")
     swapped = [augment_variant(right, 1, i)[0].execution_attributes.dominant_side for i in range(20)]
     assert "left" in swapped and set(swapped) <= {"left", "right"}
+
+
+class _Fixed:
+    """A stream whose every draw is `value`."""
+
+    def __init__(self, value: float) -> None:
+        self.value = value
+
+    def random(self) -> float:
+        return self.value
+
+
+def test_a_draw_equal_to_the_probability_changes_nothing(monkeypatch):
+    """The draw is in [0, 1) and a field changes when it is below p: so with p = 0 (u = 1)
+    even a draw of 0.0 leaves the field."""
+    smp = make_smp(_category_smp(dominant_side="left", symmetry="symmetric"),
+                   **{"uncertainty.dominant_side": 0.5, "uncertainty.symmetry": 1.0})
+    for draw, side in ((0.25, "left"), (0.2499, "right"), (0.0, "right")):  # side: p = 0.25
+        monkeypatch.setattr(aug, "rng_for", lambda *keys, d=draw: _Fixed(d))
+        out, _ = augment_variant(smp, 1, 0)
+        assert out.execution_attributes.dominant_side == side
+        assert out.execution_attributes.symmetry == "symmetric"
 
 
 def test_unconditioned_augmentation_uses_full_radius():
@@ -166,6 +196,9 @@ def test_relative_durations_fill_unknowns_with_the_known_mean():
     assert none.relative_durations() == pytest.approx([0.3, 0.5, 0.2])  # from the primitives
     blank = make_smp(none, **{f"motion_primitives.{i}.relative_duration": "unknown" for i in range(3)})
     assert blank.relative_durations() == pytest.approx([1 / 3] * 3)
+    # a structural word names no primitive: it takes the mean of the known durations
+    looped = make_smp(none, primitive_sequence=["raise_arms", "circle_arms", "lower_arms", "repeat"])
+    assert looped.relative_durations() == pytest.approx([0.3 / 4 * 3, 0.5 / 4 * 3, 0.2 / 4 * 3, 1 / 4])
 
 
 def test_identity_and_schema():
@@ -190,12 +223,38 @@ def test_primitive_sequence_names_a_primitive_or_a_structural_word():
     data = simple_smp().model_dump(mode="json")
     with pytest.raises(ValidationError) as err:
         smp_from_dict({**data, "primitive_sequence": ["raise_arms", " ", "lower_arms"]}, "s.json")
-    assert err.value.field == "primitive_sequence[1]" and "must not be empty" in err.value.message
+    assert err.value.field == "primitive_sequence[1]" and err.value.message == "must not be empty (got ' ')"
+    assert err.value.__cause__.errors()[0]["type"] == "blank_name"
     with pytest.raises(ValidationError) as err:
         smp_from_dict({**data, "primitive_sequence": ["raise_arms", "fly", "lower_arms"]}, "s.json")
     assert err.value.field == "primitive_sequence" and "item 1 'fly' is the name of no motion primitive" \
         in err.value.message
-    assert err.value.allowed.startswith("a name from motion_primitives (raise_arms, circle_arms, lower_arms)")
+    assert err.value.allowed == ("a name from motion_primitives (raise_arms, circle_arms, lower_arms) or a "
+                                 "structural word (repeat, repetition, repeat cycle, loop, repeat sequence)")
     loose = ["Raise Arms", "circle-arms", "lower_arms", "Repeat"]  # case, '-', '_' aside; a structural word
     smp = smp_from_dict({**data, "primitive_sequence": loose, "primitive_durations": {"values": []}})
     assert smp.primitive_sequence == loose
+
+
+def test_canonical_json_is_key_sorted_and_compact():
+    text = simple_smp().canonical_json()
+    assert text.startswith('{"activity_label":"arm circles","body_parts":{"dominant_moving_segments":[')
+    assert text == json.dumps(json.loads(text), sort_keys=True, separators=(",", ":"))
+    assert SMP.model_validate_json(text) == simple_smp()
+
+
+@pytest.mark.parametrize(("value", "message", "allowed"), [
+    (-0.1, "Input should be greater than or equal to 0 (got -0.1)", ">= 0.0"),
+    (1.5, "Input should be less than or equal to 1 (got 1.5)", "<= 1.0"),
+    ("0.5", "Input should be a valid number (got '0.5')", None),
+    (True, "Input should be a valid number (got True)", None),
+    (float("nan"), "Input should be a finite number (got nan)", "finite"),
+])
+def test_an_uncertainty_is_a_finite_number_in_0_to_1(value, message, allowed):
+    from vsmp_imu.smp.io import smp_from_dict
+
+    data = simple_smp().model_dump(mode="json")
+    data["uncertainty"]["tempo"] = value
+    with pytest.raises(ValidationError) as err:
+        smp_from_dict(data)
+    assert (err.value.field, err.value.message, err.value.allowed) == ("uncertainty.tempo", message, allowed)
