@@ -11,9 +11,9 @@ import pytest
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.motion import get_backend, measure
-from vsmp_imu.motion.compiler import compile_recipe
+from vsmp_imu.motion.compiler import compile_recipe, compile_recipe_data
 from vsmp_imu.motion.motion import Motion
-from vsmp_imu.motion.procedural import ProceduralBackend
+from vsmp_imu.motion.procedural import ProceduralBackend, raw_durations
 from vsmp_imu.motion.selfcheck import is_plausible, plausibility
 from vsmp_imu.smp.intervene import intervene
 from vsmp_imu.smp.library import ActivityLibrary
@@ -220,3 +220,20 @@ def test_compiled_backend_runs_a_hapt12_fold(library):
     assert len(out.windows) > 0
     made = [r.provenance for r in out.records if not r.provenance.failed]
     assert made and all(p.backend == "compiled" for p in made)
+
+
+
+@pytest.mark.parametrize("name", ["bicep_curl", "jumping_jacks", "sit_to_stand"])
+def test_a_sequence_name_spelled_otherwise_compiles_as_its_primitive(library, name):
+    """'Curl Up' in primitive_sequence names the primitive curl_up (validation matches case,
+    spaces, '_' and '-' aside); the compiler looked it up by its exact name and lost the
+    primitive's body parts and description, so it compiled another movement."""
+    smp = library.get(name).smp
+    spelled = smp.model_copy(update={"primitive_sequence": [n.replace("_", " ").title()
+                                                            for n in smp.primitive_sequence]})
+    plain, other = compile_recipe_data(smp), compile_recipe_data(spelled)
+    assert list(other["primitives"]) != list(plain["primitives"])  # named as the sequence spells them
+    assert list(other["primitives"].values()) == list(plain["primitives"].values())
+    assert {k: v for k, v in other.items() if k not in ("primitives", "cycle")} == \
+        {k: v for k, v in plain.items() if k not in ("primitives", "cycle")}
+    assert raw_durations(spelled) == raw_durations(smp)

@@ -201,6 +201,17 @@ def test_relative_durations_fill_unknowns_with_the_known_mean():
     assert looped.relative_durations() == pytest.approx([0.3 / 4 * 3, 0.5 / 4 * 3, 0.2 / 4 * 3, 1 / 4])
 
 
+def test_a_sequence_name_finds_its_primitive_whatever_its_case_and_separators():
+    """Validation takes 'Raise Arms' for the primitive raise_arms; the durations looked it up by
+    its exact name and filled its known 0.3 with the mean."""
+    none = make_smp(simple_smp(), **{"primitive_durations.values": []})
+    spelled = make_smp(none, primitive_sequence=["Raise Arms", "circle-arms", "LOWER_ARMS", "repeat"])
+    assert spelled.relative_durations() == pytest.approx([0.3 / 4 * 3, 0.5 / 4 * 3, 0.2 / 4 * 3, 1 / 4])
+    assert spelled.primitive("Raise Arms").name == "raise_arms"
+    assert spelled.primitive_duration("circle-arms") == 0.5
+    assert spelled.primitive("repeat") is None and spelled.primitive_duration("repeat") is None
+
+
 def test_identity_and_schema():
     smp = simple_smp()
     assert smp.canonical_json() == smp.canonical_json() and '"activity_label":"arm circles"' in smp.canonical_json()

@@ -185,12 +185,11 @@ def _slug(label: str) -> str:
 
 # -- readings and actions ------------------------------------------------------------
 def _steps(smp: SMP) -> list[Step]:
-    prims = {p.name: p for p in smp.motion_primitives}
     steps: list[Step] = []
     for name in smp.primitive_sequence:
         if norm_name(name) in STRUCTURAL:
             continue
-        prim = prims.get(name)
+        prim = smp.primitive(name)
         desc = prim.description if prim is not None else ""
         parts = tuple(p for raw in (prim.body_parts if prim is not None else []) for p in normalize_body_part(raw))
         reading = read_primitive(name, desc)

@@ -419,8 +419,7 @@ def raw_durations(smp: SMP) -> list[float | None]:
     values = smp.primitive_durations.values
     if len(values) == len(seq) and any(v != UNKNOWN for v in values):
         return [None if v == UNKNOWN else float(v) for v in values]
-    by_name = {p.name: p.relative_duration for p in smp.motion_primitives}
-    return [None if by_name.get(n, UNKNOWN) == UNKNOWN else float(by_name[n]) for n in seq]
+    return [smp.primitive_duration(n) for n in seq]
 
 
 def match_primitives(smp: SMP, recipe: Recipe, file: Any = None,

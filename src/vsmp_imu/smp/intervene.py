@@ -81,13 +81,12 @@ def central_primitive_index(smp: SMP, central: str | None = None) -> int:
     names = smp.primitive_sequence
     if central is not None and central in names:
         return names.index(central)
-    by_name = {norm_name(p.name): p.relative_duration for p in smp.motion_primitives}
-    nominal = [by_name.get(norm_name(n), UNKNOWN) for n in names]
+    nominal = [smp.primitive_duration(n) for n in names]
     candidates = [i for i, n in enumerate(names) if not is_rest(n)] or list(range(len(names)))
-    known = [float(nominal[i]) for i in candidates if nominal[i] != UNKNOWN]
+    known = [nominal[i] for i in candidates if nominal[i] is not None]
     if len(known) == len(candidates):
         top = max(known)
-        candidates = [i for i in candidates if float(nominal[i]) >= top - 1e-9]
+        candidates = [i for i in candidates if nominal[i] >= top - 1e-9]
     return candidates[(len(candidates) - 1) // 2]
 
 

@@ -259,6 +259,18 @@ class SMP(_Strict):
             )
         return self
 
+    # -- the primitive a sequence name refers to ---------------------------
+    def primitive(self, name: str) -> MotionPrimitive | None:
+        """The motion primitive `name` refers to, matched as validation matches it (case, spaces,
+        '_' and '-' aside; the first of several so named); None for a structural word."""
+        key = norm_name(name)
+        return next((p for p in self.motion_primitives if norm_name(p.name) == key), None)
+
+    def primitive_duration(self, name: str) -> float | None:
+        """The relative duration of the primitive `name` refers to; None when unknown or none."""
+        prim = self.primitive(name)
+        return None if prim is None or prim.relative_duration == UNKNOWN else float(prim.relative_duration)
+
     # -- identity ---------------------------------------------------------
     def canonical_json(self) -> str:
         """Key-sorted compact JSON: the bytes that define this SMP's identity."""
@@ -301,11 +313,7 @@ class SMP(_Strict):
         if len(values) == n:
             raw = [None if v == UNKNOWN else float(v) for v in values]
         if all(v is None for v in raw):
-            by_name = {p.name: p.relative_duration for p in self.motion_primitives}
-            raw = [
-                None if by_name.get(name, UNKNOWN) == UNKNOWN else float(by_name[name])
-                for name in self.primitive_sequence
-            ]
+            raw = [self.primitive_duration(name) for name in self.primitive_sequence]
         known = [v for v in raw if v is not None and v > 0]
         fill = sum(known) / len(known) if known else 1.0
         filled = [v if v is not None and v > 0 else fill for v in raw]

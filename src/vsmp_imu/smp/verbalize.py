@@ -42,7 +42,7 @@ from __future__ import annotations
 import re
 
 from vsmp_imu.errors import ValidationError
-from vsmp_imu.smp._text import INSTRUCTION_WORDS, norm_name, number_word, words
+from vsmp_imu.smp._text import INSTRUCTION_WORDS, number_word, words
 from vsmp_imu.smp.bodyparts import side_of
 from vsmp_imu.smp.intervene import central_primitive_index
 from vsmp_imu.smp.library import ActivityLibrary, LibraryEntry
@@ -183,10 +183,9 @@ def _condense(full: list[str], budget: int) -> list[str] | None:
 def _phrases(smp: SMP, budget: int) -> list[str]:
     """Primitive phrases that fit the budget: condensed descriptions, else names,
     else the first names that fit."""
-    by_name = {norm_name(p.name): p for p in smp.motion_primitives}
     full, names = [], []
     for name in smp.primitive_sequence:
-        p = by_name.get(norm_name(name))
+        p = smp.primitive(name)
         named = _clean(_field_text(name, MAX_NAME_CHARS))
         described = _clean(_field_text(p.description, MAX_DESCRIPTION_CHARS)) if p is not None else ""
         if named or described:
