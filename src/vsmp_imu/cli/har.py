@@ -34,6 +34,7 @@ from vsmp_imu.cli.common import (
     shown,
 )
 from vsmp_imu.errors import ConfigError
+from vsmp_imu.har.protocols import MAX_RHO, MIN_BUDGET
 from vsmp_imu.progress import progress
 
 dataset_app = typer.Typer(help="HAR datasets: list them, inspect one.", no_args_is_help=True)
@@ -128,9 +129,9 @@ def evaluate_cmd(
              "group such as transitions), or 'each' for leave-one-class-out",
     ),
     budgets: str = typer.Option(
-        None, "--budgets", help="label budgets in percent, 0.01..100, for low-resource (default 1,5,10,25,50) "
-                                "and tstr (default: every window grounds the synthetic ones); a class keeps at "
-                                "least 1 window, so a smaller budget would only repeat 0.01's"
+        None, "--budgets", help=f"label budgets in percent, {MIN_BUDGET:g}..100, for low-resource (default "
+                                "1,5,10,25,50) and tstr (default: every window grounds the synthetic ones); a "
+                                f"class keeps at least 1 window, so a smaller budget would only repeat {MIN_BUDGET:g}'s"
     ),
     backbones: str = typer.Option("rf", "--backbones", help="rf,rf-seg,dclstm,dclstm-attn,bilstm-attn"),
     methods: str = typer.Option(
@@ -150,8 +151,8 @@ def evaluate_cmd(
         help="synthetic budget per class: uniform | tail | scarcity (the paper: uniform) "
              "[default: uniform for tstr, tail for unseen, else scarcity]"),
     rho: float = typer.Option(
-        10.0, "--rho", help="long-tail: head-to-tail imbalance ratio, above 1 and at most 1000 (a class keeps at "
-                            "least 1 window, so a ratio above the largest class's windows is not delivered)"),
+        10.0, "--rho", help=f"long-tail: head-to-tail imbalance ratio, above 1 and at most {MAX_RHO:g} (a class "
+                            "keeps at least 1 window, so a ratio above the largest class's windows is not delivered)"),
     window_s: float = WINDOW_S,
     overlap: float = OVERLAP,
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),

@@ -232,7 +232,7 @@ def _protocol(protocol: str, budget: float | None, default: float | None = None)
     budget = default if budget is None else budget
     if budget is None:
         raise ConfigError("the low-resource protocol needs --budget", field="--budget",
-                          allowed="a percentage in 0.01..100")
+                          allowed=f"a percentage in {MIN_BUDGET:g}..100")
     return budget
 
 
