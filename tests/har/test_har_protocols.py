@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vsmp_imu.errors import ConfigError
+from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har.protocols import (
     MAX_RHO,
     MIN_BUDGET,
@@ -16,9 +16,12 @@ from vsmp_imu.har.protocols import (
     long_tail_counts,
     low_resource_counts,
     parse_budgets,
+    require_two_classes,
+    require_two_subjects,
     split_fold,
 )
 from vsmp_imu.har.synthetic import apportion, synthetic_budget
+from vsmp_imu.har.windows import Windows
 
 
 def test_low_resource_keeps_at_least_one_per_class():
@@ -51,6 +54,15 @@ def test_validation_subjects_are_training_subjects():
     assert val == choose_val_subjects(subjects, seed=0, fold="1")
     assert val != choose_val_subjects(subjects, seed=1, fold="1")
     assert choose_val_subjects(["2"], seed=0, fold="1") == ()
+    assert choose_val_subjects([], seed=0, fold="1") == ()
+    most = choose_val_subjects(subjects, seed=0, fold="1", val_fraction=0.9)
+    assert len(most) == len(set(most)) == 26  # drawn without replacement
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_validation_subjects_in_natural_order(seed):
+    val = choose_val_subjects(["8", "9", "10"], seed=seed, fold="1", val_fraction=1.0)
+    assert len(val) == 2 and list(val) == sorted(val, key=int)
 
 
 @pytest.mark.parametrize(
@@ -72,6 +84,72 @@ def test_split_fold_partitions_subjects(tiny_dataset, protocol, budget):
         assert split.head is not None and len(split.head) + len(split.tail) == 4
     again = split_fold(windows, "3", protocol, seed=0, budget_percent=budget)
     assert np.array_equal(again.fit.X, split.fit.X)
+
+
+def _kept(split) -> list[int]:
+    return (split.fit.class_counts() + split.val.class_counts()).tolist()
+
+
+def test_split_fold_at_the_smallest_budget_keeps_one_window_per_class(tiny_dataset):
+    windows = tiny_dataset.windows(window_s=2.0, overlap=0.5)
+    split = split_fold(windows, "3", "low-resource", seed=0, budget_percent=MIN_BUDGET)
+    assert _kept(split) == [1, 1, 1, 1]
+
+
+def test_split_fold_long_tail_follows_rho(tiny_dataset):
+    windows = tiny_dataset.windows(window_s=2.0, overlap=0.5)
+    pool = windows.where_subjects(["3"], keep=False).class_counts()
+    kept = _kept(split_fold(windows, "3", "long-tail", seed=0, rho=2.0))
+    assert kept == long_tail_counts(pool, 2.0).tolist() != long_tail_counts(pool, 10.0).tolist()
+
+
+def test_split_fold_draws_validation_subjects_of_its_fold_and_fraction(tiny_factory):
+    windows = tiny_factory(n_subjects=12).windows(window_s=2.0, overlap=0.5)
+    split = split_fold(windows, "5", "lopo", seed=3, val_fraction=0.5)
+    others = [str(s) for s in range(1, 13) if s != 5]
+    assert split.val_subjects == choose_val_subjects(others, 3, "5", val_fraction=0.5)
+    assert len(split.val_subjects) == 6 and set(split.val.unique_subjects()) == set(split.val_subjects)
+    assert set(split.fit.unique_subjects()) == set(others) - set(split.val_subjects)
+
+
+class _Dataset:
+    """What the checks read of a dataset: its name and, when it has one, its yaml file."""
+
+    def __init__(self, yaml_path=None):
+        self.info = type("Info", (), {"name": "tiny"})()
+        if yaml_path is not None:
+            self.yaml_path = yaml_path
+
+
+def test_require_two_subjects():
+    require_two_subjects(["1", "2"], _Dataset())
+    with pytest.raises(ValidationError) as err:
+        require_two_subjects(["7"], _Dataset("/data/tiny.yaml"))
+    assert err.value.message == ("dataset 'tiny' has 1 subject(s) with labelled windows (7); "
+                                 "leave-one-subject-out evaluation holds one out and trains on the others")
+    assert err.value.file == "/data/tiny.yaml" and err.value.field == "subject"
+    assert err.value.allowed == "a dataset with at least 2 subjects"
+    with pytest.raises(ValidationError) as err:
+        require_two_subjects([], _Dataset())
+    assert "has 0 subject(s) with labelled windows (none);" in err.value.message and err.value.file is None
+
+
+def _labelled(y) -> Windows:
+    return Windows(np.zeros((len(y), 4, 2)), np.asarray(y, dtype=int), ["1"] * len(y), ("a", "b", "c"),
+                   ("acc_x", "acc_y"), 20.0)
+
+
+def test_require_two_classes():
+    require_two_classes(_labelled([0, 2]), _Dataset())  # one window each of two classes is enough
+    with pytest.raises(ValidationError) as err:
+        require_two_classes(_labelled([1, 1]), _Dataset("/data/tiny.yaml"))
+    assert err.value.message == ("dataset 'tiny' has labelled windows of 1 class(es) (b); "
+                                 "a classifier needs at least 2 classes to tell apart")
+    assert err.value.file == "/data/tiny.yaml" and err.value.field == "labels"
+    assert err.value.allowed == "a dataset with windows of at least 2 classes"
+    with pytest.raises(ValidationError) as err:
+        require_two_classes(_labelled([]), _Dataset())
+    assert "of 0 class(es) (none);" in err.value.message and err.value.file is None
 
 
 @settings(max_examples=50, deadline=None)

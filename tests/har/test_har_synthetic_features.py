@@ -8,7 +8,7 @@ import pytest
 
 from vsmp_imu.errors import ConfigError, ValidationError
 from vsmp_imu.har import synthetic
-from vsmp_imu.har.features import N_LEVELS, ecdf_features, ecdf_levels
+from vsmp_imu.har.features import N_LEVELS, ecdf_features, ecdf_levels, segment_means
 from vsmp_imu.har.protocols import (
     check_protocol,
     choose_val_subjects,
@@ -66,6 +66,37 @@ def test_ecdf_features_are_channel_major_window_quantiles():
     assert err.value.field == "X"
 
 
+
+# -- segment means -------------------------------------------------------------------------
+def test_segment_means_are_means_of_consecutive_parts_segment_major():
+    x = np.arange(2 * 7 * 2, dtype=float).reshape(2, 7, 2)  # 7 samples, 2 channels
+    out = segment_means(x, 3)  # edges round(0, 7/3, 14/3, 7) = 0, 2, 5, 7: parts of 2, 3, 2 samples
+    assert out.shape == (2, 6) and out.dtype == np.float32 and out.flags.c_contiguous
+    # window 0: channel 0 is 0, 2, ..., 12 and channel 1 is 1, 3, ..., 13; window 1 adds 14
+    assert out.tolist() == [[1, 2, 6, 7, 11, 12], [15, 16, 20, 21, 25, 26]]
+
+
+def test_segment_means_at_one_segment_and_one_per_sample():
+    x = np.random.default_rng(0).normal(size=(3, 5, 2))
+    assert np.allclose(segment_means(x, 1), x.mean(axis=1), atol=1e-6)
+    assert np.allclose(segment_means(x, 5), x.reshape(3, 10), atol=1e-6)  # each sample, time-major
+
+
+@pytest.mark.parametrize("n_segments", [0, 8])
+def test_segment_means_refuse_a_count_outside_1_to_the_window_length(n_segments):
+    with pytest.raises(ValidationError) as err:
+        segment_means(np.zeros((2, 7, 3)), n_segments)
+    assert err.value.field == "n_segments"
+    assert err.value.message == f"need 1..7 segments for windows of 7 samples, got {n_segments}"
+
+
+def test_features_are_those_of_the_float32_windows():
+    x = np.random.default_rng(1).normal(size=(20, 50, 3))
+    x32 = x.astype(np.float32)
+    assert np.array_equal(ecdf_features(x), ecdf_features(x32))
+    assert np.array_equal(segment_means(x, 4), segment_means(x32, 4))
+
+
 # -- budget plumbing ---------------------------------------------------------------------------
 def test_fold_context_budget_follows_the_label_order():
     ctx = FoldContext(dataset=None, fold="1", held_out_subject="1", train=_windows([0, 1]),
@@ -73,6 +104,11 @@ def test_fold_context_budget_follows_the_label_order():
     assert ctx.total_budget == 6
     v = ctx.budget_vector()
     assert v.tolist() == [2, 0, 4] and v.dtype == np.int64
+    numpy_counts = FoldContext(dataset=None, fold="1", held_out_subject="1", train=_windows([0, 1]),
+                               train_subjects=("2",), seed=0, alpha=0.5, protocol="lopo",
+                               budget=dict(zip("abc", np.array([3, 0, 1], dtype=np.int32), strict=True)))
+    v = numpy_counts.budget_vector()
+    assert v.tolist() == [3, 0, 1] and v.dtype == np.int64  # whatever integer type the counts have
 
 
 def test_registry_makes_registered_sources(monkeypatch):
@@ -86,6 +122,20 @@ def test_registry_makes_registered_sources(monkeypatch):
     with pytest.raises(ConfigError) as err:
         make_method("nope")
     assert err.value.field == "methods" and err.value.allowed == "real, echo, shown"
+    assert err.value.message == "unknown method 'nope'"
+
+
+def test_registry_marks_the_sources_that_make_unseen_classes(monkeypatch):
+    monkeypatch.setattr(synthetic, "METHODS", {"real": None})
+    monkeypatch.setattr(synthetic, "METHOD_DISPLAY", {"real": "Real-only"})
+    capable: set[str] = set()
+    monkeypatch.setattr(synthetic, "UNSEEN_CAPABLE", capable)
+    register_method("plain", lambda **p: None)
+    assert capable == set()  # not capable unless said
+    register_method("open", lambda **p: None, unseen_classes=True)
+    assert capable == {"open"}
+    register_method("open", lambda **p: None)  # registered again without it: no longer capable
+    assert capable == set()
 
 
 @pytest.mark.parametrize(("total", "weights", "want"), [
@@ -102,6 +152,22 @@ def test_apportion_largest_remainder(total, weights, want):
     assert out.tolist() == want and out.dtype == np.int64
 
 
+def test_apportion_breaks_remainder_ties_by_index_for_many_classes():
+    weights = np.array([2, 1] * 8 + [2])  # 17 classes: above the size numpy sorts by insertion
+    assert np.flatnonzero(apportion(3, weights)).tolist() == [0, 2, 4]
+
+
+def test_apportion_of_nothing_is_zeros_whatever_the_weights():
+    for weights in ([np.nan, 1.0], [np.inf, 1.0]):
+        out = apportion(0, np.array(weights))
+        assert out.tolist() == [0, 0] and out.dtype == np.int64
+
+
+def test_apportion_takes_integer_weights_as_numbers():
+    # 10 x 50000 does not fit uint16: the weights are used as floats, not wrapped
+    assert apportion(10, np.array([50000, 10000], dtype=np.uint16)).tolist() == [8, 2]
+
+
 def test_synthetic_budget_exact_per_policy():
     counts = np.array([600, 300, 100, 0])
     assert synthetic_budget(counts, 0.5).tolist() == [300, 150, 50, 0]
@@ -111,6 +177,9 @@ def test_synthetic_budget_exact_per_policy():
     # scarcity: 1/600 : 1/300 : 1/100 = 1 : 2 : 6 of 500
     assert synthetic_budget(counts, 0.5, "scarcity").tolist() == [56, 111, 333, 0]
     assert synthetic_budget(np.array([3, 2]), 0.5).sum() == 2  # round(2.5) = 2
+    # a class of a single real window is present: it gets its share
+    assert synthetic_budget(np.array([4, 1]), 2.0, "scarcity").tolist() == [2, 8]  # 1/4 : 1 of 10
+    assert synthetic_budget(np.array([9, 1]), 0.5, "tail").tolist() == [0, 5]
     with pytest.raises(ConfigError) as err:
         synthetic_budget(counts, 0.5, "greedy")
     assert err.value.field == "policy" and err.value.allowed == "uniform, tail, scarcity"
@@ -154,6 +223,10 @@ def test_check_protocol():
     with pytest.raises(ConfigError) as err:
         check_protocol("kfold")
     assert err.value.field == "protocol" and err.value.allowed == "lopo, low-resource, long-tail, unseen, tstr"
+    assert err.value.message == "unknown protocol 'kfold'"
+    with pytest.raises(ConfigError) as err:
+        check_protocol("kfold", field="--protocol")
+    assert err.value.field == "--protocol"
 
 
 def test_subsample_per_class_draws_without_replacement_in_order():
@@ -163,11 +236,17 @@ def test_subsample_per_class_draws_without_replacement_in_order():
     starts = out.X[:, 0, 0].tolist()
     assert starts == sorted(starts) and len(set(starts)) == len(starts)
     assert len(subsample_per_class(w, np.array([0, 0, 0]), np.random.default_rng(1))) == 0
+    one = subsample_per_class(w, np.array([1, 1, 1]), np.random.default_rng(1))
+    assert one.y.tolist() == [0, 1, 2]  # a budget of one window keeps one
 
 
 def test_rank_and_resource_counts():
     assert rank_classes(np.array([5, 9, 5, 0, 9])).tolist() == [1, 4, 0, 2]
+    assert rank_classes(np.array([1, 3, 0])).tolist() == [1, 0]  # one window is present
+    none = rank_classes(np.array([0, 0]))
+    assert none.dtype == np.int64 and np.array([5, 6])[none].tolist() == []  # indexes when empty
     assert low_resource_counts(np.array([250, 150, 4, 0]), 1.0).tolist() == [2, 2, 1, 0]  # round half even
+    assert low_resource_counts(np.array([250, 0]), 10.0).dtype == np.int64
     assert long_tail_counts(np.array([0, 0])).tolist() == [0, 0]
     assert long_tail_counts(np.array([0, 7])).tolist() == [0, 7]
     assert long_tail_counts(np.array([100, 100]), rho=4).tolist() == [100, 25]

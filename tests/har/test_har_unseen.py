@@ -14,7 +14,7 @@ from vsmp_imu.har import normalize
 from vsmp_imu.har.backbones import BACKBONES, DeepConvLSTM, RandomForestECDF
 from vsmp_imu.har.evaluate import EvalConfig, Evaluation
 from vsmp_imu.har.metrics import unseen_metrics
-from vsmp_imu.har.protocols import resolve_unseen, split_fold
+from vsmp_imu.har.protocols import check_unseen_indices, resolve_unseen, split_fold
 from vsmp_imu.har.records import compact
 from vsmp_imu.har.synthetic import METHODS, UNSEEN_CAPABLE, FoldContext, unseen_budget
 from vsmp_imu.har.windows import Windows
@@ -42,6 +42,24 @@ def test_resolve_unseen_errors_name_the_option(text, message):
     assert message in str(exc.value) and exc.value.field == "--unseen"
 
 
+def test_resolve_unseen_errors_offer_each_group_and_class():
+    allowed = "each, pair, a, b, c, d"
+    for text, message in (("each,a", "'each' cannot be combined with class names"),
+                          ("z", "unknown class or group 'z'")):
+        with pytest.raises(ConfigError) as exc:
+            resolve_unseen(text, NAMES, GROUPS)
+        assert exc.value.message == message and exc.value.allowed == allowed
+
+
+def test_check_unseen_indices_bounds():
+    assert check_unseen_indices([3, 0, 3], NAMES) == (0, 3)  # sorted, once each
+    for unseen in ([-1], [4], [0, 4], [0, 1, 2, 3], []):
+        with pytest.raises(ConfigError) as exc:
+            check_unseen_indices(unseen, NAMES)
+        assert exc.value.field == "--unseen" and exc.value.allowed == "a, b, c, d"
+        assert exc.value.message == f"the unseen protocol needs between 1 and 3 unseen classes (got {len(set(unseen))})"
+
+
 def test_split_fold_removes_unseen_classes_from_the_training_side_only(tiny_dataset):
     windows = tiny_dataset.windows()
     split = split_fold(windows, "2", "unseen", seed=0, unseen=(1, 3))
@@ -67,8 +85,12 @@ def test_unseen_budget():
     assert uniform[2] == 100  # alpha x the median seen class (200)
     scarcity = unseen_budget(counts, 2.0, "scarcity", (2,))
     assert scarcity[2] == 400 and scarcity[[0, 1, 3]].sum() == 1200
+    assert scarcity.tolist() == [655, 218, 400, 327]  # seen: 1/100 : 1/300 : 1/200 of 1200
     tail = unseen_budget(counts, 1.0, "tail", (2,))
     assert tail.tolist() == [0, 0, 200, 0]  # the unseen classes are the tail
+    assert uniform.dtype == scarcity.dtype == tail.dtype == np.int64
+    # a seen class of a single window counts in the median: median(1, 1, 9) = 1
+    assert unseen_budget(np.array([1, 1, 9, 0]), 1.0, "uniform", (3,)).tolist() == [1, 1, 9, 1]
 
 
 def test_unseen_metrics_from_a_confusion_matrix():
