@@ -66,7 +66,6 @@ def test_ecdf_features_are_channel_major_window_quantiles():
     assert err.value.field == "X"
 
 
-
 # -- segment means -------------------------------------------------------------------------
 def test_segment_means_are_means_of_consecutive_parts_segment_major():
     x = np.arange(2 * 7 * 2, dtype=float).reshape(2, 7, 2)  # 7 samples, 2 channels
