@@ -94,7 +94,6 @@ def markdown_table(headers: Sequence[str], rows: Sequence[Sequence[Any]],
     return "\n".join(lines)
 
 
-
 def describer_lines(settings: Mapping[str, Any]) -> list[str]:
     """The report's line on the endpoint that wrote the IMUGPT descriptions (none without one;
     the URL is in results.json)."""
@@ -104,6 +103,7 @@ def describer_lines(settings: Mapping[str, Any]) -> list[str]:
     model = f"model `{own['describer_model']}`" if own.get("describer_model") else "the only model"
     return [f"- **IMUGPT 2.0 descriptions** written by {model} of the describer endpoint (`--describer-url`), "
             "not templated from the library captions."]
+
 
 def cache_key(**parts: Any) -> str:
     """A stable hex key for a unit of cached work (sha256 of its canonical JSON)."""
