@@ -131,6 +131,18 @@ def executor_options(executor: str, address: str | None) -> None:
     check_executor_options(executor, address)
 
 
+# the imugpt baseline's describer (evaluate, study granularity, study realism; see describer_options)
+DESCRIBER_URL_OPTION = typer.Option(
+    None, "--describer-url", show_default=False, metavar="URL",
+    help="imugpt: an OpenAI-compatible endpoint (e.g. http://localhost:8000/v1; the key is read from "
+         "VSMP_VLM_API_KEY or OPENAI_API_KEY) whose chat model writes the activity descriptions "
+         "[default: none: the baseline's built-in templated descriptions, library captions x modifiers]")
+DESCRIBER_MODEL_OPTION = typer.Option(
+    None, "--describer-model", show_default=False, metavar="NAME",
+    help="imugpt: the model --describer-url serves that writes the descriptions [default: an empty "
+         "name, which a server of one model takes]")
+
+
 def describer_options(url: str | None, model: str | None, methods: tuple[str, ...]) -> dict[str, dict[str, Any]]:
     """`--describer-url` / `--describer-model` as the imugpt method's parameters (recorded with
     the run, part of its settings); none without a URL."""

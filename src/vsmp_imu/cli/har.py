@@ -12,6 +12,8 @@ import typer
 from rich.table import Table
 
 from vsmp_imu.cli.common import (
+    DESCRIBER_MODEL_OPTION,
+    DESCRIBER_URL_OPTION,
     K_UNSEEN,
     OVERLAP,
     SPEC_OPTIONS,
@@ -195,15 +197,8 @@ def evaluate_cmd(
     cache_dir: Path = typer.Option(None, "--cache-dir", parser=path_text, metavar="DIR",
                                    help="generated-sample cache (default: the cache directory, see `vsmp-imu cache "
                                         "info`); its samples are kept below the same size cap"),
-    describer_url: str = typer.Option(
-        None, "--describer-url", show_default=False, metavar="URL",
-        help="imugpt: an OpenAI-compatible endpoint (e.g. http://localhost:8000/v1; the key is read from "
-             "VSMP_VLM_API_KEY or OPENAI_API_KEY) whose chat model writes the activity descriptions "
-             "[default: none: the baseline's built-in templated descriptions, library captions x modifiers]"),
-    describer_model: str = typer.Option(
-        None, "--describer-model", show_default=False, metavar="NAME",
-        help="imugpt: the model --describer-url serves that writes the descriptions [default: an empty "
-             "name, which a server of one model takes]"),
+    describer_url: str = DESCRIBER_URL_OPTION,
+    describer_model: str = DESCRIBER_MODEL_OPTION,
     share_selection: str = typer.Option(
         None, "--share-selection", show_default=False,
         help="do no harm: drop a method's synthetic windows where they measurably lower the validation "

@@ -9,6 +9,8 @@ from pathlib import Path
 import typer
 
 from vsmp_imu.cli.common import (
+    DESCRIBER_MODEL_OPTION,
+    DESCRIBER_URL_OPTION,
     console,
     describer_options,
     finite_list,
@@ -52,15 +54,6 @@ MAX_EPOCHS_OPTION = typer.Option(None, "--max-epochs", callback=EPOCHS_RANGE,
 PATIENCE_OPTION = typer.Option(None, "--patience", callback=EPOCHS_RANGE,
                                help=f"Neural backbones: early stopping (1..{EPOCHS_MAX})")
 SOURCE_OPTION = typer.Option("library", "--source", help="VSMP source SMPs: library | smp:DIR | video:DIR")
-DESCRIBER_URL_OPTION = typer.Option(
-    None, "--describer-url", show_default=False, metavar="URL",
-    help="IMUGPT baseline: an OpenAI-compatible endpoint (e.g. http://localhost:8000/v1; key from "
-         "VSMP_VLM_API_KEY or OPENAI_API_KEY) whose chat model writes the activity descriptions (default: "
-         "none, the built-in templated descriptions)")
-DESCRIBER_MODEL_OPTION = typer.Option(
-    None, "--describer-model", show_default=False, metavar="NAME",
-    help="IMUGPT baseline: the model --describer-url serves that writes the descriptions (default: an "
-         "empty name, which a server of one model takes)")
 SEEDS_OPTION = typer.Option(1, "--seeds", callback=SEEDS_RANGE, help=f"Seeds 0..N-1 (N 1..{SEEDS_MAX})")
 JOBS_OPTION = typer.Option(None, "--jobs", callback=JOBS_RANGE, help=f"CPU threads of the backbone (1..{JOBS_MAX})")
 SEED_HELP = f"(0..{SEED_MAX})"
