@@ -691,6 +691,9 @@ class _RayPool:
     def map(self, fn, tasks, desc: str = "working"):
         return self.inner.map(fn, tasks, desc)
 
+    def start(self, fn, item, desc: str = "working"):
+        return self.inner.start(fn, item, desc)
+
     def close(self) -> None:
         import ray
 
@@ -1035,7 +1038,7 @@ def _mean(runs: list[dict], workers: int, key: str) -> float:
 
 def scaling_view(res: dict) -> tuple[str, str]:
     """Walls and ratios of the scaling stages: means of the runs per worker count."""
-    lines = ["| executor | whole fold, 1 → 2 workers | speedup | synthesis step (with the filter job), "
+    lines = ["| executor | whole fold, 1 → 2 workers | speedup | synthesis step, "
              "1 → 2 workers | speedup | synthesis replay ({n} tasks, 1, 2, 2, 1 workers) |",
              "| --- | --- | ---: | --- | ---: | ---: |"]
     shown, tasks = [], set()

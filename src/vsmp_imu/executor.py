@@ -76,6 +76,56 @@ class LocalExecutor:
             pool.shutdown(wait=True)
         return results
 
+    def start(self, fn: Callable[[Any], Any], item: Any, desc: str = "working") -> Started:
+        """`fn(item)` begun now, for the caller to collect later (`result()`): with one worker it
+        runs here and then (under `desc`, as `map` shows its work); with more, in a process of its
+        own beside the pools of later `map` calls, so one long item overlaps the caller's own
+        steps and the maps that follow (the cores are shared among them; no work is added)."""
+        if self.workers == 1:
+            return Started(value=self.map(fn, [item], desc)[0])
+        pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context(_start_method()),
+                                   initializer=_init_worker, initargs=(os.getpid(),))
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)  # as in `map`
+        try:
+            future = pool.submit(fn, item)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+        return Started(future=future, pool=pool)
+
+
+class Started:
+    """An item begun by an executor's `start`: `result()` waits for it (and re-raises its error);
+    `cancel()` ends it, for a caller that no longer needs it (on an error or Ctrl-C)."""
+
+    def __init__(self, value: Any = None, future=None, pool: ProcessPoolExecutor | None = None,
+                 ref=None) -> None:
+        self.value, self.future, self.pool, self.ref = value, future, pool, ref
+
+    def result(self) -> Any:
+        if self.future is not None:
+            try:
+                self.value = self.future.result()
+            except BaseException:
+                _stop_workers(self.pool)
+                raise
+            self.pool.shutdown(wait=True)
+            self.future = None
+        elif self.ref is not None:
+            import ray
+
+            self.value, self.ref = ray.get(self.ref), None
+        return self.value
+
+    def cancel(self) -> None:
+        if self.future is not None:
+            _stop_workers(self.pool)
+            self.future = None
+        elif self.ref is not None:
+            import ray
+
+            ray.cancel(self.ref, force=True)
+            self.ref = None
+
 
 def _stop_workers(pool: ProcessPoolExecutor) -> None:
     """Cancel what has not started and end the workers now (the finished samples are cached)."""
@@ -205,6 +255,12 @@ class RayExecutor:
                 results += done
                 update(len(results))
         return results
+
+    def start(self, fn: Callable[[Any], Any], item: Any, desc: str = "working") -> Started:
+        """`fn(item)` begun now as one task on the cluster (one CPU, as a `map` unit); `result()`
+        collects it (`desc` is for the executors that run it at once)."""
+        ray = self._ray()
+        return Started(ref=ray.remote(num_cpus=1)(fn).remote(item))
 
 
 MAX_CHUNK = 8

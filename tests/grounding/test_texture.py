@@ -15,6 +15,7 @@ from vsmp_imu.grounding.texture import (
     TextureModel,
     _unit_band_noise,
     add_texture,
+    band_energies,
     bands,
     missing_amplitude,
 )
@@ -53,6 +54,20 @@ def test_kappa_is_the_hf_to_lf_amplitude_ratio_per_class_and_pooled(rng):
     assert model.kappa(2) == pytest.approx([pooled, pooled], rel=0.05)
     assert model.kappa(7) is model.pooled_  # a class never seen (the unseen protocol)
     assert [model.mapping(i) for i in (0, 1, 2, 7)] == ["class", "class", "pooled", "pooled"]
+
+
+def test_band_energies_in_blocks_and_threads_are_those_of_all_windows_at_once(rng):
+    x = rng.normal(size=(600, 120, 3)).astype(np.float32)  # more windows than one block
+    x64 = x.astype(np.float64)
+    whole = [(filtfilt(butter(4, band, btype="band", fs=FS, output="sos"), x64, axis=1) ** 2).sum(axis=1)
+             for band in (LF_BAND_HZ, HF_BAND_HZ)]
+    for threads in (1, 2):
+        blocks = band_energies(x, FS, threads)
+        assert all(np.array_equal(b, w) for b, w in zip(blocks, whole, strict=True))
+    labels = np.repeat([0, 1], 300)
+    one, two = TextureModel(FS).fit(x, labels), TextureModel(FS).fit(x, labels, threads=2)
+    assert one.as_dict(["a", "b"]) == two.as_dict(["a", "b"])
+    assert np.array_equal(one.pooled_, two.pooled_) and np.array_equal(one.kappa(1), two.kappa(1))
 
 
 def test_a_smooth_motion_gets_the_hf_share_the_real_windows_have(rng):

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import socket
 import threading
+import time
 
 import pytest
 
@@ -26,6 +28,33 @@ def test_local_pool_matches_in_process():
 def test_local_pool_keeps_order_with_chunks():
     tasks = list(range(101))  # 2 workers: chunks of up to 8 consecutive tasks, shrinking to one
     assert LocalExecutor(2, show_progress=False).map(_work, tasks) == [_work(t) for t in tasks]
+
+
+def test_a_started_item_runs_beside_the_caller_and_gives_its_result():
+    one = LocalExecutor(1, show_progress=False).start(_work, 7)
+    assert one.pool is None and one.result() == _work(7)  # one worker: run there and then
+    started = LocalExecutor(2, show_progress=False).start(_work, 7)
+    worker = next(iter(started.pool._processes.values()))
+    assert worker.pid != os.getpid()  # a process of its own
+    assert started.result() == _work(7) and started.result() == _work(7)  # collected once, kept
+    worker.join(timeout=5)
+    assert not worker.is_alive()  # its process ends once the result is in
+
+
+def test_a_started_item_that_fails_raises_at_result():
+    started = LocalExecutor(2, show_progress=False).start(int, "not a number")
+    with pytest.raises(ValueError, match="not a number"):
+        started.result()
+
+
+def test_cancel_ends_a_started_item_at_once():
+    started = LocalExecutor(2, show_progress=False).start(time.sleep, 60)
+    worker = next(iter(started.pool._processes.values()))
+    begun = time.monotonic()
+    started.cancel()
+    worker.join(timeout=5)
+    assert not worker.is_alive() and time.monotonic() - begun < 10
+    started.cancel()  # a second cancel is harmless
 
 
 @pytest.mark.parametrize(("n", "cpus", "first"), [(1, 2, 1), (12, 2, 2), (100, 2, 8), (40, 2, 5), (922, 16, 8),
@@ -58,7 +87,9 @@ def test_ray_matches_in_process():
 
     tasks = list(range(6))
     try:
-        got = make_executor("ray", workers=2, show_progress=False).map(_work, tasks)
+        executor = make_executor("ray", workers=2, show_progress=False)
+        got = executor.map(_work, tasks)
+        assert executor.start(_work, 7).result() == _work(7)
     finally:
         ray.shutdown()
     assert got == LocalExecutor(1, show_progress=False).map(_work, tasks)

@@ -135,6 +135,64 @@ def test_same_seed_same_bytes_any_worker_count(hapt12, library, tmp_path):
     assert other.windows.X.tobytes() != one.windows.X.tobytes()
 
 
+class _Recorder:
+    """A local executor that notes which items went through `map` and which through `start`."""
+
+    def __init__(self, workers: int, start: bool = True, fail_map: bool = False) -> None:
+        self.inner, self.workers, self.fail_map = LocalExecutor(workers, show_progress=False), workers, fail_map
+        self.mapped, self.started, self.cancelled = [], [], 0
+        if start:
+            self.start = self._start
+
+    def map(self, fn, tasks, desc="working"):
+        if self.fail_map:
+            raise RuntimeError("a worker broke")
+        self.mapped += list(tasks)
+        return self.inner.map(fn, tasks, desc)
+
+    def _start(self, fn, item, desc="working"):
+        self.started.append(item)
+        started = self.inner.start(fn, item, desc)
+        cancel = started.cancel
+
+        def counted() -> None:
+            self.cancelled += 1
+            cancel()
+        started.cancel = counted
+        return started
+
+
+def _run(hapt12, library, config, executor):
+    info, windows = hapt12
+    train = windows.where_subjects(TRAIN_SUBJECTS)
+    budget = synthetic_budget(train.class_counts(), 0.05)
+    sources = LibrarySmpSource(library).smps("hapt12", info.label_names)
+    return FoldGenerator(config, executor, None, library=library).generate(info, train, sources, budget, 0, "test")
+
+
+def test_the_filter_models_are_fitted_beside_the_fold_and_give_the_same_bytes(hapt12, library):
+    """The filter job starts before the fold's own steps (`executor.start`), not inside a synthesis
+    round; an executor with only `map` runs it there; either way the windows are the same bytes."""
+    config = GenerationSpec(k=1, oversample=1.0, max_rounds=1)
+    pooled = _Recorder(2)
+    two = _run(hapt12, library, config, pooled)
+    assert [type(item).__name__ for item in pooled.started] == ["FilterJob"]
+    assert not any(type(item).__name__ == "FilterJob" for item in pooled.mapped)
+    assert pooled.cancelled == 1  # the fold's end cancels it; after its result, that is a no-op
+    map_only = _Recorder(1, start=False)
+    one = _run(hapt12, library, config, map_only)
+    assert type(map_only.mapped[0]).__name__ == "FilterJob" and not hasattr(map_only, "start")
+    assert one.windows.X.tobytes() == two.windows.X.tobytes()
+    assert [r.sample for r in one.records] == [r.sample for r in two.records]
+
+
+def test_an_error_in_the_fold_cancels_the_started_filter_job(hapt12, library):
+    broken = _Recorder(2, fail_map=True)
+    with pytest.raises(RuntimeError, match="a worker broke"):
+        _run(hapt12, library, GenerationSpec(k=1, oversample=1.0, max_rounds=1), broken)
+    assert len(broken.started) == 1 and broken.cancelled == 1
+
+
 def test_refill_tops_up_classes_short_of_their_budget(hapt12, library, tmp_path):
     """A refill pass synthesizes more samples for the classes the filter left short, keeps the
     first pass's samples, delivers more of the budget, and is the same bytes with 2 workers."""

@@ -104,7 +104,7 @@ def instruments(monkeypatch):
     wrap(fold_mod, "side_evidence",
          lambda info, train, label, plan, probes: SEEN["side_votes"].append(has_sentinel(train.X)))
     wrap(TargetStatistics, "fit", lambda self, windows, labels, *_: SEEN["d_stat"].append(has_sentinel(windows)))
-    wrap(TextureModel, "fit", lambda self, windows, labels: SEEN["texture"].append(has_sentinel(windows)))
+    wrap(TextureModel, "fit", lambda self, windows, labels, threads=1: SEEN["texture"].append(has_sentinel(windows)))
     wrap(RankGrounder, "fit", lambda self, syn, real, *a, **k: SEEN["d_rank"].append(has_sentinel(real)))
     wrap(MotionPlausibilityFilter, "fit", lambda self, X, y: SEEN["plausibility"].append(has_sentinel(X)))
     wrap(HarValidator, "fit_features", lambda self, X, y, *a, **k: SEEN["validator"].append(has_sentinel(X)))

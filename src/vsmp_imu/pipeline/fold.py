@@ -12,8 +12,8 @@ Stages:
    one of its class's real events (grounding.durations);
 3. per sample (executor, cached): verbalize, motion, theta ~ p(theta),
    kinematics, eta* by CEM against the class's D_stat, A_gamma; alongside,
-   one executor job fits the filter's real-data models (plausibility
-   thresholds, validator, tau_nn);
+   from the fold's start (`executor.start`), one executor job fits the
+   filter's real-data models (plausibility thresholds, validator, tau_nn);
 4. movement texture (the 3-12 Hz content a smooth motion lacks, by ratios
    fitted on D_stat), then rank grounding per location with F_v from all the
    fold's synthetic samples and G_r from D_rank;
@@ -43,6 +43,7 @@ from sklearn.ensemble import RandomForestClassifier
 from threadpoolctl import threadpool_limits
 
 from vsmp_imu.errors import ValidationError, VsmpError
+from vsmp_imu.executor import Started
 from vsmp_imu.filtering.faithfulness import (
     TAU_DEFAULT,
     class_verdicts,
@@ -233,6 +234,16 @@ def make_filter_job(info: DatasetInfo, train: Windows, seed: int, fold: str, val
         seed=int(rng_for(seed, fold, "validator").integers(2**31)),
         min_class_windows=min_class_windows,
     )
+
+
+def start_item(executor, job: FilterJob | None, fold: str):
+    """The filter job begun on `executor` (its `start`, so that it runs beside the fold's own steps
+    and the synthesis; an executor with only `map` runs it now); None without a job."""
+    if job is None:
+        return None
+    desc = f"fold {fold}: fitting the quality filter's models"
+    start = getattr(executor, "start", None)
+    return start(run_item, job, desc) if start is not None else Started(value=executor.map(run_item, [job], desc)[0])
 
 
 # samples per executor item: their CEMs run in lockstep (`synthesize_many`), which costs less per
@@ -556,12 +567,13 @@ def motion_fit_jobs(spec: GenerationSpec, info: DatasetInfo, sources, setup: Fol
 
 
 # -- stage 4: texture and ground ----------------------------------------------------------------------
-def fit_textures(info: DatasetInfo, d_stat: Windows, plan) -> dict[str, TextureModel]:
-    """Per location, the movement-texture ratios of D_stat's windows of the classes worn there."""
+def fit_textures(info: DatasetInfo, d_stat: Windows, plan, threads: int = 1) -> dict[str, TextureModel]:
+    """Per location, the movement-texture ratios of D_stat's windows of the classes worn there
+    (`threads` filter them side by side: same result)."""
     models = {}
     for loc in info.locations:
         real = worn_windows(info, loc, d_stat, plan)
-        models[loc.name] = TextureModel(info.fs_hz).fit(real.X[..., channel_index(info, loc)], real.y)
+        models[loc.name] = TextureModel(info.fs_hz).fit(real.X[..., channel_index(info, loc)], real.y, threads)
     return models
 
 
@@ -927,9 +939,22 @@ class FoldGenerator:
     def generate(self, info: DatasetInfo, train: Windows, sources: dict[str, list[tuple[str, SMP]]],
                  budget: np.ndarray, seed: int, fold: str) -> FoldOutput:
         """The synthetic set for one fold (train: the fold's real training windows only)."""
-        spec, threads = self.config, self.threads()
+        spec = self.config
         budget = np.asarray(budget, dtype=np.int64)
         self.class_windows_ = dict(zip(info.label_names, train.class_counts().tolist(), strict=True))
+        job = None
+        if spec.quality_filter:
+            job = make_filter_job(info, train, seed, fold, spec.val_fraction, spec.min_validator_windows,
+                                  learned=spec.class_filter or spec.redundancy_filter)
+        fitting = start_item(self.executor, job, fold)  # the filter models, beside what follows up to the filter
+        try:
+            return self._generate(info, train, sources, budget, seed, fold, job, fitting)
+        finally:
+            if fitting is not None:
+                fitting.cancel()
+
+    def _generate(self, info, train, sources, budget, seed, fold, job, fitting) -> FoldOutput:
+        spec, threads = self.config, self.threads()
         length = train.n_timesteps
         hop = max(1, int(round(spec.hop_fraction * length)))
         setup = prepare(spec, info, train, sources, seed, threads)
@@ -937,13 +962,8 @@ class FoldGenerator:
         self.motion_fits = self.fit_motions(info, sources, setup, budget, seed, fold)
         self.events, events_found = class_events(spec, info, train, sources, budget)
         self.rates, rates_found = class_cadences(spec, info, train, sources, budget, setup.plan)
-        job = None
-        if spec.quality_filter:
-            job = make_filter_job(info, train, seed, fold, spec.val_fraction, spec.min_validator_windows,
-                                  learned=spec.class_filter or spec.redundancy_filter)
-        self.textures = fit_textures(info, setup.d_stat, setup.plan) if spec.texture else {}
-        tasks, by_class, models = self.synthesize(info, sources, budget, seed, fold, setup.locations, length, hop,
-                                                  job)
+        self.textures = fit_textures(info, setup.d_stat, setup.plan, threads) if spec.texture else {}
+        tasks, by_class = self.synthesize(info, sources, budget, seed, fold, setup.locations, length, hop)
         unseen = frozenset(np.flatnonzero(train.class_counts() == 0).tolist())  # not rank-mapped
         for attempt in range(spec.refill + 1):
             results = [r for label in info.label_names for r in by_class[label]]
@@ -952,6 +972,7 @@ class FoldGenerator:
             windows = window(info, ok, grounded, length, hop)
             levels = level_windows(spec, info, windows, setup.d_rank, sources)
             windows.records += failed_records(info, results)
+            models = None if fitting is None else fitting.result()  # waits only if it has not ended
             keep, tau = filter_windows(spec, info, train, windows, ok, job, models, seed, fold, threads)
             keep = choose_timing(info, train, job, windows, keep, events_found, seed, fold, threads)
             more = [] if attempt == spec.refill else self.refill(
@@ -1053,18 +1074,15 @@ class FoldGenerator:
                             self.class_windows_.get(label), texture_task(self.textures, index, seed, fold),
                             self.events.get(label), self.rates.get(label))
 
-    def synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop, job=None):
+    def synthesize(self, info, sources, budget, seed, fold, loc_tasks, length, hop):
         """Rounds of per-sample synthesis until every class has oversample x budget raw windows.
-
-        `job` (the filter models) rides along with the first round. Returns the tasks, the
-        results per class and the fitted filter models."""
+        Returns the tasks and the results per class."""
         spec = self.config
         # a class timed to real events is made both ways (stage 5b chooses): twice the windows
         need = {n: math.ceil(spec.oversample * budget[i] * (2 if n in self.events else 1))
                 for i, n in enumerate(info.label_names)}
         results: dict[str, list[SampleResult]] = {n: [] for n in info.label_names}
         all_tasks: list[SampleTask] = []
-        fitted = None
         for _ in range(spec.max_rounds):
             tasks = []
             for label in info.label_names:
@@ -1084,29 +1102,18 @@ class FoldGenerator:
                                     loc_tasks[label])
             if not tasks:
                 break
-            models = self.run(tasks, results, fold, job)
-            if job is not None:
-                fitted, job = models, None
+            self.run(tasks, results, fold)
             all_tasks += tasks
-        if job is not None:  # no round ran
-            fitted = run_item(job)
-        return all_tasks, results, fitted
+        return all_tasks, results
 
-    def run(self, tasks: list[SampleTask], results: dict[str, list[SampleResult]], fold: str,
-            job: FilterJob | None = None) -> FilterModels | None:
-        """Synthesize `tasks` (with the filter job first, if any) and append the results per class."""
+    def run(self, tasks: list[SampleTask], results: dict[str, list[SampleResult]], fold: str) -> None:
+        """Synthesize `tasks` and append the results per class."""
         cache = str(self.cache_dir) if self.cache_dir else None
-        items: list = sample_items(tasks, cache, self.threads())
-        if job is not None:
-            items.insert(0, job)  # first: the longest item starts at once
+        items = sample_items(tasks, cache, self.threads())
         done = self.executor.map(run_item, items, desc=f"fold {fold}: synthesizing {len(tasks)} samples "
-                                                       f"in {len(items) - (job is not None)} batches")
-        fitted = None
-        if job is not None:
-            fitted, done = done[0], done[1:]
+                                                       f"in {len(items)} batches")
         for task, result in zip(tasks, [r for part in done for r in part], strict=True):
             results[task.label].append(result)
-        return fitted
 
     def refill(self, info, sources, budget, y, keep, results, seed, fold, loc_tasks) -> list[SampleTask]:
         """One refill pass: for each class short of its budget, as many new samples as its
