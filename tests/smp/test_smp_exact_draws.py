@@ -247,6 +247,27 @@ def test_primitive_sequence_names_a_primitive_or_a_structural_word():
     assert smp.primitive_sequence == loose
 
 
+def test_two_spellings_of_one_primitive_name_are_refused():
+    """'curl_up' and 'Curl Up' were both accepted, and every sequence name then read the first,
+    whichever spelling it had; a name repeated exactly (a primitive per position) still passes."""
+    from vsmp_imu.smp.io import smp_from_dict
+
+    data = simple_smp().model_dump(mode="json")
+    prims = data["motion_primitives"]
+    spelled = [*prims, {**prims[0], "name": "Raise-Arms", "order_index": 3, "relative_duration": 0.9}]
+    with pytest.raises(ValidationError) as err:
+        smp_from_dict({**data, "motion_primitives": spelled}, "s.json")
+    assert err.value.field == "motion_primitives"
+    assert err.value.message == ("motion_primitives[0] 'raise_arms' and motion_primitives[3] 'Raise-Arms' differ "
+                                 "only in case, spaces, '_' or '-', so a primitive_sequence name cannot tell "
+                                 "them apart")
+    assert err.value.allowed == "one spelling of each primitive name"
+    repeated = [*prims, {**prims[0], "order_index": 3}]
+    smp = smp_from_dict({**data, "motion_primitives": repeated, "primitive_sequence": [
+        "raise_arms", "circle_arms", "lower_arms", "raise_arms"], "primitive_durations": {"values": []}})
+    assert smp.primitive("Raise Arms") is smp.motion_primitives[0]
+
+
 def test_canonical_json_is_key_sorted_and_compact():
     text = simple_smp().canonical_json()
     assert text.startswith('{"activity_label":"arm circles","body_parts":{"dominant_moving_segments":[')

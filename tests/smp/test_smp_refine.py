@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import pydantic
 import pytest
 from smp_helpers import make_smp, simple_smp
 
 from vsmp_imu.smp.library import ActivityLibrary
 from vsmp_imu.smp.refine import MARK_UNCERTAIN, Correction, Refiner, refine
-from vsmp_imu.smp.schema import MAX_PRIMITIVES
+from vsmp_imu.smp.schema import MAX_PRIMITIVES, SMP
 
 
 @pytest.fixture(scope="module")
@@ -61,6 +63,22 @@ def test_label_primitive_insertion_stays_within_the_primitive_bound(jj, jj_only)
     assert result.smp.uncertainty.motion_primitives >= MARK_UNCERTAIN
     with pytest.raises(pydantic.ValidationError, match="at most 64 items"):
         make_smp(jj, primitive_sequence=[*names, "jump_close"])
+
+
+def test_an_inserted_library_primitive_takes_the_smp_spelling_of_its_name(library):
+    """A library sequence that repeats a name the SMP spells otherwise inserted the library's
+    spelling beside the SMP's ('step_right' beside 'Step Right'): two spellings the schema refuses."""
+    steps = ["step_left", "step_right", "step_left", "step_right"]
+    lib = SMP.model_validate({"activity_label": "side steps", "primitive_sequence": steps,
+                              "motion_primitives": [{"name": n, "order_index": i} for i, n in enumerate(steps)]})
+    entry = dataclasses.replace(library.get("jumping_jacks"), name="side_steps", aliases=(), smp=lib)
+    got = ["Step Left", "Step Right", "Step Left"]
+    smp = SMP.model_validate({"activity_label": "side steps", "primitive_sequence": got,
+                              "motion_primitives": [{"name": n, "order_index": i} for i, n in enumerate(got)]})
+    result = refine(smp, ActivityLibrary([entry]))
+    assert result.entry == "side_steps"
+    assert [p.name for p in result.smp.motion_primitives] == ["Step Left", "Step Right", "Step Left", "Step Right"]
+    assert result.smp.primitive_sequence == [*got, "step_right"]
 
 
 @pytest.mark.parametrize("label", ["not jumping jacks",

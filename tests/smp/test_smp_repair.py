@@ -166,6 +166,29 @@ def test_a_sequence_name_no_primitive_has_gets_a_bare_primitive():
         in result.report.repairs
 
 
+def test_two_spellings_of_a_primitive_name_take_the_first_spelling():
+    """'curl_up' beside 'Curl Up' was kept as given, two spellings the schema refuses; repair spells
+    the later one as the first, the primitive listed again as an exact repeat is."""
+    text = json.dumps({"activity_label": "curls", "motion_primitives": [
+        {"name": "curl_up", "order_index": 0}, {"name": "lower", "order_index": 1},
+        {"name": "Curl Up", "order_index": 2, "description": "again"}],
+        "primitive_sequence": ["curl_up", "lower", "Curl Up"]})
+    result = parse_response(text)
+    assert result.valid
+    assert [(p.name, p.order_index, p.description) for p in result.smp.motion_primitives] == [
+        ("curl_up", 0, ""), ("lower", 1, ""), ("curl_up", 2, "again")]
+    assert result.smp.primitive_sequence == ["curl_up", "lower", "Curl Up"]
+    assert "renamed the primitive 'Curl Up' to 'curl_up', the spelling of an earlier one" in result.report.repairs
+
+
+def test_primitives_rebuilt_from_a_sequence_with_repeats_stay_valid():
+    """A sequence that repeats a name in two spellings rebuilds a primitive per position."""
+    text = json.dumps({"activity_label": "squats", "primitive_sequence": ["down", "up", "Down", "up"]})
+    result = parse_response(text)
+    assert result.valid
+    assert [p.name for p in result.smp.motion_primitives] == ["down", "up", "down", "up"]
+
+
 def test_key_value_text_is_read():
     text = "activity_label: walking\nprimitive_sequence: [step left, step right]\ntempo: fast\n"
     smp = parse_response(text).smp

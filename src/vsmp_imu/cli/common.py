@@ -99,6 +99,10 @@ def library_dirs(library: list[Path] | None) -> list[Path]:
     return list(library or [])
 
 
+# every command that reads the activity library (checked by library_dirs)
+LIBRARY_OPTION = typer.Option(None, "--library", help="Extra activity-library folder (repeatable).")
+
+
 @contextlib.contextmanager
 def naming(file: Path | str | None) -> Iterator[None]:
     """Errors about an input's fields raised without a file (deep in synthesis, say) name the

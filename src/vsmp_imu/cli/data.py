@@ -11,6 +11,7 @@ from rich import box
 from rich.table import Table
 
 from vsmp_imu.cli.common import (
+    LIBRARY_OPTION,
     OVERLAP,
     WINDOW_S,
     console,
@@ -53,7 +54,7 @@ def check_cmd(
     dataset: str = typer.Argument(..., help="dataset .yaml file (or a registered dataset name)"),
     data_dir: Path = typer.Option(None, "--data-dir", help="folder of a downloaded dataset"),
     source: str = typer.Option("library", "--source", help="activity files: library | smp:DIR"),
-    library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder (repeatable)"),
+    library: list[Path] = LIBRARY_OPTION,
     backend: str = typer.Option("procedural", "--backend", help="motion backend: procedural | compiled | hymotion"),
     samples: int = typer.Option(3, "--samples", min=1, max=50, help="simulated executions per class"),
     window_s: float = WINDOW_S,

@@ -9,6 +9,7 @@ import typer
 
 from vsmp_imu.cli.common import (
     K_UNSEEN,
+    LIBRARY_OPTION,
     OVERLAP,
     SPEC_OPTIONS,
     WINDOW_S,
@@ -60,7 +61,7 @@ def generate_cmd(
     grounding: dict | None = None,  # stands for the grounding options (`grounding_options`)
     no_refine: bool = typer.Option(False, "--no-refine", help="Ablation: no semantic refinement"),
     no_uncertainty: bool = typer.Option(False, "--no-uncertainty", help="Ablation: u = 0 in augmentation"),
-    library: list[Path] = typer.Option(None, "--library", help="Extra activity-library folder (repeatable)"),
+    library: list[Path] = LIBRARY_OPTION,
     refill: int = typer.Option(0, "--refill", min=0, max=8,
                                help="Extra passes for classes whose kept windows fall short of the budget"),
 ) -> None:

@@ -9,6 +9,7 @@ import typer
 from rich.table import Table
 
 from vsmp_imu.cli.common import (
+    LIBRARY_OPTION,
     console,
     distinct_files,
     finite_range,
@@ -71,7 +72,7 @@ def synth_cmd(
                                     help="duration in seconds, 0.1..600 (default: natural)"),
     backend: str = typer.Option("procedural", "--backend", help="procedural | compiled | hymotion"),
     prompt: str = typer.Option(None, "--prompt", help="free-text prompt instead of (or overriding) the SMP"),
-    library: list[Path] = typer.Option(None, "--library", help="extra activity-library folder (repeatable)"),
+    library: list[Path] = LIBRARY_OPTION,
     fps: float = typer.Option(30.0, "--fps", callback=finite_range(1.0, 1000.0),
                               help="frame rate of the procedural backend, 1..1000"),
     model_path: str = typer.Option(None, "--model-path", help="HY-Motion checkpoint folder"),

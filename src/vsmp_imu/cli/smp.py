@@ -17,6 +17,7 @@ from rich.table import Table
 from rich.text import Text
 
 from vsmp_imu.cli.common import (
+    LIBRARY_OPTION,
     console,
     distinct_files,
     int_range,
@@ -44,7 +45,6 @@ smp_app = typer.Typer(help="Semantic Motion Programs: schema, validation, librar
 library_app = typer.Typer(help="The activity library.", no_args_is_help=True)
 smp_app.add_typer(library_app, name="library")
 
-LIBRARY_OPTION = typer.Option(None, "--library", help="Extra activity-library folder (repeatable).")
 SMP_ARG_HELP = "SMP file (.json, .yaml) or the name of a library activity"
 
 

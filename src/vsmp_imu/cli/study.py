@@ -11,6 +11,7 @@ import typer
 from vsmp_imu.cli.common import (
     DESCRIBER_MODEL_OPTION,
     DESCRIBER_URL_OPTION,
+    LIBRARY_OPTION,
     console,
     describer_options,
     finite_list,
@@ -31,7 +32,6 @@ from vsmp_imu.studies.folders import claim_study_folder, study_folder
 study_app = typer.Typer(help="Studies of the paper: end-to-end controllability, SMP extraction "
                         "audit, qualitative case study, ablations, activity granularity, realism.",
                         no_args_is_help=True)
-LIBRARY_OPTION = typer.Option(None, "--library", help="Extra activity-library folder (repeatable).")
 DATASET_HELP = "hapt, hapt12 (ship offline), utd_mhad, pamap2, mmfit, mmact, had-aw (--data-dir) or a .yaml"
 DATASET_OPTION = typer.Option("hapt12", "--dataset", "-d", help=DATASET_HELP)
 DATA_DIR_OPTION = typer.Option(None, "--data-dir", help="Folder of a downloaded dataset")

@@ -16,6 +16,7 @@ import typer
 from rich.table import Table
 
 from vsmp_imu.cli.common import (
+    LIBRARY_OPTION,
     console,
     console_err,
     distinct_files,
@@ -38,7 +39,6 @@ video_app = typer.Typer(help="Video inspection: probe clips, sample frames, pose
 
 EXTRACTORS = ("vlm", "pose", "fused")
 CHECKERS = ("pose", "vlm")
-LIBRARY_OPTION = typer.Option(None, "--library", help="Extra activity-library folder (repeatable).")
 BASE_URL_OPTION = typer.Option(None, "--vlm-base-url", help="OpenAI-compatible endpoint, e.g. "
                                "https://api.openai.com/v1 or http://localhost:8000/v1 (vLLM)")
 MODEL_OPTION = typer.Option(None, "--vlm-model", help="Model name served by the endpoint")

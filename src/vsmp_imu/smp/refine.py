@@ -18,7 +18,8 @@ compared with the library):
    its primitives are matched one-to-one to the SMP's by rapidfuzz
    token_sort_ratio >= `PRIMITIVE_MATCH_MIN`. All matched: in library order
    (a rotation counts for cyclic activities) or marked uncertain. At least
-   `COMPATIBLE_MIN` matched: the missing ones are inserted in library order.
+   `COMPATIBLE_MIN` matched: the missing ones are inserted in library order (a name
+   the SMP has in another spelling takes the SMP's).
    Fewer: the primitives, sequence and durations are replaced by the library's.
    A label that resolves to no entry cannot be checked.
 2. body-part consistency - every body-part list is normalized to the paper's
@@ -341,6 +342,7 @@ def _check_label_primitives(w: _Work, entry: LibraryEntry) -> None:
             name = lib_names[k]
             src = by_name.get(norm_name(name))
             p = src.model_dump(mode="json") if src is not None else _bare(name, 0)
+            p["name"] = _spelled(p["name"], [*prims, *new_prims])
             new_prims.append(p)
             new_seq.append(name)
             if values:
@@ -351,6 +353,12 @@ def _check_label_primitives(w: _Work, entry: LibraryEntry) -> None:
     if values:
         d["primitive_durations"]["values"] = new_values
     w.correct("label_primitive", "primitive_sequence", seq_before, new_seq)
+
+
+def _spelled(name: str, prims: list[dict[str, Any]]) -> str:
+    """The name of an inserted library primitive, spelled as the primitives already there spell
+    it (a library sequence may repeat a name the SMP has): the schema refuses two spellings."""
+    return next((p["name"] for p in prims if norm_name(p["name"]) == norm_name(name)), name)
 
 
 # ---------------------------------------------------------------------------

@@ -915,8 +915,20 @@ def _primitives(data: dict, ctx: _Ctx) -> tuple[list[dict], list[str]]:
         ordered = sorted(range(len(prims)), key=lambda j: (prims[j]["order_index"], j))
         seq = [prims[j]["name"] for j in ordered]
         ctx.repair("rebuilt 'primitive_sequence' from 'motion_primitives'")
+    _one_spelling(prims, ctx)
     _add_missing_primitives(prims, seq, ctx)
     return prims, seq
+
+
+def _one_spelling(prims: list[dict], ctx: _Ctx) -> None:
+    """A primitive whose name is another spelling of an earlier one's (the schema refuses two
+    spellings) takes the earlier spelling: it is that primitive listed again, as an exact repeat is."""
+    first: dict[str, str] = {}
+    for p in prims:
+        name = first.setdefault(norm_name(p["name"]), p["name"])
+        if name != p["name"]:
+            ctx.repair(f"renamed the primitive '{p['name']}' to '{name}', the spelling of an earlier one")
+            p["name"] = name
 
 
 def _too_many(name: str, n: int, ctx: _Ctx) -> bool:

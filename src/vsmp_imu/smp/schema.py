@@ -31,6 +31,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from vsmp_imu.smp._text import norm_name
+from vsmp_imu.validation import SHOWN_INPUT_CHARS
 
 SCHEMA_VERSION = "1.0"
 
@@ -234,6 +235,24 @@ class SMP(_Strict):
             raise ValueError("must not be empty")
         return value
 
+    @field_validator("motion_primitives")
+    @classmethod
+    def _one_spelling(cls, primitives: list[MotionPrimitive]) -> list[MotionPrimitive]:
+        """Two primitives whose names differ only in case, spaces, '_' or '-' are refused: a
+        sequence name could not tell them apart. A name repeated exactly is one primitive
+        listed per sequence position (refinement writes them so)."""
+        first: dict[str, int] = {}
+        for i, prim in enumerate(primitives):
+            j = first.setdefault(norm_name(prim.name), i)
+            if primitives[j].name != prim.name:
+                # the names are put in here, not by pydantic, which would fill '{...}' inside them
+                raise PydanticCustomError(
+                    "primitive_spellings",
+                    f"motion_primitives[{j}] {_quoted(primitives[j].name)} and motion_primitives[{i}] {_quoted(prim.name)} "
+                    "differ only in case, spaces, '_' or '-', so a primitive_sequence name cannot tell them apart",
+                    {"expected": "one spelling of each primitive name"})
+        return primitives
+
     @field_validator("primitive_sequence")
     @classmethod
     def _names_a_primitive(cls, sequence: list[str], info: ValidationInfo) -> list[str]:
@@ -262,7 +281,8 @@ class SMP(_Strict):
     # -- the primitive a sequence name refers to ---------------------------
     def primitive(self, name: str) -> MotionPrimitive | None:
         """The motion primitive `name` refers to, matched as validation matches it (case, spaces,
-        '_' and '-' aside; the first of several so named); None for a structural word."""
+        '_' and '-' aside; of a name listed once per sequence position, the first); None for a
+        structural word."""
         key = norm_name(name)
         return next((p for p in self.motion_primitives if norm_name(p.name) == key), None)
 
@@ -319,6 +339,13 @@ class SMP(_Strict):
         filled = [v if v is not None and v > 0 else fill for v in raw]
         total = sum(filled)
         return [v / total for v in filled]
+
+
+def _quoted(name: str) -> str:
+    """A name in a message, only its start when long (a name may have 1000 characters)."""
+    if len(name) <= SHOWN_INPUT_CHARS:
+        return f"'{name}'"
+    return f"'{name[:SHOWN_INPUT_CHARS]}...' ({len(name)} characters)"
 
 
 def _sequence_names(primitives: list[MotionPrimitive]) -> str:
