@@ -36,13 +36,15 @@ def thread_map(fn: Callable[[Any], Any], items: Sequence[Any], threads: int = 1)
 
 
 class LocalExecutor:
-    """`workers=1` runs in this process; more workers use a process pool."""
+    """`workers=1` runs in this process; more workers use a process pool (one per `map`, or the
+    pool of a pending `start`)."""
 
     def __init__(self, workers: int = 1, show_progress: bool = True) -> None:
         if workers < 1:
             raise ConfigError(f"workers must be >= 1, got {workers}", field="workers")
         self.workers = workers
         self.show_progress = show_progress
+        self._shared: ProcessPoolExecutor | None = None  # the pool of a started item not yet collected
 
     def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], desc: str = "working") -> list[Any]:
         results: list[Any] = [None] * len(tasks)
@@ -53,44 +55,59 @@ class LocalExecutor:
                     results[i] = fn(task)
                     update(i + 1)
                 return results
-            ctx = multiprocessing.get_context(_start_method())
             chunks = _chunks(tasks, self.workers)
-            pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx,
-                                       initializer=_init_worker, initargs=(os.getpid(),))
+            pool = self._shared or self._pool()
             try:
-                # the workers start (fork) during the first submit: with the stop signals blocked
-                # until each has set its own handlers, a Ctrl-C then cannot hit a half-made worker
-                blocked = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
-                try:
-                    futures = {pool.submit(_run_chunk, fn, chunk): start for start, chunk in chunks}
-                finally:
-                    signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+                submitted = _submit(pool, _run_chunk, [(fn, chunk) for _, chunk in chunks])
+                futures = {future: start for future, (start, _) in zip(submitted, chunks, strict=True)}
                 for future in as_completed(futures):
                     done = future.result()
                     results[futures[future]:futures[future] + len(done)] = done
                     finished += len(done)
                     update(finished)
             except BaseException:  # Ctrl-C, SIGTERM, a failed task: no worker outlives the run
-                _stop_workers(pool)
+                self.release(pool, stop=True)
                 raise
-            pool.shutdown(wait=True)
+            if pool is not self._shared:
+                pool.shutdown(wait=True)
         return results
 
     def start(self, fn: Callable[[Any], Any], item: Any, desc: str = "working") -> Started:
         """`fn(item)` begun now, for the caller to collect later (`result()`): with one worker it
-        runs here and then (under `desc`, as `map` shows its work); with more, in a process of its
-        own beside the pools of later `map` calls, so one long item overlaps the caller's own
-        steps and the maps that follow (the cores are shared among them; no work is added)."""
+        runs here and then (under `desc`, as `map` shows its work); with more, on a pool that the
+        `map` calls made before its result is collected share, so one long item overlaps the
+        caller's own steps and takes one worker of those maps until it ends (no process beyond
+        `workers`)."""
         if self.workers == 1:
             return Started(value=self.map(fn, [item], desc)[0])
-        pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context(_start_method()),
+        if self._shared is None:
+            self._shared = self._pool()
+        (future,) = _submit(self._shared, fn, [(item,)])
+        return Started(future=future, pool=self._shared, owner=self)
+
+    def release(self, pool: ProcessPoolExecutor, stop: bool = False) -> None:
+        """End `pool` (at once with `stop`, else once its work is done); the next `map` makes its own."""
+        if stop:
+            _stop_workers(pool)
+        else:
+            pool.shutdown(wait=True)
+        if pool is self._shared:
+            self._shared = None
+
+    def _pool(self) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context(_start_method()),
                                    initializer=_init_worker, initargs=(os.getpid(),))
-        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)  # as in `map`
-        try:
-            future = pool.submit(fn, item)
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
-        return Started(future=future, pool=pool)
+
+
+def _submit(pool: ProcessPoolExecutor, fn: Callable, calls: list[tuple]) -> list:
+    """`pool.submit(fn, *args)` for each args in `calls`. The workers start (fork) during the first
+    submit: with the stop signals blocked until each has set its own handlers, a Ctrl-C then cannot
+    hit a half-made worker."""
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    try:
+        return [pool.submit(fn, *args) for args in calls]
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
 
 class Started:
@@ -98,17 +115,17 @@ class Started:
     `cancel()` ends it, for a caller that no longer needs it (on an error or Ctrl-C)."""
 
     def __init__(self, value: Any = None, future=None, pool: ProcessPoolExecutor | None = None,
-                 ref=None) -> None:
-        self.value, self.future, self.pool, self.ref = value, future, pool, ref
+                 owner: LocalExecutor | None = None, ref=None) -> None:
+        self.value, self.future, self.pool, self.owner, self.ref = value, future, pool, owner, ref
 
     def result(self) -> Any:
         if self.future is not None:
             try:
                 self.value = self.future.result()
             except BaseException:
-                _stop_workers(self.pool)
+                self.owner.release(self.pool, stop=True)
                 raise
-            self.pool.shutdown(wait=True)
+            self.owner.release(self.pool)
             self.future = None
         elif self.ref is not None:
             import ray
@@ -118,7 +135,7 @@ class Started:
 
     def cancel(self) -> None:
         if self.future is not None:
-            _stop_workers(self.pool)
+            self.owner.release(self.pool, stop=True)
             self.future = None
         elif self.ref is not None:
             import ray

@@ -41,6 +41,19 @@ def test_a_started_item_runs_beside_the_caller_and_gives_its_result():
     assert not worker.is_alive()  # its process ends once the result is in
 
 
+def test_maps_share_the_pool_of_a_pending_started_item(monkeypatch):
+    """While a started item is pending, `map` runs on its pool (no process beyond `workers`); once
+    its result is in, the pool ends and the next `map` makes its own."""
+    executor, pools = LocalExecutor(2, show_progress=False), []
+    make = executor._pool
+    monkeypatch.setattr(executor, "_pool", lambda: pools.append(make()) or pools[-1])
+    started = executor.start(time.sleep, 0.5)
+    assert executor.map(_work, list(range(20))) == [_work(t) for t in range(20)]
+    assert len(pools) == 1 and len(started.pool._processes) == 2  # the started item's pool, still up
+    assert started.result() is None and executor._shared is None
+    assert executor.map(_work, list(range(5))) == [_work(t) for t in range(5)] and len(pools) == 2
+
+
 def test_a_started_item_that_fails_raises_at_result():
     started = LocalExecutor(2, show_progress=False).start(int, "not a number")
     with pytest.raises(ValueError, match="not a number"):

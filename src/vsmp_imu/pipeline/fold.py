@@ -12,8 +12,9 @@ Stages:
    one of its class's real events (grounding.durations);
 3. per sample (executor, cached): verbalize, motion, theta ~ p(theta),
    kinematics, eta* by CEM against the class's D_stat, A_gamma; alongside,
-   from the fold's start (`executor.start`), one executor job fits the
-   filter's real-data models (plausibility thresholds, validator, tau_nn);
+   from the fold's start (`executor.start`: one worker of the pool the rounds
+   share), one executor job fits the filter's real-data models (plausibility
+   thresholds, validator, tau_nn);
 4. movement texture (the 3-12 Hz content a smooth motion lacks, by ratios
    fitted on D_stat), then rank grounding per location with F_v from all the
    fold's synthetic samples and G_r from D_rank;
