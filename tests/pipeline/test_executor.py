@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import socket
 import threading
@@ -51,7 +52,9 @@ def test_maps_share_the_pool_of_a_pending_started_item(monkeypatch):
     assert executor.map(_work, list(range(20))) == [_work(t) for t in range(20)]
     assert len(pools) == 1 and len(started.pool._processes) == 2  # the started item's pool, still up
     assert started.result() is None and executor._shared is None
+    assert not multiprocessing.active_children()  # the shared pool ended with the result
     assert executor.map(_work, list(range(5))) == [_work(t) for t in range(5)] and len(pools) == 2
+    assert not multiprocessing.active_children()  # a map's own pool ends with the map
 
 
 def test_a_started_item_that_fails_raises_at_result():

@@ -237,7 +237,7 @@ def make_filter_job(info: DatasetInfo, train: Windows, seed: int, fold: str, val
     )
 
 
-def start_item(executor, job: FilterJob | None, fold: str):
+def start_filter_job(executor, job: FilterJob | None, fold: str):
     """The filter job begun on `executor` (its `start`, so that it runs beside the fold's own steps
     and the synthesis; an executor with only `map` runs it now); None without a job."""
     if job is None:
@@ -947,7 +947,7 @@ class FoldGenerator:
         if spec.quality_filter:
             job = make_filter_job(info, train, seed, fold, spec.val_fraction, spec.min_validator_windows,
                                   learned=spec.class_filter or spec.redundancy_filter)
-        fitting = start_item(self.executor, job, fold)  # the filter models, beside what follows up to the filter
+        fitting = start_filter_job(self.executor, job, fold)  # the filter models, beside what follows up to the filter
         try:
             return self._generate(info, train, sources, budget, seed, fold, job, fitting)
         finally:
