@@ -265,13 +265,15 @@ def report() -> str:
 
 def _survivor_section(record: dict, rules: list[dict]) -> str:
     lines = [f"## {record['group']}", ""]
-    other = collections.Counter(s for s in record["outcomes"].values()
-                                if s not in ("killed", "timeout", "survived"))
+    unrun = {n: s for n, s in record["outcomes"].items() if s not in ("killed", "timeout", "survived")}
+    # import-time mutants are never run (mutmut cannot switch them on): listed under their rule
+    import_time = sorted(n for n in unrun if (rule := _exclusion(n, rules)) and rule["kind"] == "import-time")
+    other = collections.Counter(s for n, s in unrun.items() if n not in import_time)
     if other:
         lines += ["Other outcomes: " + ", ".join(f"{n} {s}" for s, n in sorted(other.items())) + ".", ""]
     by_rule: dict[int, list[str]] = collections.defaultdict(list)
     plain = []
-    for name in sorted(record["survivors"]):
+    for name in sorted(record["survivors"]) + import_time:
         rule = _exclusion(name, rules)
         (by_rule[id(rule)] if rule else plain).append(name)
     lines += [f"### Survived ({len(plain)})", ""] + _diff_lines(record, plain)

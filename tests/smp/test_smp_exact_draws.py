@@ -24,6 +24,7 @@ from vsmp_imu.smp.schema import (
     ordinal_word,
     smp_json_schema,
 )
+from vsmp_imu.validation import SHOWN_INPUT_CHARS
 
 U = 0.2
 
@@ -262,6 +263,12 @@ def test_two_spellings_of_one_primitive_name_are_refused():
                                  "only in case, spaces, '_' or '-', so a primitive_sequence name cannot tell "
                                  "them apart")
     assert err.value.allowed == "one spelling of each primitive name"
+    for n, shown in ((SHOWN_INPUT_CHARS, "'" + "a" * SHOWN_INPUT_CHARS + "'"),
+                     (SHOWN_INPUT_CHARS + 1, "'" + "a" * SHOWN_INPUT_CHARS + f"...' ({SHOWN_INPUT_CHARS + 1} characters)")):
+        long = [*prims, {**prims[0], "name": "a" * n, "order_index": 3}, {**prims[0], "name": "A" * n, "order_index": 4}]
+        with pytest.raises(ValidationError) as err:
+            smp_from_dict({**data, "motion_primitives": long}, "s.json")
+        assert err.value.message.startswith(f"motion_primitives[3] {shown} and motion_primitives[4] ")  # whole up to 60
     repeated = [*prims, {**prims[0], "order_index": 3}]
     smp = smp_from_dict({**data, "motion_primitives": repeated, "primitive_sequence": [
         "raise_arms", "circle_arms", "lower_arms", "raise_arms"], "primitive_durations": {"values": []}})
