@@ -13,7 +13,7 @@ from vsmp_imu.errors import ValidationError
 from vsmp_imu.motion import get_backend, measure
 from vsmp_imu.motion.compiler import compile_recipe, compile_recipe_data
 from vsmp_imu.motion.motion import Motion
-from vsmp_imu.motion.procedural import ProceduralBackend, raw_durations
+from vsmp_imu.motion.procedural import ProceduralBackend
 from vsmp_imu.motion.selfcheck import is_plausible, plausibility
 from vsmp_imu.smp.intervene import intervene
 from vsmp_imu.smp.library import ActivityLibrary
@@ -236,4 +236,4 @@ def test_a_sequence_name_spelled_otherwise_compiles_as_its_primitive(library, na
     assert list(other["primitives"].values()) == list(plain["primitives"].values())
     assert {k: v for k, v in other.items() if k not in ("primitives", "cycle")} == \
         {k: v for k, v in plain.items() if k not in ("primitives", "cycle")}
-    assert raw_durations(spelled) == raw_durations(smp)
+    assert spelled.raw_durations() == smp.raw_durations()

@@ -558,9 +558,7 @@ def _slowest(step: Step) -> float:
 
 
 def _shares(smp: SMP, n: int) -> list[float] | None:
-    from vsmp_imu.motion.procedural import raw_durations
-
-    raw = [v for name, v in zip(smp.primitive_sequence, raw_durations(smp), strict=True)
+    raw = [v for name, v in zip(smp.primitive_sequence, smp.raw_durations(), strict=True)
            if norm_name(name) not in STRUCTURAL]
     if len(raw) != n or any(v is None or v <= 0 for v in raw):
         return None

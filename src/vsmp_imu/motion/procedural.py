@@ -413,15 +413,6 @@ def _same_primitives(smp: SMP, default: SMP) -> bool:
     return all(norm_name(p) in names for p in smp.primitive_sequence)
 
 
-def raw_durations(smp: SMP) -> list[float | None]:
-    """Per-primitive relative durations as written (None when unknown), in sequence order."""
-    seq = smp.primitive_sequence
-    values = smp.primitive_durations.values
-    if len(values) == len(seq) and any(v != UNKNOWN for v in values):
-        return [None if v == UNKNOWN else float(v) for v in values]
-    return [smp.primitive_duration(n) for n in seq]
-
-
 def match_primitives(smp: SMP, recipe: Recipe, file: Any = None,
                      activity: str | None = None) -> list[tuple[int, str, str]]:
     """[(position, SMP name, recipe primitive)] in the SMP's order; structural names ("repeat") dropped.
@@ -460,9 +451,9 @@ def match_primitives(smp: SMP, recipe: Recipe, file: Any = None,
 
 def _duration_scales(smp: SMP, default: SMP, matched: list[tuple[int, str, str]]) -> list[float]:
     """Per-position duration factor: the SMP's relative duration over the library's, median removed."""
-    raw = raw_durations(smp)
+    raw = smp.raw_durations()
     defaults: dict[str, float] = {}
-    for name, value in zip(default.primitive_sequence, raw_durations(default), strict=False):
+    for name, value in zip(default.primitive_sequence, default.raw_durations(), strict=False):
         if value is not None and value > 0:
             defaults.setdefault(name, value)
     ratios: list[float | None] = []
@@ -569,7 +560,7 @@ def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | N
     scales = _duration_scales(smp, entry.smp, matched)
     jitter = {p: 1.0 + rng.uniform(-DURATION_JITTER, DURATION_JITTER) for p in recipe.primitives}
     absolute = smp.primitive_durations.type == "absolute"
-    raw = raw_durations(smp)
+    raw = smp.raw_durations()
     tf = controls["tempo_factor"] * duration_scale
     if duration_scale != 1.0:
         controls["duration_scale"] = round(float(duration_scale), 6)

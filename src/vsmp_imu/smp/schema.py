@@ -286,6 +286,15 @@ class SMP(_Strict):
         key = norm_name(name)
         return next((p for p in self.motion_primitives if norm_name(p.name) == key), None)
 
+    def raw_durations(self) -> list[float | None]:
+        """Per-primitive relative durations as written (None when unknown), in sequence order:
+        `primitive_durations` when it has a known value per sequence entry, else each
+        primitive's own `relative_duration`."""
+        values = self.primitive_durations.values
+        if len(values) == len(self.primitive_sequence) and any(v != UNKNOWN for v in values):
+            return [None if v == UNKNOWN else float(v) for v in values]
+        return [self.primitive_duration(name) for name in self.primitive_sequence]
+
     def primitive_duration(self, name: str) -> float | None:
         """The relative duration of the primitive `name` refers to; None when unknown or none."""
         prim = self.primitive(name)
@@ -327,13 +336,7 @@ class SMP(_Strict):
         Unknown entries are filled with the mean of the known ones (or 1 when
         none is known).
         """
-        n = len(self.primitive_sequence)
-        raw: list[float | None] = [None] * n
-        values = self.primitive_durations.values
-        if len(values) == n:
-            raw = [None if v == UNKNOWN else float(v) for v in values]
-        if all(v is None for v in raw):
-            raw = [self.primitive_duration(name) for name in self.primitive_sequence]
+        raw = self.raw_durations()
         known = [v for v in raw if v is not None and v > 0]
         fill = sum(known) / len(known) if known else 1.0
         filled = [v if v is not None and v > 0 else fill for v in raw]
