@@ -30,6 +30,13 @@ def norm_name(text: str) -> str:
     return _SEPARATORS.sub(" ", str(text)).strip().lower()
 
 
+def first_spellings(names: list[str]) -> list[int]:
+    """For each name, the index of the first of `names` that is the same name (`norm_name`): where
+    that first one is spelled otherwise, the two are two spellings of one name."""
+    first: dict[str, int] = {}
+    return [first.setdefault(norm_name(name), i) for i, name in enumerate(names)]
+
+
 def norm_key(text: str) -> str:
     """snake_case form of a JSON key: 'activityLabel', 'Activity Label' -> 'activity_label'."""
     text = _CAMEL.sub("_", str(text).strip())

@@ -45,7 +45,7 @@ import pydantic
 from rapidfuzz import fuzz, process
 
 from vsmp_imu.io import load_yaml
-from vsmp_imu.smp._text import NUMBER_WORDS, norm_key, norm_name
+from vsmp_imu.smp._text import NUMBER_WORDS, first_spellings, norm_key, norm_name
 from vsmp_imu.smp.schema import (
     INVARIANT_FIELDS,
     MAX_DISPLACEMENT_M,
@@ -923,9 +923,9 @@ def _primitives(data: dict, ctx: _Ctx) -> tuple[list[dict], list[str]]:
 def _one_spelling(prims: list[dict], ctx: _Ctx) -> None:
     """A primitive whose name is another spelling of an earlier one's (the schema refuses two
     spellings) takes the earlier spelling: it is that primitive listed again, as an exact repeat is."""
-    first: dict[str, str] = {}
-    for p in prims:
-        name = first.setdefault(norm_name(p["name"]), p["name"])
+    names = [p["name"] for p in prims]
+    for p, j in zip(prims, first_spellings(names), strict=True):
+        name = names[j]
         if name != p["name"]:
             ctx.repair(f"renamed the primitive '{p['name']}' to '{name}', the spelling of an earlier one")
             p["name"] = name

@@ -30,7 +30,7 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from vsmp_imu.smp._text import norm_name
+from vsmp_imu.smp._text import first_spellings, norm_name
 from vsmp_imu.validation import SHOWN_INPUT_CHARS
 
 SCHEMA_VERSION = "1.0"
@@ -241,9 +241,8 @@ class SMP(_Strict):
         """Two primitives whose names differ only in case, spaces, '_' or '-' are refused: a
         sequence name could not tell them apart. A name repeated exactly is one primitive
         listed per sequence position (refinement writes them so)."""
-        first: dict[str, int] = {}
-        for i, prim in enumerate(primitives):
-            j = first.setdefault(norm_name(prim.name), i)
+        for i, j in enumerate(first_spellings([p.name for p in primitives])):
+            prim = primitives[i]
             if primitives[j].name != prim.name:
                 # the names are put in here, not by pydantic, which would fill '{...}' inside them
                 raise PydanticCustomError(
