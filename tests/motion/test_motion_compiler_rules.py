@@ -469,3 +469,275 @@ def test_a_primitive_sets_the_start_when_it_holds_or_names_a_posture_with_resets
     upright = _step(posture="standing")
     upright.action, upright.movements = "go", (MOVEMENTS["trunk_upright"],)
     assert compiler._sets_start(upright)
+
+
+# -- whole sequences: what each primitive does to the pose, read from the compiled recipe --------------
+_TEMPLATE = Path(__file__).resolve().parents[1] / "fixtures" / "compiled_activities" / "front_raise.yaml"
+
+
+def _smp(*prims, periodic: bool = False, dominant: str = "bilateral", symmetry: str = "symmetric",
+         shares: list[float] | None = None):
+    """An SMP of `prims` ((name, description, body parts) each) on the front raise's other fields."""
+    import yaml
+
+    from vsmp_imu.smp.schema import SMP
+
+    d = yaml.safe_load(_TEMPLATE.read_text())["smp"]
+    d["motion_primitives"] = [dict(name=n, order_index=i, description=desc, body_parts=list(parts))
+                              for i, (n, desc, parts) in enumerate(prims)]
+    d["primitive_sequence"] = [p[0] for p in prims]
+    d["primitive_durations"] = ({"type": "relative", "values": shares} if shares
+                                else {"type": "unknown", "values": []})
+    d["temporal_structure"].update(is_repetitive=periodic, periodicity="cyclic" if periodic else "none",
+                                   repetition_count=10 if periodic else "unknown")
+    d["execution_attributes"].update(dominant_side=dominant, symmetry=symmetry)
+    return SMP.model_validate(d)
+
+
+def _compiled(smp) -> tuple[dict, dict[str, list[tuple[float, dict]]]]:
+    """The recipe data and, per primitive, its keys as (time, pose by DOF name)."""
+    data = compiler.compile_recipe_data(smp)
+    keys = {name: [(at, data["poses"][pose]) for at, pose, _ in p["keys"]] for name, p in data["primitives"].items()}
+    return data, keys
+
+
+_WAIT = ("wait", "stand and wait", [])
+_ARMS = ["left_upper_arm", "right_upper_arm"]
+
+
+def test_a_return_goes_back_to_where_its_outward_primitive_started_not_to_the_start_pose():
+    _, keys = _compiled(_smp(_WAIT, ("sit", "sit down on the chair", []), ("raise", "raise both arms forward", _ARMS),
+                             ("lower", "lower the arms", _ARMS)))
+    seated = keys["sit"][-1][1]
+    assert seated["left_knee_flex"] > 60.0 and seated["root_dz"] == pytest.approx(SEAT_SHIFT_M)
+    assert keys["raise"][-1][1]["left_shoulder_flex"] > 60.0
+    assert keys["lower"] == [(1.0, seated)]  # still seated: back to the pose the raise started from
+
+
+def test_after_sitting_down_standing_up_takes_the_pelvis_back_over_the_feet():
+    _, keys = _compiled(_smp(_WAIT, ("sit", "sit down on the chair", []), ("rise", "stand up", [])))
+    (_, crouch), (_, up) = keys["rise"]
+    assert crouch["root_dz"] == pytest.approx(0.5 * SEAT_SHIFT_M)  # the crouch half way up, from the seat
+    assert up["root_dz"] == pytest.approx(0.0) and up["left_knee_flex"] == 0.0
+
+
+def test_a_primitive_naming_the_posture_the_body_is_already_in():
+    # standing up out of a squat straightens the legs and the trunk
+    _, keys = _compiled(_smp(("squat", "squat down", []), ("rise", "stand up", [])))
+    low, up = keys["squat"][-1][1], keys["rise"][-1][1]
+    assert low["left_knee_flex"] > 60.0 and low["trunk_flex"] > 10.0 and low["root_dz"] < -0.1
+    assert (up["left_knee_flex"], up["right_hip_flex"], up["trunk_flex"], up["root_dz"]) == (0.0, 0.0, 0.0, 0.0)
+    # sitting down when seated already, with nothing else to do: a hold
+    data, keys = _compiled(_smp(("sit", "sit down on the chair", []), ("lean", "lean the trunk forward", []),
+                                ("again", "sit down on the chair", [])))
+    assert keys["again"] == [] and keys["sit"] == []
+    assert data["primitives"]["again"]["duration_s"] == compiler.HOLD_S
+    # lying down when lying already, with the arms overhead: the arms move, the posture does not
+    data, keys = _compiled(_smp(("lie", "lie down with the arms overhead", _ARMS), ("hold", "hold still", [])))
+    assert len(keys["lie"]) == 1 and keys["lie"][0][1]["left_shoulder_flex"] > 120.0
+    assert data["base_pose"]["root_pitch"] == keys["lie"][0][1]["root_pitch"] != 0.0
+    assert data["primitives"]["lie"]["duration_s"] == MOVEMENTS["lie_down"].nominal_s
+
+
+def test_a_change_of_posture_carries_the_arm_movements_it_names():
+    _, keys = _compiled(_smp(_WAIT, ("lie", "lie down with the arms overhead", [*_ARMS, "pelvis"])))
+    (_, via), (_, lying) = keys["lie"]
+    assert via["left_knee_flex"] == 88.0  # through sitting
+    assert lying["root_pitch"] != 0.0 and lying["left_shoulder_flex"] == lying["right_shoulder_flex"] > 120.0
+    assert lying["left_knee_flex"] < 30.0  # the legs follow the posture, not the sitting pass
+
+
+@pytest.mark.parametrize("dominant,sign", [("right", -1.0), ("left", 1.0)])
+def test_a_twist_without_a_side_turns_toward_the_dominant_side(dominant, sign):
+    value = MOVEMENTS["trunk_rotation"].pose["trunk_twist"]
+    _, keys = _compiled(_smp(_WAIT, ("twist", "twist the trunk", []), dominant=dominant, symmetry="asymmetric"))
+    assert keys["twist"][-1][1]["trunk_twist"] == pytest.approx(sign * value)
+    # the same inside a change of posture
+    _, keys = _compiled(_smp(_WAIT, ("sit", "sit down and twist the trunk", []), dominant=dominant,
+                             symmetry="asymmetric"))
+    assert keys["sit"][-1][1]["trunk_twist"] == pytest.approx(sign * value)
+
+
+def test_a_swing_that_goes_out_stays_out_and_a_jump_back_hops_home():
+    _, keys = _compiled(_smp(_WAIT, ("swing", "swing the right arm", ["right_upper_arm"])))
+    assert keys["swing"] == [(1.0, pytest.approx(keys["swing"][-1][1]))]
+    assert keys["swing"][-1][1]["right_shoulder_flex"] == pytest.approx(MOVEMENTS["arm_pendulum_swing"].pose[
+        "shoulder_flex"])
+    assert keys["swing"][-1][1]["left_shoulder_flex"] == 0.0
+    # a return with a jump in it hops back to where the outward jump started
+    _, keys = _compiled(_smp(_WAIT, ("out", "jump the feet apart", []), ("home", "jump back to the start", [])))
+    home = keys["home"]
+    assert [at for at, _ in home] == [0.3, 0.6, 1.0]
+    assert home[1][1]["root_dy"] == pytest.approx(MOVEMENTS["jump"].pose["root_dy"])
+    assert home[-1][1]["left_hip_abd"] == pytest.approx(0.0) and home[-1][1]["root_dy"] == 0.0
+    assert keys["out"][-1][1]["left_hip_abd"] > 10.0
+
+
+def test_a_plank_is_the_plank_pose_over_lying_prone_and_an_unknown_posture_stands():
+    from vsmp_imu.motion.anatomy import PLANK_POSE
+    from vsmp_imu.motion.dofs import BUILTIN_POSES, pose_vector
+
+    plank = compiler._posture_vector("plank", 0.2)
+    assert plank[_col("root_pitch")] == PLANK_POSE["root_pitch"] == 72
+    assert plank[_col("left_shoulder_flex")] == plank[_col("right_shoulder_flex")] == 72
+    assert plank[_col("right_wrist_flex")] == -80 and plank[_col("left_toe_flex")] == 30
+    assert plank[_col("root_dz")] == 0.2
+    standing = pose_vector(BUILTIN_POSES["standing"])
+    assert np.array_equal(compiler._posture_vector("floating", 0.0), standing)
+    assert not np.array_equal(standing, np.zeros(N_DOFS))
+    sitting = compiler._posture_vector("sitting", -0.1)
+    assert sitting[_col("left_hip_flex")] == 88.0 and sitting[_col("root_dz")] == -0.1
+
+
+def test_left_and_right_versions_of_one_movement_each_go_out_and_back():
+    def actions(*prims):
+        return [s.action for s in compiler._steps(_smp(*prims))]
+
+    knees = (("left", "lift the left knee", []), ("right", "lift the right knee", []))
+    assert actions(*knees) == ["back", "back"]
+    assert actions(_WAIT, *knees) == ["hold", "back", "back"]  # a hold before them changes nothing
+    arms = (("left", "raise the left arm forward", []), ("right", "raise the right arm forward", []))
+    assert actions(*arms) == ["back", "back"]
+    assert actions(("left", "lift the left knee", []), ("again", "lift the left knee once more", [])) == ["go", "go"]
+    assert actions(("left", "lift the left knee", []), ("right", "kick the right leg forward", [])) == ["go", "go"]
+    assert actions(("knee", "lift the knee", []), ("right", "lift the right knee", [])) == ["go", "go"]  # no side: no pair
+
+
+def test_a_limb_movement_needs_that_limb_among_the_body_parts():
+    curl, knee, rise = MOVEMENTS["elbow_flexion"], MOVEMENTS["knee_bend"], MOVEMENTS["stand_up"]
+    assert compiler._limb_named(curl, ("left_upper_arm",)) and compiler._limb_named(curl, ("hand",))
+    assert compiler._limb_named(knee, ("right_lower_leg",)) and not compiler._limb_named(knee, ("left_forearm",))
+    assert not compiler._limb_named(curl, ("pelvis",)) and not compiler._limb_named(curl, ("right_thigh",))
+    assert compiler._limb_named(curl, ())  # no parts listed: nothing to check against
+    assert rise.kind == "posture" and compiler._limb_named(rise, ("left_hand",))  # only excursions are checked
+    steps = compiler._steps(_smp(("curl", "curl the dumbbell up", ["pelvis"])))
+    assert steps[0].parts == ("pelvis",) and steps[0].movements == () and steps[0].action == "hold"
+    steps = compiler._steps(_smp(("curl", "curl the dumbbell up", ["right_forearm", "right_hand"])))
+    assert steps[0].parts == ("right_forearm", "right_hand") and steps[0].movements == (curl,)
+
+
+def test_a_primitive_holds_when_it_names_no_movement_and_goes_there_and_back_when_told():
+    steps = compiler._steps(_smp(("still", "stand still", []), ("curl", "curl up and back", [])))
+    assert [s.action for s in steps] == ["hold", "back"]
+
+
+def test_durations_of_a_swing_there_and_back_and_of_gait_ignore_the_shares():
+    swing, walk = MOVEMENTS["arm_pendulum_swing"], MOVEMENTS["walk"]
+    assert swing.nominal_s == 0.6  # the edge: from 0.6 s on, there and back takes twice the time
+    smp = _smp(("a", "walk forward", []), ("b", "stand still", []), periodic=True, shares=[0.9, 0.1])
+    steps = _actions("back", "gait")
+    steps[0].movements, steps[1].movements = (swing,), (walk,)
+    compiler._durations(steps, smp)
+    assert [s.duration_s for s in steps] == pytest.approx([1.2, walk.nominal_s])
+
+
+def test_the_smps_shares_set_the_durations_within_their_bounds():
+    holds = [(f"h{i}", "hold still", []) for i in range(21)]
+    data = compiler.compile_recipe_data(_smp(*holds, shares=[0.96] + [0.002] * 20))
+    assert data["kind"] == "static"
+    total = 21 * compiler.STATIC_HOLD_S  # 63 s to share out
+    assert 0.96 * total > 60.0 and 0.002 * total < 0.15
+    assert data["primitives"]["h0"]["duration_s"] == 60.0
+    assert {data["primitives"][f"h{i}"]["duration_s"] for i in range(1, 21)} == {0.15}
+
+
+def test_shares_are_the_written_durations_normalized_and_only_when_every_primitive_has_one():
+    two = (("a", "raise the arms forward", _ARMS), ("b", "lower the arms", _ARMS))
+    assert compiler._shares(_smp(*two, shares=[2.0, 6.0]), 2) == pytest.approx([0.25, 0.75])
+    assert compiler._shares(_smp(*two, shares=[2.0, 6.0]), 3) is None
+    assert compiler._shares(_smp(*two, shares=[0.0, 6.0]), 2) is None
+    assert compiler._shares(_smp(*two), 2) is None
+    smp = _smp(*two, shares=[2.0, 6.0])
+    d = smp.model_dump(mode="json")
+    d["primitive_sequence"] = ["a", "repeat", "b"]
+    d["primitive_durations"]["values"] = [2.0, 1.0, 6.0]
+    assert compiler._shares(type(smp).model_validate(d), 2) == pytest.approx([0.25, 0.75])  # "repeat" left out
+
+
+def test_a_motion_is_static_only_when_held_unrepeated_and_unchanged():
+    smp = _library_smp("bicep_curls")
+    ts = smp.temporal_structure
+    ts.is_repetitive, ts.periodicity, ts.repetition_count = False, "none", "unknown"
+    sit = _step()
+    sit.movements = (MOVEMENTS["sit_down"],)
+    assert compiler._static(smp, [_step()])
+    assert compiler._static(smp, [sit])  # the first primitive sets the start posture: no change
+    assert not compiler._static(smp, [_step(), sit])  # a change of posture later
+    ts.repetition_count = 1
+    assert not compiler._static(smp, [_step()])  # a count, even of one
+    ts.repetition_count, ts.periodicity = "unknown", "cyclic"
+    assert not compiler._static(smp, [_step()])
+
+
+def test_pose_values_are_written_to_four_decimals():
+    vec = np.full(N_DOFS, 0.123456)
+    out = compiler._pose_dict(vec)
+    assert list(out) == list(DOF_INDEX) and set(out.values()) == {0.1235}
+
+
+def test_the_moved_columns_are_those_past_the_threshold():
+    base = np.zeros(N_DOFS)
+    step = _step()
+    pose = base.copy()
+    pose[_col("left_elbow_flex")] = compiler.CHANGE_DEG
+    pose[_col("right_elbow_flex")] = compiler.CHANGE_DEG + 0.5
+    pose[_col("trunk_flex")] = -20.0
+    step.keys = [(1.0, pose, "stop")]
+    assert compiler._moved_columns([step], base) == {_col("right_elbow_flex"): 1.5, _col("trunk_flex"): 20.0}
+
+
+def _moving(**dofs: float) -> compiler.Step:
+    step = _step()
+    pose = np.zeros(N_DOFS)
+    for name, value in dofs.items():
+        pose[_col(name)] = value
+    step.keys = [(1.0, pose, "stop")]
+    return step
+
+
+def test_principal_joints_are_those_moved_at_least_fifteen_degrees_else_the_four_most_moved():
+    base = np.zeros(N_DOFS)
+    step = _moving(left_elbow_flex=15.0, right_knee_flex=14.9, trunk_flex=40.0, head_flex=3.0)
+    assert compiler._principal_joints({}, base, [step]) == ["spine3", "left_elbow"]
+    weak = _moving(left_elbow_flex=5.0, right_knee_flex=6.0, trunk_flex=7.0, head_flex=3.0, left_hip_flex=2.0)
+    assert compiler._principal_joints({}, base, [weak]) == ["spine3", "right_knee", "left_elbow", "head"]
+    assert compiler._principal_joints({}, base, [_step()]) == ["pelvis"]  # nothing moves
+
+
+def test_principal_joints_take_the_larger_of_a_dofs_keys_and_its_wave():
+    base = np.zeros(N_DOFS)
+    data = {"cycle": {"wave": {"elbow_flex": [[0.0, -5.0], [0.5, 5.0]], "trunk_flex": [[0.0, 0.0], [0.5, 0.5]]}}}
+    step = _moving(left_elbow_flex=30.0, head_flex=2.0)
+    assert compiler._principal_joints(data, base, [step]) == ["left_elbow"]  # keys 30 > wave 10
+    step = _moving(left_elbow_flex=8.0, head_flex=2.0)
+    assert compiler._principal_joints(data, base, [step]) == ["left_elbow", "right_elbow", "head", "spine3"]
+    # waves alone, under a degree: ranked by their own range
+    data["cycle"]["wave"] = {"elbow_flex": [[0.0, 0.0], [0.5, 10.0]], "trunk_flex": [[0.0, 0.0], [0.5, 0.8]],
+                             "knee_flex": [[0.0, 0.0], [0.5, 0.5]]}
+    assert compiler._principal_joints(data, base, [_step()]) == ["left_elbow", "right_elbow", "spine3", "left_knee"]
+
+
+def test_a_joint_scores_its_most_moved_dof():
+    base = np.zeros(N_DOFS)
+    assert _col("left_shoulder_abd") < _col("left_shoulder_flex")  # the larger value comes last here
+    step = _moving(left_shoulder_flex=5.0, left_shoulder_abd=30.0, trunk_flex=20.0)
+    assert compiler._principal_joints({}, base, [step]) == ["left_shoulder", "spine3"]
+
+
+def test_root_travel_counts_a_centimetre_as_a_degree_in_the_speed_limit():
+    step = _step()
+    step.start = np.zeros(N_DOFS)
+    low = np.zeros(N_DOFS)
+    low[_col("root_dz")] = -0.5  # 50 cm, nothing else
+    step.keys = [(1.0, low, "stop")]
+    assert compiler._slowest(step) == pytest.approx(50.0 / compiler.MAX_MEAN_DEG_S)
+
+
+def test_a_jump_that_closes_a_cycle_hops_back_to_the_start():
+    _, keys = _compiled(_smp(("out", "jump the feet apart", []), ("in", "jump the feet together", []), periodic=True))
+    out, back = keys["out"], keys["in"]
+    assert out[-1][1]["left_hip_abd"] > 10.0
+    assert [at for at, _ in back] == [0.3, 0.6, 1.0]  # crouch, air, landing
+    assert back[1][1]["root_dy"] == pytest.approx(MOVEMENTS["jump"].pose["root_dy"])
+    assert back[0][1]["left_hip_abd"] == pytest.approx(0.7 * out[-1][1]["left_hip_abd"], abs=1e-3)  # from `out`
+    assert back[-1][1]["left_hip_abd"] == 0.0
