@@ -204,3 +204,58 @@ def test_directions_and_sides_come_from_the_words():
                                                 ("wave the hand", None)])
 def test_the_posture_a_primitive_names(words, posture):
     assert read_primitive("p", words).posture == posture
+
+
+@pytest.mark.parametrize(("description", "expected"), [
+    ("bend the elbows then straighten the arms", ("elbow_flexion",)),
+    ("straighten the arms then bend the elbows", ("elbow_extension",)),
+])
+def test_when_both_elbow_movements_are_named_the_first_one_wins(description, expected):
+    """An elbow cannot bend and straighten in one pose: the movement named first is the one read."""
+    assert read_primitive("arms", description).movements == expected
+
+
+@pytest.mark.parametrize(("description", "expected"), [
+    ("break into a jog from walking", ("run",)),  # running is not also walking
+    ("walk up the stairs", ("stairs_up",)),  # climbing stairs is not also level walking
+    ("walk down the stairs", ("stairs_down",)),
+])
+def test_running_and_stairs_are_not_also_walking(description, expected):
+    assert read_primitive("gait", description).movements == expected
+
+
+def test_the_way_back_of_a_there_and_back_primitive_adds_no_movement():
+    """Only the outward part ('extend the fist forward') is read; 'pull it back' is the way back."""
+    punch = read_primitive("punch_left", "extend the left fist straight forward and pull it back to the guard")
+    assert punch.movements == ("elbow_extension", "shoulder_flexion")
+    assert punch.there_and_back and punch.returns is False  # a bool, not a mere falsy value
+
+
+@pytest.mark.parametrize(("description", "context"), [
+    # dumbbell_rows: 'driving the elbows back' is the action's shoulder extension ('toward the waist') again;
+    # only the bent-forward trunk is held
+    ("pull both dumbbells up toward the waist while bent forward at the hips, driving the elbows back",
+     ("trunk_flexion",)),
+    # sitting is a posture, not a movement held meanwhile
+    ("raise both arms overhead while sitting on a chair", ()),
+])
+def test_held_movements_are_excursions_not_already_in_the_action(description, context):
+    assert read_primitive("p", description).context == context
+
+
+@pytest.mark.parametrize(("description", "returns"), [
+    ("raise both arms overhead", False),  # moves out
+    ("lower the arms to the sides", True),  # only comes back
+])
+def test_a_primitive_that_moves_or_returns_is_not_a_hold(description, returns):
+    reading = read_primitive("p", description)
+    assert reading.returns is returns and not reading.hold
+
+
+def test_the_side_comes_from_the_action_not_the_held_part():
+    row = read_primitive("row_up", "pull the dumbbell up to the waist with the right hand"
+                                   " while kneeling on the bench with the left knee")
+    assert (row.arm_side, row.leg_side) == ("right", None)  # the left knee only rests on the bench
+    # no action part before the held part: the sides come from the whole text
+    balance = read_primitive("keeping_balance", "stand on the right leg")
+    assert (balance.arm_side, balance.leg_side) == (None, "right")
