@@ -259,3 +259,16 @@ def test_the_side_comes_from_the_action_not_the_held_part():
     # no action part before the held part: the sides come from the whole text
     balance = read_primitive("keeping_balance", "stand on the right leg")
     assert (balance.arm_side, balance.leg_side) == (None, "right")
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("raise the arms", ("shoulder_flexion",)),
+    ("lift the left arm", ("shoulder_flexion",)),
+    ("jump the feet apart and raise the arms", ("jump", "hip_abduction", "shoulder_flexion")),
+    ("raise the arms to the sides", ("shoulder_abduction",)),
+    ("raise the arms overhead", ("shoulder_flexion_overhead",)),
+    ("raise the shoulders", ("shoulder_elevation",)),
+    ("lift the legs", ("hip_flexion",)),
+])
+def test_an_arm_raised_with_no_direction_goes_forward(text, moves):
+    assert read_primitive("p", text).movements == moves

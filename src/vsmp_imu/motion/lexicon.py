@@ -141,6 +141,8 @@ POSTURE_WORDS: tuple[tuple[str, str], ...] = (
     ("sitting", r"\b(sit|sits|sitting|seated)\b"),
     ("standing", r"\b(stand|stands|standing)\b"),
 )
+# an arm raised or lifted with no direction: forward, when nothing else moves the shoulder
+PLAIN_RAISE = re.compile(r"\b(raise|lift)\w* (the |both |each |one )?(left |right )?arms?\b")
 GUARD_WORDS = re.compile(r"\b(punch\w*|jab\w*|box\w*|uppercut\w*|hook punch\w*)\b")
 _LIMB_SIDE = re.compile(r"\b(left|right) (arm|hand|fist|elbow|forearm|wrist|shoulder|palm|leg|foot|knee|heel"
                         r"|thigh|hip|pedal|pole|toe)")
@@ -209,7 +211,7 @@ def read_primitive(name: str, description: str = "") -> Reading:
     action_moves = _ordered(outward)
     context = tuple(m for m in _ordered(context_text) if m not in action_moves
                     and MOVEMENTS[m].kind == "excursion")
-    if GUARD_WORDS.search(text) and "guard" not in action_moves:
+    if GUARD_WORDS.search(text):
         context = (*context, "guard")  # punches start from and return to a guard
     returns = bool(RETURN_WORDS.search(action)) and not _outward_lowering(action, action_moves)
     there_back = bool(THERE_AND_BACK.search(text))
@@ -234,6 +236,8 @@ def _ordered(text: str) -> tuple[str, ...]:
         drop = "elbow_extension" if pos["elbow_flexion"] <= pos["elbow_extension"] else "elbow_flexion"
         names.remove(drop)
     names = list(_prune(names))
+    if PLAIN_RAISE.search(text) and not any(MOVEMENTS[m].joint == "shoulder" for m in names):
+        names.append("shoulder_flexion")  # an arm raised with no direction goes forward
     return tuple(names)
 
 
