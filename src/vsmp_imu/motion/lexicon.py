@@ -204,8 +204,7 @@ def _prune(found: list[str]) -> tuple[str, ...]:
 def read_primitive(name: str, description: str = "") -> Reading:
     """The lexicon's reading of one primitive (its name and its description)."""
     text = OTHER_LIMB.sub("", normalize_text(f"{name} . {description}"))
-    hit = HELD_SPLIT.search(text)
-    action, context_text = (text[:hit.start()], text[hit.start():]) if hit else (text, "")
+    action, context_text = _held_split(text, len(normalize_text(name)))
     back = THERE_AND_BACK.search(action)
     outward = action[:back.start()] if back else action
     action_moves = _ordered(outward)
@@ -218,9 +217,21 @@ def read_primitive(name: str, description: str = "") -> Reading:
     if there_back and action_moves:
         returns = False
     hold = not action_moves and not returns
-    arm_side, leg_side = _sides(action or text)
+    arm_side, leg_side = _sides(action if action.strip(" .") else text)
     return Reading(action_moves, context, returns, there_back, hold, arm_side, leg_side,
                    _direction(action), bool(_COUNTER.search(text)), _posture(text))
+
+
+def _held_split(text: str, name_len: int) -> tuple[str, str]:
+    """(action, held): in the name and in the description each, the words from a held-posture phrase
+    on ("keeping the arms extended") are held; a name that starts with one ("holding_the_bar") leaves
+    the description its action."""
+    action, held = [], []
+    for part in (text[:name_len], text[name_len:]):
+        hit = HELD_SPLIT.search(part)
+        action.append(part[:hit.start()] if hit else part)
+        held.append(part[hit.start():] if hit else "")
+    return "".join(action), " ".join(h for h in held if h)
 
 
 def _ordered(text: str) -> tuple[str, ...]:
