@@ -68,6 +68,36 @@ def test_a_stop_right_after_the_temporary_is_made_leaves_nothing(tmp_path, monke
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_stop_while_the_temporary_is_created_leaves_nothing(tmp_path, monkeypatch, sig):
+    """A signal that arrives inside mkstemp, after the file exists and before its name is returned
+    (a `motion render` stopped as it began, under load), waits until the cleanup is armed."""
+    import os
+    import signal
+    import tempfile
+
+    if not hasattr(signal, "pthread_sigmask"):
+        pytest.skip("no pthread_sigmask on this platform")
+    number = getattr(signal, sig)
+    previous = signal.signal(number, signal.default_int_handler)  # the stop raises KeyboardInterrupt
+    make = tempfile.mkstemp
+
+    def made_then_stopped(*args, **kwargs):
+        out = make(*args, **kwargs)
+        os.kill(os.getpid(), number)
+        for _ in range(1000):  # bytecodes at which an unheld signal's handler runs
+            pass
+        return out
+
+    monkeypatch.setattr(tempfile, "mkstemp", made_then_stopped)
+    try:
+        with pytest.raises(KeyboardInterrupt), atomic_path(tmp_path / "out.gif"):
+            pass
+    finally:
+        signal.signal(number, previous)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_atomic_write_uses_the_usual_file_mode(tmp_path):
     import os
 

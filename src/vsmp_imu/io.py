@@ -7,6 +7,7 @@ import hashlib
 import json
 import os
 import re
+import signal
 import socket
 import stat
 import sys
@@ -31,21 +32,37 @@ def atomic_path(path: str | Path, suffix: str | None = None, mode: int | None = 
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(
-        prefix=f".{path.name}.{_writer_tag()}.",
-        suffix=suffix if suffix is not None else path.suffix + ".tmp",
-        dir=path.parent,
-    )
-    try:  # from the file's creation on: a stop (Ctrl-C, SIGTERM) before the yield left it behind
-        os.close(fd)
+    tmp = ""
+    try:  # armed before the file exists: a stop (Ctrl-C, SIGTERM) while it was made left it behind
+        with _stops_held():
+            fd, tmp = tempfile.mkstemp(
+                prefix=f".{path.name}.{_writer_tag()}.",
+                suffix=suffix if suffix is not None else path.suffix + ".tmp",
+                dir=path.parent,
+            )
+            os.close(fd)
         tmp_path = Path(tmp)
         yield tmp_path
         if tmp_path.exists():
             tmp_path.chmod(0o666 & ~_umask() if mode is None else mode)  # mkstemp makes 0600
         os.replace(tmp_path, path)
     finally:
-        if os.path.exists(tmp):
+        if tmp and os.path.exists(tmp):
             os.unlink(tmp)
+
+
+@contextlib.contextmanager
+def _stops_held() -> Iterator[None]:
+    """SIGINT and SIGTERM wait (are delivered after) while the block runs: mkstemp creates the file
+    before it returns its name, and a stop between the two lost the name."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 # .<name>.<host>~<pid>.<random><suffix>, as written by atomic_path

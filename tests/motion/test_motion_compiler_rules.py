@@ -107,8 +107,8 @@ def test_standing_and_lying_pass_through_sitting_and_a_seat_through_a_crouch():
     before = np.zeros(N_DOFS)
     before[_col("left_elbow_flex")] = 40.0
     step = _step()
-    down = compiler._via("standing", "lying", before, [], step, None, -0.3)
-    up = compiler._via("lying", "standing", before, [], step, None, -0.3)
+    down = compiler._via("standing", "lying", before, step, None, -0.3)
+    up = compiler._via("lying", "standing", before, step, None, -0.3)
     for via in (down, up):
         assert via[_col("left_hip_flex")] == via[_col("right_knee_flex")] == 88.0  # the sitting pose
         assert via[_col("left_elbow_flex")] == 55.0  # the sitting pose's arms, not the ones before
@@ -116,13 +116,13 @@ def test_standing_and_lying_pass_through_sitting_and_a_seat_through_a_crouch():
     assert up[_col("root_dz")] == pytest.approx(-0.3 + SEAT_SHIFT_M)
     before[_col("root_dz")] = 0.1
     for src, dst in (("standing", "sitting"), ("sitting", "standing")):
-        crouch = compiler._via(src, dst, before, [], step, None, -0.3)
+        crouch = compiler._via(src, dst, before, step, None, -0.3)
         for side in ("left", "right"):
             assert [crouch[_col(f"{side}_{s}")] for s in ("hip_flex", "knee_flex", "ankle_flex")] == [92, 105, 24]
         assert crouch[_col("trunk_flex")] == 32 and crouch[_col("left_elbow_flex")] == 40.0  # arms as they were
         assert crouch[_col("root_dz")] == pytest.approx(0.5 * (0.1 - 0.3))  # half way down (or up)
     for src, dst in (("sitting", "lying"), ("standing", "kneeling"), ("kneeling", "sitting"), ("standing", None)):
-        assert compiler._via(src, dst, before, [], step, None, -0.3) is None
+        assert compiler._via(src, dst, before, step, None, -0.3) is None
 
 
 def test_each_return_undoes_the_latest_open_outward_primitive():
@@ -741,3 +741,34 @@ def test_a_jump_that_closes_a_cycle_hops_back_to_the_start():
     assert back[1][1]["root_dy"] == pytest.approx(MOVEMENTS["jump"].pose["root_dy"])
     assert back[0][1]["left_hip_abd"] == pytest.approx(0.7 * out[-1][1]["left_hip_abd"], abs=1e-3)  # from `out`
     assert back[-1][1]["left_hip_abd"] == 0.0
+
+
+def test_arm_circles_repeated_move_the_arm_and_end_where_they_began():
+    data, keys = _compiled(_smp(("circle", "circle the right arm clockwise", ["right_upper_arm"]), periodic=True))
+    base = data["base_pose"]
+    circle = keys["circle"]
+    assert [at for at, _ in circle] == [0.25, 0.5, 0.75, 1.0]
+    top = max(pose["right_shoulder_abd"] - base["right_shoulder_abd"] for _, pose in circle)
+    assert top == pytest.approx(2 * compiler.CIRCLE_DEG)
+    assert circle[-1][1] == pytest.approx(base)
+    assert "right_shoulder" in data["principal_joints"]
+
+
+def test_a_primitive_after_a_circle_starts_where_the_circle_ended():
+    _, keys = _compiled(_smp(_WAIT, ("circle", "circle the right arm clockwise", ["right_upper_arm"]),
+                             ("raise", "raise the left arm forward", ["left_upper_arm"])))
+    end, raised = keys["circle"][-1][1], keys["raise"][-1][1]
+    assert raised["left_shoulder_flex"] > 60.0
+    for dof in ("right_shoulder_flex", "right_shoulder_abd", "right_elbow_flex"):
+        assert raised[dof] == end[dof], dof  # the right arm stays where the circle left it
+
+
+def test_pelvis_travel_counts_in_centimetres_among_the_principal_joints():
+    base = np.zeros(N_DOFS)
+    squat = _moving(root_dz=-0.27, left_knee_flex=20.0)
+    assert compiler._moved_columns([squat], base)[_col("root_dz")] == pytest.approx(27.0)
+    assert compiler._principal_joints({}, base, [squat]) == ["pelvis", "left_knee"]
+    assert compiler._moved_columns([_moving(root_dz=0.005)], base) == {}  # half a centimetre is still
+    run = {"cycle": {"wave": {"root_dy": [[0.0, 0.0], [0.5, 0.2]]}}}
+    assert compiler._principal_joints(run, base, [_step()]) == ["pelvis"]
+    assert compiler._principal_joints(run, base, [_moving(left_knee_flex=16.0)]) == ["pelvis", "left_knee"]

@@ -5,7 +5,6 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -111,7 +110,6 @@ def test_a_render_stopped_by_sigterm_or_ctrl_c_ends_cleanly(tmp_path, walk, sig)
         wait_for(lambda: proc.poll() is not None or any(TEMP_NAME.match(p.name) for p in tmp_path.iterdir()),
                  timeout_s=120, step_s=0.01)
         assert proc.poll() is None, proc.communicate()
-        time.sleep(0.005)  # past mkstemp's last lines: a stop inside them can still leave the temporary
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=60)
     finally:

@@ -259,3 +259,27 @@ def test_the_side_comes_from_the_action_not_the_held_part():
     # no action part before the held part: the sides come from the whole text
     balance = read_primitive("keeping_balance", "stand on the right leg")
     assert (balance.arm_side, balance.leg_side) == (None, "right")
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("raise the arms", ("shoulder_flexion",)),
+    ("lift the left arm", ("shoulder_flexion",)),
+    ("jump the feet apart and raise the arms", ("jump", "hip_abduction", "shoulder_flexion")),
+    ("raise the arms to the sides", ("shoulder_abduction",)),
+    ("raise the arms overhead", ("shoulder_flexion_overhead",)),
+    ("raise the shoulders", ("shoulder_elevation",)),
+    ("lift the legs", ("hip_flexion",)),
+])
+def test_an_arm_raised_with_no_direction_goes_forward(text, moves):
+    assert read_primitive("p", text).movements == moves
+
+
+def test_a_name_that_starts_with_a_held_phrase_leaves_the_description_its_action():
+    bar = read_primitive("holding_the_bar", "pull the bar up to the chest")
+    assert bar.movements == ("elbow_flexion",) and not bar.hold
+    balance = read_primitive("keeping_balance", "lift the left knee to hip height")
+    assert balance.movements == ("hip_flexion",) and balance.leg_side == "left"
+    # a held phrase in the description still holds the rest of it
+    row = read_primitive("row", "pull the dumbbell to the waist while bent forward at the hips")
+    assert "trunk_flexion" in row.context and "trunk_flexion" not in row.movements
+    assert read_primitive("holding_the_left_arm_up").arm_side == "left"  # all held: sides from the whole text

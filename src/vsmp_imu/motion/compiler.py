@@ -71,6 +71,7 @@ _LEG_PARTS = ("thigh", "lower_leg", "foot")
 STAIRS_PELVIS = {"rise_m": 0.07, "speed_fluctuation": 0.5}
 WALKING_PELVIS = {"walk": {}, "stairs_up": STAIRS_PELVIS, "stairs_down": STAIRS_PELVIS}
 _POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
+_CM = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)  # root travel: a centimetre counts as a degree
 
 
 @dataclass
@@ -157,7 +158,7 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
             data["continuous"] = True
     elif kind == "static":
         data["continuous"] = True
-    loco = next((m.locomotion for s in gait for m in s.movements if m.locomotion != "none"), "none")
+    loco = _gait_move(gait).locomotion if gait else "none"
     data["locomotion"] = loco
     if loco == "stairs_up":
         data["stair_swing"] = (0.5, 0.7)
@@ -217,7 +218,9 @@ def _action(step: Step) -> str:
         return "return"
     if not step.movements:
         return "hold"
-    return "back" if r.there_and_back else "go"
+    if r.there_and_back or any(m.kind == "circle" for m in step.movements):
+        return "back"  # a circle ends where it began
+    return "go"
 
 
 def _alternate(steps: list[Step]) -> None:
@@ -418,14 +421,14 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             root_dz = _posture_shift(posture, post.posture, root_dz)
             upper = [m for m in moves if m.kind == "excursion" and m.limb != "leg"]  # the legs follow the posture
             target = _apply(_posture_vector(post.posture, root_dz), upper, step, smp, hint)
-            via = _via(posture, post.posture, before, moves, step, smp, root_dz)
+            via = _via(posture, post.posture, before, step, smp, root_dz)
             step.keys = ([(0.5, via, "smooth")] if via is not None else []) + [(1.0, target, "stop")]
             posture = post.posture or posture
             stack.append(before)
             current = target
         else:
             target = _apply(_reset(before, moves, base),
-                            [m for m in moves if m.kind in ("excursion", "swing", "circle", "jump")], step, smp, hint,
+                            [m for m in moves if m.kind in ("excursion", "swing")], step, smp, hint,
                             neutral=_posture_vector(posture, root_dz))
             step.keys = _shape(step, moves, before, target)
             if step.action == "go":
@@ -493,8 +496,7 @@ def _posture_shift(src: str, dst: str | None, root_dz: float) -> float:
     return root_dz
 
 
-def _via(src: str, dst: str | None, before: np.ndarray, moves: list[Movement], step: Step, smp: SMP,
-         root_dz: float) -> np.ndarray | None:
+def _via(src: str, dst: str | None, before: np.ndarray, step: Step, smp: SMP, root_dz: float) -> np.ndarray | None:
     """A pose passed through: sitting between standing and lying, a crouch before a seat."""
     if {src, dst} == {"standing", "lying"}:
         return _posture_vector("sitting", root_dz if dst == "lying" else root_dz + SEAT_SHIFT_M)
@@ -548,10 +550,9 @@ def _slowest(step: Step) -> float:
     """Shortest duration keeping the mean DOF speed (all DOFs together) between keys under MAX_MEAN_DEG_S."""
     if step.start is None or not step.keys:
         return 0.0
-    scale = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)
     need, prev_at, prev = 0.0, 0.0, step.start
     for at, vec, _ in step.keys:
-        change = float(np.linalg.norm((vec - prev) * scale))  # DOFs moving together add up
+        change = float(np.linalg.norm((vec - prev) * _CM))  # DOFs moving together add up
         need = max(need, change / MAX_MEAN_DEG_S / max(at - prev_at, 1e-3))
         prev_at, prev = at, vec
     return need
@@ -578,11 +579,12 @@ def _authored_side(steps: list[Step], base: np.ndarray) -> str:
 
 
 def _moved_columns(steps: list[Step], base: np.ndarray, threshold: float = CHANGE_DEG) -> dict[int, float]:
-    """DOF column -> largest excursion from the base over all keys (only columns that move)."""
+    """DOF column -> largest excursion from the base over all keys, root travel in centimetres (only
+    columns that move)."""
     span = np.zeros(N_DOFS)
     for step in steps:
         for _, vec, _ in step.keys:
-            span = np.maximum(span, np.abs(vec - base))
+            span = np.maximum(span, np.abs(vec - base) * _CM)
     return {c: float(span[c]) for c in range(N_DOFS) if span[c] > threshold}
 
 
@@ -612,12 +614,10 @@ def _principal_joints(data: dict[str, Any], base: np.ndarray, steps: list[Step])
         values = [v for _, v in keys]
         cols = [DOF_INDEX[f"{s}_{dof}"] for s in ("left", "right")] if dof in SIDE_DOFS else [DOF_INDEX[dof]]
         for c in cols:
-            moved[c] = max(moved.get(c, 0.0), float(max(values) - min(values)))
+            moved[c] = max(moved.get(c, 0.0), float(max(values) - min(values)) * _CM[c])
     score: dict[str, float] = {}
     for col, deg in moved.items():
-        name = DOF_NAMES[col]
-        deg = deg * 100.0 if name.startswith("root_d") else deg  # metres -> comparable to degrees
-        joint = _joint(name)
+        joint = _joint(DOF_NAMES[col])
         score[joint] = max(score.get(joint, 0.0), deg)
     ranked = sorted(score, key=lambda j: (-score[j], j))
     strong = [j for j in ranked if score[j] >= PRINCIPAL_MIN_DEG]
@@ -625,11 +625,12 @@ def _principal_joints(data: dict[str, Any], base: np.ndarray, steps: list[Step])
 
 
 def _paired(joints: list[str]) -> list[str]:
+    """Each sided joint followed by its mirror, in order, once each."""
     out = []
     for j in joints:
         for a, b in (("left_", "right_"), ("right_", "left_")):
-            if j.startswith(a) and j.replace(a, b, 1) not in out:
-                out += [j, j.replace(a, b, 1)] if j not in out else []
+            if j.startswith(a):
+                out += [j, b + j[len(a):]]
     return list(dict.fromkeys(out))
 
 

@@ -141,6 +141,8 @@ POSTURE_WORDS: tuple[tuple[str, str], ...] = (
     ("sitting", r"\b(sit|sits|sitting|seated)\b"),
     ("standing", r"\b(stand|stands|standing)\b"),
 )
+# an arm raised or lifted with no direction: forward, when nothing else moves the shoulder
+PLAIN_RAISE = re.compile(r"\b(raise|lift)\w* (the |both |each |one )?(left |right )?arms?\b")
 GUARD_WORDS = re.compile(r"\b(punch\w*|jab\w*|box\w*|uppercut\w*|hook punch\w*)\b")
 _LIMB_SIDE = re.compile(r"\b(left|right) (arm|hand|fist|elbow|forearm|wrist|shoulder|palm|leg|foot|knee|heel"
                         r"|thigh|hip|pedal|pole|toe)")
@@ -202,23 +204,34 @@ def _prune(found: list[str]) -> tuple[str, ...]:
 def read_primitive(name: str, description: str = "") -> Reading:
     """The lexicon's reading of one primitive (its name and its description)."""
     text = OTHER_LIMB.sub("", normalize_text(f"{name} . {description}"))
-    hit = HELD_SPLIT.search(text)
-    action, context_text = (text[:hit.start()], text[hit.start():]) if hit else (text, "")
+    action, context_text = _held_split(text, len(normalize_text(name)))
     back = THERE_AND_BACK.search(action)
     outward = action[:back.start()] if back else action
     action_moves = _ordered(outward)
     context = tuple(m for m in _ordered(context_text) if m not in action_moves
                     and MOVEMENTS[m].kind == "excursion")
-    if GUARD_WORDS.search(text) and "guard" not in action_moves:
+    if GUARD_WORDS.search(text):
         context = (*context, "guard")  # punches start from and return to a guard
     returns = bool(RETURN_WORDS.search(action)) and not _outward_lowering(action, action_moves)
     there_back = bool(THERE_AND_BACK.search(text))
     if there_back and action_moves:
         returns = False
     hold = not action_moves and not returns
-    arm_side, leg_side = _sides(action or text)
+    arm_side, leg_side = _sides(action if action.strip(" .") else text)
     return Reading(action_moves, context, returns, there_back, hold, arm_side, leg_side,
                    _direction(action), bool(_COUNTER.search(text)), _posture(text))
+
+
+def _held_split(text: str, name_len: int) -> tuple[str, str]:
+    """(action, held): in the name and in the description each, the words from a held-posture phrase
+    on ("keeping the arms extended") are held; a name that starts with one ("holding_the_bar") leaves
+    the description its action."""
+    action, held = [], []
+    for part in (text[:name_len], text[name_len:]):
+        hit = HELD_SPLIT.search(part)
+        action.append(part[:hit.start()] if hit else part)
+        held.append(part[hit.start():] if hit else "")
+    return "".join(action), " ".join(h for h in held if h)
 
 
 def _ordered(text: str) -> tuple[str, ...]:
@@ -234,6 +247,8 @@ def _ordered(text: str) -> tuple[str, ...]:
         drop = "elbow_extension" if pos["elbow_flexion"] <= pos["elbow_extension"] else "elbow_flexion"
         names.remove(drop)
     names = list(_prune(names))
+    if PLAIN_RAISE.search(text) and not any(MOVEMENTS[m].joint == "shoulder" for m in names):
+        names.append("shoulder_flexion")  # an arm raised with no direction goes forward
     return tuple(names)
 
 
