@@ -772,3 +772,36 @@ def test_pelvis_travel_counts_in_centimetres_among_the_principal_joints():
     run = {"cycle": {"wave": {"root_dy": [[0.0, 0.0], [0.5, 0.2]]}}}
     assert compiler._principal_joints(run, base, [_step()]) == ["pelvis"]
     assert compiler._principal_joints(run, base, [_moving(left_knee_flex=16.0)]) == ["pelvis", "left_knee"]
+
+
+def test_two_leading_holds_are_both_set_up():
+    assert compiler._cycle_span(_actions("hold", "hold", "go", "go")) == ([0, 1], [2, 3], [])
+
+
+def test_a_second_squat_in_a_sequence_keeps_the_first_ones_depth():
+    _, keys = _compiled(_smp(("down", "squat down", []), ("again", "squat down again", [])))
+    assert keys["again"][-1][1]["root_dz"] == keys["down"][-1][1]["root_dz"] == pytest.approx(
+        MOVEMENTS["squat"].pose["root_dz"])
+
+
+def test_the_speed_limit_times_each_key_from_the_one_before():
+    step = _step()
+    step.start = np.zeros(N_DOFS)
+    small, big = np.zeros(N_DOFS), np.zeros(N_DOFS)
+    small[_col("left_elbow_flex")] = 10.0
+    big[_col("left_elbow_flex")] = 110.0
+    step.keys = [(0.5, small, "stop"), (0.6, big, "stop")]  # 100 degrees in a tenth of the time
+    assert compiler._slowest(step) == pytest.approx(100.0 / 0.1 / compiler.MAX_MEAN_DEG_S)
+
+
+@pytest.mark.parametrize("text,pelvis,turns", [
+    ("walk forward", {}, None),
+    ("walk up the stairs", compiler.STAIRS_PELVIS, {}),
+    ("walk down the stairs", compiler.STAIRS_PELVIS, {}),
+    ("jog forward", None, None),
+])
+def test_gait_takes_the_librarys_pelvis_path_and_stairs_their_landings(text, pelvis, turns):
+    data = compiler.compile_recipe_data(_smp(("go", text, [])))
+    assert data.get("pelvis") == pelvis and data.get("turns") == turns
+    assert data["locomotion"] == {"walk forward": "forward", "jog forward": "forward"}.get(text, data["locomotion"])
+    assert data["locomotion"] != "none"

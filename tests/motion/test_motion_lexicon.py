@@ -283,3 +283,14 @@ def test_a_name_that_starts_with_a_held_phrase_leaves_the_description_its_action
     row = read_primitive("row", "pull the dumbbell to the waist while bent forward at the hips")
     assert "trunk_flexion" in row.context and "trunk_flexion" not in row.movements
     assert read_primitive("holding_the_left_arm_up").arm_side == "left"  # all held: sides from the whole text
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("raise the arms forward and overhead", ("shoulder_flexion_overhead",)),  # overhead is the forward raise, higher
+    ("stand up straight", ("stand_up",)),  # a change of support brings its own trunk
+    ("lean back and lie down", ("lie_down",)),
+    ("sit down and lie down", ("lie_down",)),  # of two postures, the last
+    ("sit down and stand up tall", ("stand_up",)),
+])
+def test_a_primitives_reading_prunes_redundant_movements(text, moves):
+    assert read_primitive("p", text).movements == moves

@@ -191,9 +191,9 @@ def _steps(smp: SMP) -> list[Step]:
         if norm_name(name) in STRUCTURAL:
             continue
         prim = smp.primitive(name)
-        desc = prim.description if prim is not None else ""
-        parts = tuple(p for raw in (prim.body_parts if prim is not None else []) for p in normalize_body_part(raw))
-        reading = read_primitive(name, desc)
+        assert prim is not None  # validation: every entry that is not structural names a primitive
+        parts = tuple(p for raw in prim.body_parts for p in normalize_body_part(raw))
+        reading = read_primitive(name, prim.description)
         moves = tuple(m for m in (MOVEMENTS[n] for n in reading.movements) if _limb_named(m, parts))
         steps.append(Step(name, reading, parts, movements=moves))
     for step in steps:
