@@ -257,8 +257,8 @@ def test_the_side_comes_from_the_action_not_the_held_part():
                                    " while kneeling on the bench with the left knee")
     assert (row.arm_side, row.leg_side) == ("right", None)  # the left knee only rests on the bench
     # no action part before the held part: the sides come from the whole text
-    balance = read_primitive("keeping_balance", "stand on the right leg")
-    assert (balance.arm_side, balance.leg_side) == (None, "right")
+    balance = read_primitive("keeping_balance", "keeping the right knee raised")
+    assert balance.hold and (balance.arm_side, balance.leg_side) == (None, "right")
 
 
 @pytest.mark.parametrize("text,moves", [
@@ -294,3 +294,14 @@ def test_a_name_that_starts_with_a_held_phrase_leaves_the_description_its_action
 ])
 def test_a_primitives_reading_prunes_redundant_movements(text, moves):
     assert read_primitive("p", text).movements == moves
+
+
+@pytest.mark.parametrize("text,leg", [
+    ("standing on the left leg, lift the right leg out to the side", "right"),
+    ("stand on the right leg and lift the left knee", "left"),
+    ("balance on the right foot and kick the other leg forward", "left"),
+    ("lift the left leg out to the side", "left"),
+    ("hop on the right foot", "right"),  # hopping moves the leg it is on
+])
+def test_the_leg_stood_on_is_not_the_leg_that_moves(text, leg):
+    assert read_primitive("p", text).leg_side == leg

@@ -149,6 +149,8 @@ _LIMB_SIDE = re.compile(r"\b(left|right) (arm|hand|fist|elbow|forearm|wrist|shou
 _DIRECTION = re.compile(r"\b(to the|toward the|towards the|over the) (left|right)\b|\b(left|right)ward"
                         r"|\bturn\w* (left|right)\b|\b(to|toward) the (left|right) (side|shoulder)")
 _COUNTER = re.compile(r"\bcounter[- ]?clockwise|\banti[- ]?clockwise")
+# the leg a person stands or balances on names the side that does not move
+_SUPPORT = re.compile(r"\b(?:stand\w*|balanc\w*) on (?:the |one |his |her )?(left|right) (?:leg|foot)\b")
 _LEG_PARTS = ("leg", "foot", "knee", "heel", "thigh", "hip", "pedal", "toe")
 
 
@@ -269,6 +271,10 @@ def _posture(text: str) -> str | None:
 
 
 def _sides(text: str) -> tuple[str | None, str | None]:
+    support = _SUPPORT.search(text)
+    if support:  # "standing on the left leg, lift the right leg": the leg that moves is the other one
+        arm_side, leg_side = _sides(text[:support.start()] + text[support.end():])
+        return arm_side, leg_side or ("right" if support.group(1) == "left" else "left")
     arm, leg = set(), set()
     for side, part in _LIMB_SIDE.findall(text):
         (leg if part in _LEG_PARTS else arm).add(side)
