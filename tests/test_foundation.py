@@ -98,6 +98,30 @@ def test_a_stop_while_the_temporary_is_created_leaves_nothing(tmp_path, monkeypa
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_stop_inside_a_held_block_lands_after_it(sig):
+    """What `stops_held` guards (mkstemp, a frame of matplotlib's C++ drawing) runs to its end;
+    the stop is handled right after, by the handler that was there, which is put back."""
+    import os
+    import signal
+
+    from vsmp_imu.io import stops_held
+
+    number = getattr(signal, sig)
+    previous = signal.signal(number, signal.default_int_handler)
+    done = []
+    try:
+        with pytest.raises(KeyboardInterrupt), stops_held():
+            os.kill(os.getpid(), number)
+            for _ in range(1000):  # bytecodes at which an unheld signal's handler runs
+                pass
+            done.append("the block's end")
+        assert done == ["the block's end"]
+        assert signal.getsignal(number) is signal.default_int_handler
+    finally:
+        signal.signal(number, previous)
+
+
 def test_atomic_write_uses_the_usual_file_mode(tmp_path):
     import os
 

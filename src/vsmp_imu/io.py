@@ -12,6 +12,7 @@ import socket
 import stat
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -34,7 +35,7 @@ def atomic_path(path: str | Path, suffix: str | None = None, mode: int | None = 
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = ""
     try:  # armed before the file exists: a stop (Ctrl-C, SIGTERM) while it was made left it behind
-        with _stops_held():
+        with stops_held():
             fd, tmp = tempfile.mkstemp(
                 prefix=f".{path.name}.{_writer_tag()}.",
                 suffix=suffix if suffix is not None else path.suffix + ".tmp",
@@ -52,17 +53,25 @@ def atomic_path(path: str | Path, suffix: str | None = None, mode: int | None = 
 
 
 @contextlib.contextmanager
-def _stops_held() -> Iterator[None]:
-    """SIGINT and SIGTERM wait (are delivered after) while the block runs: mkstemp creates the file
-    before it returns its name, and a stop between the two lost the name."""
-    if not hasattr(signal, "pthread_sigmask"):
-        yield
+def stops_held() -> Iterator[None]:
+    """SIGINT and SIGTERM that arrive while the block runs are handled after it (mkstemp creates the
+    file before it returns its name, and a stop between the two lost the name; a stop inside
+    matplotlib's drawing came out as its ValueError). Held in Python, not
+    with a signal mask: a signal to the process goes to any thread that does not block it (numpy's
+    BLAS threads), and Python runs its handler in the main thread wherever that thread is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # handlers run in the main thread only: a stop cannot land here
         return
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    pending: list[int] = []
+    stops = (signal.SIGINT, signal.SIGTERM)
+    previous = {sig: signal.signal(sig, lambda signum, _frame: pending.append(signum)) for sig in stops}
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for sig in pending:
+            signal.raise_signal(sig)  # to the handler that was there before
 
 
 # .<name>.<host>~<pid>.<random><suffix>, as written by atomic_path

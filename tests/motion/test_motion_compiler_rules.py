@@ -805,3 +805,12 @@ def test_gait_takes_the_librarys_pelvis_path_and_stairs_their_landings(text, pel
     assert data.get("pelvis") == pelvis and data.get("turns") == turns
     assert data["locomotion"] == {"walk forward": "forward", "jog forward": "forward"}.get(text, data["locomotion"])
     assert data["locomotion"] != "none"
+
+
+def test_a_gait_step_takes_the_gaits_duration_whatever_else_it_names():
+    walk = MOVEMENTS["walk"]
+    steps = compiler._steps(_smp(("step", "walk forward, swinging the right leg forward", ["right_thigh"]),
+                                 periodic=True))
+    assert steps[0].action == "gait" and MOVEMENTS["hip_flexion"] in steps[0].movements
+    compiler._durations(steps, _smp(_WAIT, periodic=True))
+    assert steps[0].duration_s == walk.nominal_s < MOVEMENTS["hip_flexion"].nominal_s

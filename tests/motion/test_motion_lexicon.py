@@ -305,3 +305,17 @@ def test_a_primitives_reading_prunes_redundant_movements(text, moves):
 ])
 def test_the_leg_stood_on_is_not_the_leg_that_moves(text, leg):
     assert read_primitive("p", text).leg_side == leg
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("swing the right leg forward", ("hip_flexion",)),
+    ("swing the other leg forward", ("hip_flexion",)),
+    ("raise the leg forward", ("hip_flexion",)),  # not the arms as well
+    ("swing the left leg out to the side", ("hip_abduction",)),
+    ("step out to the side", ("hip_abduction",)),
+    ("swing the arms forward", ("shoulder_flexion", "arm_pendulum_swing")),
+    ("step forward and punch", ("elbow_extension", "shoulder_flexion")),  # a punch is an arm's
+    ("jump the feet apart and raise the arms", ("jump", "hip_abduction", "shoulder_flexion")),
+])
+def test_direction_words_move_the_arms_only_when_the_words_name_no_leg_or_an_arm_too(text, moves):
+    assert read_primitive("p", text).movements == moves

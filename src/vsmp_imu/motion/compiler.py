@@ -529,7 +529,9 @@ def _durations(steps: list[Step], smp: SMP) -> None:
     static = _static(smp, steps)
     for step in steps:
         nominal = max((m.nominal_s for m in step.movements), default=RETURN_S)
-        if step.action == "hold":
+        if step.action == "gait":
+            step.duration_s = _gait_move([step]).nominal_s  # a step's leg swing is the gait's own
+        elif step.action == "hold":
             step.duration_s = STATIC_HOLD_S if static else HOLD_S
         elif step.action == "back":
             step.duration_s = 2.0 * nominal if nominal >= 0.6 else 1.6 * nominal

@@ -75,13 +75,13 @@ RULES: tuple[tuple[str, str], ...] = (
      r"(left |right )?(elbows?|arms?|fists?|hands?)|\bpunch\w*|\bjab\w*|\bthrust\w*|\bpush\w* (forward|up|away|out)"
      r"|\barms? (straight|extended)|\bat full reach|\bwhip\w*|\bthrow\w*|\brelease", "elbow_extension"),
     (r"\bpunch\w*|\bjab\w*|\bstraight forward|\bwhip\w*|\bthrow\w*|\bwheel\b|\bsteer\w*|\b(raise|lift|reach|extend|hold|bring|push|swing|slide)\w* "
-     + _ANY + r"\b(forward|in front|to the front)\b|\bfront raise|\bat chest height|\bchest height"
+     + _NOT_LEGS + _ANY + r"\b(forward|in front|to the front)\b|\bfront raise|\bat chest height|\bchest height"
      r"|\bforward and up|\btoward the door", "shoulder_flexion"),
     (r"\boverhead\b|\babove the head|\bup high|\breach\w* up\b|(?<!rope )\bover the head|\btoward the ceiling"
      r"|\bskyward|\bbehind the head|\boverhand|\bto the top\b|\bupper left|\bstraight up\b|\bbeside the head"
      r"|\b(draw|move|trace)\w* " + _NOT_LEGS + _ANY + r"\bup\b", "shoulder_flexion_overhead"),
     (r"\b(draw|move|trace)\w* " + _ANY + r"\bdown\b", "shoulder_flexion"),
-    (r"\bout to the sides?\b|\b(raise|lift|spread|extend)\w* " + _ANY + r"\bto the sides?\b|\bsideways\b"
+    (r"\bout to the sides?\b|\b(raise|lift|spread|extend)\w* " + _NOT_LEGS + _ANY + r"\bto the sides?\b|\bsideways\b"
      r"|\blateral raise|\bspread\w* (the |both )?arms|\bout to the (left|right)"
      r"|\babduct\w*|\barms? (out|wide)\b|\b(raise|lift)\w* (the |both )?(left |right )?arms? out", "shoulder_abduction"),
     (r"\bacross (the|his|her) (body|chest)|\bcross\w* (them|the arms|both arms|the forearms)|\bhug\w*"
@@ -108,7 +108,7 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bswing\w* (the |both |his |her )?(left |right )?arms?\b|\barms? swings?|\bpendulum|\bsweep\w* "
      + _ANY + r"\b(left|right) and back|\bwave\w*|\bsweep\w* the (cloth|hand)", "arm_pendulum_swing"),
     # legs
-    (r"\b(lift|raise|drive|draw|pull|bring|tuck)\w* (the |both |each |one )?(left |right )?(knees?|legs?|thighs?)\b"
+    (r"\b(lift|raise|drive|draw|pull|bring|tuck|swing)\w* (the |both |each |one |the other )?(left |right )?(knees?|legs?|thighs?)\b"
      r"(?! (out|to the side|sideways|back|together|apart))|\bknee raise|\bhigh knees"
      r"|\bmarch\w*|\bleg raise|\bpedal", "hip_flexion"),
     (r"\bkick\w*", "leg_kick"),
@@ -149,6 +149,14 @@ _LIMB_SIDE = re.compile(r"\b(left|right) (arm|hand|fist|elbow|forearm|wrist|shou
 _DIRECTION = re.compile(r"\b(to the|toward the|towards the|over the) (left|right)\b|\b(left|right)ward"
                         r"|\bturn\w* (left|right)\b|\b(to|toward) the (left|right) (side|shoulder)")
 _COUNTER = re.compile(r"\bcounter[- ]?clockwise|\banti[- ]?clockwise")
+# limbs a primitive names: direction words ("forward", "out to the side") move the arms only when
+# the words name no leg, or name an arm too
+_LEG_WORDS = re.compile(r"\b(legs?|knees?|thighs?|feet|foot|heels?|toes?|ankles?|hips?|steps?|stepping)\b")
+_ARM_WORDS = re.compile(r"\b(arms?|hands?|elbows?|fists?|wrists?|forearms?|shoulders?|palms?|fingers?"
+                        r"|dumbbells?|kettlebells?|barbell|weights?|ball|racket|bat|club|poles?"
+                        r"|punch\w*|jab\w*|uppercut\w*|throw\w*|clap\w*|wav\w*|box\w*|swim\w*|paddl\w*)\b")
+_DIRECTION_ONLY = ("shoulder_flexion", "shoulder_abduction", "shoulder_extension", "shoulder_horizontal_adduction",
+                   "shoulder_horizontal_abduction")  # movements that direction words alone can name
 # the leg a person stands or balances on names the side that does not move
 _SUPPORT = re.compile(r"\b(?:stand\w*|balanc\w*) on (?:the |one |his |her )?(left|right) (?:leg|foot)\b")
 _LEG_PARTS = ("leg", "foot", "knee", "heel", "thigh", "hip", "pedal", "toe")
@@ -249,6 +257,8 @@ def _ordered(text: str) -> tuple[str, ...]:
         drop = "elbow_extension" if pos["elbow_flexion"] <= pos["elbow_extension"] else "elbow_flexion"
         names.remove(drop)
     names = list(_prune(names))
+    if _LEG_WORDS.search(text) and not _ARM_WORDS.search(text):  # "swing the leg out to the side": no arm moves
+        names = [m for m in names if m not in _DIRECTION_ONLY]
     if PLAIN_RAISE.search(text) and not any(MOVEMENTS[m].joint == "shoulder" for m in names):
         names.append("shoulder_flexion")  # an arm raised with no direction goes forward
     return tuple(names)

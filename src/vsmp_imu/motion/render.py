@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from vsmp_imu.errors import ValidationError
-from vsmp_imu.io import atomic_path, check_image_path, write_figure
+from vsmp_imu.io import atomic_path, check_image_path, stops_held, write_figure
 from vsmp_imu.motion.motion import Motion
 
 CAMERA_YAW_DEG = -45.0  # camera azimuth from the front (+Z) toward the body's left (+X)
@@ -183,8 +183,9 @@ def render_gif(motion: Motion, path: str | Path, fps: float | None = None, size_
         writer = _gif_writer(motion.fps / step)
         with atomic_path(path, suffix=".gif") as tmp, writer.saving(fig, str(tmp), dpi=fig.dpi):
             for frame in frames:
-                scene.draw(frame, _title(motion, frame))
-                writer.grab_frame()
+                with stops_held():  # a stop lands between frames, not inside matplotlib's C++ drawing
+                    scene.draw(frame, _title(motion, frame))
+                    writer.grab_frame()
     finally:
         plt.close(fig)
     return Path(path)
