@@ -319,3 +319,17 @@ def test_the_leg_stood_on_is_not_the_leg_that_moves(text, leg):
 ])
 def test_direction_words_move_the_arms_only_when_the_words_name_no_leg_or_an_arm_too(text, moves):
     assert read_primitive("p", text).movements == moves
+
+
+@pytest.mark.parametrize("text,moves,back", [
+    ("raise the right arm and then lower it", ("shoulder_flexion",), True),  # not a return: it goes out first
+    ("raise the arms and lower them", ("shoulder_flexion",), True),
+    ("wall slide raising the arms", ("shoulder_flexion",), False),  # 'raising', not only 'raise'
+    ("raising the arms to the sides", ("shoulder_abduction",), False),
+    ("raising the knee", ("hip_flexion",), False),
+    ("pull the band apart", ("shoulder_horizontal_abduction",), False),
+    ("band pull-apart", ("shoulder_horizontal_abduction",), False),
+])
+def test_more_ways_of_saying_it(text, moves, back):
+    reading = read_primitive("p", text)
+    assert (reading.movements, reading.there_and_back, reading.returns) == (moves, back, False)

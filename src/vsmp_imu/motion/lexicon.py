@@ -39,7 +39,7 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bsit(s|ting)? (down|back|on (a|the) (chair|seat|bench|bed|sofa|couch))\b|\bonto the (seat|chair|bench|bed)"
      r"|\bseated posture|\bto sit\b|\bsit on the edge|\bedge of the (bed|chair)", "sit_down"),
     (r"\bsit(s|ting)? (down )?on the floor|\bsit on the ground", "sit_down_floor"),
-    (r"\bsit(s|ting)? up\b|\b(raise|lift)\w* the trunk( and head)? (up )?(from|off)", "sit_down"),
+    (r"\bsit(s|ting)? up\b|\b(rais|lift)\w* the trunk( and head)? (up )?(from|off)", "sit_down"),
     (r"\bstand(s|ing)? (back )?up\b|\bget(s|ting)? up\b|\brises?\b(?! onto)(?! on )|\bto standing\b"
      r"|\bextend\w* the hips and knees", "stand_up"),
     (r"\blie(s)? (down|flat|back)\b|\blying down\b|\brecline\w*|\blie(s)? (still )?on the back|\bflat on the back",
@@ -74,16 +74,16 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bstraighten\w* (the |both |each )?(left |right )?(elbows?|arms?)|\bextend\w* (the |both |each |one )?"
      r"(left |right )?(elbows?|arms?|fists?|hands?)|\bpunch\w*|\bjab\w*|\bthrust\w*|\bpush\w* (forward|up|away|out)"
      r"|\barms? (straight|extended)|\bat full reach|\bwhip\w*|\bthrow\w*|\brelease", "elbow_extension"),
-    (r"\bpunch\w*|\bjab\w*|\bstraight forward|\bwhip\w*|\bthrow\w*|\bwheel\b|\bsteer\w*|\b(raise|lift|reach|extend|hold|bring|push|swing|slide)\w* "
+    (r"\bpunch\w*|\bjab\w*|\bstraight forward|\bwhip\w*|\bthrow\w*|\bwheel\b|\bsteer\w*|\b(rais|lift|reach|extend|hold|bring|push|swing|slide)\w* "
      + _NOT_LEGS + _ANY + r"\b(forward|in front|to the front)\b|\bfront raise|\bat chest height|\bchest height"
      r"|\bforward and up|\btoward the door", "shoulder_flexion"),
     (r"\boverhead\b|\babove the head|\bup high|\breach\w* up\b|(?<!rope )\bover the head|\btoward the ceiling"
      r"|\bskyward|\bbehind the head|\boverhand|\bto the top\b|\bupper left|\bstraight up\b|\bbeside the head"
      r"|\b(draw|move|trace)\w* " + _NOT_LEGS + _ANY + r"\bup\b", "shoulder_flexion_overhead"),
     (r"\b(draw|move|trace)\w* " + _ANY + r"\bdown\b", "shoulder_flexion"),
-    (r"\bout to the sides?\b|\b(raise|lift|spread|extend)\w* " + _NOT_LEGS + _ANY + r"\bto the sides?\b|\bsideways\b"
+    (r"\bout to the sides?\b|\b(rais|lift|spread|extend)\w* " + _NOT_LEGS + _ANY + r"\bto the sides?\b|\bsideways\b"
      r"|\blateral raise|\bspread\w* (the |both )?arms|\bout to the (left|right)"
-     r"|\babduct\w*|\barms? (out|wide)\b|\b(raise|lift)\w* (the |both )?(left |right )?arms? out", "shoulder_abduction"),
+     r"|\babduct\w*|\barms? (out|wide)\b|\b(rais|lift)\w* (the |both )?(left |right )?arms? out", "shoulder_abduction"),
     (r"\bacross (the|his|her) (body|chest)|\bcross\w* (them|the arms|both arms|the forearms)|\bhug\w*"
      r"|\bswing\w* " + _ANY + r"\bto the left|\bsweep\w* " + _ANY + r"\b(across|inward|to the left)"
      r"|\bbring the hands together|\bhands together|\bpalms together|\bclap\w*|\bfly\b|\bflyes?\b"
@@ -94,9 +94,10 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bsweep\w* " + _ANY + r"\b(out|outward|to the right|away)\b|\bopen\w* the arms|\breverse fly|\bout to the right"
      r"|\b(draw|move|slide|trace|swipe)\w* " + _ANY + r"\bto the right",
      "shoulder_horizontal_abduction"),
+    (r"\bpull\w* (the |a )?(band|rope|cable|tube)s? apart|\bpull[- ]aparts?\b", "shoulder_horizontal_abduction"),
     (r"\binternal(ly)? rotat|\brotate\w* the (upper )?arms? in(ward)?\b", "shoulder_internal_rotation"),
     (r"\bexternal(ly)? rotat|\brotate\w* the (upper )?arms? out(ward)?\b", "shoulder_external_rotation"),
-    (r"\bshrug\w*|\b(raise|lift|elevate)\w* the shoulders", "shoulder_elevation"),
+    (r"\bshrug\w*|\b(rais|lift|elevate)\w* the shoulders", "shoulder_elevation"),
     (r"\bpronat\w*|\bpalms? (facing |face |turned )?down|\bturn\w* the palms? down|\bknuckles up"
      r"|\b(rotate|turn|twist)\w* (the |both )?(left |right )?(forearms?|wrists?|hands?|doorknob|knob|key|screwdriver)\b"
      r"|\bforearm rotation", "forearm_pronation"),
@@ -108,7 +109,7 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bswing\w* (the |both |his |her )?(left |right )?arms?\b|\barms? swings?|\bpendulum|\bsweep\w* "
      + _ANY + r"\b(left|right) and back|\bwave\w*|\bsweep\w* the (cloth|hand)", "arm_pendulum_swing"),
     # legs
-    (r"\b(lift|raise|drive|draw|pull|bring|tuck|swing)\w* (the |both |each |one |the other )?(left |right )?(knees?|legs?|thighs?)\b"
+    (r"\b(lift|rais|drive|draw|pull|bring|tuck|swing)\w* (the |both |each |one |the other )?(left |right )?(knees?|legs?|thighs?)\b"
      r"(?! (out|to the side|sideways|back|together|apart))|\bknee raise|\bhigh knees"
      r"|\bmarch\w*|\bleg raise|\bpedal", "hip_flexion"),
     (r"\bkick\w*", "leg_kick"),
@@ -126,7 +127,8 @@ RETURN_WORDS = re.compile(
     r"|put \w+ (\w+ )?down|release it|let go|apart again|separate\w*)\b")
 THERE_AND_BACK = re.compile(
     r"\band (back|return\w*|release\w*( it)?)\b|\band (pull|bring|draw|push|put|step|swing|come|settle)"
-    r"\w* (\w+ ){0,3}back\b|\bback and forth|\bto and fro|\bup and down|\band back\b")
+    r"\w* (\w+ ){0,3}back\b|\bback and forth|\bto and fro|\bup and down|\band back\b"
+    r"|\band (then )?(lower|drop|relax)\w* (it|them)\b")
 HOLD_WORDS = re.compile(r"\b(hold|holds|holding|stay|stays|still|pause|pauses|remain\w*|rest)\b")
 # the rest of the sentence describes a held posture ("keeping the arms extended", "while bent forward")
 HELD_SPLIT = re.compile(r"\b(keeping|holding (the|both)|while (bent|seated|sitting|standing|lying|kneeling|bending))\b")
@@ -142,7 +144,7 @@ POSTURE_WORDS: tuple[tuple[str, str], ...] = (
     ("standing", r"\b(stand|stands|standing)\b"),
 )
 # an arm raised or lifted with no direction: forward, when nothing else moves the shoulder
-PLAIN_RAISE = re.compile(r"\b(raise|lift)\w* (the |both |each |one )?(left |right )?arms?\b")
+PLAIN_RAISE = re.compile(r"\b(rais|lift)\w* (the |both |each |one )?(left |right )?arms?\b")
 GUARD_WORDS = re.compile(r"\b(punch\w*|jab\w*|box\w*|uppercut\w*|hook punch\w*)\b")
 _LIMB_SIDE = re.compile(r"\b(left|right) (arm|hand|fist|elbow|forearm|wrist|shoulder|palm|leg|foot|knee|heel"
                         r"|thigh|hip|pedal|pole|toe)")
