@@ -814,3 +814,11 @@ def test_a_gait_step_takes_the_gaits_duration_whatever_else_it_names():
     assert steps[0].action == "gait" and MOVEMENTS["hip_flexion"] in steps[0].movements
     compiler._durations(steps, _smp(_WAIT, periodic=True))
     assert steps[0].duration_s == walk.nominal_s < MOVEMENTS["hip_flexion"].nominal_s
+
+
+def test_a_return_after_a_circle_undoes_the_primitive_before_the_circle():
+    _, keys = _compiled(_smp(_WAIT, ("raise", "raise the left arm forward", ["left_upper_arm"]),
+                             ("circle", "circle the right arm clockwise", ["right_upper_arm"]),
+                             ("lower", "lower the arms", _ARMS)))
+    assert keys["raise"][-1][1]["left_shoulder_flex"] > 60.0
+    assert keys["lower"][-1][1]["left_shoulder_flex"] == 0.0  # the circle opened nothing to return to

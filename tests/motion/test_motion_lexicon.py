@@ -300,6 +300,7 @@ def test_a_primitives_reading_prunes_redundant_movements(text, moves):
     ("standing on the left leg, lift the right leg out to the side", "right"),
     ("stand on the right leg and lift the left knee", "left"),
     ("balance on the right foot and kick the other leg forward", "left"),
+    ("balance on the left foot and kick the other leg forward", "right"),
     ("lift the left leg out to the side", "left"),
     ("hop on the right foot", "right"),  # hopping moves the leg it is on
 ])
@@ -333,3 +334,11 @@ def test_direction_words_move_the_arms_only_when_the_words_name_no_leg_or_an_arm
 def test_more_ways_of_saying_it(text, moves, back):
     reading = read_primitive("p", text)
     assert (reading.movements, reading.there_and_back, reading.returns) == (moves, back, False)
+
+
+def test_the_held_parts_of_name_and_description_are_read_as_two_phrases():
+    both = read_primitive("keeping_balance", "lift the left knee holding the arms in front")
+    assert both.movements == ("hip_flexion",) and both.context == ("shoulder_flexion",)
+    # a rule does not reach from the name's held words into the description's
+    apart = read_primitive("holding_the_arms", "lift the knee keeping them in front")
+    assert "shoulder_flexion" not in apart.context

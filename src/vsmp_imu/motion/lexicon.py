@@ -243,7 +243,7 @@ def _held_split(text: str, name_len: int) -> tuple[str, str]:
         hit = HELD_SPLIT.search(part)
         action.append(part[:hit.start()] if hit else part)
         held.append(part[hit.start():] if hit else "")
-    return "".join(action), " ".join(h for h in held if h)
+    return "".join(action), " . ".join(h for h in held if h)  # two phrases, as name and description are
 
 
 def _ordered(text: str) -> tuple[str, ...]:
