@@ -342,3 +342,20 @@ def test_the_held_parts_of_name_and_description_are_read_as_two_phrases():
     # a rule does not reach from the name's held words into the description's
     apart = read_primitive("holding_the_arms", "lift the knee keeping them in front")
     assert "shoulder_flexion" not in apart.context
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("bring the cup to the mouth and drink", ("elbow_flexion",)),
+    ("eating soup with a spoon", ("elbow_flexion",)),
+    ("brush the teeth with the right hand", ("elbow_flexion",)),
+    ("comb the hair with the right hand", ("elbow_flexion", "shoulder_abduction")),
+    ("write on paper with a pen", ("wrist_flexion",)),
+    ("dribble the basketball with the right hand", ("elbow_extension",)),
+    ("bounce the ball on the floor", ("elbow_extension",)),  # the ball bounces, not the body
+    ("bounce up and down", ("jump",)),
+    ("catch the tennis ball", ("shoulder_flexion",)),
+    ("catch the object and pull it in to the chest", ("elbow_flexion",)),
+])
+def test_activities_of_daily_living_and_ball_games(text, moves):
+    """What a smartwatch dataset records (drinking, eating, brushing teeth, writing, dribbling)."""
+    assert read_primitive("p", text).movements == moves

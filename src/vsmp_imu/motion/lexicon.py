@@ -35,7 +35,7 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\b(squat\w*|crouch\w*)\b|\bbend\w* (the |both )?(hips and (the )?knees|knees and (the )?hips)"
      r"|\blower\w* the (body|hips)\b", "squat"),
     (r"\bbend\w* (the |both )?knees\b|\bknees? bend", "knee_bend"),
-    (r"\b(jump\w*|hop|hops|hopping|bounc\w*|leap\w*)\b", "jump"),
+    (r"\b(jump\w*|hop|hops|hopping|leap\w*)\b|\bbounc\w*\b(?! (the |a )?(basket)?ball)", "jump"),
     (r"\bsit(s|ting)? (down|back|on (a|the) (chair|seat|bench|bed|sofa|couch))\b|\bonto the (seat|chair|bench|bed)"
      r"|\bseated posture|\bto sit\b|\bsit on the edge|\bedge of the (bed|chair)", "sit_down"),
     (r"\bsit(s|ting)? (down )?on the floor|\bsit on the ground", "sit_down_floor"),
@@ -70,20 +70,24 @@ RULES: tuple[tuple[str, str], ...] = (
      r"|\bflex\w* (the |both )?(left |right )?elbows?|\b(hands?|fists?|dumbbells?) (up )?to the shoulders?"
      r"|\bwith the elbows? bent|\bguard\b|\bpull\w* (it |them |the \w+ )?in\b|\bto the chest|\bover the chest"
      r"|\bbehind the head|\bbeside the head|\bin front of the (chest|chin|face)|\bpull\w* " + _NOT_LEGS + _ANY + r"\bup\b"
-     r"|\brow\b|\brow(s|ing)\b|\bsteer\w*|\bwheel\b", "elbow_flexion"),
+     r"|\brow\b|\brow(s|ing)\b|\bsteer\w*|\bwheel\b"
+     r"|\b(drink\w*|sip\w*|eat|eats|eating|bite)\b|\bto the (mouth|lips|face)\b|\bbrush\w* the teeth"
+     r"|\b(comb|brush)\w* (the )?hair", "elbow_flexion"),  # daily living: the hand to the mouth or head
     (r"\bstraighten\w* (the |both |each )?(left |right )?(elbows?|arms?)|\bextend\w* (the |both |each |one )?"
      r"(left |right )?(elbows?|arms?|fists?|hands?)|\bpunch\w*|\bjab\w*|\bthrust\w*|\bpush\w* (forward|up|away|out)"
-     r"|\barms? (straight|extended)|\bat full reach|\bwhip\w*|\bthrow\w*|\brelease", "elbow_extension"),
+     r"|\barms? (straight|extended)|\bat full reach|\bwhip\w*|\bthrow\w*|\brelease|\bdribbl\w*"
+     r"|\bbounc\w* (the |a )?(basket)?ball", "elbow_extension"),
     (r"\bpunch\w*|\bjab\w*|\bstraight forward|\bwhip\w*|\bthrow\w*|\bwheel\b|\bsteer\w*|\b(rais|lift|reach|extend|hold|bring|push|swing|slide)\w* "
      + _NOT_LEGS + _ANY + r"\b(forward|in front|to the front)\b|\bfront raise|\bat chest height|\bchest height"
-     r"|\bforward and up|\btoward the door", "shoulder_flexion"),
+     r"|\bforward and up|\btoward the door|\bcatch\w* (the |a )?(\w+ )?ball\b", "shoulder_flexion"),
     (r"\boverhead\b|\babove the head|\bup high|\breach\w* up\b|(?<!rope )\bover the head|\btoward the ceiling"
      r"|\bskyward|\bbehind the head|\boverhand|\bto the top\b|\bupper left|\bstraight up\b|\bbeside the head"
      r"|\b(draw|move|trace)\w* " + _NOT_LEGS + _ANY + r"\bup\b", "shoulder_flexion_overhead"),
     (r"\b(draw|move|trace)\w* " + _ANY + r"\bdown\b", "shoulder_flexion"),
     (r"\bout to the sides?\b|\b(rais|lift|spread|extend)\w* " + _NOT_LEGS + _ANY + r"\bto the sides?\b|\bsideways\b"
      r"|\blateral raise|\bspread\w* (the |both )?arms|\bout to the (left|right)"
-     r"|\babduct\w*|\barms? (out|wide)\b|\b(rais|lift)\w* (the |both )?(left |right )?arms? out", "shoulder_abduction"),
+     r"|\babduct\w*|\barms? (out|wide)\b|\b(rais|lift)\w* (the |both )?(left |right )?arms? out"
+     r"|\b(comb|brush)\w* (the )?hair", "shoulder_abduction"),
     (r"\bacross (the|his|her) (body|chest)|\bcross\w* (them|the arms|both arms|the forearms)|\bhug\w*"
      r"|\bswing\w* " + _ANY + r"\bto the left|\bsweep\w* " + _ANY + r"\b(across|inward|to the left)"
      r"|\bbring the hands together|\bhands together|\bpalms together|\bclap\w*|\bfly\b|\bflyes?\b"
@@ -103,7 +107,7 @@ RULES: tuple[tuple[str, str], ...] = (
      r"|\bforearm rotation", "forearm_pronation"),
     (r"\bsupinat\w*|\bpalms? (facing |face |turned )?up\b|\bturn\w* the palms? up", "forearm_supination"),
     (r"\bwrist curl|\bflex\w* the wrists?|\bwrists? flexed|\bcurl\w* the wrists?|\bsnap\w* the wrists?"
-     r"|\bwrists? (swing|flick)|\bflick\w*|\btyp\w*|\bkeyboard", "wrist_flexion"),
+     r"|\bwrists? (swing|flick)|\bflick\w*|\btyp\w*|\bkeyboard|\bwrit(e|es|ing)\b", "wrist_flexion"),
     (r"\bextend\w* the wrists?|\breverse wrist curl|\bcock\w* the wrists?", "wrist_extension"),
     (r"\bcircle\w*|\bcircular\b|\bcircumduct\w*|\bwindmill", "arm_circumduction"),
     (r"\bswing\w* (the |both |his |her )?(left |right )?arms?\b|\barms? swings?|\bpendulum|\bsweep\w* "
