@@ -122,6 +122,28 @@ def test_a_stop_inside_a_held_block_lands_after_it(sig):
         signal.signal(number, previous)
 
 
+def test_stops_are_not_held_off_the_main_thread_or_over_a_handler_python_cannot_restore(monkeypatch):
+    import signal
+    import threading
+
+    from vsmp_imu.io import stops_held
+
+    seen = []
+
+    def inside():
+        with stops_held():
+            seen.append(signal.getsignal(signal.SIGINT))
+
+    worker = threading.Thread(target=inside)
+    worker.start()
+    worker.join()
+    before = signal.getsignal(signal.SIGINT)
+    assert seen == [before]  # off the main thread: nothing swapped (signal.signal would raise there)
+    monkeypatch.setattr(signal, "getsignal", lambda sig: None if sig == signal.SIGTERM else before)
+    with stops_held():
+        assert signal.signal(signal.SIGINT, before) is before  # the handler was left in place
+
+
 def test_atomic_write_uses_the_usual_file_mode(tmp_path):
     import os
 

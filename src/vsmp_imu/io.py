@@ -59,11 +59,12 @@ def stops_held() -> Iterator[None]:
     matplotlib's drawing came out as its ValueError). Held in Python, not
     with a signal mask: a signal to the process goes to any thread that does not block it (numpy's
     BLAS threads), and Python runs its handler in the main thread wherever that thread is."""
-    if threading.current_thread() is not threading.main_thread():
-        yield  # handlers run in the main thread only: a stop cannot land here
+    stops = (signal.SIGINT, signal.SIGTERM)
+    if threading.current_thread() is not threading.main_thread() or any(
+            signal.getsignal(sig) is None for sig in stops):
+        yield  # handlers run in the main thread only; one installed outside Python could not be put back
         return
     pending: list[int] = []
-    stops = (signal.SIGINT, signal.SIGTERM)
     previous = {sig: signal.signal(sig, lambda signum, _frame: pending.append(signum)) for sig in stops}
     try:
         yield
