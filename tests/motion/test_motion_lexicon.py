@@ -49,7 +49,7 @@ def test_single_joint_movements_stay_within_the_normative_range():
     ("hammer_curl", "curl the kettlebells up with the thumbs up", {"elbow_flexion"}),
     ("raise_arms", "raise both arms out to the sides to shoulder height", {"shoulder_abduction"}),
     ("front_raise", "raise both arms straight forward to shoulder height", {"shoulder_flexion"}),
-    ("press_up", "press the dumbbells overhead", {"shoulder_flexion_overhead"}),
+    ("press_up", "press the dumbbells overhead", {"shoulder_abduction_overhead"}),
     ("bend_left", "bend the trunk sideways to the left", {"trunk_side_bend"}),
     ("twist", "twist the torso to the right", {"trunk_rotation"}),
     ("hinge", "bend the trunk forward at the hips", {"trunk_flexion"}),
@@ -180,7 +180,7 @@ def test_text_is_lower_case_with_single_spaces():
     ("squat down bending the knees", ("squat",)),  # a squat already bends the knees
     ("lunge forward bending the knees", ("lunge", "trunk_flexion")),
     ("jog up the stairs walking", ("run", "stairs_up")),  # running is not also walking
-    ("press the dumbbells overhead raising the arms forward", ("shoulder_flexion_overhead",)),
+    ("reach overhead raising the arms forward", ("shoulder_flexion_overhead",)),
     ("sit down bending the knees and leaning the trunk forward", ("sit_down",)),  # the posture change has them
 ])
 def test_redundant_movements_are_pruned(text, expected):
@@ -359,3 +359,28 @@ def test_the_held_parts_of_name_and_description_are_read_as_two_phrases():
 def test_activities_of_daily_living_and_ball_games(text, moves):
     """What a smartwatch dataset records (drinking, eating, brushing teeth, writing, dribbling)."""
     assert read_primitive("p", text).movements == moves
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("raise both arms overhead", ("shoulder_flexion_overhead",)),
+    ("raise the arms out to the sides and overhead", ("shoulder_abduction_overhead",)),
+    ("raise the arms overhead out to the sides", ("shoulder_abduction_overhead",)),
+    ("press the dumbbells overhead", ("shoulder_abduction_overhead",)),
+    ("shoulder press", ("shoulder_abduction_overhead",)),
+    ("press the bar forward and up overhead", ("shoulder_flexion_overhead",)),  # the words name the plane
+    ("jump while spreading the legs apart and raising both arms overhead",
+     ("jump", "shoulder_abduction_overhead", "hip_abduction")),
+    ("jumping jacks", ("jump", "shoulder_abduction_overhead")),
+    ("star jumps", ("jump", "shoulder_abduction_overhead")),
+])
+def test_arms_raised_overhead_go_up_the_sides_when_the_words_say_so(text, moves):
+    assert movements_in(text) == moves
+    assert read_primitive("x", text).movements == moves
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("raise the right hand beside the head with the elbow bent", ("elbow_flexion", "shoulder_abduction")),
+    ("hold the bat beside the right shoulder", ("elbow_flexion",)),
+])
+def test_a_hand_beside_the_head_or_shoulder(text, moves):
+    assert read_primitive("x", text).movements == moves

@@ -68,7 +68,7 @@ RULES: tuple[tuple[str, str], ...] = (
     # arms
     (r"\bcurl\w*\b(?! the trunk)(?! (the |both )?wrists?)|\bhammer|\bbend\w* (the |both |each |one )?(left |right )?(elbows?|arms?)"
      r"|\bflex\w* (the |both )?(left |right )?elbows?|\b(hands?|fists?|dumbbells?) (up )?to the shoulders?"
-     r"|\bwith the elbows? bent|\bguard\b|\bpull\w* (it |them |the \w+ )?in\b|\bto the chest|\bover the chest"
+     r"|\bbeside the (left |right )?shoulders?|\bwith the elbows? bent|\bguard\b|\bpull\w* (it |them |the \w+ )?in\b|\bto the chest|\bover the chest"
      r"|\bbehind the head|\bbeside the head|\bin front of the (chest|chin|face)|\bpull\w* " + _NOT_LEGS + _ANY + r"\bup\b"
      r"|\brow\b|\brow(s|ing)\b|\bsteer\w*|\bwheel\b"
      r"|\b(drink\w*|sip\w*|eat|eats|eating|bite)\b|\bto the (mouth|lips|face)\b|\bbrush\w* the teeth"
@@ -80,11 +80,14 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bpunch\w*|\bjab\w*|\bstraight forward|\bwhip\w*|\bthrow\w*|\bwheel\b|\bsteer\w*|\b(rais|lift|reach|extend|hold|bring|push|swing|slide)\w* "
      + _NOT_LEGS + _ANY + r"\b(forward|in front|to the front)\b|\bfront raise|\bat chest height|\bchest height"
      r"|\bforward and up|\btoward the door|\bcatch\w* (the |a )?(\w+ )?ball\b", "shoulder_flexion"),
+    # up the sides: a press overhead, a jumping jack (the arms rise in the plane the legs spread in)
+    (r"\b(overhead|shoulder|military) press|\bpress\w* " + _NOT_LEGS + _ANY + r"\b(overhead|above the head)"
+     r"|\bjumping jacks?\b|\bstar jumps?\b", "shoulder_abduction_overhead"),
     (r"\boverhead\b|\babove the head|\bup high|\breach\w* up\b|(?<!rope )\bover the head|\btoward the ceiling"
-     r"|\bskyward|\bbehind the head|\boverhand|\bto the top\b|\bupper left|\bstraight up\b|\bbeside the head"
+     r"|\bskyward|\bbehind the head|\boverhand|\bto the top\b|\bupper left|\bstraight up\b"
      r"|\b(draw|move|trace)\w* " + _NOT_LEGS + _ANY + r"\bup\b", "shoulder_flexion_overhead"),
     (r"\b(draw|move|trace)\w* " + _ANY + r"\bdown\b", "shoulder_flexion"),
-    (r"\bout to the sides?\b|\b(rais|lift|spread|extend)\w* " + _NOT_LEGS + _ANY + r"\bto the sides?\b|\bsideways\b"
+    (r"\bout to the sides?\b|\bbeside the head|\b(rais|lift|spread|extend)\w* " + _NOT_LEGS + _ANY + r"\bto the sides?\b|\bsideways\b"
      r"|\blateral raise|\bspread\w* (the |both )?arms|\bout to the (left|right)"
      r"|\babduct\w*|\barms? (out|wide)\b|\b(rais|lift)\w* (the |both )?(left |right )?arms? out"
      r"|\b(comb|brush)\w* (the )?hair", "shoulder_abduction"),
@@ -207,14 +210,30 @@ def _prune(found: list[str]) -> tuple[str, ...]:
         out = [m for m in out if m != "knee_bend"]
     if any(m in out for m in ("run", "stairs_up", "stairs_down")):
         out = [m for m in out if m != "walk"]
-    if "shoulder_flexion_overhead" in out:
-        out = [m for m in out if m != "shoulder_flexion"]
+    out = _overhead(out)
     posture = [m for m in out if MOVEMENTS[m].kind == "posture"]
     if posture:
         # a change of support includes its own trunk and leg movements
         out = [m for m in out if m not in ("trunk_flexion", "trunk_extension", "knee_bend", "trunk_upright")]
         out = [m for m in out if MOVEMENTS[m].kind != "posture" or m == posture[-1]]
     return tuple(out)
+
+
+_OVERHEAD = ("shoulder_flexion_overhead", "shoulder_abduction_overhead")
+
+
+def _overhead(out: list[str]) -> list[str]:
+    """Arms raised overhead, once: up the sides ("out to the sides and overhead", a press overhead, arms
+    raised as the legs spread in a jumping jack) unless the words send them forward."""
+    if not any(m in out for m in _OVERHEAD):
+        return out
+    sideways = "shoulder_abduction" in out or "hip_abduction" in out or (
+        "shoulder_abduction_overhead" in out and "shoulder_flexion" not in out)
+    up = "shoulder_abduction_overhead" if sideways else "shoulder_flexion_overhead"
+    first = min(out.index(m) for m in _OVERHEAD if m in out)
+    out = [up if i == first else m for i, m in enumerate(out)]
+    return [m for i, m in enumerate(out) if i == first or m not in (
+        *_OVERHEAD, "shoulder_flexion", "shoulder_abduction")]
 
 
 def read_primitive(name: str, description: str = "") -> Reading:
