@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from vsmp_imu.errors import ValidationError
 from vsmp_imu.motion import get_backend, measure
@@ -114,6 +115,45 @@ def test_smp_only_activity_file_synthesizes_through_the_cli(cli, tmp_path):
     assert motion.meta["motion_source"] == "compiled" and motion.meta["activity"] == "hammer_curl_kettlebell"
     assert measure.ranked_joint_planes(motion)[0][0] == ("elbow", "sagittal")
     assert motion.meta["controls"]["repetitions"] == 10
+
+
+def test_an_activity_file_given_as_the_smp_synthesizes_its_activity(cli, tmp_path):
+    out = tmp_path / "hammer.npz"
+    code, _, err = cli("motion", "synth", FIXTURES / "hammer_curl_kettlebell.yaml", "--seed", "1", "-o", out)
+    assert code == 0, err
+    motion = Motion.load(out)
+    assert motion.meta["motion_source"] == "compiled" and motion.meta["activity"] == "hammer_curl_kettlebell"
+    assert measure.ranked_joint_planes(motion)[0][0] == ("elbow", "sagittal")
+
+
+def test_an_activity_file_with_a_recipe_is_performed_by_its_recipe(cli, tmp_path, library):
+    """A user's copy of a library file, its recipe edited: the file's recipe performs it, not the library's."""
+    data = yaml.safe_load(library.get("jumping_jacks").path.read_text())
+    data["procedural"]["poses"]["open"] = {"shoulder_flex": 140, "hip_abd": 14}  # the arms rise forward
+    path = tmp_path / "jumping_jacks.yaml"
+    path.write_text(yaml.safe_dump(data))
+    code, _, err = cli("motion", "synth", path, "--seed", "0", "-o", tmp_path / "m.npz")
+    assert code == 0, err
+    mine = Motion.load(tmp_path / "m.npz")
+    assert "motion_source" not in mine.meta  # a recipe motion
+    assert measure.ranked_joint_planes(mine)[0][0] == ("shoulder", "sagittal")
+    code, _, err = cli("motion", "synth", "jumping_jacks", "--seed", "0", "-o", tmp_path / "lib.npz")
+    assert code == 0, err
+    assert measure.ranked_joint_planes(Motion.load(tmp_path / "lib.npz"))[0][0] == ("shoulder", "frontal")
+
+
+def test_an_activity_file_is_validated_whole_and_its_errors_name_it(cli, tmp_path):
+    code, stdout, err = cli("smp", "validate", FIXTURES / "bicycle_crunch.yaml")
+    assert code == 0, err
+    assert "valid" in stdout and "bicycle crunch" in stdout
+    data = yaml.safe_load((FIXTURES / "bicycle_crunch.yaml").read_text())
+    data["captions"] = "not a list"
+    path = tmp_path / "bicycle_crunch.yaml"
+    path.write_text(yaml.safe_dump(data))
+    code, _, err = cli("motion", "synth", path, "--seed", "0", "-o", tmp_path / "m.npz")
+    assert code == 2
+    assert "bicycle_crunch.yaml" in err and "captions" in err
+    assert not (tmp_path / "m.npz").exists()
 
 
 def test_a_label_that_only_resembles_a_library_activity_gets_no_other_recipe(library):

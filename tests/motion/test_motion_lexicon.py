@@ -384,3 +384,27 @@ def test_arms_raised_overhead_go_up_the_sides_when_the_words_say_so(text, moves)
 ])
 def test_a_hand_beside_the_head_or_shoulder(text, moves):
     assert read_primitive("x", text).movements == moves
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("raise the knee to the chest", ("hip_flexion",)),  # the knee goes to the chest, not a hand
+    ("pull the knees to the chest", ("hip_flexion",)),
+    ("leg curl", ()),  # a curl of the leg bends no elbow
+    ("hug the knees to the chest", ("elbow_flexion", "shoulder_horizontal_adduction", "hip_flexion")),
+    ("sit with the legs crossed and drink from the cup", ("elbow_flexion",)),
+    ("bring the hands to the chest", ("elbow_flexion",)),
+])
+def test_words_that_place_a_leg_bend_no_elbow(text, moves):
+    assert read_primitive("x", text).movements == moves
+
+
+@pytest.mark.parametrize("text,moves,leg", [
+    ("bring the right elbow to the left knee while twisting the trunk", ("trunk_rotation", "hip_flexion"), "left"),
+    ("elbow to the opposite knee", ("trunk_rotation", "hip_flexion"), None),
+    ("extend the right leg forward", ("hip_flexion",), "right"),
+    ("extend the leg straight out in front", ("hip_flexion",), None),
+    ("extend the legs", ("leg_straighten",), None),
+])
+def test_an_elbow_to_the_knee_and_a_leg_extended_forward(text, moves, leg):
+    reading = read_primitive("x", text)
+    assert reading.movements == moves and reading.leg_side == leg

@@ -41,8 +41,21 @@ def _smp_file(source: str | None) -> Path | None:
     return path if path.suffix.lower() in (".json", ".yaml", ".yml") or path.exists() else None
 
 
+def _with_activity_file(source: str | None, library):
+    """The library, plus the activity `source` names when it is an activity file (so that its
+    `procedural:` recipe, if any, performs it)."""
+    from vsmp_imu.io import read_structured
+    from vsmp_imu.smp.io import is_activity_file
+    from vsmp_imu.smp.library import ActivityLibrary, load_entry
+
+    path = _smp_file(source)
+    if path is None or not path.is_file() or not is_activity_file(read_structured(path)):
+        return library
+    return ActivityLibrary([*library, load_entry(path)])
+
+
 def _read_smp(source: str, library):
-    """An SMP from a file, or the library SMP of an activity name."""
+    """An SMP from a file (an SMP or an activity file), or the library SMP of an activity name."""
     from vsmp_imu.smp import load_smp
 
     path = _smp_file(source)
@@ -65,7 +78,8 @@ def _load_motion(path: Path):
 @motion_app.command("synth")
 @option_names({"backend": "--backend", "model_path": "--model-path"})
 def synth_cmd(
-    smp: str = typer.Argument(None, help="SMP file (.json/.yaml) or activity name; optional with --prompt"),
+    smp: str = typer.Argument(None, help="SMP file (.json/.yaml), activity file or activity name; "
+                              "optional with --prompt"),
     seed: int = typer.Option(..., "--seed", help="generation seed (same seed, same bytes)"),
     output: Path = typer.Option(..., "-o", "--output", help="motion file to write (.npz)"),
     duration_s: float = typer.Option(None, "--duration-s", callback=finite_range(0.1, 600.0),
@@ -85,7 +99,7 @@ def synth_cmd(
 
     if smp is None and prompt is None:
         raise ConfigError("give an SMP (file or activity name) or --prompt", field="SMP")
-    lib = _library(library)
+    lib = _with_activity_file(smp if prompt is None else None, _library(library))
     name = backend.strip().lower()
     kwargs = {"library": lib}
     if name in ("procedural", "compiled"):

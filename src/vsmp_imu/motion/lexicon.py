@@ -55,7 +55,8 @@ RULES: tuple[tuple[str, str], ...] = (
      r"|\bshift the weight to one side|\btilt\w* the (trunk|torso)", "trunk_side_bend"),
     (r"\b(twist|rotat|turn)\w* (the |his |her )?(trunk|torso|upper body|shoulders|hips|chest|body)\b"
      r"|\btrunk (rotation|twist)|\btwist\w*|\bwoodchop|\b(trunk|torso|hips|shoulders) (turn|rotat|twist)\w*"
-     r"|\bswing\w* (the )?(bat|racket|club|golf)|\bfollow\w* through|\bfinish\w* over", "trunk_rotation"),
+     r"|\bswing\w* (the )?(bat|racket|club|golf)|\bfollow\w* through|\bfinish\w* over"
+     r"|\belbows? to the (opposite |left |right )?knees?\b", "trunk_rotation"),
     (r"\b(bend|lean|hinge|bow|tip|fold)\w* (the (trunk|torso|upper body|body|chest) )?(forward|over|down)\b"
      r"|\bbent (forward|over)|\bforward bend|\bgood morning|\btouch\w* the toes|\btoe touch|\bhinge\w*"
      r"|\bcurl\w* the trunk|\breach\w* (down )?to the (floor|ground|table)|\bpick\w* up", "trunk_flexion"),
@@ -116,9 +117,11 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bswing\w* (the |both |his |her )?(left |right )?arms?\b|\barms? swings?|\bpendulum|\bsweep\w* "
      + _ANY + r"\b(left|right) and back|\bwave\w*|\bsweep\w* the (cloth|hand)", "arm_pendulum_swing"),
     # legs
-    (r"\b(lift|rais|drive|draw|pull|bring|tuck|swing)\w* (the |both |each |one |the other )?(left |right )?(knees?|legs?|thighs?)\b"
+    (r"\b(lift|rais|drive|draw|pull|bring|tuck|swing|hug)\w* (the |both |each |one |the other )?(left |right )?(knees?|legs?|thighs?)\b"
      r"(?! (out|to the side|sideways|back|together|apart))|\bknee raise|\bhigh knees"
-     r"|\bmarch\w*|\bleg raise|\bpedal", "hip_flexion"),
+     r"|\bmarch\w*|\bleg raise|\bpedal|\b(elbow|hand)s? to the (opposite |left |right )?knees?\b"
+     r"|\b(extend|straighten)\w* (the |both |each |one )?(left |right )?legs? (straight )?(forward|out in front|in front)\b",
+     "hip_flexion"),
     (r"\bkick\w*", "leg_kick"),
     (r"\b(legs?|feet) apart|\bspread\w* (the |both )?legs|\bleg (out )?to the side|\bstep\w* (out )?to the side",
      "hip_abduction"),
@@ -163,9 +166,11 @@ _COUNTER = re.compile(r"\bcounter[- ]?clockwise|\banti[- ]?clockwise")
 _LEG_WORDS = re.compile(r"\b(legs?|knees?|thighs?|feet|foot|heels?|toes?|ankles?|hips?|steps?|stepping)\b")
 _ARM_WORDS = re.compile(r"\b(arms?|hands?|elbows?|fists?|wrists?|forearms?|shoulders?|palms?|fingers?"
                         r"|dumbbells?|kettlebells?|barbell|weights?|ball|racket|bat|club|poles?"
-                        r"|punch\w*|jab\w*|uppercut\w*|throw\w*|clap\w*|wav\w*|box\w*|swim\w*|paddl\w*)\b")
+                        r"|punch\w*|jab\w*|uppercut\w*|throw\w*|clap\w*|wav\w*|box\w*|swim\w*|paddl\w*"
+                        r"|hug\w*|drink\w*|sip\w*|eat|eats|eating|comb\w*|brush\w*|cup|glass|mug|spoon|fork)\b")
+# movements that direction or place words alone can name ("the knee to the chest", a leg curl)
 _DIRECTION_ONLY = ("shoulder_flexion", "shoulder_abduction", "shoulder_extension", "shoulder_horizontal_adduction",
-                   "shoulder_horizontal_abduction")  # movements that direction words alone can name
+                   "shoulder_horizontal_abduction", "elbow_flexion")
 # the leg a person stands or balances on names the side that does not move
 _SUPPORT = re.compile(r"\b(?:stand\w*|balanc\w*) on (?:the |one |his |her )?(left|right) (?:leg|foot)\b")
 _LEG_PARTS = ("leg", "foot", "knee", "heel", "thigh", "hip", "pedal", "toe")

@@ -17,9 +17,20 @@ def smp_from_dict(data: object, file: str | Path | None = None) -> SMP:
     return validate_model(SMP, data, file)
 
 
+def is_activity_file(data: object) -> bool:
+    """An activity (library) file: a mapping whose SMP sits under `smp`, beside name and captions."""
+    return isinstance(data, dict) and isinstance(data.get("smp"), dict) and "activity_label" not in data
+
+
 def load_smp(path: str | Path) -> SMP:
-    """Read an SMP from a .json, .yaml or .yml file."""
-    return smp_from_dict(read_structured(path), path)
+    """Read an SMP from a .json, .yaml or .yml file: an SMP, or an activity file (its `smp`, the whole
+    file validated as the library validates it)."""
+    data = read_structured(path)
+    if is_activity_file(data):
+        from vsmp_imu.smp.library import load_entry  # the library reads SMPs through this module
+
+        return load_entry(path).smp
+    return smp_from_dict(data, path)
 
 
 def save_smp(smp: SMP, path: str | Path) -> Path:
