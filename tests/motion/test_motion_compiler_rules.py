@@ -822,3 +822,37 @@ def test_a_return_after_a_circle_undoes_the_primitive_before_the_circle():
                              ("lower", "lower the arms", _ARMS)))
     assert keys["raise"][-1][1]["left_shoulder_flex"] > 60.0
     assert keys["lower"][-1][1]["left_shoulder_flex"] == 0.0  # the circle opened nothing to return to
+
+
+def test_a_placement_every_primitive_of_a_cycle_names_is_held_from_the_start():
+    """Triceps extensions: the arms stay overhead while the elbows bend and straighten; they are not
+    raised from the sides and lowered again on every repetition."""
+    data, keys = _compiled(_smp(("bend", "lower the dumbbell behind the head by bending the elbows", _ARMS),
+                                ("extend", "straighten the elbows to raise the dumbbell back overhead", _ARMS),
+                                periodic=True))
+    overhead = MOVEMENTS["shoulder_flexion_overhead"].pose["shoulder_flex"]
+    assert data["base_pose"]["left_shoulder_flex"] == pytest.approx(overhead)
+    assert data["base_pose"]["left_elbow_flex"] < 30.0
+    (_, bent), = keys["bend"]
+    assert bent["left_shoulder_flex"] == pytest.approx(overhead) and bent["left_elbow_flex"] > 90.0
+    assert keys["extend"] == [(1.0, data["base_pose"])]  # back to the straight arms overhead
+
+
+@pytest.mark.parametrize("prims", [
+    # the two sides alternate: each leg and each twist goes out and back
+    (("right", "bring the right elbow to the left knee, twisting the trunk to the left and back", []),
+     ("left", "bring the left elbow to the right knee, twisting the trunk to the right and back", [])),
+    # one primitive: a cycle of one movement goes out and back
+    (("curl", "curl the dumbbells up to the shoulders and back", _ARMS),),
+])
+def test_what_alternates_or_a_single_primitive_names_is_not_held(prims):
+    data, _ = _compiled(_smp(*prims, periodic=True))
+    standing = compiler._posture_vector("standing", 0.0)
+    assert data["base_pose"] == compiler._pose_dict(standing)
+
+
+def test_a_primitive_whose_only_movement_is_held_holds():
+    _, keys = _compiled(_smp(("up", "raise the arms overhead", _ARMS),
+                             ("wave", "raise the arms overhead and wave the hands", _ARMS), periodic=True))
+    assert keys["up"] == []  # its placement is the start pose: nothing left to move
+    assert keys["wave"]

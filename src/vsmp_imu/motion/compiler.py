@@ -127,6 +127,8 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
                              if MOVEMENTS[m].kind == "excursion"], steps[0], smp, 0)
         steps[0].action = "hold"
     periodic = _periodic(smp, steps)
+    if periodic:
+        base = _apply(base, _held_through_cycle(steps, _cycle_span(steps)[1]), steps[0], smp, 0)
     gait = [s for s in steps if s.action == "gait"]
     for step in gait[:1]:
         base = pose_vector({k: v for m in step.movements if m.kind == "gait" for k, v in m.pose.items()}, base)
@@ -200,6 +202,28 @@ def _steps(smp: SMP) -> list[Step]:
         step.action = _action(step)
     _alternate(steps)
     return steps
+
+
+def _held_through_cycle(steps: list[Step], cycle: list[int]) -> list[Movement]:
+    """Excursions that every primitive of a repeated cycle names, on the same side and in the same
+    direction ("lower the dumbbell behind the head", "raise it back overhead"): the placement the
+    set is performed in, held from the start, not reached and left on every repetition. They leave
+    the cycle's primitives (a primitive left with no movement holds)."""
+    if len(cycle) < 2:
+        return []
+
+    def placed(step: Step) -> set[tuple[str, str | None, int]]:
+        r = step.reading
+        return {(m.name, r.leg_side if m.limb == "leg" else r.arm_side, r.direction)
+                for m in step.movements if m.kind == "excursion"}
+
+    common = {name for name, _, _ in set.intersection(*(placed(steps[i]) for i in cycle))}
+    for i in cycle:
+        step = steps[i]
+        step.movements = tuple(m for m in step.movements if m.name not in common)
+        if step.action == "go" and not step.movements:
+            step.action = "hold"
+    return [MOVEMENTS[name] for name in sorted(common)]
 
 
 def _limb_named(move: Movement, parts: tuple[str, ...]) -> bool:
