@@ -12,6 +12,7 @@ from vsmp_imu.grounding.align import Convention, axes_matrix
 from vsmp_imu.grounding.calibrate import (
     ETA_HIGH,
     ETA_LOW,
+    ETA_NAMES,
     SimInTheLoopCalibrator,
     cem_update,
     eta_rotation,
@@ -111,3 +112,45 @@ def test_cem_update_of_one_population_keeps_the_lowest_losses_in_stable_order():
     elite = candidates[[5, 1, 3]]
     np.testing.assert_allclose(mean, elite.mean(axis=0))
     np.testing.assert_allclose(std, [elite[:, 0].std(), 10.0])
+
+
+def test_streams_calibrated_in_lockstep_get_what_each_gets_alone(setup):
+    """calibrate_many scores the candidates of several streams together (BatchObjective with S > 1),
+    streams with and without noise apart; each result is the one its stream gets alone."""
+    from vsmp_imu.grounding.calibrate import CemProblem
+
+    kin, noise, real_noise = setup
+    other = TRUTH * np.array([[-1, 0.5, -0.5, 1, 1, 1, 1, 1, 1, 0.7, 1.2]])
+    targets = [summarize_windows(segment(_real(kin, real_noise, t), 100), 50.0) for t in (TRUTH, other, TRUTH)]
+    noises = [noise, noise, None]
+
+    def problems():
+        return [CemProblem(kin, t, Convention(), np.random.default_rng(20 + i), None, z)
+                for i, (t, z) in enumerate(zip(targets, noises, strict=True))]
+
+    cal = SimInTheLoopCalibrator(n_iterations=4, n_candidates=16)
+    together = cal.calibrate_many(problems())
+    for i, problem in enumerate(problems()):
+        alone = cal.calibrate_many([problem])[0]
+        assert together[i].eta == alone.eta
+        assert together[i].loss_history == alone.loss_history
+        np.testing.assert_array_equal(together[i].readings, alone.readings)
+    assert together[0].eta != together[1].eta
+
+
+def test_the_calibration_record_holds_eta_gravity_losses_and_the_iteration_count(setup):
+    kin, noise, real_noise = setup
+    target = summarize_windows(segment(_real(kin, real_noise, TRUTH), 100), 50.0)
+    res = SimInTheLoopCalibrator(n_iterations=3, n_candidates=8).calibrate(
+        kin, target, Convention(), np.random.default_rng(1), noise=noise)
+    record = res.as_dict()
+    assert record == {"eta": res.eta, "gravity_included": res.gravity_included, "loss_nominal": res.loss_nominal,
+                      "loss_final": res.loss_final, "iterations": 3}
+    assert list(record["eta"]) == list(ETA_NAMES)
+
+
+def test_a_convention_record_holds_every_field():
+    conv = Convention(axes=("up", "right", "forward"), gravity_included=False, acc_unit="g", gyr_unit="deg/s",
+                      channel_names=("a", "b", "c", "d", "e", "f"))
+    assert conv.as_dict() == {"axes": ["up", "right", "forward"], "gravity_included": False, "acc_unit": "g",
+                              "gyr_unit": "deg/s", "channel_names": ["a", "b", "c", "d", "e", "f"]}

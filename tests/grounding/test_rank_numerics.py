@@ -183,3 +183,15 @@ def test_the_tie_offset_follows_the_weighted_grid_span_below_one():
     plain = np.interp(probs, (cum - weights / 2) / cum[-1], values[:, 0])
     assert plain[-2] < plain[-1] == 0.4
     assert grid[:, 0] - plain == pytest.approx(np.arange(6) * 0.4 * 1e-12, rel=0, abs=1e-15)
+
+
+def test_a_map_applied_to_single_precision_values_returns_double_precision():
+    """Window means or readings stored as float32 are mapped in float64: the result is the float64
+    input's mapping, not rounded to float32 (which moves values by up to 1e-7 of their size)."""
+    rng = np.random.default_rng(6)
+    syn, real = rng.normal(size=(500, 3)), rng.normal(3.0, 2.0, (400, 3)) * 1e3
+    m = ChannelMap(syn, real, 128)
+    x = rng.normal(size=(50, 3)).astype(np.float32)
+    out = m.apply(x)
+    assert out.dtype == np.float64
+    np.testing.assert_array_equal(out, m.apply(x.astype(np.float64)))

@@ -422,3 +422,83 @@ def test_the_objective_scores_its_candidates_as_their_aligned_readings(kinematic
                                    eta[n, 10], grav[n], noise)[0]
         aligned = np.concatenate([readings[:, :3] @ p.T, readings[:, 3:] @ p.T], axis=1)
         assert got[n] == pytest.approx(float(sim_loss(summarize_sequence(aligned, FS), target)), rel=1e-9)
+
+
+def test_channel_columns_pad_to_the_largest_support_with_the_supported_features_first_in_order():
+    weights = np.zeros((2, 40, 6))
+    rng = np.random.default_rng(4)
+    supports = [np.sort(rng.choice(40, size, replace=False)) for size in (7, 3, 5, 1, 0, 2)]
+    for c, support in enumerate(supports):
+        weights[0, support, c] = rng.normal(size=len(support)) + 3.0
+    cols, used = stats.channel_columns(weights)
+    assert used.shape == (6, 7) and cols.shape == (6, 2, 7)  # k = the largest support, no wider
+    for c, support in enumerate(supports):
+        assert used[c, :len(support)].tolist() == support.tolist()
+        rest = sorted(set(range(40)) - set(support.tolist()))
+        assert used[c, len(support):].tolist() == rest[:7 - len(support)]  # the padding, in order too
+    silent = stats.channel_columns(np.zeros((3, 5, 6)))[1]
+    assert silent.shape == (6, 1)  # at least one column when nothing is weighted
+
+
+def test_the_moments_keep_their_pair_blocks_per_feature_set(signal):
+    """Two weight sets with the same column count on other features: the second must not be
+    scored with the first one's cached blocks (one LinearMoments and one MomentsBatch reused)."""
+    features = np.concatenate([signal, signal[::-1] * 0.5], axis=1)  # 12 features
+    first, second = np.zeros((3, 12, 6)), np.zeros((3, 12, 6))
+    rng = np.random.default_rng(8)
+    first[:, :6, :] = rng.normal(size=(3, 6, 6))
+    second[:, 6:, :] = rng.normal(size=(3, 6, 6))
+    reused = LinearMoments.of_sequence(features, FS)
+    reused.summarize(first)
+    fresh = LinearMoments.of_sequence(features, FS).summarize(second)
+    got = reused.summarize(second)
+    for name in ("cov", "psd", "norms", "acf"):
+        np.testing.assert_allclose(getattr(got, name), getattr(fresh, name), rtol=1e-12, atol=1e-12)
+    batch = stats.MomentsBatch([reused])
+    for weights in (first, second):
+        cols, used = stats.channel_columns(weights)
+        summary = batch.summarize_channels(cols[None], used[None])
+        alone = LinearMoments.of_sequence(features, FS).summarize(weights)
+        np.testing.assert_allclose(summary.norms[0], alone.norms, rtol=1e-9)
+        np.testing.assert_allclose(summary.cov[0], alone.cov, rtol=1e-9, atol=1e-9)
+
+
+def test_sim_loss_against_a_target_per_candidate_set():
+    """A target with leading axes of its own (S, 1, ...) scores each set of candidates (S, N, ...)
+    against its own target, as one target would."""
+    t = _target()
+    other = _replace(t, cov=3.0 * np.eye(6), norms=np.array([5.0, 2.0, 1.0, 0.25]))
+    psd = np.zeros((6, 6))
+    psd[:, 1] = 1.0
+    cands = [_summary(np.stack([np.eye(6), 2 * np.eye(6)]), np.stack([t.psd, psd]),
+                      np.stack([t.norms, 2 * t.norms]), np.stack([t.acf, 0.2 * t.acf])),
+             _summary(np.stack([3 * np.eye(6), np.eye(6)]), np.stack([psd, t.psd]),
+                      np.stack([other.norms, t.norms]), np.stack([t.acf, t.acf]))]
+    stacked = _summary(*(np.stack([getattr(c, f) for c in cands]) for f in ("cov", "psd", "norms", "acf")))
+    targets = _summary(*(np.stack([getattr(x, f) for x in (t, other)])[:, None]
+                         for f in ("cov", "psd", "norms", "acf")))
+    got = sim_loss(stacked, targets)
+    assert got.shape == (2, 2)
+    np.testing.assert_allclose(got[0], sim_loss(cands[0], t), rtol=1e-12)
+    np.testing.assert_allclose(got[1], sim_loss(cands[1], other), rtol=1e-12)
+
+
+def test_the_objective_weights_give_the_aligned_readings_and_their_mean_acceleration(kinematics):
+    from vsmp_imu.grounding.calibrate import StreamObjective
+
+    kin, noise = kinematics
+    axes = ("down", "backward", "right")
+    base = Rotation.from_euler("xyz", [5, 15, -25], degrees=True).as_matrix()
+    target = summarize_windows(np.zeros((2, 100, 6)), FS)
+    objective = StreamObjective(kin, target, Convention(axes=axes), base, noise)
+    eta = np.array([ETA_NOMINAL, ETA_NOMINAL + [10, -5, 20, 0.2, 0, -0.1, 0.01, 0, 0.02, 1.5, 0.5]])
+    grav = np.array([True, False])
+    weights = objective.weights(eta, grav)
+    assert weights.shape == (2, objective.features.shape[1], 6)
+    p = axes_matrix(axes)
+    for n in range(2):
+        readings = sensor_readings(kin, eta_rotation(eta[n:n + 1]) @ base, eta[n, 3:6], eta[n, 6:9], eta[n, 9],
+                                   eta[n, 10], grav[n], noise)[0]
+        aligned = np.concatenate([readings[:, :3] @ p.T, readings[:, 3:] @ p.T], axis=1)
+        np.testing.assert_allclose(objective.features @ weights[n], aligned, atol=1e-9)
+        np.testing.assert_allclose(objective.mean_acc(eta, grav)[n], aligned[:, :3].mean(axis=0), atol=1e-9)
