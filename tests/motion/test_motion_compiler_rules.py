@@ -856,3 +856,19 @@ def test_a_primitive_whose_only_movement_is_held_holds():
                              ("wave", "raise the arms overhead and wave the hands", _ARMS), periodic=True))
     assert keys["up"] == []  # its placement is the start pose: nothing left to move
     assert keys["wave"]
+
+
+def test_a_press_from_the_shoulders_starts_there_and_comes_back_there():
+    data, keys = _compiled(_smp(
+        ("press", "extend both arms to press the dumbbells from the shoulders to overhead", _ARMS),
+        ("lower", "bend the elbows to lower the dumbbells back to shoulder height", _ARMS), periodic=True))
+    base = data["base_pose"]
+    for side in ("left", "right"):
+        assert base[f"{side}_shoulder_abd"] == pytest.approx(MOVEMENTS["shoulder_abduction"].pose["shoulder_abd"])
+        assert base[f"{side}_shoulder_rot"] == pytest.approx(MOVEMENTS["shoulder_external_rotation"].pose["shoulder_rot"])
+        assert base[f"{side}_elbow_flex"] == pytest.approx(MOVEMENTS["elbow_flexion"].pose["elbow_flex"])
+    (_, pressed), = keys["press"]
+    assert pressed["left_shoulder_abd"] == pytest.approx(
+        MOVEMENTS["shoulder_abduction_overhead"].pose["shoulder_abd"])
+    assert pressed["left_elbow_flex"] < 15.0
+    assert keys["lower"] == [(1.0, base)]

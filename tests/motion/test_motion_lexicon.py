@@ -408,3 +408,18 @@ def test_words_that_place_a_leg_bend_no_elbow(text, moves):
 def test_an_elbow_to_the_knee_and_a_leg_extended_forward(text, moves, leg):
     reading = read_primitive("x", text)
     assert reading.movements == moves and reading.leg_side == leg
+
+
+@pytest.mark.parametrize("text,moves,start", [
+    ("extend both arms to press the dumbbells from the shoulders to overhead",
+     ("elbow_extension", "shoulder_abduction_overhead"),
+     ("shoulder_abduction", "shoulder_external_rotation", "elbow_flexion")),  # the rack: elbows out, forearms up
+    ("raise the arms forward from the shoulders to overhead", ("shoulder_flexion_overhead",),
+     ("shoulder_flexion", "elbow_flexion")),
+    ("lower the bar from overhead to the chest", ("elbow_flexion",), ("shoulder_flexion_overhead",)),
+    ("raise the arms from the sides to overhead", ("shoulder_flexion_overhead",), ()),  # not a place it names
+    ("raise both arms overhead", ("shoulder_flexion_overhead",), ()),
+])
+def test_the_place_a_movement_starts_from(text, moves, start):
+    reading = read_primitive("x", text)
+    assert reading.movements == moves and reading.start == start

@@ -129,6 +129,9 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
     periodic = _periodic(smp, steps)
     if periodic:
         base = _apply(base, _held_through_cycle(steps, _cycle_span(steps)[1]), steps[0], smp, 0)
+    first = next((s for s in steps if s.action in ("go", "back")), None)
+    if first is not None and first.reading.start:  # "from the shoulders": the set starts there
+        base = _apply(base, [MOVEMENTS[m] for m in first.reading.start], first, smp, 0)
     gait = [s for s in steps if s.action == "gait"]
     for step in gait[:1]:
         base = pose_vector({k: v for m in step.movements if m.kind == "gait" for k, v in m.pose.items()}, base)

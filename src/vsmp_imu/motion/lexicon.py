@@ -144,6 +144,8 @@ HOLD_WORDS = re.compile(r"\b(hold|holds|holding|stay|stays|still|pause|pauses|re
 HELD_SPLIT = re.compile(r"\b(keeping|holding (the|both)|while (bent|seated|sitting|standing|lying|kneeling|bending))\b")
 # the other limbs of gait ("while the right arm swings forward"): realized by the gait waves
 OTHER_LIMB = re.compile(r"\bwhile the (left|right) (arm|leg|foot|hand)\b.*$")
+# the place a movement starts from ("press the dumbbells from the shoulders to overhead")
+FROM_PLACE = re.compile(r"\bfrom (?:the )?(shoulders?|chest|overhead|above the head|behind the head)\b")
 # a posture named by a holding primitive or the first one
 POSTURE_WORDS: tuple[tuple[str, str], ...] = (
     ("plank", r"\bplank\b|\bpush[- ]?up position|\bon the hands and toes"),
@@ -191,6 +193,7 @@ class Reading:
     direction: int  # +1 left, -1 right, 0 unnamed (turns, twists, side bends, sweeps)
     counter_clockwise: bool
     posture: str | None  # the posture its words name (sit, lie, stand...), for holds and the start
+    start: tuple[str, ...] = ()  # where the movement starts from ("press ... from the shoulders")
 
     def all_movements(self) -> tuple[str, ...]:
         return tuple(dict.fromkeys(self.movements + self.context))
@@ -247,7 +250,7 @@ def read_primitive(name: str, description: str = "") -> Reading:
     action, context_text = _held_split(text, len(normalize_text(name)))
     back = THERE_AND_BACK.search(action)
     outward = action[:back.start()] if back else action
-    action_moves = _ordered(outward)
+    action_moves = _ordered(FROM_PLACE.sub("", outward))  # where it starts from is not where it goes
     context = tuple(m for m in _ordered(context_text) if m not in action_moves
                     and MOVEMENTS[m].kind == "excursion")
     if GUARD_WORDS.search(text):
@@ -259,7 +262,7 @@ def read_primitive(name: str, description: str = "") -> Reading:
     hold = not action_moves and not returns
     arm_side, leg_side = _sides(action if action.strip(" .") else text)
     return Reading(action_moves, context, returns, there_back, hold, arm_side, leg_side,
-                   _direction(action), bool(_COUNTER.search(text)), _posture(text))
+                   _direction(action), bool(_COUNTER.search(text)), _posture(text), _start(outward, action_moves))
 
 
 def _held_split(text: str, name_len: int) -> tuple[str, str]:
@@ -292,6 +295,23 @@ def _ordered(text: str) -> tuple[str, ...]:
     if PLAIN_RAISE.search(text) and not any(MOVEMENTS[m].joint == "shoulder" for m in names):
         names.append("shoulder_flexion")  # an arm raised with no direction goes forward
     return tuple(names)
+
+
+def _start(action: str, moves: tuple[str, ...]) -> tuple[str, ...]:
+    """The placement a movement starts from: the hands at the shoulders or the chest, or overhead.
+    A press overhead from the shoulders starts with the upper arms raised halfway in its plane
+    and the elbows bent (the dumbbells at shoulder height)."""
+    hit = FROM_PLACE.search(action)
+    if not hit:
+        return ()
+    place = hit.group(1)
+    if place.startswith(("overhead", "above", "behind")):
+        return movements_in(place)
+    # the upper arms halfway up the press's plane (turned out, forearms upright, when it goes up the sides)
+    halfway = {"shoulder_abduction_overhead": ("shoulder_abduction", "shoulder_external_rotation"),
+               "shoulder_flexion_overhead": ("shoulder_flexion",)}
+    start = tuple(m for raised in moves for m in halfway.get(raised, ()))
+    return tuple(dict.fromkeys(start + movements_in(f"hands to the {place}")))
 
 
 def _outward_lowering(action: str, moves: tuple[str, ...]) -> bool:
