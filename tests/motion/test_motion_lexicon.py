@@ -423,3 +423,15 @@ def test_an_elbow_to_the_knee_and_a_leg_extended_forward(text, moves, leg):
 def test_the_place_a_movement_starts_from(text, moves, start):
     reading = read_primitive("x", text)
     assert reading.movements == moves and reading.start == start
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("slide the iron forward across the board", ("elbow_extension", "shoulder_flexion",
+                                                 "shoulder_horizontal_adduction")),
+    ("draw the iron back toward the body", ("elbow_flexion", "shoulder_extension")),
+    ("grasp the garment with both hands and lift it", ("elbow_flexion",)),
+    ("slide the foot forward", ()),  # a leg slid forward moves no arm
+    ("lift the leg", ("hip_flexion",)),
+])
+def test_objects_pushed_slid_pulled_and_lifted_by_the_hands(text, moves):
+    assert read_primitive("x", text).movements == moves

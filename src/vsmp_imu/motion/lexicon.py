@@ -71,12 +71,12 @@ RULES: tuple[tuple[str, str], ...] = (
      r"|\bflex\w* (the |both )?(left |right )?elbows?|\b(hands?|fists?|dumbbells?) (up )?to the shoulders?"
      r"|\bbeside the (left |right )?shoulders?|\bwith the elbows? bent|\bguard\b|\bpull\w* (it |them |the \w+ )?in\b|\bto the chest|\bover the chest"
      r"|\bbehind the head|\bbeside the head|\bin front of the (chest|chin|face)|\bpull\w* " + _NOT_LEGS + _ANY + r"\bup\b"
-     r"|\brow\b|\brow(s|ing)\b|\bsteer\w*|\bwheel\b"
+     r"|\brow\b|\brow(s|ing)\b|\bsteer\w*|\bwheel\b|\blift\w* (it|them)\b|\btoward the body"
      r"|\b(drink\w*|sip\w*|eat|eats|eating|bite)\b|\bto the (mouth|lips|face)\b|\bbrush\w* the teeth"
      r"|\b(comb|brush)\w* (the )?hair", "elbow_flexion"),  # daily living: the hand to the mouth or head
     (r"\bstraighten\w* (the |both |each )?(left |right )?(elbows?|arms?)|\bextend\w* (the |both |each |one )?"
      r"(left |right )?(elbows?|arms?|fists?|hands?)|\bpunch\w*|\bjab\w*|\bthrust\w*|\bpush\w* (forward|up|away|out)"
-     r"|\barms? (straight|extended)|\bat full reach|\bwhip\w*|\bthrow\w*|\brelease|\bdribbl\w*"
+     r"|\barms? (straight|extended)|\bat full reach|\bslid\w* " + _NOT_LEGS + _ANY + r"\b(forward|away)\b|\bwhip\w*|\bthrow\w*|\brelease|\bdribbl\w*"
      r"|\bbounc\w* (the |a )?(basket)?ball", "elbow_extension"),
     (r"\bpunch\w*|\bjab\w*|\bstraight forward|\bwhip\w*|\bthrow\w*|\bwheel\b|\bsteer\w*|\b(rais|lift|reach|extend|hold|bring|push|swing|slide)\w* "
      + _NOT_LEGS + _ANY + r"\b(forward|in front|to the front)\b|\bfront raise|\bat chest height|\bchest height"
