@@ -41,28 +41,18 @@ def _smp_file(source: str | None) -> Path | None:
     return path if path.suffix.lower() in (".json", ".yaml", ".yml") or path.exists() else None
 
 
-def _with_activity_file(source: str | None, library):
-    """The library, plus the activity `source` names when it is an activity file (so that its
-    `procedural:` recipe, if any, performs it)."""
-    from vsmp_imu.io import read_structured
-    from vsmp_imu.smp.io import is_activity_file
-    from vsmp_imu.smp.library import ActivityLibrary, load_entry
-
-    path = _smp_file(source)
-    if path is None or not path.is_file() or not is_activity_file(read_structured(path)):
-        return library
-    return ActivityLibrary([*library, load_entry(path)])
-
-
 def _read_smp(source: str, library):
-    """An SMP from a file (an SMP or an activity file), or the library SMP of an activity name."""
-    from vsmp_imu.smp import load_smp
+    """(SMP, library): an SMP from a file, or the library SMP of an activity name. An activity file
+    joins the library, so that its `procedural:` recipe, if any, performs it."""
+    from vsmp_imu.smp.io import load_smp_or_activity
+    from vsmp_imu.smp.library import ActivityLibrary
 
     path = _smp_file(source)
     if path is not None:
-        return load_smp(path)
+        smp, entry = load_smp_or_activity(path)
+        return smp, (library if entry is None else ActivityLibrary([*library, entry]))
     try:
-        return library.get(source).smp
+        return library.get(source).smp, library
     except ValidationError as exc:
         raise ValidationError(f"'{source}' is neither an SMP file nor a library activity ({exc.message})",
                               field="SMP", allowed="an .json/.yaml SMP file or an activity name "
@@ -99,7 +89,7 @@ def synth_cmd(
 
     if smp is None and prompt is None:
         raise ConfigError("give an SMP (file or activity name) or --prompt", field="SMP")
-    lib = _with_activity_file(smp if prompt is None else None, _library(library))
+    source, lib = (prompt, _library(library)) if prompt is not None else _read_smp(smp, _library(library))
     name = backend.strip().lower()
     kwargs = {"library": lib}
     if name in ("procedural", "compiled"):
@@ -107,7 +97,6 @@ def synth_cmd(
     elif model_path is not None:
         kwargs["model_path"] = model_path
     engine = get_backend(backend, **kwargs)
-    source = prompt if prompt is not None else _read_smp(smp, lib)
     smp_file = _smp_file(smp) if prompt is None else None
     with console.status(f"[bold]synthesizing[/] with {engine.name} (seed {seed})..."), naming(smp_file):
         motion = engine.generate(source, seed=seed, duration_s=duration_s)

@@ -25,12 +25,19 @@ def is_activity_file(data: object) -> bool:
 def load_smp(path: str | Path) -> SMP:
     """Read an SMP from a .json, .yaml or .yml file: an SMP, or an activity file (its `smp`, the whole
     file validated as the library validates it)."""
+    return load_smp_or_activity(path)[0]
+
+
+def load_smp_or_activity(path: str | Path):
+    """(SMP, the activity file's library entry or None for a plain SMP file), the file read once."""
     data = read_structured(path)
     if is_activity_file(data):
-        from vsmp_imu.smp.library import load_entry  # the library reads SMPs through this module
+        # imported here: the library reads SMPs through this module
+        from vsmp_imu.smp.library import entry_from_data
 
-        return load_entry(path).smp
-    return smp_from_dict(data, path)
+        entry = entry_from_data(data, path)
+        return entry.smp, entry
+    return smp_from_dict(data, path), None
 
 
 def save_smp(smp: SMP, path: str | Path) -> Path:

@@ -138,8 +138,12 @@ def _deep_copy(value: Any) -> Any:
 
 def load_entry(path: str | Path) -> LibraryEntry:
     """Read and validate one library file; errors name the file and the field."""
+    return entry_from_data(read_structured(path), path)
+
+
+def entry_from_data(data: object, path: str | Path) -> LibraryEntry:
+    """Validate the parsed content of the library file `path`."""
     path = Path(path)
-    data = read_structured(path)
     if not isinstance(data, dict):
         raise ValidationError("a library file must be a mapping with keys name, aliases, "
                               "datasets, captions, smp", file=path)
