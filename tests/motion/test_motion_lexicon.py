@@ -392,7 +392,7 @@ def test_a_hand_beside_the_head_or_shoulder(text, moves):
     ("leg curl", ()),  # a curl of the leg bends no elbow
     ("hug the knees to the chest", ("elbow_flexion", "shoulder_horizontal_adduction", "hip_flexion")),
     ("sit with the legs crossed and drink from the cup", ("elbow_flexion",)),
-    ("bring the hands to the chest", ("elbow_flexion",)),
+    ("bring the hands to the chest", ("hands_at_chest",)),
 ])
 def test_words_that_place_a_leg_bend_no_elbow(text, moves):
     assert read_primitive("x", text).movements == moves
@@ -412,8 +412,7 @@ def test_an_elbow_to_the_knee_and_a_leg_extended_forward(text, moves, leg):
 
 @pytest.mark.parametrize("text,moves,start", [
     ("extend both arms to press the dumbbells from the shoulders to overhead",
-     ("elbow_extension", "shoulder_abduction_overhead"),
-     ("shoulder_abduction", "shoulder_external_rotation", "elbow_flexion")),  # the rack: elbows out, forearms up
+     ("elbow_extension", "shoulder_abduction_overhead"), ("press_rack",)),  # elbows out, forearms up
     ("raise the arms forward from the shoulders to overhead", ("shoulder_flexion_overhead",),
      ("shoulder_flexion", "elbow_flexion")),
     ("lower the bar from overhead to the chest", ("elbow_flexion",), ("shoulder_flexion_overhead",)),
@@ -435,3 +434,23 @@ def test_the_place_a_movement_starts_from(text, moves, start):
 ])
 def test_objects_pushed_slid_pulled_and_lifted_by_the_hands(text, moves):
     assert read_primitive("x", text).movements == moves
+
+
+@pytest.mark.parametrize("text,moves", [
+    ("stand upright and place the hands on the hips", ("trunk_upright", "hands_on_hips")),
+    ("bring the hands together in front of the chest", ("hands_at_chest",)),
+    ("bring both hands up to the chest", ("hands_at_chest",)),
+    ("clasp the hands", ("hands_at_chest",)),
+    ("bring both palms together in front of the chest", ("elbow_flexion", "shoulder_flexion",
+                                                         "shoulder_horizontal_adduction")),  # a clap
+    ("lie on the back with the arms crossed over the chest", ("lie_down", "arms_crossed")),
+    ("raise both forearms and cross them over the chest", ("arms_crossed",)),
+    ("face down on the hands and toes", ("plank",)),  # a plank, not lying prone
+])
+def test_hand_placements_and_the_plank(text, moves):
+    assert read_primitive("x", text).movements == moves
+
+
+def test_a_press_from_the_shoulders_up_the_sides_starts_from_the_rack():
+    reading = read_primitive("x", "press the dumbbells from the shoulders to overhead")
+    assert reading.movements == ("shoulder_abduction_overhead",) and reading.start == ("press_rack",)

@@ -160,6 +160,19 @@ MOVEMENTS: dict[str, Movement] = {m.name: m for m in (
     # elbow, forearm, wrist
     _m("elbow_flexion", "elbow", "sagittal", {"elbow_flex": rom("elbow", "flexion", 0.85)}),
     _m("elbow_extension", "elbow", "sagittal", {"elbow_flex": 5}),
+    # the elbows bent in a plank: the hands stay on the floor, so the body lowers (a push-up)
+    _m("push_up_lower", "elbow", "sagittal", {"elbow_flex": 92, "shoulder_flex": 18, "shoulder_abd": 50,
+                                               "root_pitch": 82, "root_dz": 0.03}),
+    # placements of the hands that exercises hold (values as the library's recipes set them)
+    _m("hands_on_hips", "shoulder", "frontal", {"shoulder_abd": 38, "shoulder_flex": -8, "shoulder_rot": 35,
+                                                "elbow_flex": 95, "wrist_rot": 40, "wrist_flex": -20}),
+    _m("hands_at_chest", "elbow", "sagittal", {"elbow_flex": 100, "shoulder_flex": 30, "shoulder_abd": 16,
+                                               "shoulder_horiz": 32, "wrist_rot": 40}),
+    _m("arms_crossed", "shoulder", "transverse", {"shoulder_horiz": 55, "shoulder_flex": 45, "shoulder_abd": 12,
+                                                  "shoulder_rot": 30, "elbow_flex": 105, "wrist_rot": 20}),
+    # dumbbells at the shoulders before a press overhead: upper arms out and turned out, forearms upright
+    _m("press_rack", "shoulder", "frontal", {"shoulder_abd": 82, "shoulder_flex": 15, "shoulder_rot": -80,
+                                             "elbow_flex": 95, "wrist_rot": 70}),
     # boxing guard: fists before the chin (a held posture of punches)
     _m("guard", "elbow", "sagittal", {"elbow_flex": 115, "shoulder_flex": 35, "wrist_rot": 45}),
     _m("forearm_pronation", "forearm", "transverse", {"wrist_rot": rom("forearm", "pronation", 0.85)}),

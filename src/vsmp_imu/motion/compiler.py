@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,13 +41,15 @@ import numpy as np
 from vsmp_imu.motion.anatomy import MOVEMENTS, PLANK_POSE, SEAT_SHIFT_M, Movement
 from vsmp_imu.motion.dofs import (
     BUILTIN_POSES,
+    CENTER_DOFS,
     DOF_INDEX,
     DOF_NAMES,
     N_DOFS,
+    SIDE_COLUMNS,
     SIDE_DOFS,
     pose_vector,
 )
-from vsmp_imu.motion.lexicon import Reading, read_primitive
+from vsmp_imu.motion.lexicon import Reading, normalize_text, read_primitive
 from vsmp_imu.motion.recipe import Recipe, parse_recipe
 from vsmp_imu.smp._text import norm_name
 from vsmp_imu.smp.bodyparts import normalize_body_part, side_of
@@ -65,12 +68,16 @@ PRINCIPAL_MIN_DEG = 15.0
 # frame plausibility limit at 30 fps.
 MAX_MEAN_DEG_S = 200.0
 _ARM_PARTS = ("upper_arm", "forearm", "hand", "shoulder")
+_ARM_STEMS = ("shoulder_abd", "shoulder_flex", "shoulder_horiz", "shoulder_rot", "elbow_flex", "wrist_rot", "wrist_flex")
+WEIGHT_WORDS = ("dumbbell", "kettlebell", "barbell", "weight", "plate")
+_ON_THE_LAP = re.compile(r"\bon the (thighs?|knees?|lap)\b|\bin the lap\b")
 _LEG_PARTS = ("thigh", "lower_leg", "foot")
 # the pelvis path of a walking gait (recipe `pelvis`), as the library's walking and stairs set it;
 # running keeps the path its feet imply (its pelvis is lowest at mid-stance)
 STAIRS_PELVIS = {"rise_m": 0.07, "speed_fluctuation": 0.5}
 WALKING_PELVIS = {"walk": {}, "stairs_up": STAIRS_PELVIS, "stairs_down": STAIRS_PELVIS}
 _POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
+_CHAIN_CENTRE = [DOF_INDEX[name] for name in CENTER_DOFS]  # the trunk and root move every limb
 _CM = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)  # root travel: a centimetre counts as a degree
 
 
@@ -119,6 +126,8 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
     steps = _steps(smp)
     posture = _start_posture(smp, steps)
     base = _posture_vector(posture, 0.0)
+    if posture == "sitting" and _weights_hang(smp):  # dumbbells hang at the sides, not in the lap
+        base = pose_vector({stem: BUILTIN_POSES["standing"].get(stem, 0.0) for stem in _ARM_STEMS}, base)
     for step in steps:
         for m in step.reading.context:
             base = _apply(base, [MOVEMENTS[m]], step, smp, 0)
@@ -288,6 +297,14 @@ def _start_posture(smp: SMP, steps: list[Step]) -> str:
     return "standing"
 
 
+def _weights_hang(smp: SMP) -> bool:
+    """The SMP's objects or required contacts name a hand weight, and no primitive rests the
+    forearms or hands on the thighs, the knees or in the lap (a seated wrist curl)."""
+    held = " ".join(smp.object_contact.objects + smp.object_contact.required_contact).lower()
+    resting = any(_ON_THE_LAP.search(normalize_text(p.description)) for p in smp.motion_primitives)
+    return any(w in held for w in WEIGHT_WORDS) and not resting
+
+
 def _periodic(smp: SMP, steps: list[Step]) -> bool:
     ts = smp.temporal_structure
     count = smp.repetition_count()
@@ -419,12 +436,16 @@ def _reset(current: np.ndarray, moves: list[Movement], base: np.ndarray) -> np.n
 def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycle: list[int]) -> None:
     current, stack, root_dz = base.copy(), [], 0.0
     cycle_start = None
+    arms = np.array([DOF_INDEX[f"{side}_{stem}"] for side in ("left", "right") for stem in _ARM_STEMS])
+    placed = arms[np.abs(base - _posture_vector(posture, 0.0))[arms] > CHANGE_DEG]
     for i, step in enumerate(steps):
         if cycle and i == cycle[0]:
             cycle_start = current.copy()
         before = current.copy()
         step.start = before
         moves = [m for m in step.movements if m.kind not in ("gait",)]
+        if posture == "plank":  # the hands are planted: bending the elbows lowers the body
+            moves = [MOVEMENTS["push_up_lower"] if m.name == "elbow_flexion" else m for m in moves]
         hint = _twist_hint(current, smp)
         post = next((m for m in moves if m.kind == "posture"), None)
         if post is not None and post.posture == posture:
@@ -447,7 +468,9 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         elif post is not None:
             root_dz = _posture_shift(posture, post.posture, root_dz)
             upper = [m for m in moves if m.kind == "excursion" and m.limb != "leg"]  # the legs follow the posture
-            target = _apply(_posture_vector(post.posture, root_dz), upper, step, smp, hint)
+            target = _posture_vector(post.posture, root_dz)
+            target[placed] = before[placed]  # arms placed from the start (crossed, on the hips) stay placed
+            target = _apply(target, upper, step, smp, hint)
             via = _via(posture, post.posture, before, step, smp, root_dz)
             step.keys = ([(0.5, via, "smooth")] if via is not None else []) + [(1.0, target, "stop")]
             posture = post.posture or posture
@@ -487,10 +510,10 @@ def _shape(step: Step, moves: list[Movement], before: np.ndarray, target: np.nda
 
 
 def _hop(before: np.ndarray, target: np.ndarray) -> list[tuple[float, np.ndarray, str]]:
-    crouch = 0.7 * before + 0.3 * target  # the limbs move through the whole hop
+    crouch = 0.7 * before + 0.3 * target  # the limbs move through the whole hop, at an even pace
     for stem, extra in HOP_CROUCH.items():
         crouch[[DOF_INDEX[f"left_{stem}"], DOF_INDEX[f"right_{stem}"]]] += extra
-    air = 0.2 * before + 0.8 * target
+    air = 0.4 * before + 0.6 * target
     air[DOF_INDEX["root_dy"]] += MOVEMENTS["jump"].pose["root_dy"]
     air[[DOF_INDEX["left_ankle_flex"], DOF_INDEX["right_ankle_flex"]]] -= 25.0
     return [(0.3, crouch, "stop"), (0.6, air, "smooth"), (1.0, target, "stop")] if not np.allclose(
@@ -576,13 +599,16 @@ def _durations(steps: list[Step], smp: SMP) -> None:
 
 
 def _slowest(step: Step) -> float:
-    """Shortest duration keeping the mean DOF speed (all DOFs together) between keys under MAX_MEAN_DEG_S."""
+    """Shortest duration keeping the mean DOF speed between keys under MAX_MEAN_DEG_S, for each limb
+    with the trunk and root that carry it (a limb's DOFs and the centre's add up; the two arms or
+    the two legs moving together do not speed up either hand or foot)."""
     if step.start is None or not step.keys:
         return 0.0
     need, prev_at, prev = 0.0, 0.0, step.start
     for at, vec, _ in step.keys:
-        change = float(np.linalg.norm((vec - prev) * _CM))  # DOFs moving together add up
-        need = max(need, change / MAX_MEAN_DEG_S / max(at - prev_at, 1e-3))
+        change = (vec - prev) * _CM
+        limb = max(float(np.linalg.norm(change[_CHAIN_CENTRE + list(cols)])) for cols in SIDE_COLUMNS.values())
+        need = max(need, limb / MAX_MEAN_DEG_S / max(at - prev_at, 1e-3))
         prev_at, prev = at, vec
     return need
 

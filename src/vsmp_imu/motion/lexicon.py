@@ -74,6 +74,10 @@ RULES: tuple[tuple[str, str], ...] = (
      r"|\brow\b|\brow(s|ing)\b|\bsteer\w*|\bwheel\b|\blift\w* (it|them)\b|\btoward the body"
      r"|\b(drink\w*|sip\w*|eat|eats|eating|bite)\b|\bto the (mouth|lips|face)\b|\bbrush\w* the teeth"
      r"|\b(comb|brush)\w* (the )?hair", "elbow_flexion"),  # daily living: the hand to the mouth or head
+    (r"\bhands? on (the |his |her )?hips\b|\bakimbo\b", "hands_on_hips"),
+    # held at the chest ("bring both palms together in front of the chest" is a clap, not a hold)
+    (r"\bclasp\w* (the |both )?hands|\bhands? (clasped |together )(in front of|at) the chest\b"
+     r"|\b(hands?|fists?) (up )?(to|at) the chest\b", "hands_at_chest"),
     (r"\bstraighten\w* (the |both |each )?(left |right )?(elbows?|arms?)|\bextend\w* (the |both |each |one )?"
      r"(left |right )?(elbows?|arms?|fists?|hands?)|\bpunch\w*|\bjab\w*|\bthrust\w*|\bpush\w* (forward|up|away|out)"
      r"|\barms? (straight|extended)|\bat full reach|\bslid\w* " + _NOT_LEGS + _ANY + r"\b(forward|away)\b|\bwhip\w*|\bthrow\w*|\brelease|\bdribbl\w*"
@@ -92,7 +96,9 @@ RULES: tuple[tuple[str, str], ...] = (
      r"|\blateral raise|\bspread\w* (the |both )?arms|\bout to the (left|right)"
      r"|\babduct\w*|\barms? (out|wide)\b|\b(rais|lift)\w* (the |both )?(left |right )?arms? out"
      r"|\b(comb|brush)\w* (the )?hair", "shoulder_abduction"),
-    (r"\bacross (the|his|her) (body|chest)|\bcross\w* (them|the arms|both arms|the forearms)|\bhug\w*"
+    (r"\barms? (crossed|folded)\b|\b(cross|fold)\w* (them|the arms|both arms|the forearms)( over the chest)?\b",
+     "arms_crossed"),
+    (r"\bacross (the|his|her) (body|chest)|\bhug\w*"
      r"|\bswing\w* " + _ANY + r"\bto the left|\bsweep\w* " + _ANY + r"\b(across|inward|to the left)"
      r"|\bbring the hands together|\bhands together|\bpalms together|\bclap\w*|\bfly\b|\bflyes?\b"
      r"|\bforehand|\bacross\b|\b(draw|move|slide|trace|swipe)\w* " + _ANY + r"\bto the left", "shoulder_horizontal_adduction"),
@@ -219,15 +225,20 @@ def _prune(found: list[str]) -> tuple[str, ...]:
     if any(m in out for m in ("run", "stairs_up", "stairs_down")):
         out = [m for m in out if m != "walk"]
     out = _overhead(out)
+    if any(m in out for m in _PLACEMENTS):  # the hands' placement sets the arm: no other arm reach
+        out = [m for m in out if m in _PLACEMENTS or m not in _REACHES]
     posture = [m for m in out if MOVEMENTS[m].kind == "posture"]
     if posture:
         # a change of support includes its own trunk and leg movements
         out = [m for m in out if m not in ("trunk_flexion", "trunk_extension", "knee_bend", "trunk_upright")]
-        out = [m for m in out if MOVEMENTS[m].kind != "posture" or m == posture[-1]]
+        keep = "plank" if "plank" in posture else posture[-1]  # face down on the hands and toes: a plank
+        out = [m for m in out if MOVEMENTS[m].kind != "posture" or m == keep]
     return tuple(out)
 
 
 _OVERHEAD = ("shoulder_flexion_overhead", "shoulder_abduction_overhead")
+_PLACEMENTS = ("hands_on_hips", "hands_at_chest", "arms_crossed")
+_REACHES = ("elbow_flexion", "shoulder_flexion", "shoulder_abduction", "shoulder_horizontal_adduction")
 
 
 def _overhead(out: list[str]) -> list[str]:
@@ -307,11 +318,11 @@ def _start(action: str, moves: tuple[str, ...]) -> tuple[str, ...]:
     place = hit.group(1)
     if place.startswith(("overhead", "above", "behind")):
         return movements_in(place)
-    # the upper arms halfway up the press's plane (turned out, forearms upright, when it goes up the sides)
-    halfway = {"shoulder_abduction_overhead": ("shoulder_abduction", "shoulder_external_rotation"),
-               "shoulder_flexion_overhead": ("shoulder_flexion",)}
-    start = tuple(m for raised in moves for m in halfway.get(raised, ()))
-    return tuple(dict.fromkeys(start + movements_in(f"hands to the {place}")))
+    # the upper arms halfway up the press's plane (the rack, when it goes up the sides)
+    halfway = {"shoulder_abduction_overhead": ("press_rack",),
+               "shoulder_flexion_overhead": ("shoulder_flexion", "elbow_flexion")}
+    start = tuple(dict.fromkeys(m for raised in moves for m in halfway.get(raised, ())))
+    return start or movements_in(f"hands to the {place}")
 
 
 def _outward_lowering(action: str, moves: tuple[str, ...]) -> bool:
