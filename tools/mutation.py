@@ -4,6 +4,7 @@
     python tools/mutation.py resume GROUP      # go on with a stopped run
     python tools/mutation.py rerun GROUP       # re-test the survivors after adding tests
     python tools/mutation.py collect GROUP     # write the record of a finished (or stopped) run
+    python tools/mutation.py pin [GROUP ...]   # store the diff each argued survivor has now in excluded.json
     python tools/mutation.py report            # rebuild docs/mutation-report.md from the records
 
 `run` copies src/ and tests/ into build/mutation/GROUP/, writes a pyproject.toml
@@ -12,6 +13,11 @@ the group's tests, runs `mutmut run` with one worker, and writes the per-mutant
 outcome to docs/mutation/GROUP.json (the committed record). `report` turns the
 records into the markdown summary, with the mutants excluded in
 docs/mutation/excluded.json (equivalent, import-time or layout, argued there) counted apart.
+
+mutmut numbers a function's mutants in order, so editing a function renumbers them and a rule's
+mutant name can come to mean another mutant. A rule's `diffs` (written by `pin`, after checking
+that each argued mutant is the one its rule describes) holds the diff each name was argued for;
+a survivor whose diff differs is not excluded by that rule, and the report flags it.
 """
 
 from __future__ import annotations
@@ -155,7 +161,9 @@ def rerun(group: Group) -> dict:
     except those excluded.json argues equivalent or import-time."""
     where = BUILD / group.name
     rules = json.loads(EXCLUDED.read_text()) if EXCLUDED.exists() else []
-    survivors = [n for n, s in _outcomes(where).items() if s == "survived" and _exclusion(n, rules) is None]
+    survived = [n for n, s in _outcomes(where).items() if s == "survived"]
+    diffs = _diffs(where, survived)
+    survivors = [n for n in survived if _exclusion(n, rules, diffs[n]) is None]
     if survivors:
         shutil.rmtree(where / "tests")
         shutil.copytree(ROOT / "tests", where / "tests", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
@@ -216,9 +224,34 @@ def _diffs(where: Path, names: list[str]) -> dict[str, str]:
             for n, diff in json.loads(proc.stdout).items()}
 
 
-def _exclusion(name: str, rules: list[dict]) -> dict | None:
-    """The rule of docs/mutation/excluded.json that a surviving mutant falls under, if any."""
-    return next((r for r in rules if any(fnmatch.fnmatchcase(name, m) for m in r["mutants"])), None)
+def _exclusion(name: str, rules: list[dict], diff: str | None = None) -> dict | None:
+    """The rule of docs/mutation/excluded.json that a surviving mutant falls under, if any: its
+    name matches the rule, and its diff (when known) is the one the rule pinned for it, if any."""
+    return next((r for r in rules if any(fnmatch.fnmatchcase(name, m) for m in r["mutants"])
+                 and (diff is None or r.get("diffs", {}).get(name, diff) == diff)), None)
+
+
+def _stale(name: str, rules: list[dict], diff: str) -> bool:
+    """A survivor that a rule names but argued for another diff (its function was edited since)."""
+    return _exclusion(name, rules) is not None and _exclusion(name, rules, diff) is None
+
+
+def pin(groups: list[Group]) -> int:
+    """Store in excluded.json the current diff of every argued survivor of the groups' records that
+    has none yet; returns how many were pinned."""
+    rules = json.loads(EXCLUDED.read_text())
+    pinned = 0
+    for group in groups:
+        path = RECORDS / f"{group.name}.json"
+        if not path.exists():
+            continue
+        for name, diff in json.loads(path.read_text())["survivors"].items():
+            rule = _exclusion(name, rules, diff)
+            if rule is not None and rule["kind"] != "import-time" and name not in rule.get("diffs", {}):
+                rule.setdefault("diffs", {})[name] = diff
+                pinned += 1
+    EXCLUDED.write_text(json.dumps(rules, indent=1, ensure_ascii=False) + "\n")
+    return pinned
 
 
 def _counts(record: dict, rules: list[dict]) -> dict[str, int]:
@@ -227,7 +260,7 @@ def _counts(record: dict, rules: list[dict]) -> dict[str, int]:
         if status in ("killed", "timeout"):
             counts["killed"] += 1
         elif status == "survived":
-            rule = _exclusion(name, rules)
+            rule = _exclusion(name, rules, record["survivors"].get(name))
             counts[rule["kind"] if rule else "survived"] += 1
         else:
             rule = _exclusion(name, rules)
@@ -280,9 +313,14 @@ def _survivor_section(record: dict, rules: list[dict]) -> str:
     by_rule: dict[int, list[str]] = collections.defaultdict(list)
     plain = []
     for name in sorted(record["survivors"]) + import_time:
-        rule = _exclusion(name, rules)
+        rule = _exclusion(name, rules, record["survivors"].get(name))
         (by_rule[id(rule)] if rule else plain).append(name)
-    lines += [f"### Survived ({len(plain)})", ""] + _diff_lines(record, plain)
+    stale = [n for n in plain if _stale(n, rules, record["survivors"][n])]
+    lines += [f"### Survived ({len(plain)})", ""]
+    if stale:
+        lines += ["Argued in excluded.json for another diff (the function changed since; re-argue or "
+                  "test): " + ", ".join(f"`{n.rsplit('.', 1)[-1]}`" for n in stale) + ".", ""]
+    lines += _diff_lines(record, plain)
     for rule in rules:
         names = by_rule.get(id(rule), [])
         if names:
@@ -303,12 +341,14 @@ def _diff_lines(record: dict, names: list[str]) -> list[str]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("command", choices=("run", "resume", "rerun", "collect", "report"))
+    parser.add_argument("command", choices=("run", "resume", "rerun", "collect", "pin", "report"))
     parser.add_argument("groups", nargs="*", help="groups to run (default: all): "
                         + ", ".join(g.name for g in GROUPS))
     args = parser.parse_args()
     chosen = [g for g in GROUPS if not args.groups or g.name in args.groups]
-    if args.command != "report":
+    if args.command == "pin":
+        print(f"pinned {pin(chosen)} diffs in {EXCLUDED.relative_to(ROOT)}")
+    elif args.command != "report":
         for group in chosen:
             record = {"run": run, "resume": resume, "rerun": rerun, "collect": collect}[args.command](group)
             print(group.name, _counts(record, []), flush=True)

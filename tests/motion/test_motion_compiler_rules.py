@@ -924,3 +924,48 @@ def test_the_speed_limit_counts_each_limb_with_the_trunk_not_both_arms_together(
     twist = _moving(left_shoulder_abd=60.0, trunk_twist=80.0)
     twist.start = np.zeros(N_DOFS)
     assert compiler._slowest(twist) == pytest.approx(100.0 / compiler.MAX_MEAN_DEG_S)  # the trunk carries the arm
+
+
+def test_arms_that_alternate_are_not_held_and_a_held_arm_keeps_its_side():
+    alternating = _compiled(_smp(("left", "raise the left arm overhead", _ARMS),
+                                 ("right", "raise the right arm overhead", _ARMS), periodic=True))[0]
+    standing = compiler._pose_dict(compiler._posture_vector("standing", 0.0))
+    assert alternating["base_pose"] == standing
+    held = _compiled(_smp(_WAIT, ("bend", "bend the right elbow with the right arm overhead", _ARMS),
+                          ("straighten", "straighten the right elbow with the right arm overhead", _ARMS),
+                          periodic=True))[0]["base_pose"]
+    overhead = MOVEMENTS["shoulder_flexion_overhead"].pose["shoulder_flex"]
+    assert held["right_shoulder_flex"] == pytest.approx(overhead)
+    assert held["left_shoulder_flex"] == pytest.approx(standing["left_shoulder_flex"])  # the side its cycle names
+
+
+def test_arms_not_placed_take_the_new_postures_arms():
+    data, keys = _compiled(_smp(_WAIT, ("sit", "sit down on the chair", []), ("rise", "stand up", [])))
+    seated, up = keys["sit"][-1][1], keys["rise"][-1][1]
+    sitting, standing = (compiler.BUILTIN_POSES[p] for p in ("sitting", "standing"))
+    assert seated["left_elbow_flex"] == pytest.approx(sitting["elbow_flex"])  # the hands go to the lap
+    assert up["left_elbow_flex"] == pytest.approx(standing["elbow_flex"])  # and back to the sides
+
+
+def test_in_a_plank_only_elbow_flexion_becomes_the_push_up():
+    _, keys = _compiled(_smp(("plank", "hold a plank on the hands and toes", []),
+                             ("reach", "raise the right arm forward", _ARMS),
+                             ("back", "lower the right arm", _ARMS), periodic=True))
+    (_, reached), = keys["reach"]
+    assert reached["right_shoulder_flex"] == pytest.approx(MOVEMENTS["shoulder_flexion"].pose["shoulder_flex"])
+    assert reached["root_pitch"] == pytest.approx(compiler.PLANK_POSE["root_pitch"])  # the body stays up
+
+
+def test_an_out_and_back_primitive_starts_where_its_words_say():
+    data, _ = _compiled(_smp(("press", "press the dumbbells from the shoulders to overhead and back", _ARMS),
+                             periodic=True))
+    for stem, value in MOVEMENTS["press_rack"].pose.items():
+        assert data["base_pose"][f"left_{stem}"] == pytest.approx(value)
+
+
+def test_compiled_durations_are_kept_to_four_decimals(library):
+    for name in ("basketball_shoot", "lie_to_stand", "bicep_curls", "walking", "pushups"):
+        for p in compiler.compile_recipe_data(library.get(name).smp)["primitives"].values():
+            assert p["duration_s"] == round(p["duration_s"], 4)
+    data = compiler.compile_recipe_data(library.get("basketball_shoot").smp)
+    assert any(p["duration_s"] != round(p["duration_s"], 3) for p in data["primitives"].values())  # 4 in use

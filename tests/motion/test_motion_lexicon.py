@@ -416,6 +416,12 @@ def test_an_elbow_to_the_knee_and_a_leg_extended_forward(text, moves, leg):
     ("raise the arms forward from the shoulders to overhead", ("shoulder_flexion_overhead",),
      ("shoulder_flexion", "elbow_flexion")),
     ("lower the bar from overhead to the chest", ("elbow_flexion",), ("shoulder_flexion_overhead",)),
+    ("lower the bar from above the head", (), ("shoulder_flexion_overhead",)),
+    # behind the neck: from where the words say, not the rack of a press from the shoulders
+    ("press the barbell from behind the head to overhead", ("shoulder_abduction_overhead",),
+     ("elbow_flexion", "shoulder_flexion_overhead")),
+    ("press the bar from the chest", (), ("hands_at_chest",)),
+    ("lower the dumbbells from the shoulders", (), ("elbow_flexion",)),  # no press: the hands at the shoulders
     ("raise the arms from the sides to overhead", ("shoulder_flexion_overhead",), ()),  # not a place it names
     ("raise both arms overhead", ("shoulder_flexion_overhead",), ()),
 ])

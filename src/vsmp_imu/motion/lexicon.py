@@ -316,13 +316,12 @@ def _start(action: str, moves: tuple[str, ...]) -> tuple[str, ...]:
     if not hit:
         return ()
     place = hit.group(1)
-    if place.startswith(("overhead", "above", "behind")):
-        return movements_in(place)
-    # the upper arms halfway up the press's plane (the rack, when it goes up the sides)
+    # from the shoulders, a press starts with the upper arms halfway up its plane (the rack up the sides)
     halfway = {"shoulder_abduction_overhead": ("press_rack",),
                "shoulder_flexion_overhead": ("shoulder_flexion", "elbow_flexion")}
-    start = tuple(dict.fromkeys(m for raised in moves for m in halfway.get(raised, ())))
-    return start or movements_in(f"hands to the {place}")
+    rack = tuple(dict.fromkeys(m for raised in moves for m in halfway.get(raised, ()))) \
+        if place.startswith("shoulder") else ()
+    return rack or movements_in(f"hands to the {place}")
 
 
 def _outward_lowering(action: str, moves: tuple[str, ...]) -> bool:
