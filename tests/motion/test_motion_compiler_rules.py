@@ -896,8 +896,8 @@ def _sitting_smp(objects, description):
 def test_seated_dumbbells_hang_at_the_sides_unless_the_forearms_rest_on_the_thighs():
     standing = compiler.BUILTIN_POSES["standing"]
     hang = _compiled(_sitting_smp(["dumbbells"], "raise both arms out to the sides"))[0]["base_pose"]
-    assert hang["left_elbow_flex"] == pytest.approx(standing["elbow_flex"])
-    assert hang["left_shoulder_abd"] == pytest.approx(standing["shoulder_abd"])
+    for stem in ("elbow_flex", "shoulder_abd", "shoulder_flex", "shoulder_horiz", "wrist_flex"):
+        assert hang[f"left_{stem}"] == pytest.approx(standing.get(stem, 0.0))  # as standing, 0 where it sets none
     assert hang["left_knee_flex"] > 60.0  # still seated
     lap = compiler.BUILTIN_POSES["sitting"]["elbow_flex"]
     empty = _compiled(_sitting_smp([], "raise both arms out to the sides"))[0]["base_pose"]
@@ -945,6 +945,10 @@ def test_arms_not_placed_take_the_new_postures_arms():
     sitting, standing = (compiler.BUILTIN_POSES[p] for p in ("sitting", "standing"))
     assert seated["left_elbow_flex"] == pytest.approx(sitting["elbow_flex"])  # the hands go to the lap
     assert up["left_elbow_flex"] == pytest.approx(standing["elbow_flex"])  # and back to the sides
+    # starting seated: the lap is the posture's own arm pose, not a placement, so standing up leaves it
+    seated_start = _smp(("seated", "sit on the chair", []), ("rise", "stand up", []))
+    (_, up), = _compiled(seated_start)[1]["rise"][-1:]
+    assert up["left_elbow_flex"] == pytest.approx(standing["elbow_flex"])
 
 
 def test_in_a_plank_only_elbow_flexion_becomes_the_push_up():

@@ -136,9 +136,11 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
                              if MOVEMENTS[m].kind == "excursion"], steps[0], smp, 0)
         steps[0].action = "hold"
     periodic = _periodic(smp, steps)
-    if periodic:  # the held placement on the sides and in the direction its cycle's primitives name
+    if periodic:
         cycle = _cycle_span(steps)[1]
-        base = _apply(base, _held_through_cycle(steps, cycle), steps[cycle[0]] if cycle else steps[0], smp, 0)
+        held = _held_through_cycle(steps, cycle)  # none unless the cycle has two primitives or more
+        if held:  # on the sides and in the direction its cycle's primitives name
+            base = _apply(base, held, steps[cycle[0]], smp, 0)
     first = next((s for s in steps if s.action in ("go", "back")), None)
     if first is not None and first.reading.start:  # "from the shoulders": the set starts there
         base = _apply(base, [MOVEMENTS[m] for m in first.reading.start], first, smp, 0)
