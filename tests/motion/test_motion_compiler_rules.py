@@ -947,7 +947,10 @@ def test_arms_not_placed_take_the_new_postures_arms():
     assert up["left_elbow_flex"] == pytest.approx(standing["elbow_flex"])  # and back to the sides
     # starting seated: the lap is the posture's own arm pose, not a placement, so standing up leaves it
     seated_start = _smp(("seated", "sit on the chair", []), ("rise", "stand up", []))
-    (_, up), = _compiled(seated_start)[1]["rise"][-1:]
+    seated_start.object_contact.objects, seated_start.object_contact.required_contact = [], []  # hands free
+    data, keys = _compiled(seated_start)
+    assert data["base_pose"]["left_elbow_flex"] == pytest.approx(sitting["elbow_flex"])
+    (_, up), = keys["rise"][-1:]
     assert up["left_elbow_flex"] == pytest.approx(standing["elbow_flex"])
 
 
@@ -973,3 +976,15 @@ def test_compiled_durations_are_kept_to_four_decimals(library):
             assert p["duration_s"] == round(p["duration_s"], 4)
     data = compiler.compile_recipe_data(library.get("basketball_shoot").smp)
     assert any(p["duration_s"] != round(p["duration_s"], 3) for p in data["primitives"].values())  # 4 in use
+
+
+def test_a_placement_named_on_other_limbs_by_the_body_parts_is_not_held():
+    """No side in the words, but each primitive's body parts name another arm: they alternate."""
+    data, _ = _compiled(_smp(("one", "raise the arm overhead", ["left_upper_arm"]),
+                             ("other", "raise the arm overhead", ["right_upper_arm"]), periodic=True))
+    assert data["base_pose"] == compiler._pose_dict(compiler._posture_vector("standing", 0.0))
+    held = _compiled(_smp(("bend", "bend the elbow with the arm overhead", ["right_upper_arm", "right_forearm"]),
+                          ("straighten", "straighten the elbow with the arm overhead",
+                           ["right_upper_arm", "right_forearm"]), periodic=True))[0]["base_pose"]
+    assert held["right_shoulder_flex"] == pytest.approx(MOVEMENTS["shoulder_flexion_overhead"].pose["shoulder_flex"])
+    assert held["left_shoulder_flex"] == pytest.approx(0.0)

@@ -138,7 +138,7 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
     periodic = _periodic(smp, steps)
     if periodic:
         cycle = _cycle_span(steps)[1]
-        held = _held_through_cycle(steps, cycle)  # none unless the cycle has two primitives or more
+        held = _held_through_cycle(steps, cycle, smp)  # none unless the cycle has two primitives or more
         if held:  # on the sides and in the direction its cycle's primitives name
             base = _apply(base, held, steps[cycle[0]], smp, 0)
     first = next((s for s in steps if s.action in ("go", "back")), None)
@@ -219,17 +219,16 @@ def _steps(smp: SMP) -> list[Step]:
     return steps
 
 
-def _held_through_cycle(steps: list[Step], cycle: list[int]) -> list[Movement]:
-    """Excursions that every primitive of a repeated cycle names, on the same side and in the same
+def _held_through_cycle(steps: list[Step], cycle: list[int], smp: SMP) -> list[Movement]:
+    """Excursions that every primitive of a repeated cycle names, on the same limbs and in the same
     direction ("lower the dumbbell behind the head", "raise it back overhead"): the placement the
     set is performed in, held from the start, not reached and left on every repetition. They leave
     the cycle's primitives (a primitive left with no movement holds)."""
     if len(cycle) < 2:
         return []
 
-    def placed(step: Step) -> set[tuple[str, str | None, int]]:
-        r = step.reading
-        return {(m.name, r.leg_side if m.limb == "leg" else r.arm_side, r.direction)
+    def placed(step: Step) -> set[tuple[str, tuple[str, ...], int]]:
+        return {(m.name, _limb_sides(m, step, smp) if m.sided else (), step.reading.direction)
                 for m in step.movements if m.kind == "excursion"}
 
     common = {name for name, _, _ in set.intersection(*(placed(steps[i]) for i in cycle))}
