@@ -10,9 +10,11 @@ import numpy as np
 import pytest
 
 from vsmp_imu.motion import compiler
-from vsmp_imu.motion.anatomy import MOVEMENTS, SEAT_SHIFT_M
+from vsmp_imu.motion.anatomy import MOVEMENTS, SEAT_SHIFT_M, undoes
 from vsmp_imu.motion.dofs import DOF_INDEX, N_DOFS
-from vsmp_imu.motion.lexicon import Reading
+from vsmp_imu.motion.lexicon import PACE, Reading
+from vsmp_imu.motion.selfcheck import MAX_STEP_FRACTION
+from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M, SMPL22_JOINTS
 
 
 def _reading(**kw) -> Reading:
@@ -321,20 +323,48 @@ def test_turning_targets_take_the_words_side_then_the_hint_and_root_travel_adds_
         (_col("left_knee_flex"), 105.0), (_col("right_knee_flex"), 105.0)]
 
 
-def test_the_speed_limit_counts_each_limb_and_root_travel_in_centimetres():
+def _bone(joint: str) -> float:
+    return float(np.linalg.norm(compiler._BODY.offsets[SMPL22_JOINTS.index(joint)]))
+
+
+def _arc(radius: float, degrees: float) -> float:
+    """The path PATH_SAMPLES chords make along an arc (what `_joint_paths` measures of a hinge)."""
+    n = compiler.PATH_SAMPLES
+    return 2 * n * radius * math.sin(math.radians(degrees) / (2 * n))
+
+
+def test_the_speed_limit_times_the_fastest_joint_along_its_path():
     step = _step()
     step.start = np.zeros(N_DOFS)
     assert compiler._slowest(step) == 0.0  # no keys
     a = np.zeros(N_DOFS)
-    a[_col("left_elbow_flex")], a[_col("right_elbow_flex")] = 120.0, 160.0  # the faster arm: 160 degrees
+    a[_col("left_elbow_flex")], a[_col("right_elbow_flex")] = 90.0, 120.0  # the faster arm: 120 degrees
     b = a.copy()
-    b[_col("root_dz")] = 1.0  # one metre counts as 100
+    b[_col("root_dz")] = 1.0  # the whole body a metre forward
     step.keys = [(0.5, a, "stop"), (1.0, b, "stop")]
-    assert compiler._slowest(step) == pytest.approx(max(160.0 / 0.5, 100.0 / 0.5) / compiler.MAX_MEAN_DEG_S)
+    hand = _arc(_bone("right_wrist"), 120.0)
+    assert compiler._slowest(step) == pytest.approx(max(hand, 1.0) / 0.5 / compiler.MAX_MEAN_SPEED_M_S)
     step.keys = [(0.0, a, "stop")]  # a key at the start: the time step is floored, not zero
-    assert compiler._slowest(step) == pytest.approx(160.0 / 1e-3 / compiler.MAX_MEAN_DEG_S)
+    assert compiler._slowest(step) == pytest.approx(hand / 1e-3 / compiler.MAX_MEAN_SPEED_M_S, rel=1e-3)
     step.start = None
     assert compiler._slowest(step) == 0.0
+
+
+def test_the_speed_limit_is_the_quality_filters_step_limit_at_fast_tempo_and_large_amplitude():
+    peak = compiler.MAX_MEAN_SPEED_M_S * 1.875 * 1.5 * 1.4 / compiler.SPEED_SPARE  # minimum-jerk peak, fast, large
+    assert peak / 30.0 == pytest.approx(MAX_STEP_FRACTION * DEFAULT_HEIGHT_M)
+
+
+def test_a_joint_path_follows_the_arc_of_the_bones_a_rotation_carries():
+    start = np.zeros(N_DOFS)
+    elbow, shoulder = start.copy(), start.copy()
+    elbow[_col("left_elbow_flex")] = 90.0
+    shoulder[_col("left_shoulder_flex")] = 90.0
+    paths = compiler._joint_paths(np.stack([start, start, elbow, start, shoulder]))
+    assert paths[0] == paths[2] - paths[1] == 0.0  # no change, no path; back the same way
+    assert paths[1] == pytest.approx(_arc(_bone("left_wrist"), 90.0), rel=1e-3)  # the forearm swings
+    # the whole arm swings (nearly straight at rest: its reach a little under the two bones)
+    assert paths[3] == pytest.approx(_arc(_bone("left_wrist") + _bone("left_elbow"), 90.0), rel=5e-3)
 
 
 def test_durations_follow_the_action_and_the_movement():
@@ -613,7 +643,8 @@ def test_a_limb_movement_needs_that_limb_among_the_body_parts():
     steps = compiler._steps(_smp(("curl", "curl the dumbbell up", ["pelvis"])))
     assert steps[0].parts == ("pelvis",) and steps[0].movements == () and steps[0].action == "hold"
     steps = compiler._steps(_smp(("curl", "curl the dumbbell up", ["right_forearm", "right_hand"])))
-    assert steps[0].parts == ("right_forearm", "right_hand") and steps[0].movements == (curl,)
+    assert steps[0].parts == ("right_forearm", "right_hand") and steps[0].movements == (
+        curl, MOVEMENTS["forearm_supination"])  # a curl turns the palm up
 
 
 def test_a_primitive_holds_when_it_names_no_movement_and_goes_there_and_back_when_told():
@@ -724,13 +755,17 @@ def test_a_joint_scores_its_most_moved_dof():
     assert compiler._principal_joints({}, base, [step]) == ["left_shoulder", "spine3"]
 
 
-def test_root_travel_counts_a_centimetre_as_a_degree_in_the_speed_limit():
+def test_root_travel_moves_every_joint_as_far_in_the_speed_limit():
     step = _step()
     step.start = np.zeros(N_DOFS)
     low = np.zeros(N_DOFS)
     low[_col("root_dz")] = -0.5  # 50 cm, nothing else
     step.keys = [(1.0, low, "stop")]
-    assert compiler._slowest(step) == pytest.approx(50.0 / compiler.MAX_MEAN_DEG_S)
+    assert compiler._slowest(step) == pytest.approx(0.5 / compiler.MAX_MEAN_SPEED_M_S)
+    up = np.zeros(N_DOFS)
+    up[_col("root_dy")] = 0.09  # a hop's rise counts too
+    step.keys = [(1.0, up, "stop")]
+    assert compiler._slowest(step) == pytest.approx(0.09 / compiler.MAX_MEAN_SPEED_M_S)
 
 
 def test_a_jump_that_closes_a_cycle_hops_back_to_the_start():
@@ -791,7 +826,8 @@ def test_the_speed_limit_times_each_key_from_the_one_before():
     small[_col("left_elbow_flex")] = 10.0
     big[_col("left_elbow_flex")] = 110.0
     step.keys = [(0.5, small, "stop"), (0.6, big, "stop")]  # 100 degrees in a tenth of the time
-    assert compiler._slowest(step) == pytest.approx(100.0 / 0.1 / compiler.MAX_MEAN_DEG_S)
+    assert compiler._slowest(step) == pytest.approx(
+        _arc(_bone("left_wrist"), 100.0) / 0.1 / compiler.MAX_MEAN_SPEED_M_S, rel=1e-3)
 
 
 @pytest.mark.parametrize("text,pelvis,turns", [
@@ -918,12 +954,15 @@ def test_arms_placed_at_the_start_stay_placed_through_a_change_of_posture():
 
 
 def test_the_speed_limit_counts_each_limb_with_the_trunk_not_both_arms_together():
-    step = _moving(left_shoulder_abd=100.0, right_shoulder_abd=100.0)
-    step.start = np.zeros(N_DOFS)
-    assert compiler._slowest(step) == pytest.approx(100.0 / compiler.MAX_MEAN_DEG_S)
-    twist = _moving(left_shoulder_abd=60.0, trunk_twist=80.0)
-    twist.start = np.zeros(N_DOFS)
-    assert compiler._slowest(twist) == pytest.approx(100.0 / compiler.MAX_MEAN_DEG_S)  # the trunk carries the arm
+    one = _moving(left_shoulder_abd=100.0)
+    both = _moving(left_shoulder_abd=100.0, right_shoulder_abd=100.0)
+    one.start = both.start = np.zeros(N_DOFS)
+    arm = _arc(_bone("left_wrist") + _bone("left_elbow"), 100.0)
+    assert compiler._slowest(both) == pytest.approx(compiler._slowest(one), rel=1e-3)
+    assert compiler._slowest(one) == pytest.approx(arm / compiler.MAX_MEAN_SPEED_M_S, rel=5e-3)
+    raised, twist = _moving(left_shoulder_abd=60.0), _moving(left_shoulder_abd=60.0, trunk_twist=80.0)
+    raised.start = twist.start = np.zeros(N_DOFS)
+    assert compiler._slowest(twist) > 1.3 * compiler._slowest(raised)  # the trunk carries the arm
 
 
 def test_arms_that_alternate_are_not_held_and_a_held_arm_keeps_its_side():
@@ -988,3 +1027,48 @@ def test_a_placement_named_on_other_limbs_by_the_body_parts_is_not_held():
                            ["right_upper_arm", "right_forearm"]), periodic=True))[0]["base_pose"]
     assert held["right_shoulder_flex"] == pytest.approx(MOVEMENTS["shoulder_flexion_overhead"].pose["shoulder_flex"])
     assert held["left_shoulder_flex"] == pytest.approx(0.0)
+
+
+def test_a_primitive_of_antagonist_movements_undoes_the_one_before_and_the_set_up_leaves_the_cycle():
+    smp = _smp(("raise", "raise the right fist in front of the face with the elbow bent", []),
+               ("knock", "swing the fist forward so that the knuckles strike the door", []),
+               ("pull_back", "draw the fist back a little from the door", []),
+               ("lower", "lower the right arm to the side", []), periodic=True)
+    steps = compiler._steps(smp)
+    assert [s.action for s in steps] == ["go", "go", "go", "return"]
+    assert compiler._matches(steps) == {1: 2, 0: 3}
+    assert compiler._cycle_span(steps) == ([0], [1, 2], [3])
+    assert compiler.compile_recipe_data(smp)["cycle"]["primitives"] == ["knock", "pull_back"]
+    squat = _smp(("raise", "raise both arms straight forward", _ARMS), ("down", "squat down", []),
+                 ("up", "stand back up", []), ("lower", "lower the arms", _ARMS), periodic=True)
+    assert compiler.compile_recipe_data(squat)["cycle"]["primitives"] == ["down", "up"]
+    assert undoes(("squat",), ("stand_up",)) and undoes(("shoulder_extension",), ("shoulder_flexion",))
+    assert not undoes(("shoulder_flexion",), ("shoulder_flexion",)) and not undoes((), ("stand_up",))
+    assert not undoes(("elbow_flexion", "shoulder_flexion"), ("elbow_extension", "trunk_flexion"))
+
+
+def test_a_strike_is_as_fast_as_the_speed_limit_lets_it_and_quick_words_shorten_a_primitive():
+    smps = {k: _smp(("up", f"{k} the right arm straight forward", []), ("down", "lower the right arm", []))
+            for k in ("raise", "quickly raise", "slowly raise", "whip")}
+    d = {k: compiler.compile_recipe_data(s)["primitives"]["up"]["duration_s"] for k, s in smps.items()}
+    nominal = MOVEMENTS["shoulder_flexion"].nominal_s
+    assert d["raise"] == pytest.approx(nominal)
+    assert d["quickly raise"] == pytest.approx(nominal * PACE["quick"])
+    assert d["slowly raise"] == pytest.approx(nominal * PACE["slow"])
+    whip = compiler._steps(smps["whip"])
+    compiler._keyframes(whip, compiler._posture_vector("standing", 0.0), "standing", smps["whip"], [])
+    floor = compiler._slowest(whip[0])  # the whole arm a quarter turn: the limit binds the strike
+    assert nominal * PACE["ballistic"] < floor < nominal * PACE["quick"]
+    assert d["whip"] == pytest.approx(floor, abs=1e-4)  # durations are written to 4 decimals
+
+
+def test_stepping_in_place_compiles_to_a_gait_that_swings_the_arms_and_does_not_travel():
+    smp = _smp(("left_step", "lift the left knee and put the left foot back down in place while the right arm "
+                "swings forward", ["left_thigh"]),
+               ("right_step", "lift the right knee and put the right foot back down in place while the left arm "
+                "swings forward", ["right_thigh"]), periodic=True)
+    data = compiler.compile_recipe_data(smp)
+    assert data["locomotion"] == "none" and data["cycle"]["alternate"] is True
+    assert data["cycle"]["wave"]["shoulder_flex"] == [[0.25, -15], [0.75, 20]]  # the opposite arm forward
+    assert data["primitives"]["left_step"]["duration_s"] == MOVEMENTS["step_in_place"].nominal_s
+    assert "pelvis" not in data

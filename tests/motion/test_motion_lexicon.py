@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from vsmp_imu.motion import lexicon as lex
 from vsmp_imu.motion.anatomy import MOVEMENTS, ROM_DEG
 from vsmp_imu.motion.lexicon import movements_in, read_primitive
 from vsmp_imu.smp.library import ActivityLibrary
@@ -84,6 +85,50 @@ def test_legs_brought_together_or_apart_do_not_flex_the_hips(words):
 
 def test_hammer_curl_keeps_the_grip_neutral():
     assert "forearm_supination" not in read_primitive("curl_up", "hammer curl the kettlebells up").movements
+
+
+def test_a_curl_turns_the_palms_up_unless_the_label_names_a_hammer_curl():
+    curl = read_primitive("curl_up", "curl the dumbbells up to the shoulders")
+    assert curl.movements == ("elbow_flexion", "forearm_supination")
+    told = read_primitive("curl_up", "bend the elbows to curl the dumbbells up, turning the palms up")
+    assert told.movements.count("forearm_supination") == 1  # named once, read once
+    assert read_primitive("curl_up", "curl the kettlebell up", "hammer curl").movements == ("elbow_flexion",)
+    assert "forearm_supination" not in read_primitive("bend", "bend both elbows to raise the hands").movements
+
+
+@pytest.mark.parametrize(("description", "pace"), [
+    ("whip the right arm forward and extend the elbow to release the throw", lex.PACE["ballistic"]),
+    ("swing the bat forward through the hitting zone", lex.PACE["ballistic"]),
+    ("swing the fist forward so that the knuckles strike the door", lex.PACE["ballistic"]),
+    ("bring both palms together in a clap", lex.PACE["ballistic"]),
+    ("quickly lift the left knee", lex.PACE["quick"]),
+    ("slowly lower the dumbbells to the thighs", lex.PACE["slow"]),
+    ("raise both arms out to the sides", 1.0),
+    ("swing the right arm back behind the body", 1.0),  # a backswing winds up, it is not a strike
+])
+def test_strikes_and_tempo_words_set_the_pace_of_a_primitive(description, pace):
+    assert read_primitive("p", description).pace == pace
+
+
+@pytest.mark.parametrize(("description", "gait"), [
+    ("lift the left knee and put the left foot back down in place while the right arm swings forward", "step_in_place"),
+    ("quickly lift the right knee and put the right foot back down in place", "jog_in_place"),
+    ("jog on the spot", "jog_in_place"),
+    ("march in place", "step_in_place"),
+])
+def test_knee_lifts_and_steps_in_place_are_a_gait_that_does_not_travel(description, gait):
+    reading = read_primitive("step", description)
+    assert reading.movements == (gait,)
+    assert MOVEMENTS[gait].kind == "gait" and MOVEMENTS[gait].locomotion == "none"
+    assert read_primitive("lift", "lift the left knee").movements == ("hip_flexion",)  # not in place: a knee raise
+
+
+def test_lowering_the_guard_returns_and_the_bottom_of_a_circle_is_not_a_circle():
+    lower = read_primitive("lower_guard", "lower both arms to the sides")
+    assert lower.returns and lower.movements == ()
+    assert "guard" not in read_primitive("lower_guard", "lower both arms to the sides").context
+    raise_ = read_primitive("raise_hand", "raise the right arm forward to the bottom of the circle")
+    assert raise_.movements == ("shoulder_flexion",)
 
 
 def test_return_out_and_back_hold_and_sides():

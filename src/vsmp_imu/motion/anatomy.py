@@ -111,6 +111,25 @@ RUN_WAVES: dict[str, list[tuple[float, float]]] = {
     "trunk_twist": [(0.15, -5), (0.65, 5)],
     "root_yaw": [(0.15, 3), (0.65, -3)],
 }
+# Stepping in place: the left knee highest at a quarter cycle, the opposite arm forward (marching
+# lifts the thigh to about 45 degrees, knee about 70; a jog in place to about 50 / 95, elbows bent as
+# in running, with a short flight between footfalls).
+STEP_IN_PLACE_WAVES: dict[str, list[tuple[float, float]]] = {
+    "hip_flex": [(0.0, 3), (0.25, 45), (0.5, 3), (0.75, 0)],
+    "knee_flex": [(0.0, 5), (0.25, 70), (0.5, 5), (0.75, 3)],
+    "ankle_flex": [(0.0, 0), (0.25, -15), (0.5, 0), (0.75, 0)],
+    "shoulder_flex": [(0.25, -15), (0.75, 20)],
+    "elbow_flex": [(0.25, 25), (0.75, 15)],
+}
+JOG_IN_PLACE_WAVES: dict[str, list[tuple[float, float]]] = {
+    "hip_flex": [(0.0, 8), (0.25, 50), (0.5, 8), (0.75, -5)],
+    "knee_flex": [(0.0, 25), (0.25, 95), (0.5, 25), (0.75, 15)],
+    "ankle_flex": [(0.0, -10), (0.25, -25), (0.5, -10), (0.75, -5)],
+    "shoulder_flex": [(0.25, -20), (0.75, 30)],
+    "elbow_flex": [(0.25, 95), (0.75, 80)],
+    "trunk_flex": [(0.0, 6), (0.25, 8), (0.5, 6), (0.75, 8)],
+    "root_dy": [(0.0, 0.0), (0.25, 0.04), (0.5, 0.0), (0.75, 0.04)],
+}
 STAIRS_UP_WAVES: dict[str, list[tuple[float, float]]] = {
     "hip_flex": [(0.25, 6), (0.4, 18), (0.6, 56), (0.75, 52), (0.95, 34)],
     "knee_flex": [(0.25, 8), (0.45, 92), (0.65, 70), (0.75, 58), (0.95, 38)],
@@ -219,6 +238,10 @@ MOVEMENTS: dict[str, Movement] = {m.name: m for m in (
        waves=WALK_WAVES, nominal_s=0.53),
     _m("run", "hip", "sagittal", {"trunk_flex": 8, "elbow_flex": 85, "hip_flex": 16, "knee_flex": 55},
        sided=False, kind="gait", limb="leg", locomotion="forward", waves=RUN_WAVES, nominal_s=0.4),
+    _m("step_in_place", "hip", "sagittal", {}, sided=False, kind="gait", limb="leg", waves=STEP_IN_PLACE_WAVES,
+       nominal_s=0.55),
+    _m("jog_in_place", "hip", "sagittal", {"trunk_flex": 6, "elbow_flex": 85}, sided=False, kind="gait",
+       limb="leg", waves=JOG_IN_PLACE_WAVES, nominal_s=0.36),
     _m("stairs_up", "hip", "sagittal", {"trunk_flex": 8}, sided=False, kind="gait", limb="leg",
        locomotion="stairs_up", waves=STAIRS_UP_WAVES, nominal_s=0.6),
     _m("stairs_down", "knee", "sagittal", {}, sided=False, kind="gait", limb="leg",
@@ -263,3 +286,23 @@ DOF_SKELETON_JOINT: dict[str, str] = {
     "hip_flex": "hip", "hip_abd": "hip", "hip_rot": "hip", "knee_flex": "knee", "ankle_flex": "ankle",
     "ankle_inv": "ankle", "toe_flex": "foot",
 }  # fmt: skip
+
+
+# movements that undo one another ("swing the fist forward", then "draw the fist back"): a primitive
+# made only of the second undoes one made of the first, as a return would
+ANTAGONISTS: frozenset[tuple[str, str]] = frozenset({
+    ("shoulder_flexion", "shoulder_extension"), ("shoulder_horizontal_adduction", "shoulder_horizontal_abduction"),
+    ("shoulder_internal_rotation", "shoulder_external_rotation"), ("elbow_flexion", "elbow_extension"),
+    ("forearm_pronation", "forearm_supination"), ("wrist_flexion", "wrist_extension"),
+    ("wrist_radial_deviation", "wrist_ulnar_deviation"), ("hip_flexion", "hip_extension"),
+    ("knee_flexion", "knee_extension"), ("ankle_plantarflexion", "ankle_dorsiflexion"),
+    ("trunk_flexion", "trunk_extension"), ("trunk_flexion", "trunk_upright"),
+    ("squat", "stand_up"), ("squat", "leg_straighten"), ("knee_bend", "stand_up"), ("knee_bend", "leg_straighten"),
+    ("lunge", "stand_up"), ("lunge", "leg_straighten"), ("sit_down", "stand_up"),
+})
+
+
+def undoes(first: tuple[str, ...], second: tuple[str, ...]) -> bool:
+    """Every movement of `second` is the antagonist of one of `first` (named in ANTAGONISTS either way)."""
+    return bool(first and second) and all(
+        any((a, b) in ANTAGONISTS or (b, a) in ANTAGONISTS for a in first) for b in second)

@@ -38,19 +38,20 @@ from typing import Any
 
 import numpy as np
 
-from vsmp_imu.motion.anatomy import MOVEMENTS, PLANK_POSE, SEAT_SHIFT_M, Movement
+from vsmp_imu.motion.anatomy import MOVEMENTS, PLANK_POSE, SEAT_SHIFT_M, Movement, undoes
 from vsmp_imu.motion.dofs import (
     BUILTIN_POSES,
-    CENTER_DOFS,
     DOF_INDEX,
     DOF_NAMES,
     N_DOFS,
-    SIDE_COLUMNS,
     SIDE_DOFS,
+    local_quats_components,
     pose_vector,
 )
 from vsmp_imu.motion.lexicon import Reading, normalize_text, read_primitive
+from vsmp_imu.motion.quat import forward_kinematics_components
 from vsmp_imu.motion.recipe import Recipe, parse_recipe
+from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M, smpl22_skeleton
 from vsmp_imu.smp._text import norm_name
 from vsmp_imu.smp.bodyparts import normalize_body_part, side_of
 from vsmp_imu.smp.schema import SMP, STRUCTURAL_NAMES, UNKNOWN
@@ -63,10 +64,14 @@ CIRCLE_DEG = 25.0
 HOP_CROUCH = {"knee_flex": 30.0, "hip_flex": 20.0, "ankle_flex": 15.0}
 CHANGE_DEG = 1.0  # a DOF that moves less than this is "still" (cycle closure, principal joints)
 PRINCIPAL_MIN_DEG = 15.0
-# Mean DOF speed between keys at medium tempo: at fast tempo (x1.5) and large amplitude (x1.4) the
-# minimum-jerk peak (x1.875) of a hand 0.6 m from the shoulder stays under the 0.20 x height per
-# frame plausibility limit at 30 fps.
-MAX_MEAN_DEG_S = 200.0
+# The fastest joint's mean speed along its path between two keys, at medium tempo: at fast tempo
+# (x1.5) and large amplitude (x1.4) the minimum-jerk peak (x1.875) stays under the quality filter's
+# 0.20 x height per frame at 30 fps (10.2 m/s for 1.70 m), with SPEED_SPARE for what the product
+# misses (measured on the library: a throw's release grows 1.9x at large amplitude, not 1.4x, as the
+# wind-up and the release move apart; other seeds' bodies).
+SPEED_SPARE = 0.65
+MAX_MEAN_SPEED_M_S = 0.20 * DEFAULT_HEIGHT_M * 30.0 * SPEED_SPARE / (1.875 * 1.5 * 1.4)
+PATH_SAMPLES = 8  # poses per key interval along which the joints' paths are measured
 _ARM_PARTS = ("upper_arm", "forearm", "hand", "shoulder")
 _ARM_STEMS = ("shoulder_abd", "shoulder_flex", "shoulder_horiz", "shoulder_rot", "elbow_flex", "wrist_rot", "wrist_flex")
 WEIGHT_WORDS = ("dumbbell", "kettlebell", "barbell", "weight", "plate")
@@ -77,7 +82,8 @@ _LEG_PARTS = ("thigh", "lower_leg", "foot")
 STAIRS_PELVIS = {"rise_m": 0.07, "speed_fluctuation": 0.5}
 WALKING_PELVIS = {"walk": {}, "stairs_up": STAIRS_PELVIS, "stairs_down": STAIRS_PELVIS}
 _POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
-_CHAIN_CENTRE = [DOF_INDEX[name] for name in CENTER_DOFS]  # the trunk and root move every limb
+_BODY = smpl22_skeleton()
+_ROOT = [DOF_INDEX[name] for name in ("root_dx", "root_dy", "root_dz")]
 _CM = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)  # root travel: a centimetre counts as a degree
 
 
@@ -210,7 +216,7 @@ def _steps(smp: SMP) -> list[Step]:
         prim = smp.primitive(name)
         assert prim is not None  # validation: every entry that is not structural names a primitive
         parts = tuple(p for raw in prim.body_parts for p in normalize_body_part(raw))
-        reading = read_primitive(name, prim.description)
+        reading = read_primitive(name, prim.description, smp.activity_label)
         moves = tuple(m for m in (MOVEMENTS[n] for n in reading.movements) if _limb_named(m, parts))
         steps.append(Step(name, reading, parts, movements=moves))
     for step in steps:
@@ -341,11 +347,15 @@ def _cycle_span(steps: list[Step]) -> tuple[list[int], list[int], list[int]]:
 
 
 def _matches(steps: list[Step]) -> dict[int, int]:
-    """Outward primitive -> the returning primitive that undoes it (a stack, as the words nest)."""
+    """Outward primitive -> the primitive that undoes it (a stack, as the words nest): a return, or
+    one made only of the antagonists of the outward movements ("knock", then "draw the fist back")."""
     stack: list[int] = []
     out: dict[int, int] = {}
     for i, s in enumerate(steps):
-        if s.action == "go":
+        names = tuple(m.name for m in s.movements)
+        if s.action == "go" and stack and undoes(tuple(m.name for m in steps[stack[-1]].movements), names):
+            out[stack.pop()] = i
+        elif s.action == "go":
             stack.append(i)
         elif s.action == "return" and stack:
             out[stack.pop()] = i
@@ -580,7 +590,7 @@ def _close(step: Step, before: np.ndarray, current: np.ndarray, start: np.ndarra
 def _durations(steps: list[Step], smp: SMP) -> None:
     static = _static(smp, steps)
     for step in steps:
-        nominal = max((m.nominal_s for m in step.movements), default=RETURN_S)
+        nominal = step.reading.pace * max((m.nominal_s for m in step.movements), default=RETURN_S)
         if step.action == "gait":
             step.duration_s = _gait_move([step]).nominal_s  # a step's leg swing is the gait's own
         elif step.action == "hold":
@@ -601,18 +611,25 @@ def _durations(steps: list[Step], smp: SMP) -> None:
 
 
 def _slowest(step: Step) -> float:
-    """Shortest duration keeping the mean DOF speed between keys under MAX_MEAN_DEG_S, for each limb
-    with the trunk and root that carry it (a limb's DOFs and the centre's add up; the two arms or
-    the two legs moving together do not speed up either hand or foot)."""
+    """Shortest duration keeping every joint's mean speed along its path between keys under
+    MAX_MEAN_SPEED_M_S on the default body (a curl moves the hand 0.3 m from the elbow, an arm raised
+    from the trunk carries it a metre from the hips)."""
     if step.start is None or not step.keys:
         return 0.0
-    need, prev_at, prev = 0.0, 0.0, step.start
-    for at, vec, _ in step.keys:
-        change = (vec - prev) * _CM
-        limb = max(float(np.linalg.norm(change[_CHAIN_CENTRE + list(cols)])) for cols in SIDE_COLUMNS.values())
-        need = max(need, limb / MAX_MEAN_DEG_S / max(at - prev_at, 1e-3))
-        prev_at, prev = at, vec
-    return need
+    ats = np.array([0.0] + [at for at, _, _ in step.keys])
+    poses = np.stack([step.start] + [vec for _, vec, _ in step.keys])
+    paths = _joint_paths(poses)
+    return float(max(paths / MAX_MEAN_SPEED_M_S / np.maximum(np.diff(ats), 1e-3)))
+
+
+def _joint_paths(poses: np.ndarray) -> np.ndarray:
+    """Longest joint path (m) on the default body between consecutive poses (DOFs interpolated linearly)."""
+    u = np.linspace(0.0, 1.0, PATH_SAMPLES + 1)[:, None, None]
+    dense = (poses[:-1][None] * (1.0 - u) + poses[1:][None] * u).transpose(1, 0, 2).reshape(-1, N_DOFS)
+    root = dense[:, _ROOT]
+    pos, _ = forward_kinematics_components(_BODY.offsets, _BODY.parents, local_quats_components(dense), root)
+    pos = pos.reshape(len(poses) - 1, PATH_SAMPLES + 1, -1, 3)
+    return np.linalg.norm(np.diff(pos, axis=1), axis=-1).sum(axis=1).max(axis=-1)
 
 
 def _shares(smp: SMP, n: int) -> list[float] | None:

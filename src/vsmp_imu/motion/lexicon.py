@@ -69,7 +69,7 @@ RULES: tuple[tuple[str, str], ...] = (
     # arms
     (r"\bcurl\w*\b(?! the trunk)(?! (the |both )?wrists?)|\bhammer|\bbend\w* (the |both |each |one )?(left |right )?(elbows?|arms?)"
      r"|\bflex\w* (the |both )?(left |right )?elbows?|\b(hands?|fists?|dumbbells?) (up )?to the shoulders?"
-     r"|\bbeside the (left |right )?shoulders?|\bwith the elbows? bent|\bguard\b|\bpull\w* (it |them |the \w+ )?in\b|\bto the chest|\bover the chest"
+     r"|\bbeside the (left |right )?shoulders?|\bwith the elbows? bent|(?<!lower )(?<!drop )\bguard\b|\bpull\w* (it |them |the \w+ )?in\b|\bto the chest|\bover the chest"
      r"|\bbehind the head|\bbeside the head|\bin front of the (chest|chin|face)|\bpull\w* " + _NOT_LEGS + _ANY + r"\bup\b"
      r"|\brow\b|\brow(s|ing)\b|\bsteer\w*|\bwheel\b|\blift\w* (it|them)\b|\btoward the body"
      r"|\b(drink\w*|sip\w*|eat|eats|eating|bite)\b|\bto the (mouth|lips|face)\b|\bbrush\w* the teeth"
@@ -119,7 +119,7 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bwrist curl|\bflex\w* the wrists?|\bwrists? flexed|\bcurl\w* the wrists?|\bsnap\w* the wrists?"
      r"|\bwrists? (swing|flick)|\bflick\w*|\btyp\w*|\bkeyboard|\bwrit(e|es|ing)\b", "wrist_flexion"),
     (r"\bextend\w* the wrists?|\breverse wrist curl|\bcock\w* the wrists?", "wrist_extension"),
-    (r"\bcircle\w*|\bcircular\b|\bcircumduct\w*|\bwindmill", "arm_circumduction"),
+    (r"(?<!of the )\bcircle\w*|\bcircular\b|\bcircumduct\w*|\bwindmill", "arm_circumduction"),
     (r"\bswing\w* (the |both |his |her )?(left |right )?arms?\b|\barms? swings?|\bpendulum|\bsweep\w* "
      + _ANY + r"\b(left|right) and back|\bwave\w*|\bsweep\w* the (cloth|hand)", "arm_pendulum_swing"),
     # legs
@@ -163,6 +163,21 @@ POSTURE_WORDS: tuple[tuple[str, str], ...] = (
 )
 # an arm raised or lifted with no direction: forward, when nothing else moves the shoulder
 PLAIN_RAISE = re.compile(r"\b(rais|lift)\w* (the |both |each |one )?(left |right )?arms?\b")
+# the pace the words set for one primitive, as a factor on its movements' durations at medium tempo:
+# a strike, throw, kick or clap goes as fast as the speed limit lets the hand or foot go
+BALLISTIC_WORDS = re.compile(
+    r"\b(punch\w*|jab\w*|throw\w*|strike|strikes|striking|smash\w*|whip\w*|snap\w*|flick\w*|kick\w*|knock\w*"
+    r"|toss\w*|slap\w*|spike\w*|clap\w*|uppercut\w*)\b|\brelease\w* (the |a )?(ball|shot|throw)"
+    r"|\bswing\w* " + _ANY + r"\b(forward|through|down)\b")
+QUICK_WORDS = re.compile(r"\b(quick|quickly|rapid|rapidly|fast|briskly|swift|swiftly|sharp|sharply|explosive\w*)\b")
+SLOW_WORDS = re.compile(r"\b(slow|slowly|gently|gradually|carefully|steadily)\b")
+PACE = {"ballistic": 0.3, "quick": 0.6, "slow": 1.5}
+# knee lifts or steps that stay where they are: a gait that does not travel
+IN_PLACE = re.compile(r"\b(in place|on the spot)\b")
+_STEPPING = ("hip_flexion", "walk", "run")
+# a curl turns the palms up as the elbows bend (a hammer curl keeps them facing each other)
+CURL = re.compile(r"\bcurl(s|ing|ed)?\b")
+HAMMER = re.compile(r"\bhammer\b|\bneutral grip|\bpalms? facing (each other|in(ward)?)\b")
 GUARD_WORDS = re.compile(r"\b(punch\w*|jab\w*|box\w*|uppercut\w*|hook punch\w*)\b")
 _LIMB_SIDE = re.compile(r"\b(left|right) (arm|hand|fist|elbow|forearm|wrist|shoulder|palm|leg|foot|knee|heel"
                         r"|thigh|hip|pedal|pole|toe)")
@@ -200,6 +215,7 @@ class Reading:
     counter_clockwise: bool
     posture: str | None  # the posture its words name (sit, lie, stand...), for holds and the start
     start: tuple[str, ...] = ()  # where the movement starts from ("press ... from the shoulders")
+    pace: float = 1.0  # factor on the movements' durations: strikes and "quickly" shorten, "slowly" lengthens
 
     def all_movements(self) -> tuple[str, ...]:
         return tuple(dict.fromkeys(self.movements + self.context))
@@ -255,8 +271,9 @@ def _overhead(out: list[str]) -> list[str]:
         *_OVERHEAD, "shoulder_flexion", "shoulder_abduction")]
 
 
-def read_primitive(name: str, description: str = "") -> Reading:
-    """The lexicon's reading of one primitive (its name and its description)."""
+def read_primitive(name: str, description: str = "", label: str = "") -> Reading:
+    """The lexicon's reading of one primitive (its name and its description; the activity's label
+    names the grip of a curl: a hammer curl)."""
     text = OTHER_LIMB.sub("", normalize_text(f"{name} . {description}"))
     action, context_text = _held_split(text, len(normalize_text(name)))
     back = THERE_AND_BACK.search(action)
@@ -266,6 +283,11 @@ def read_primitive(name: str, description: str = "") -> Reading:
                     and MOVEMENTS[m].kind == "excursion")
     if GUARD_WORDS.search(text):
         context = (*context, "guard")  # punches start from and return to a guard
+    if CURL.search(action) and "elbow_flexion" in action_moves and "forearm_supination" not in action_moves \
+            and not HAMMER.search(f"{text} {normalize_text(label)}"):
+        action_moves = (*action_moves, "forearm_supination")
+    pace = _pace(action)
+    action_moves = _in_place(text, action_moves, pace)
     returns = bool(RETURN_WORDS.search(action)) and not _outward_lowering(action, action_moves)
     there_back = bool(THERE_AND_BACK.search(text))
     if there_back and action_moves:
@@ -273,7 +295,25 @@ def read_primitive(name: str, description: str = "") -> Reading:
     hold = not action_moves and not returns
     arm_side, leg_side = _sides(action if action.strip(" .") else text)
     return Reading(action_moves, context, returns, there_back, hold, arm_side, leg_side,
-                   _direction(action), bool(_COUNTER.search(text)), _posture(text), _start(outward, action_moves))
+                   _direction(action), bool(_COUNTER.search(text)), _posture(text), _start(outward, action_moves),
+                   pace)
+
+
+def _in_place(text: str, moves: tuple[str, ...], pace: float) -> tuple[str, ...]:
+    """A knee lift or a step "in place": stepping in place, a jog in place when quick or running."""
+    if not IN_PLACE.search(text) or not any(m in moves for m in _STEPPING):
+        return moves
+    gait = "jog_in_place" if pace < 1.0 or "run" in moves else "step_in_place"
+    return (gait, *(m for m in moves if m not in _STEPPING))
+
+
+def _pace(action: str) -> float:
+    """The pace the action's words set (PACE): a strike or throw, quick, slow, else 1."""
+    if BALLISTIC_WORDS.search(action):
+        return PACE["ballistic"]
+    if QUICK_WORDS.search(action):
+        return PACE["quick"]
+    return PACE["slow"] if SLOW_WORDS.search(action) else 1.0
 
 
 def _held_split(text: str, name_len: int) -> tuple[str, str]:
