@@ -245,8 +245,8 @@ def main() -> None:
         "the push-up's lowering) take their values from these recipes. The UTD-MHAD gestures (right "
         "wrist, the dataset's own sensor) were untouched until commit 347093c (14.7 there, "
         "`compiled_motion_347093c.md`); the speed limit on the joints' paths, the pace of strikes and "
-        "quick words, stepping in place, the curl's palms and the set-up peeled off a cycle by "
-        "antagonist movements were written looking at their readings, so they are no held-out test "
+        "quick words, stepping in place, the curl's palms, the set-up peeled off a cycle by "
+        "antagonist movements, the arm's aim and the last return were written looking at their readings, so they are no held-out test "
         "either.",
         "### MM-Fit exercises", table5,
         "### UTD-MHAD gestures", table6,

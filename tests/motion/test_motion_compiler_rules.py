@@ -1072,3 +1072,41 @@ def test_stepping_in_place_compiles_to_a_gait_that_swings_the_arms_and_does_not_
     assert data["cycle"]["wave"]["shoulder_flex"] == [[0.25, -15], [0.75, 20]]  # the opposite arm forward
     assert data["primitives"]["left_step"]["duration_s"] == MOVEMENTS["step_in_place"].nominal_s
     assert "pelvis" not in data
+
+
+def test_an_arm_sent_in_a_direction_points_there_and_the_last_return_ends_at_the_start():
+    data, keys = _compiled(_smp(("out", "raise the right arm out to the side", []),
+                                ("up", "move the hand straight up", []),
+                                ("lower", "lower the right arm", [])))
+    (_, out), = keys["out"]
+    (_, up), = keys["up"]
+    (_, end), = keys["lower"]
+    assert out["right_shoulder_abd"] == pytest.approx(MOVEMENTS["shoulder_abduction"].pose["shoulder_abd"])
+    assert up["right_shoulder_flex"] == pytest.approx(MOVEMENTS["shoulder_flexion_overhead"].pose["shoulder_flex"])
+    assert up["right_shoulder_abd"] == pytest.approx(data["base_pose"]["right_shoulder_abd"])  # no longer out
+    assert end == pytest.approx(data["base_pose"])  # the stack would have returned to the raised arm
+    _, keys = _compiled(_smp(("out", "raise the left arm out to the side", []),
+                             ("up", "raise the right arm straight up", []), ("lower", "lower the right arm", [])))
+    (_, up), = keys["up"]
+    (_, end), = keys["lower"]
+    assert end["left_shoulder_abd"] == pytest.approx(up["left_shoulder_abd"])  # the arm not named stays
+    assert up["left_shoulder_abd"] > 45.0
+    assert end["right_shoulder_flex"] == pytest.approx(data["base_pose"]["right_shoulder_flex"])
+
+
+def test_seated_with_dumbbells_an_arm_sent_out_keeps_the_hanging_arms_other_angles():
+    data, keys = _compiled(_sitting_smp(["dumbbells"], "raise both arms out to the sides"))
+    (_, out), = next(iter(keys.values()))
+    assert out["left_shoulder_flex"] == pytest.approx(data["base_pose"]["left_shoulder_flex"])  # not the lap's
+
+
+def test_a_return_that_stands_up_straightens_the_legs_it_comes_back_through():
+    data, keys = _compiled(_smp(("lunge", "step forward with the left leg and bend the knees", []),
+                                ("reach", "raise both arms forward", _ARMS),
+                                ("recover", "stand up and lower the arms", []), ("wait", "stand and wait", [])))
+    (_, lunged), = keys["reach"]
+    (_, back), = keys["recover"]
+    base = data["base_pose"]
+    assert lunged["left_knee_flex"] > 45.0 and lunged["left_shoulder_flex"] > 45.0
+    for dof in ("left_knee_flex", "right_knee_flex", "left_hip_flex", "left_shoulder_flex"):
+        assert back[dof] == pytest.approx(base[dof])  # the arms down where the reach began, the legs straight

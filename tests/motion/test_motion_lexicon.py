@@ -505,3 +505,13 @@ def test_hand_placements_and_the_plank(text, moves):
 def test_a_press_from_the_shoulders_up_the_sides_starts_from_the_rack():
     reading = read_primitive("x", "press the dumbbells from the shoulders to overhead")
     assert reading.movements == ("shoulder_abduction_overhead",) and reading.start == ("press_rack",)
+
+
+def test_a_swing_goes_the_way_its_words_name_first_and_a_release_is_no_return():
+    back = read_primitive("backswing", "swing the right arm back while stepping forward and bending the knees")
+    assert back.movements == ("lunge", "shoulder_extension") and back.pace == 1.0  # not a strike, no pendulum
+    forward = read_primitive("swing", "swing the right arm forward low and release the ball")
+    assert "shoulder_flexion" in forward.movements
+    assert not forward.there_and_back and forward.pace == lex.PACE["ballistic"]
+    assert read_primitive("grip", "squeeze the ball and release it").there_and_back  # a grip let go comes back
+    assert read_primitive("swing", "swing both arms").movements == ("arm_pendulum_swing",)

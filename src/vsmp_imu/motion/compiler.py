@@ -73,6 +73,7 @@ SPEED_SPARE = 0.65
 MAX_MEAN_SPEED_M_S = 0.20 * DEFAULT_HEIGHT_M * 30.0 * SPEED_SPARE / (1.875 * 1.5 * 1.4)
 PATH_SAMPLES = 8  # poses per key interval along which the joints' paths are measured
 _ARM_PARTS = ("upper_arm", "forearm", "hand", "shoulder")
+SHOULDER_AIM = ("shoulder_flex", "shoulder_abd", "shoulder_horiz")  # where the upper arm points
 _ARM_STEMS = ("shoulder_abd", "shoulder_flex", "shoulder_horiz", "shoulder_rot", "elbow_flex", "wrist_rot", "wrist_flex")
 WEIGHT_WORDS = ("dumbbell", "kettlebell", "barbell", "weight", "plate")
 _ON_THE_LAP = re.compile(r"\bon the (thighs?|knees?|lap)\b|\bin the lap\b")
@@ -391,11 +392,14 @@ def _limb_sides(move: Movement, step: Step, smp: SMP) -> tuple[str, ...]:
 
 
 def _apply(current: np.ndarray, moves: list[Movement], step: Step, smp: SMP, direction_hint: int,
-           neutral: np.ndarray | None = None) -> np.ndarray:
+           neutral: np.ndarray | None = None, aim: np.ndarray | None = None) -> np.ndarray:
     """`current` with the movements' targets set (their first DOF last, so it wins); a relative
     root travel counts from the posture's `neutral` pose (else from `current`), so a second
-    squat does not sink the pelvis further, and setting it twice does not add it twice."""
+    squat does not sink the pelvis further, and setting it twice does not add it twice. With `aim`,
+    the shoulder angles an arm's movements leave unset come from it (`_aim_from`)."""
     out = current.copy()
+    if aim is not None:
+        _aim_from(out, moves, step, smp, aim)
     for primary in (False, True):
         for move in moves:
             items = list(move.pose.items())[:1] if primary else list(move.pose.items())
@@ -406,6 +410,19 @@ def _apply(current: np.ndarray, moves: list[Movement], step: Step, smp: SMP, dir
                                          current if neutral is None else neutral, direction_hint):
                     out[col] = val
     return out
+
+
+def _aim_from(out: np.ndarray, moves: list[Movement], step: Step, smp: SMP, neutral: np.ndarray) -> None:
+    """An arm sent in a direction points there: the shoulder angles its movements do not set go back
+    to `neutral`'s (after "out to the side", "move the hand straight up" raises the arm in front,
+    not in front and out to the side at once)."""
+    named = {stem for m in moves for stem in m.pose}
+    for move in moves:
+        if move.kind != "excursion" or not any(stem in move.pose for stem in SHOULDER_AIM):
+            continue
+        for side in _limb_sides(move, step, smp) if move.sided else ("left", "right"):
+            cols = [DOF_INDEX[f"{side}_{stem}"] for stem in SHOULDER_AIM if stem not in named]
+            out[cols] = neutral[cols]
 
 
 def _targets(move: Movement, stem: str, value: float, step: Step, smp: SMP, origin: np.ndarray,
@@ -446,7 +463,7 @@ def _reset(current: np.ndarray, moves: list[Movement], base: np.ndarray) -> np.n
 
 # -- keyframes ----------------------------------------------------------------------------------
 def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycle: list[int]) -> None:
-    current, stack, root_dz = base.copy(), [], 0.0
+    current, stack, root_dz, start_posture = base.copy(), [], 0.0, posture
     cycle_start = None
     arms = np.array([DOF_INDEX[f"{side}_{stem}"] for side in ("left", "right") for stem in _ARM_STEMS])
     placed = arms[np.abs(base - _posture_vector(posture, 0.0))[arms] > CHANGE_DEG]
@@ -472,8 +489,13 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
                 step.action = "hold"
         if step.action in ("hold", "gait"):
             step.keys = []
-        elif step.action == "return":
-            target = stack.pop() if stack else base.copy()
+        elif step.action == "return":  # back where the last outward primitive started, standing up if told
+            target = _reset(stack.pop() if stack else base.copy(), [m for m in moves if m.kind == "reset"], base)
+            if i == len(steps) - 1:  # the last one ("lower the right arm") lowers the arms to rest
+                rest = base if posture == start_posture else _posture_vector(posture, root_dz)
+                sides = (step.reading.arm_side,) if step.reading.arm_side else ("left", "right")
+                cols = [DOF_INDEX[f"{side}_{stem}"] for side in sides for stem in _ARM_STEMS]
+                target[cols] = rest[cols]
             jumps = any(m.kind == "jump" for m in moves)
             step.keys = _hop(before, target) if jumps else [(1.0, target, "stop")]
             current = target
@@ -491,7 +513,8 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         else:
             target = _apply(_reset(before, moves, base),
                             [m for m in moves if m.kind in ("excursion", "swing")], step, smp, hint,
-                            neutral=_posture_vector(posture, root_dz))
+                            neutral=_posture_vector(posture, root_dz),
+                            aim=base if posture == start_posture else _posture_vector(posture, root_dz))
             step.keys = _shape(step, moves, before, target)
             if step.action == "go":
                 stack.append(before)

@@ -142,7 +142,7 @@ RETURN_WORDS = re.compile(
     r"|back inward|back overhead|relax\w*|uncross\w*|recover\w*|come back|comes back|drop|drops"
     r"|put \w+ (\w+ )?down|release it|let go|apart again|separate\w*)\b")
 THERE_AND_BACK = re.compile(
-    r"\band (back|return\w*|release\w*( it)?)\b|\band (pull|bring|draw|push|put|step|swing|come|settle)"
+    r"\band (back|return\w*|release\w*( it)?)\b(?! (the |a )?(ball|shot|throw|object))|\band (pull|bring|draw|push|put|step|swing|come|settle)"
     r"\w* (\w+ ){0,3}back\b|\bback and forth|\bto and fro|\bup and down|\band back\b"
     r"|\band (then )?(lower|drop|relax)\w* (it|them)\b")
 HOLD_WORDS = re.compile(r"\b(hold|holds|holding|stay|stays|still|pause|pauses|remain\w*|rest)\b")
@@ -168,7 +168,7 @@ PLAIN_RAISE = re.compile(r"\b(rais|lift)\w* (the |both |each |one )?(left |right
 BALLISTIC_WORDS = re.compile(
     r"\b(punch\w*|jab\w*|throw\w*|strike|strikes|striking|smash\w*|whip\w*|snap\w*|flick\w*|kick\w*|knock\w*"
     r"|toss\w*|slap\w*|spike\w*|clap\w*|uppercut\w*)\b|\brelease\w* (the |a )?(ball|shot|throw)"
-    r"|\bswing\w* " + _ANY + r"\b(forward|through|down)\b")
+    r"|\bswing\w* (the |both |his |her )?(\w+ ){0,2}(forward|through|down)\b")  # not "swing the arm back while ..."
 QUICK_WORDS = re.compile(r"\b(quick|quickly|rapid|rapidly|fast|briskly|swift|swiftly|sharp|sharply|explosive\w*)\b")
 SLOW_WORDS = re.compile(r"\b(slow|slowly|gently|gradually|carefully|steadily)\b")
 PACE = {"ballistic": 0.3, "quick": 0.6, "slow": 1.5}
@@ -329,17 +329,24 @@ def _held_split(text: str, name_len: int) -> tuple[str, str]:
 
 
 def _ordered(text: str) -> tuple[str, ...]:
-    """Movements in `text`; when both elbow movements match, the one named first wins."""
-    found: list[tuple[int, str]] = []
+    """Movements in `text`; when both elbow movements match, the one named first wins; when both
+    shoulder flexion and extension match, the one whose words end first ("swing the arm back while
+    stepping forward": back); a swing back is not also a pendulum (which swings forward)."""
+    found: list[tuple[int, int, str]] = []
     for rx, m in _COMPILED:
         hit = rx.search(text)
         if hit:
-            found.append((hit.start(), m))
-    names = [m for _, m in found]
+            found.append((hit.start(), hit.end(), m))
+    names = [m for _, _, m in found]
     if "elbow_flexion" in names and "elbow_extension" in names:
-        pos = {m: p for p, m in found}
+        pos = {m: p for p, _, m in found}
         drop = "elbow_extension" if pos["elbow_flexion"] <= pos["elbow_extension"] else "elbow_flexion"
         names.remove(drop)
+    if "shoulder_flexion" in names and "shoulder_extension" in names:
+        end = {m: e for _, e, m in found}
+        names.remove("shoulder_flexion" if end["shoulder_extension"] < end["shoulder_flexion"] else "shoulder_extension")
+    if "arm_pendulum_swing" in names and "shoulder_extension" in names:
+        names.remove("arm_pendulum_swing")  # a swing back is no pendulum forward
     names = list(_prune(names))
     if _LEG_WORDS.search(text) and not _ARM_WORDS.search(text):  # "swing the leg out to the side": no arm moves
         names = [m for m in names if m not in _DIRECTION_ONLY]
