@@ -1110,3 +1110,12 @@ def test_a_return_that_stands_up_straightens_the_legs_it_comes_back_through():
     assert lunged["left_knee_flex"] > 45.0 and lunged["left_shoulder_flex"] > 45.0
     for dof in ("left_knee_flex", "right_knee_flex", "left_hip_flex", "left_shoulder_flex"):
         assert back[dof] == pytest.approx(base[dof])  # the arms down where the reach began, the legs straight
+
+
+def test_the_body_keeps_its_heading_through_a_change_of_posture():
+    _, keys = _compiled(_smp(("lie", "lie on the back", []),
+                             ("up", "raise the trunk and turn, swinging the legs down to sit on the edge of the bed", []),
+                             ("stand", "extend the hips and knees to stand upright", [])))
+    (_, seated), = keys["up"][-1:]
+    assert abs(seated["root_yaw"]) == pytest.approx(MOVEMENTS["turn"].pose["root_yaw"])
+    assert all(pose["root_yaw"] == seated["root_yaw"] for _, pose in keys["stand"])  # standing up does not turn back

@@ -515,3 +515,19 @@ def test_a_swing_goes_the_way_its_words_name_first_and_a_release_is_no_return():
     assert not forward.there_and_back and forward.pace == lex.PACE["ballistic"]
     assert read_primitive("grip", "squeeze the ball and release it").there_and_back  # a grip let go comes back
     assert read_primitive("swing", "swing both arms").movements == ("arm_pendulum_swing",)
+
+
+@pytest.mark.parametrize(("description", "turns"), [
+    ("turn to lie along the bed, leaning the trunk back flat", True),
+    ("raise the trunk and turn, swinging the legs down to sit on the edge of the bed", True),
+    ("turn to the edge of the bed", True),
+    ("brings each elbow to the opposite knee in turn.", False),
+    ("turn the palms down", False),
+])
+def test_turning_to_lie_or_to_the_edge_of_the_bed_turns_the_body(description, turns):
+    assert ("turn" in movements_in(description)) == turns
+
+
+def test_legs_swung_down_are_no_strike():
+    assert read_primitive("down", "swinging the legs down to sit").pace == 1.0
+    assert read_primitive("step", "swing the right leg forward").pace == 1.0

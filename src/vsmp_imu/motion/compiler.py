@@ -83,6 +83,7 @@ _LEG_PARTS = ("thigh", "lower_leg", "foot")
 STAIRS_PELVIS = {"rise_m": 0.07, "speed_fluctuation": 0.5}
 WALKING_PELVIS = {"walk": {}, "stairs_up": STAIRS_PELVIS, "stairs_down": STAIRS_PELVIS}
 _POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
+_YAW = DOF_INDEX["root_yaw"]
 _BODY = smpl22_skeleton()
 _ROOT = [DOF_INDEX[name] for name in ("root_dx", "root_dy", "root_dz")]
 _CM = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)  # root travel: a centimetre counts as a degree
@@ -504,6 +505,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             upper = [m for m in moves if m.kind == "excursion" and m.limb != "leg"]  # the legs follow the posture
             target = _posture_vector(post.posture, root_dz)
             target[placed] = before[placed]  # arms placed from the start (crossed, on the hips) stay placed
+            target[_YAW] = before[_YAW]  # the body keeps its heading (turned to sit on the bed's edge)
             target = _apply(target, upper, step, smp, hint)
             via = _via(posture, post.posture, before, step, smp, root_dz)
             step.keys = ([(0.5, via, "smooth")] if via is not None else []) + [(1.0, target, "stop")]

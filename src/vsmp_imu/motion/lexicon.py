@@ -47,7 +47,7 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bplank\b|\bpush[- ]?up position|\bon the hands and toes", "plank"),
     (r"\bface down\b|\bprone\b|\bon the (belly|stomach)\b", "lie_prone"),
     (r"\bkneel\w*", "kneel"),
-    (r"\bturn(s|ing)? (the body |around|about)|\bturn(s|ing)? to face|\bpivot\w*|(?<!trunk )(?<!torso )\bturn(s|ing)? (left|right)\b"
+    (r"\bturn(s|ing)? (the body |around|about)|\bturn(s|ing)? to (face|lie|sit|stand|the edge)\b|(?<!in )\bturn(s|ing)?(?=,|\.|$)|\bpivot\w*|(?<!trunk )(?<!torso )\bturn(s|ing)? (left|right)\b"
      r"(?! ?(the )?(trunk|torso|chest|head|wheel|palm|hand|forearm|wrist))", "turn"),
     # trunk and neck
     (r"\bside bend|\bbend\w* (the (trunk|torso|body|upper body) )?(sideways|to the (left|right)( side)?|to (one|the) side)"
@@ -168,7 +168,7 @@ PLAIN_RAISE = re.compile(r"\b(rais|lift)\w* (the |both |each |one )?(left |right
 BALLISTIC_WORDS = re.compile(
     r"\b(punch\w*|jab\w*|throw\w*|strike|strikes|striking|smash\w*|whip\w*|snap\w*|flick\w*|kick\w*|knock\w*"
     r"|toss\w*|slap\w*|spike\w*|clap\w*|uppercut\w*)\b|\brelease\w* (the |a )?(ball|shot|throw)"
-    r"|\bswing\w* (the |both |his |her )?(\w+ ){0,2}(forward|through|down)\b")  # not "swing the arm back while ..."
+    r"|\bswing\w* " + _NOT_LEGS + r"(the |both |his |her )?(\w+ ){0,2}(forward|through|down)\b")  # not "swing the arm back while ...", not a leg
 QUICK_WORDS = re.compile(r"\b(quick|quickly|rapid|rapidly|fast|briskly|swift|swiftly|sharp|sharply|explosive\w*)\b")
 SLOW_WORDS = re.compile(r"\b(slow|slowly|gently|gradually|carefully|steadily)\b")
 PACE = {"ballistic": 0.3, "quick": 0.6, "slow": 1.5}
