@@ -172,6 +172,19 @@ def test_a_folder_run_into_once_per_seed_imports_every_seed_only_when_asked(tmp_
     assert len((tmp_path / "results" / "seeds2" / "records.jsonl").read_text().splitlines()) == 16
 
 
+def test_import_does_not_overwrite_a_record_set_unless_told(tmp_path, cli):
+    run = _evaluate_dir(tmp_path)
+    code, _, err = cli("report", "import", run, "--name", "kept", "--command", "first", "--root", tmp_path)
+    assert code == 0, err
+    code, _, err = cli("report", "import", run, "--name", "kept", "--command", "second", "--root", tmp_path)
+    assert code == 2 and "record set 'kept' exists" in err and "--replace" in err
+    assert json.loads((tmp_path / "results" / "kept" / "run.json").read_text())["command"] == "first"
+    code, _, err = cli("report", "import", run, "--name", "kept", "--command", "second", "--root", tmp_path,
+                       "--replace")
+    assert code == 0, err
+    assert json.loads((tmp_path / "results" / "kept" / "run.json").read_text())["command"] == "second"
+
+
 def test_import_refuses_a_folder_without_records(tmp_path):
     with pytest.raises(InputFileError, match="not an `vsmp-imu evaluate` output folder"):
         import_run(tmp_path, "x", "cmd", tmp_path / "res")

@@ -85,13 +85,19 @@ def import_cmd(
     every_record: bool = typer.Option(
         False, "--every-record", help="also the records of earlier runs into the folder (records/*.json; "
                                       "results.json holds the last run's only, e.g. one --only-seeds)"),
+    replace: bool = typer.Option(False, "--replace", help="overwrite a record set NAME that exists"),
 ) -> None:
     """Copy a run's records into results/NAME/: records.jsonl + run.json for an evaluation,
-    study.json + run.json for a study (told by the command, `vsmp-imu study NAME ...`)."""
+    study.json + run.json for a study (told by the command, `vsmp-imu study NAME ...`).
+    A record set of that name is not overwritten unless --replace."""
+    from vsmp_imu.errors import ConfigError
     from vsmp_imu.har.records import import_run
     from vsmp_imu.har.study_records import import_study, study_of
 
     output_dir(root / "results", "--root")  # root/results/NAME/ can be written, before any record is read
+    if (root / "results" / name).exists() and not replace:
+        raise ConfigError(f"record set '{name}' exists ({shown(root / 'results' / name)}/): other tables may "
+                          "read it; choose another --name, or --replace to overwrite it", field="--name")
     if study_of(command):
         folder = import_study(run_dir, name, command, root / "results", commit or _head_commit(), note)
     else:
