@@ -473,6 +473,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             cycle_start = current.copy()
         before = current.copy()
         step.start = before
+        rest = base if posture == start_posture else _posture_vector(posture, root_dz)  # arms at rest here
         moves = [m for m in step.movements if m.kind not in ("gait",)]
         if posture == "plank":  # the hands are planted: bending the elbows lowers the body
             moves = [MOVEMENTS["push_up_lower"] if m.name == "elbow_flexion" else m for m in moves]
@@ -493,7 +494,6 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         elif step.action == "return":  # back where the last outward primitive started, standing up if told
             target = _reset(stack.pop() if stack else base.copy(), [m for m in moves if m.kind == "reset"], base)
             if i == len(steps) - 1:  # the last one ("lower the right arm") lowers the arms to rest
-                rest = base if posture == start_posture else _posture_vector(posture, root_dz)
                 sides = (step.reading.arm_side,) if step.reading.arm_side else ("left", "right")
                 cols = [DOF_INDEX[f"{side}_{stem}"] for side in sides for stem in _ARM_STEMS]
                 target[cols] = rest[cols]
@@ -515,8 +515,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         else:
             target = _apply(_reset(before, moves, base),
                             [m for m in moves if m.kind in ("excursion", "swing")], step, smp, hint,
-                            neutral=_posture_vector(posture, root_dz),
-                            aim=base if posture == start_posture else _posture_vector(posture, root_dz))
+                            neutral=_posture_vector(posture, root_dz), aim=rest)
             step.keys = _shape(step, moves, before, target)
             if step.action == "go":
                 stack.append(before)
