@@ -1044,6 +1044,7 @@ def test_a_primitive_of_antagonist_movements_undoes_the_one_before_and_the_set_u
     assert compiler.compile_recipe_data(squat)["cycle"]["primitives"] == ["down", "up"]
     assert undoes(("squat",), ("stand_up",)) and undoes(("shoulder_extension",), ("shoulder_flexion",))
     assert not undoes(("shoulder_flexion",), ("shoulder_flexion",)) and not undoes((), ("stand_up",))
+    assert not undoes(("squat",), ())  # nothing undoes nothing
     assert not undoes(("elbow_flexion", "shoulder_flexion"), ("elbow_extension", "trunk_flexion"))
 
 
@@ -1119,3 +1120,14 @@ def test_the_body_keeps_its_heading_through_a_change_of_posture():
     (_, seated), = keys["up"][-1:]
     assert abs(seated["root_yaw"]) == pytest.approx(MOVEMENTS["turn"].pose["root_yaw"])
     assert all(pose["root_yaw"] == seated["root_yaw"] for _, pose in keys["stand"])  # standing up does not turn back
+
+
+def test_an_arm_sent_out_after_another_movement_of_its_primitive_still_points_there():
+    data, keys = _compiled(_smp(("fwd", "raise the right arm straight forward", []),
+                                ("side", "bend the right elbow and raise the right arm out to the side", [])))
+    (_, side), = keys["side"]
+    assert [m.name for m in compiler._steps(_smp(("side", "bend the right elbow and raise the right arm out to "
+                                                  "the side", [])))[0].movements] == ["elbow_flexion",
+                                                                                      "shoulder_abduction"]
+    assert side["right_shoulder_flex"] == pytest.approx(data["base_pose"]["right_shoulder_flex"])  # not forward
+    assert side["right_shoulder_abd"] == pytest.approx(MOVEMENTS["shoulder_abduction"].pose["shoulder_abd"])
