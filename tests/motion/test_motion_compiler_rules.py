@@ -105,6 +105,31 @@ def test_the_pelvis_travels_onto_a_seat_behind_the_feet_and_back(src, dst, shift
     assert math.isclose(compiler._posture_shift(src, dst, 0.0), shift)
 
 
+@pytest.mark.parametrize("src,dst,shift", [
+    ("sitting", "lying", compiler.LIE_SHIFT_M), ("lying", "sitting", -compiler.LIE_SHIFT_M),
+    ("standing", "lying", SEAT_SHIFT_M + compiler.LIE_SHIFT_M), ("lying", "standing", -SEAT_SHIFT_M - compiler.LIE_SHIFT_M),
+    ("standing", "sitting", SEAT_SHIFT_M), ("sitting", "sitting_floor", 0.0), ("lying", None, 0.0),
+])
+def test_lying_down_from_a_beds_edge_slides_the_pelvis_back_along_the_bed(src, dst, shift):
+    assert compiler._posture_shift(src, dst, 0.25, bed=True) == pytest.approx(0.25 + shift)
+    before, step = np.zeros(N_DOFS), _step()
+    if {src, dst} == {"standing", "lying"}:  # passing the seat on the bed's edge
+        via = compiler._via(src, dst, before, step, None, 0.25 + shift, bed=True)
+        assert via[_col("root_dz")] == pytest.approx(0.25 + (SEAT_SHIFT_M if dst == "lying" else -compiler.LIE_SHIFT_M))
+
+
+def test_a_bed_is_read_from_the_smps_contacts_or_a_primitives():
+    smp = _smp(("lie", "lie on the back", []))
+    smp.object_contact.environment_contact, smp.object_contact.required_contact = ["floor"], []
+    assert not compiler._on_bed(smp)
+    smp.motion_primitives[0].contact = ["Sofa"]
+    assert compiler._on_bed(smp)
+    smp.motion_primitives[0].contact = ["bedside table"]
+    assert not compiler._on_bed(smp)  # a word of its own: "bed" in "bedside" is not one
+    smp.motion_primitives[0].contact = ["hospital bed"]
+    assert compiler._on_bed(smp)
+
+
 def test_standing_and_lying_pass_through_sitting_and_a_seat_through_a_crouch():
     before = np.zeros(N_DOFS)
     before[_col("left_elbow_flex")] = 40.0
@@ -1131,3 +1156,34 @@ def test_an_arm_sent_out_after_another_movement_of_its_primitive_still_points_th
                                                                                       "shoulder_abduction"]
     assert side["right_shoulder_flex"] == pytest.approx(data["base_pose"]["right_shoulder_flex"])  # not forward
     assert side["right_shoulder_abd"] == pytest.approx(MOVEMENTS["shoulder_abduction"].pose["shoulder_abd"])
+
+
+def test_seated_a_recline_leans_the_whole_body_back_before_lying_down_along_the_bed():
+    smp = _smp(("sit", "sit upright", []), ("lean_back", "lean the trunk backward, supporting the body while "
+                                                          "reclining", []),
+               ("lie_down", "turn to lie along the bed, lowering the back flat", []))
+    smp.object_contact.environment_contact = ["bed"]
+    data, keys = _compiled(smp)
+    (_, reclined), = keys["lean_back"]
+    recline = MOVEMENTS["recline"].pose
+    assert data["base_pose"]["left_knee_flex"] > 60.0  # seated
+    assert reclined["root_pitch"] == recline["root_pitch"] and reclined["trunk_flex"] == 0.0  # not a trunk bend
+    assert reclined["left_hip_flex"] == reclined["right_hip_flex"] == recline["hip_flex"]
+    assert reclined["root_dz"] == pytest.approx(data["base_pose"]["root_dz"] + recline["root_dz"])
+    (_, lying), = keys["lie_down"]
+    assert lying["root_pitch"] == -90.0 and lying["root_dz"] == pytest.approx(compiler.LIE_SHIFT_M)
+    assert "root_pitch" in data["amplitude_exempt"]  # the posture's depth does not scale with amplitude
+
+
+def test_standing_a_recline_lies_down():
+    data, keys = _compiled(_smp(_WAIT, ("recline", "recline on the bed", [])))
+    (_, seat), (_, lying) = keys["recline"]
+    assert seat["left_hip_flex"] == compiler.BUILTIN_POSES["sitting"]["hip_flex"]  # via the seat
+    assert lying["root_pitch"] == -90.0  # lying, not a 45 degree lean back on straight legs
+    assert [m.name for m in compiler._steps(_smp(_WAIT, ("recline", "recline on the bed", [])))[1].movements] == [
+        "recline"]  # read as a recline; the compiler lies down from standing
+
+
+def test_a_first_primitive_that_reclines_starts_seated():
+    data, _ = _compiled(_smp(("recline", "recline on the sofa", []), _WAIT))
+    assert data["base_pose"]["left_knee_flex"] > 60.0

@@ -59,6 +59,8 @@ def test_single_joint_movements_stay_within_the_normative_range():
     ("climb", "walk up the stairs", {"stairs_up"}),
     ("sit_down", "sit down on the chair", {"sit_down"}),
     ("lie_down", "lie down flat on the back", {"lie_down"}),
+    ("lean_back", "lean the trunk backward, supporting the body while reclining", {"recline"}),
+    ("lie_back", "recline until lying flat", {"lie_down"}),  # a lie down includes its recline
     ("jump", "jump with both feet", {"jump"}),
     ("pronate", "turn the palms down", {"forearm_pronation"}),
     ("circle", "trace a circle with the right hand", {"arm_circumduction"}),
@@ -81,6 +83,13 @@ def test_legs_drawn_up_flex_the_hips_and_hands_drawn_up_raise_the_arm(words, exp
 @pytest.mark.parametrize("words", ["jump while bringing the legs together", "pull the legs apart"])
 def test_legs_brought_together_or_apart_do_not_flex_the_hips(words):
     assert "hip_flexion" not in movements_in(words)
+
+
+def test_a_recline_is_the_whole_body_leaning_back_not_a_trunk_extension_too():
+    assert read_primitive("lean_back", "lean the trunk backward, supporting the body while reclining").movements == (
+        "recline",)
+    assert read_primitive("lie_back", "recline until lying flat").movements == ("lie_down",)
+    assert read_primitive("lean_back", "lean the trunk backward").movements == ("trunk_extension",)
 
 
 def test_hammer_curl_keeps_the_grip_neutral():

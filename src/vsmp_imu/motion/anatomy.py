@@ -233,6 +233,11 @@ MOVEMENTS: dict[str, Movement] = {m.name: m for m in (
     _m("hip_hinge", "hip", "sagittal", {"trunk_flex": 20, "root_pitch": 35, "hip_flex": -15, "knee_flex": 15},
        sided=False, nominal_s=1.0),
     _m("turn", "body", "transverse", {"root_yaw": 90}, sided=False, nominal_s=1.2),
+    # seated, lean the whole body back on the hands before lying down: the pelvis rolls back with the
+    # trunk, the hips open a little and the hands reach back for the bed (the library's sit-to-lie pose)
+    _m("recline", "body", "sagittal", {"root_pitch": -45, "hip_flex": 80, "knee_flex": 70, "trunk_flex": 0,
+                                        "shoulder_abd": 25, "elbow_flex": 20, "root_dz": -0.15},
+       sided=False, nominal_s=1.2),
     _m("jump", "body", "sagittal", {"root_dy": 0.09}, sided=False, kind="jump", limb="leg", nominal_s=0.5),
     _m("walk", "hip", "sagittal", {}, sided=False, kind="gait", limb="leg", locomotion="forward",
        waves=WALK_WAVES, nominal_s=0.53),

@@ -60,6 +60,7 @@ STRUCTURAL = STRUCTURAL_NAMES  # sequence words that name no movement
 SEAT_WORDS = ("chair", "seat", "bench", "sofa", "couch", "stool", "wheelchair", "car seat", "saddle", "bicycle",
               "bike", "desk")
 HOLD_S, STATIC_HOLD_S, RETURN_S = 0.5, 3.0, 0.9
+LIE_SHIFT_M = -0.45  # the pelvis slides back along a bed when lying down from its edge (1.70 m body)
 CIRCLE_DEG = 25.0
 HOP_CROUCH = {"knee_flex": 30.0, "hip_flex": 20.0, "ankle_flex": 15.0}
 CHANGE_DEG = 1.0  # a DOF that moves less than this is "still" (cycle closure, principal joints)
@@ -296,6 +297,8 @@ def _start_posture(smp: SMP, steps: list[Step]) -> str:
         named = [m.posture for m in first.movements if m.kind == "posture"]
         if named and named[0]:
             return named[0]
+        if any(m.name == "recline" for m in first.movements):
+            return "sitting"  # one reclines from a seat
         if _sets_start(first) and first.reading.posture:
             return first.reading.posture
     if any(s.action == "gait" for s in steps):
@@ -305,6 +308,14 @@ def _start_posture(smp: SMP, steps: list[Step]) -> str:
             m.kind == "posture" for s in steps for m in s.movements):
         return "sitting"
     return "standing"
+
+
+def _on_bed(smp: SMP) -> bool:
+    """The SMP's contacts (its own or a primitive's) name a bed, sofa or couch."""
+    oc = smp.object_contact
+    words = [*oc.environment_contact, *oc.objects, *oc.required_contact,
+             *(c for p in smp.motion_primitives for c in p.contact)]
+    return any(re.search(r"\b(bed|sofa|couch)\b", w.lower()) for w in words)
 
 
 def _weights_hang(smp: SMP) -> bool:
@@ -465,7 +476,7 @@ def _reset(current: np.ndarray, moves: list[Movement], base: np.ndarray) -> np.n
 # -- keyframes ----------------------------------------------------------------------------------
 def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycle: list[int]) -> None:
     current, stack, root_dz, start_posture = base.copy(), [], 0.0, posture
-    cycle_start = None
+    cycle_start, bed = None, _on_bed(smp)
     arms = np.array([DOF_INDEX[f"{side}_{stem}"] for side in ("left", "right") for stem in _ARM_STEMS])
     placed = arms[np.abs(base - _posture_vector(posture, 0.0))[arms] > CHANGE_DEG]
     for i, step in enumerate(steps):
@@ -473,6 +484,8 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             cycle_start = current.copy()
         before = current.copy()
         step.start = before
+        if posture != "sitting":  # one reclines from a seat; from anywhere else "recline" lies down
+            step.movements = tuple(MOVEMENTS["lie_down"] if m.name == "recline" else m for m in step.movements)
         rest = base if posture == start_posture else _posture_vector(posture, root_dz)  # arms at rest here
         moves = [m for m in step.movements if m.kind not in ("gait",)]
         if posture == "plank":  # the hands are planted: bending the elbows lowers the body
@@ -501,13 +514,13 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             step.keys = _hop(before, target) if jumps else [(1.0, target, "stop")]
             current = target
         elif post is not None:
-            root_dz = _posture_shift(posture, post.posture, root_dz)
+            root_dz = _posture_shift(posture, post.posture, root_dz, bed)
             upper = [m for m in moves if m.kind == "excursion" and m.limb != "leg"]  # the legs follow the posture
             target = _posture_vector(post.posture, root_dz)
             target[placed] = before[placed]  # arms placed from the start (crossed, on the hips) stay placed
             target[_YAW] = before[_YAW]  # the body keeps its heading (turned to sit on the bed's edge)
             target = _apply(target, upper, step, smp, hint)
-            via = _via(posture, post.posture, before, step, smp, root_dz)
+            via = _via(posture, post.posture, before, step, smp, root_dz, bed)
             step.keys = ([(0.5, via, "smooth")] if via is not None else []) + [(1.0, target, "stop")]
             posture = post.posture or posture
             stack.append(before)
@@ -572,20 +585,25 @@ def _circle(step: Step, before: np.ndarray) -> list[tuple[float, np.ndarray, str
     return keys
 
 
-def _posture_shift(src: str, dst: str | None, root_dz: float) -> float:
-    """Pelvis travel that keeps the feet in place: onto a seat behind them, back up over them."""
-    seated = ("sitting", "lying")
-    if src in ("standing", "kneeling") and dst in seated:
-        return root_dz + SEAT_SHIFT_M
-    if src in seated and dst in ("standing", "kneeling"):
-        return root_dz - SEAT_SHIFT_M
-    return root_dz
+def _pelvis_offset(posture: str | None, bed: bool) -> float | None:
+    """Where the pelvis sits in a posture, along the facing direction from where it stood (m):
+    on a seat behind the feet; lying on a bed, a further LIE_SHIFT_M back along it."""
+    return {"standing": 0.0, "kneeling": 0.0, "sitting": SEAT_SHIFT_M,
+            "lying": SEAT_SHIFT_M + (LIE_SHIFT_M if bed else 0.0)}.get(posture or "")
 
 
-def _via(src: str, dst: str | None, before: np.ndarray, step: Step, smp: SMP, root_dz: float) -> np.ndarray | None:
+def _posture_shift(src: str, dst: str | None, root_dz: float, bed: bool = False) -> float:
+    """Pelvis travel that keeps the feet in place: onto a seat behind them, back up over them, and
+    (`bed`) back along the bed when lying down from its edge (on the floor a sit-up pivots in place)."""
+    start, end = _pelvis_offset(src, bed), _pelvis_offset(dst, bed)
+    return root_dz if start is None or end is None else root_dz + end - start
+
+
+def _via(src: str, dst: str | None, before: np.ndarray, step: Step, smp: SMP, root_dz: float,
+         bed: bool = False) -> np.ndarray | None:
     """A pose passed through: sitting between standing and lying, a crouch before a seat."""
     if {src, dst} == {"standing", "lying"}:
-        return _posture_vector("sitting", root_dz if dst == "lying" else root_dz + SEAT_SHIFT_M)
+        return _posture_vector("sitting", root_dz + SEAT_SHIFT_M - _pelvis_offset(dst, bed))
     if src == "standing" and dst == "sitting" or src == "sitting" and dst == "standing":
         crouch = _apply(before, [MOVEMENTS["squat"]], step, smp, 0)
         crouch[DOF_INDEX["root_dz"]] = 0.5 * (before[DOF_INDEX["root_dz"]] + root_dz)

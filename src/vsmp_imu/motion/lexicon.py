@@ -42,8 +42,9 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bsit(s|ting)? up\b|\b(rais|lift)\w* the trunk( and head)? (up )?(from|off)", "sit_down"),
     (r"\bstand(s|ing)? (back )?up\b|\bget(s|ting)? up\b|\brises?\b(?! onto)(?! on )|\bto standing\b"
      r"|\bextend\w* the hips and knees", "stand_up"),
-    (r"\blie(s)? (down|flat|back)\b|\blying down\b|\brecline\w*|\blie(s)? (still )?on the back|\bflat on the back",
+    (r"\blie(s)? (down|flat|back)\b|\blying down\b|\blie(s)? (still )?on the back|\bflat on the back",
      "lie_down"),
+    (r"\breclin\w*", "recline"),  # seated; from any other posture the compiler lies down
     (r"\bplank\b|\bpush[- ]?up position|\bon the hands and toes", "plank"),
     (r"\bface down\b|\bprone\b|\bon the (belly|stomach)\b", "lie_prone"),
     (r"\bkneel\w*", "kneel"),
@@ -243,10 +244,13 @@ def _prune(found: list[str]) -> tuple[str, ...]:
     out = _overhead(out)
     if any(m in out for m in _PLACEMENTS):  # the hands' placement sets the arm: no other arm reach
         out = [m for m in out if m in _PLACEMENTS or m not in _REACHES]
+    if "recline" in out:  # the trunk leans back with the pelvis
+        out = [m for m in out if m not in ("trunk_flexion", "trunk_extension")]
     posture = [m for m in out if MOVEMENTS[m].kind == "posture"]
     if posture:
-        # a change of support includes its own trunk and leg movements
-        out = [m for m in out if m not in ("trunk_flexion", "trunk_extension", "knee_bend", "trunk_upright")]
+        # a change of support includes its own trunk and leg movements (and a recline before lying)
+        out = [m for m in out if m not in ("trunk_flexion", "trunk_extension", "knee_bend", "trunk_upright",
+                                           "recline")]
         keep = "plank" if "plank" in posture else posture[-1]  # face down on the hands and toes: a plank
         out = [m for m in out if MOVEMENTS[m].kind != "posture" or m == keep]
     return tuple(out)
