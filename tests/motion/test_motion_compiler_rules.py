@@ -1187,3 +1187,14 @@ def test_standing_a_recline_lies_down():
 def test_a_first_primitive_that_reclines_starts_seated():
     data, _ = _compiled(_smp(("recline", "recline on the sofa", []), _WAIT))
     assert data["base_pose"]["left_knee_flex"] > 60.0
+
+
+def test_a_recline_sends_both_arms_back_to_the_bed_from_where_they_reached():
+    data, keys = _compiled(_smp(("sit", "sit upright", []), ("reach", "raise both arms forward", _ARMS),
+                                ("lean", "recline", [])))
+    (_, reached), = keys["reach"]
+    (_, reclined), = keys["lean"]
+    for side in ("left", "right"):  # the recline names no side: both hands reach back
+        assert reached[f"{side}_shoulder_flex"] > 60.0
+        assert reclined[f"{side}_shoulder_flex"] == pytest.approx(data["base_pose"][f"{side}_shoulder_flex"])
+        assert reclined[f"{side}_shoulder_abd"] == MOVEMENTS["recline"].pose["shoulder_abd"]

@@ -414,10 +414,10 @@ def _apply(current: np.ndarray, moves: list[Movement], step: Step, smp: SMP, dir
         _aim_from(out, moves, step, smp, aim)
     for primary in (False, True):
         for move in moves:
+            if move.kind == "reset":
+                continue
             items = list(move.pose.items())[:1] if primary else list(move.pose.items())
             for stem, value in items:
-                if move.kind == "reset":
-                    continue
                 for col, val in _targets(move, stem, value, step, smp,
                                          current if neutral is None else neutral, direction_hint):
                     out[col] = val
@@ -666,12 +666,13 @@ def _slowest(step: Step) -> float:
 
 def _joint_paths(poses: np.ndarray) -> np.ndarray:
     """Longest joint path (m) on the default body between consecutive poses (DOFs interpolated linearly)."""
-    u = np.linspace(0.0, 1.0, PATH_SAMPLES + 1)[:, None, None]
-    dense = (poses[:-1][None] * (1.0 - u) + poses[1:][None] * u).transpose(1, 0, 2).reshape(-1, N_DOFS)
+    n, m = len(poses) - 1, PATH_SAMPLES + 1  # key intervals, poses sampled along each
+    u = np.linspace(0.0, 1.0, m)[:, None, None]
+    dense = (poses[:-1][None] * (1.0 - u) + poses[1:][None] * u).transpose(1, 0, 2).reshape(n * m, N_DOFS)
     root = dense[:, _ROOT]
     pos, _ = forward_kinematics_components(_BODY.offsets, _BODY.parents, local_quats_components(dense), root)
-    pos = pos.reshape(len(poses) - 1, PATH_SAMPLES + 1, -1, 3)
-    return np.linalg.norm(np.diff(pos, axis=1), axis=-1).sum(axis=1).max(axis=-1)
+    pos = pos.reshape(n, m, len(_BODY.parents), 3)  # interval, sample, joint, xyz
+    return np.linalg.norm(np.diff(pos, axis=1), axis=3).sum(axis=1).max(axis=1)
 
 
 def _shares(smp: SMP, n: int) -> list[float] | None:
