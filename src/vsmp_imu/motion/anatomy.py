@@ -90,16 +90,24 @@ def _m(name: str, joint: str, plane: str, pose: dict[str, float], **kw: object) 
 # Gait waves over one cycle (phase 0 = the legs side by side, the left leg
 # about to swing); the right side runs half a cycle behind. Sagittal joint
 # angles of level walking, running and stair gait as drawn in the gait
-# literature (hip about +25/-10, knee 0-60, ankle +10/-15 for walking).
+# literature (hip about +25/-10, knee 0-60, ankle +10/-15 for walking). The
+# pelvis of walking and stair gait: obliquity (`root_roll`) and transverse
+# rotation (`root_yaw`) of about ±5° per stride and a tilt (`root_pitch`) of
+# about ±2° with each step (normative gait kinematics, as the library's
+# walking recipes; docs/results.md, "The walking pelvis turns").
+PELVIS_WAVES: dict[str, list[tuple[float, float]]] = {
+    "root_yaw": [(0.25, 5), (0.75, -5)],
+    "root_roll": [(0.0, -5), (0.5, 5)],
+    "root_pitch": [(0.0, 2), (0.25, -2), (0.5, 2), (0.75, -2)],
+}
 WALK_WAVES: dict[str, list[tuple[float, float]]] = {
     "hip_flex": [(0.05, 5), (0.25, -11), (0.35, -6), (0.5, 17), (0.62, 27), (0.75, 25), (0.85, 21)],
     "knee_flex": [(0.15, 5), (0.35, 38), (0.48, 62), (0.65, 22), (0.75, 5), (0.9, 17)],
     "ankle_flex": [(0.15, 9), (0.35, -17), (0.5, 2), (0.65, 2), (0.75, 0), (0.85, -6)],
     "shoulder_flex": [(0.25, 17), (0.75, -13)],
     "elbow_flex": [(0.25, 28), (0.75, 14)],
-    "root_yaw": [(0.25, 4), (0.75, -4)],
     "trunk_twist": [(0.25, -3), (0.75, 3)],
-    "root_roll": [(0.0, -2), (0.5, 2)],
+    **PELVIS_WAVES,
 }
 RUN_WAVES: dict[str, list[tuple[float, float]]] = {
     "hip_flex": [(0.0, 7), (0.15, -10), (0.3, -3), (0.45, 22), (0.6, 36), (0.75, 33), (0.85, 25), (0.93, 15)],
@@ -136,8 +144,8 @@ STAIRS_UP_WAVES: dict[str, list[tuple[float, float]]] = {
     "ankle_flex": [(0.05, 12), (0.3, -14), (0.5, 10), (0.75, 8)],
     "shoulder_flex": [(0.25, 14), (0.75, -8)],
     "elbow_flex": [(0.25, 26), (0.75, 16)],
-    "root_yaw": [(0.25, 3), (0.75, -3)],
-    "root_roll": [(0.0, -2), (0.5, 2)],
+    "trunk_twist": [(0.25, -2), (0.75, 2)],
+    **PELVIS_WAVES,
 }
 STAIRS_DOWN_WAVES: dict[str, list[tuple[float, float]]] = {
     "hip_flex": [(0.1, 28), (0.3, 20), (0.5, 8), (0.65, 30), (0.85, 34)],
@@ -145,8 +153,8 @@ STAIRS_DOWN_WAVES: dict[str, list[tuple[float, float]]] = {
     "ankle_flex": [(0.1, -20), (0.3, 12), (0.5, 18), (0.7, -10), (0.85, -25)],
     "shoulder_flex": [(0.25, 14), (0.75, -8)],
     "elbow_flex": [(0.25, 24), (0.75, 14)],
-    "root_yaw": [(0.25, 3), (0.75, -3)],
-    "root_roll": [(0.0, -2), (0.5, 2)],
+    "trunk_twist": [(0.25, -2), (0.75, 2)],
+    **PELVIS_WAVES,
 }
 
 # Postures (the supports of sit / stand / lie transitions): built-in poses of `motion.dofs`.
