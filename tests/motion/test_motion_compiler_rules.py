@@ -1198,3 +1198,30 @@ def test_a_recline_sends_both_arms_back_to_the_bed_from_where_they_reached():
         assert reached[f"{side}_shoulder_flex"] > 60.0
         assert reclined[f"{side}_shoulder_flex"] == pytest.approx(data["base_pose"][f"{side}_shoulder_flex"])
         assert reclined[f"{side}_shoulder_abd"] == MOVEMENTS["recline"].pose["shoulder_abd"]
+
+
+def test_seated_leaning_back_before_lying_down_reclines_and_otherwise_leans_the_trunk():
+    def smp(*lie):
+        out = _smp(("stand", "stand upright", []), ("sit", "sit down on the edge of the bed", []),
+                   ("lean", "sit on the bed and lean the trunk back", []), *lie)
+        out.object_contact.environment_contact = ["bed"]
+        return out
+
+    _, keys = _compiled(smp(("lie", "lie down flat on the back", [])))
+    (_, leaned), = keys["lean"]
+    assert leaned["root_pitch"] == MOVEMENTS["recline"].pose["root_pitch"] and leaned["trunk_flex"] == 0.0
+    _, keys = _compiled(smp())  # no lying down follows: the trunk leans back on the seat
+    (_, leaned), = keys["lean"]
+    assert leaned["root_pitch"] == 0.0
+    assert leaned["trunk_flex"] == MOVEMENTS["trunk_extension"].pose["trunk_flex"]
+
+
+@pytest.mark.parametrize("posture,lies_later,names", [
+    ("sitting", True, ["recline", "recline", "elbow_flexion"]),
+    ("sitting", False, ["trunk_extension", "recline", "elbow_flexion"]),
+    ("standing", True, ["trunk_extension", "lie_down", "elbow_flexion"]),
+    ("lying", False, ["trunk_extension", "lie_down", "elbow_flexion"]),
+])
+def test_a_recline_needs_a_seat_and_a_seated_lean_back_before_lying_is_one(posture, lies_later, names):
+    moves = tuple(MOVEMENTS[n] for n in ("trunk_extension", "recline", "elbow_flexion"))
+    assert [m.name for m in compiler._seated(moves, posture, lies_later)] == names

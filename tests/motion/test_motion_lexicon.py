@@ -92,6 +92,15 @@ def test_a_recline_is_the_whole_body_leaning_back_not_a_trunk_extension_too():
     assert read_primitive("lean_back", "lean the trunk backward").movements == ("trunk_extension",)
 
 
+@pytest.mark.parametrize(("words", "expected"), [
+    ("sit on the bed and lean the trunk back", ("sit_down", "trunk_extension")),  # sitting down leans forward
+    ("sit down, leaning the trunk forward", ("sit_down",)),
+    ("lie down, leaning the trunk back flat", ("lie_down",)),
+    ("stand up and lean back", ("stand_up",))])
+def test_a_change_of_support_keeps_only_a_lean_back_after_sitting_down(words, expected):
+    assert read_primitive("p", words).movements == expected
+
+
 def test_hammer_curl_keeps_the_grip_neutral():
     assert "forearm_supination" not in read_primitive("curl_up", "hammer curl the kettlebells up").movements
 

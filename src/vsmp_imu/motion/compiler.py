@@ -484,8 +484,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             cycle_start = current.copy()
         before = current.copy()
         step.start = before
-        if posture != "sitting":  # one reclines from a seat; from anywhere else "recline" lies down
-            step.movements = tuple(MOVEMENTS["lie_down"] if m.name == "recline" else m for m in step.movements)
+        step.movements = _seated(step.movements, posture, _lies_later(steps, i))
         rest = base if posture == start_posture else _posture_vector(posture, root_dz)  # arms at rest here
         moves = [m for m in step.movements if m.kind not in ("gait",)]
         if posture == "plank":  # the hands are planted: bending the elbows lowers the body
@@ -536,6 +535,17 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         if cycle and i == cycle[-1] and cycle_start is not None:
             _close(step, before, current, cycle_start)
             current = cycle_start
+
+
+def _seated(moves: tuple[Movement, ...], posture: str, lies_later: bool) -> tuple[Movement, ...]:
+    """One reclines from a seat: from any other posture "recline" lies down; seated, leaning the trunk
+    back before lying down is the recline on the hands (the first half of lying down)."""
+    swap = {"recline": "lie_down"} if posture != "sitting" else {"trunk_extension": "recline"} if lies_later else {}
+    return tuple(MOVEMENTS[swap[m.name]] if m.name in swap else m for m in moves)
+
+
+def _lies_later(steps: list[Step], i: int) -> bool:
+    return any(m.kind == "posture" and m.posture == "lying" for s in steps[i + 1:] for m in s.movements)
 
 
 def _twist_hint(current: np.ndarray, smp: SMP) -> int:

@@ -248,9 +248,11 @@ def _prune(found: list[str]) -> tuple[str, ...]:
         out = [m for m in out if m not in ("trunk_flexion", "trunk_extension")]
     posture = [m for m in out if MOVEMENTS[m].kind == "posture"]
     if posture:
-        # a change of support includes its own trunk and leg movements (and a recline before lying)
-        out = [m for m in out if m not in ("trunk_flexion", "trunk_extension", "knee_bend", "trunk_upright",
-                                           "recline")]
+        # a change of support includes its own trunk and leg movements (and a recline before lying);
+        # sitting down leans forward, so leaning back is a movement of its own ("sit on the bed and lean back")
+        own = ("trunk_flexion", "knee_bend", "trunk_upright", "recline") + (
+            () if posture == ["sit_down"] else ("trunk_extension",))
+        out = [m for m in out if m not in own]
         keep = "plank" if "plank" in posture else posture[-1]  # face down on the hands and toes: a plank
         out = [m for m in out if MOVEMENTS[m].kind != "posture" or m == keep]
     return tuple(out)
