@@ -1225,3 +1225,33 @@ def test_seated_leaning_back_before_lying_down_reclines_and_otherwise_leans_the_
 def test_a_recline_needs_a_seat_and_a_seated_lean_back_before_lying_is_one(posture, lies_later, names):
     moves = tuple(MOVEMENTS[n] for n in ("trunk_extension", "recline", "elbow_flexion"))
     assert [m.name for m in compiler._seated(moves, posture, lies_later)] == names
+
+
+def test_sitting_up_from_lying_in_two_primitives_rises_halfway_on_the_hands_first():
+    def smp(*more):
+        out = _smp(("lie", "lie on the back", []), ("raise_trunk", "lift the trunk and head up from lying", []), *more)
+        out.object_contact.environment_contact = ["bed"]
+        return out
+
+    data, keys = _compiled(smp(("legs", "turn to the edge of the bed, swinging the legs down to sit", [])))
+    (_, half), = keys["raise_trunk"]
+    (_, seated), = keys["legs"]
+    recline = MOVEMENTS["recline"].pose
+    assert half["root_pitch"] == recline["root_pitch"] and half["left_hip_flex"] == recline["hip_flex"]
+    assert half["root_dz"] == pytest.approx(-compiler.LIE_SHIFT_M + recline["root_dz"])
+    sitting = compiler.BUILTIN_POSES["sitting"]
+    assert seated["root_pitch"] == 0.0 and seated["left_knee_flex"] == sitting["knee_flex"]  # upright on the seat
+    assert abs(seated["root_yaw"]) == MOVEMENTS["turn"].pose["root_yaw"]
+    assert seated["root_dz"] == pytest.approx(-compiler.LIE_SHIFT_M)
+    _, keys = _compiled(smp(("stand", "extend the hips and knees to stand upright", [])))
+    (_, sat), = keys["raise_trunk"]
+    assert sat["root_pitch"] == 0.0  # no second sitting primitive: straight up
+
+
+def test_the_body_is_tipped_out_of_a_posture_when_its_pitch_differs():
+    vec = compiler._posture_vector("sitting", 0.2)
+    assert not compiler._tipped(vec, "sitting", 0.2)
+    vec[_col("root_pitch")] -= 1.5
+    assert compiler._tipped(vec, "sitting", 0.2)
+    vec[_col("root_pitch")] += 0.6  # within a degree of the posture's pitch
+    assert not compiler._tipped(vec, "sitting", 0.2)

@@ -491,7 +491,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             moves = [MOVEMENTS["push_up_lower"] if m.name == "elbow_flexion" else m for m in moves]
         hint = _twist_hint(current, smp)
         post = next((m for m in moves if m.kind == "posture"), None)
-        if post is not None and post.posture == posture:
+        if post is not None and post.posture == posture and not _tipped(current, posture, root_dz):
             # already there: standing up from a squat straightens the legs; any other posture is kept
             moves = [m for m in moves if m is not post]
             if post.posture == "standing":
@@ -515,6 +515,8 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         elif post is not None:
             root_dz = _posture_shift(posture, post.posture, root_dz, bed)
             upper = [m for m in moves if m.kind == "excursion" and m.limb != "leg"]  # the legs follow the posture
+            if posture == "lying" and post.posture == "sitting" and _sits_later(steps, i):
+                upper.append(MOVEMENTS["recline"])  # halfway up, on the hands: a later primitive sits
             target = _posture_vector(post.posture, root_dz)
             target[placed] = before[placed]  # arms placed from the start (crossed, on the hips) stay placed
             target[_YAW] = before[_YAW]  # the body keeps its heading (turned to sit on the bed's edge)
@@ -546,6 +548,17 @@ def _seated(moves: tuple[Movement, ...], posture: str, lies_later: bool) -> tupl
 
 def _lies_later(steps: list[Step], i: int) -> bool:
     return any(m.kind == "posture" and m.posture == "lying" for s in steps[i + 1:] for m in s.movements)
+
+
+def _sits_later(steps: list[Step], i: int) -> bool:
+    """A later primitive sits again ("swinging the legs down to sit"): sitting up from lying takes two."""
+    return any(m.kind == "posture" and m.posture == "sitting" for s in steps[i + 1:] for m in s.movements)
+
+
+def _tipped(current: np.ndarray, posture: str, root_dz: float) -> bool:
+    """The body is tipped out of its posture (reclined on the hands while sitting)."""
+    pitch = DOF_INDEX["root_pitch"]
+    return abs(current[pitch] - _posture_vector(posture, root_dz)[pitch]) > CHANGE_DEG
 
 
 def _twist_hint(current: np.ndarray, smp: SMP) -> int:
