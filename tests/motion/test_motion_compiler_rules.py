@@ -880,9 +880,10 @@ def test_a_gait_step_takes_the_gaits_duration_whatever_else_it_names():
 def test_a_return_after_a_circle_undoes_the_primitive_before_the_circle():
     _, keys = _compiled(_smp(_WAIT, ("raise", "raise the left arm forward", ["left_upper_arm"]),
                              ("circle", "circle the right arm clockwise", ["right_upper_arm"]),
-                             ("lower", "lower the arms", _ARMS)))
+                             ("lower", "lower the arms", _ARMS), _WAIT))
     assert keys["raise"][-1][1]["left_shoulder_flex"] > 60.0
-    assert keys["lower"][-1][1]["left_shoulder_flex"] == 0.0  # the circle opened nothing to return to
+    # the circle opened nothing to return to (not the last primitive: its return is not the rest pose)
+    assert keys["lower"][-1][1]["left_shoulder_flex"] == 0.0
 
 
 def test_a_placement_every_primitive_of_a_cycle_names_is_held_from_the_start():
@@ -1255,3 +1256,57 @@ def test_the_body_is_tipped_out_of_a_posture_when_its_pitch_differs():
     assert compiler._tipped(vec, "sitting", 0.2)
     vec[_col("root_pitch")] += 0.6  # within a degree of the posture's pitch
     assert not compiler._tipped(vec, "sitting", 0.2)
+    vec[_col("root_pitch")] = -compiler.CHANGE_DEG  # exactly a degree is still in the posture
+    assert not compiler._tipped(vec, "sitting", 0.2)
+
+
+def test_a_return_with_nothing_to_return_to_goes_to_the_start_pose():
+    data, keys = _compiled(_smp(("lower", "lower the arms", _ARMS), _WAIT))
+    (_, end), = keys["lower"]
+    assert end == pytest.approx(data["base_pose"])
+
+
+def test_lying_down_on_a_bed_in_one_primitive_passes_its_edge():
+    smp = _smp(_WAIT, ("lie", "lie down on the bed", []))
+    smp.object_contact.environment_contact = ["bed"]
+    _, keys = _compiled(smp)
+    (_, edge), (_, lying) = keys["lie"]
+    assert edge["root_dz"] == pytest.approx(SEAT_SHIFT_M)  # seated on the edge, feet in place
+    assert lying["root_dz"] == pytest.approx(SEAT_SHIFT_M + compiler.LIE_SHIFT_M)
+
+
+def test_a_seated_lean_back_before_standing_up_is_no_recline():
+    _, keys = _compiled(_smp(("sit", "sit down on the chair", []), ("lean", "lean the trunk back", []),
+                             ("stand", "stand up", [])))
+    (_, leaned), = keys["lean"]
+    assert leaned["root_pitch"] == 0.0
+    assert leaned["trunk_flex"] == MOVEMENTS["trunk_extension"].pose["trunk_flex"]
+
+
+def test_a_recline_aims_both_arms_even_when_one_side_dominates():
+    smp = _smp(("sit", "sit upright", []), ("reach", "raise both arms forward", _ARMS), ("lean", "recline", []),
+               dominant="right", symmetry="asymmetric")
+    smp.body_parts.dominant_moving_segments = ["torso"]
+    data, keys = _compiled(smp)
+    (_, reclined), = keys["lean"]
+    for side in ("left", "right"):
+        assert reclined[f"{side}_shoulder_flex"] == pytest.approx(data["base_pose"][f"{side}_shoulder_flex"])
+
+
+def test_a_trunk_turn_every_primitive_of_the_cycle_names_is_held_whichever_arm_moves():
+    data, keys = _compiled(_smp(("left", "twist the trunk to the left and raise the left arm forward", ["left_upper_arm"]),
+                                ("right", "twist the trunk to the left and raise the right arm forward",
+                                 ["right_upper_arm"]), periodic=True))
+    twist = MOVEMENTS["trunk_rotation"].pose["trunk_twist"]
+    assert data["base_pose"]["trunk_twist"] == pytest.approx(twist)  # held from the start, to the left
+    assert all(pose["trunk_twist"] == pytest.approx(twist) for ks in keys.values() for _, pose in ks)
+
+
+def test_only_a_lying_down_after_a_seated_lean_back_makes_it_a_recline():
+    """A lying down before it (here one that only returns, so the body is still seated) does not."""
+    _, keys = _compiled(_smp(("sit", "sit down on the chair", []), ("fwd", "lean the trunk forward", []),
+                             ("back_down", "lie back down", []), ("lean", "lean the trunk back", []), _WAIT))
+    assert [m.name for m in compiler._steps(_smp(("x", "lie back down", [])))[0].movements] == ["lie_down"]
+    (_, leaned), = keys["lean"]
+    assert leaned["root_pitch"] == 0.0 and leaned["left_knee_flex"] > 60.0  # still seated
+    assert leaned["trunk_flex"] == MOVEMENTS["trunk_extension"].pose["trunk_flex"]

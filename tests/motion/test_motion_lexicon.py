@@ -549,3 +549,27 @@ def test_turning_to_lie_or_to_the_edge_of_the_bed_turns_the_body(description, tu
 def test_legs_swung_down_are_no_strike():
     assert read_primitive("down", "swinging the legs down to sit").pace == 1.0
     assert read_primitive("step", "swing the right leg forward").pace == 1.0
+
+
+def test_words_after_and_back_are_not_the_outward_movement():
+    """'raise the arm forward and back, then bend the elbows': the movement goes out up to 'and back'."""
+    reading = read_primitive("raise", "raise the arm forward and back, then bend the elbows")
+    assert reading.movements == ("shoulder_flexion",) and reading.there_and_back
+
+
+def test_in_place_words_without_a_step_leave_the_movements_alone():
+    assert read_primitive("hold", "raise both arms forward and hold them in place").movements == ("shoulder_flexion",)
+    assert read_primitive("march", "march in place").movements == ("step_in_place",)
+
+
+def test_shoulder_flexion_wins_when_its_words_end_first():
+    """'swing the arm forward, then take it back': forward ends first (the mirror of 'swing the arm
+    back while stepping forward')."""
+    moves = read_primitive("swing", "swing the arm forward, then take it back").movements
+    assert "shoulder_flexion" in moves and "shoulder_extension" not in moves
+    back = read_primitive("swing", "take the arm back, then swing it forward").movements
+    assert "shoulder_extension" in back and "shoulder_flexion" not in back
+
+
+def test_a_recline_owns_the_trunks_sagittal_movement():
+    assert read_primitive("lean", "bend forward then recline").movements == ("recline",)
