@@ -484,7 +484,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             cycle_start = current.copy()
         before = current.copy()
         step.start = before
-        step.movements = _seated(step.movements, posture, _lies_later(steps, i))
+        step.movements = _seated(step.movements, posture, _reached_later(steps, i, "lying"))
         rest = base if posture == start_posture else _posture_vector(posture, root_dz)  # arms at rest here
         moves = [m for m in step.movements if m.kind not in ("gait",)]
         if posture == "plank":  # the hands are planted: bending the elbows lowers the body
@@ -515,7 +515,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         elif post is not None:
             root_dz = _posture_shift(posture, post.posture, root_dz, bed)
             upper = [m for m in moves if m.kind == "excursion" and m.limb != "leg"]  # the legs follow the posture
-            if posture == "lying" and post.posture == "sitting" and _sits_later(steps, i):
+            if posture == "lying" and post.posture == "sitting" and _reached_later(steps, i, "sitting"):
                 upper.append(MOVEMENTS["recline"])  # halfway up, on the hands: a later primitive sits
             target = _posture_vector(post.posture, root_dz)
             target[placed] = before[placed]  # arms placed from the start (crossed, on the hips) stay placed
@@ -546,13 +546,9 @@ def _seated(moves: tuple[Movement, ...], posture: str, lies_later: bool) -> tupl
     return tuple(MOVEMENTS[swap[m.name]] if m.name in swap else m for m in moves)
 
 
-def _lies_later(steps: list[Step], i: int) -> bool:
-    return any(m.kind == "posture" and m.posture == "lying" for s in steps[i + 1:] for m in s.movements)
-
-
-def _sits_later(steps: list[Step], i: int) -> bool:
-    """A later primitive sits again ("swinging the legs down to sit"): sitting up from lying takes two."""
-    return any(m.kind == "posture" and m.posture == "sitting" for s in steps[i + 1:] for m in s.movements)
+def _reached_later(steps: list[Step], i: int, posture: str) -> bool:
+    """A primitive after the i-th reaches `posture` (lies down; sits again, "swinging the legs down to sit")."""
+    return any(m.kind == "posture" and m.posture == posture for s in steps[i + 1:] for m in s.movements)
 
 
 def _tipped(current: np.ndarray, posture: str, root_dz: float) -> bool:
