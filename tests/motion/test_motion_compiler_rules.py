@@ -112,9 +112,9 @@ def test_the_pelvis_travels_onto_a_seat_behind_the_feet_and_back(src, dst, shift
 ])
 def test_lying_down_from_a_beds_edge_slides_the_pelvis_back_along_the_bed(src, dst, shift):
     assert compiler._posture_shift(src, dst, 0.25, bed=True) == pytest.approx(0.25 + shift)
-    before, step = np.zeros(N_DOFS), _step()
+    before = np.zeros(N_DOFS)
     if {src, dst} == {"standing", "lying"}:  # passing the seat on the bed's edge
-        via = compiler._via(src, dst, before, step, None, 0.25 + shift, bed=True)
+        via = compiler._via(src, dst, before, before, 0.25 + shift, bed=True)
         assert via[_col("root_dz")] == pytest.approx(0.25 + (SEAT_SHIFT_M if dst == "lying" else -compiler.LIE_SHIFT_M))
 
 
@@ -131,25 +131,45 @@ def test_a_bed_is_read_from_the_smps_contacts_or_a_primitives():
 
 
 def test_standing_and_lying_pass_through_sitting_and_a_seat_through_a_crouch():
-    before = np.zeros(N_DOFS)
+    before, target = np.zeros(N_DOFS), np.full(N_DOFS, 8.0)
     before[_col("left_elbow_flex")] = 40.0
-    step = _step()
-    down = compiler._via("standing", "lying", before, step, None, -0.3)
-    up = compiler._via("lying", "standing", before, step, None, -0.3)
+    down = compiler._via("standing", "lying", before, target, -0.3)
+    up = compiler._via("lying", "standing", before, target, -0.3)
     for via in (down, up):
         assert via[_col("left_hip_flex")] == via[_col("right_knee_flex")] == 88.0  # the sitting pose
         assert via[_col("left_elbow_flex")] == 55.0  # the sitting pose's arms, not the ones before
     assert down[_col("root_dz")] == pytest.approx(-0.3)  # already on the seat's level
     assert up[_col("root_dz")] == pytest.approx(-0.3 + SEAT_SHIFT_M)
-    before[_col("root_dz")] = 0.1
+    lean = MOVEMENTS["squat"].pose["trunk_flex"]
     for src, dst in (("standing", "sitting"), ("sitting", "standing")):
-        crouch = compiler._via(src, dst, before, step, None, -0.3)
-        for side in ("left", "right"):
-            assert [crouch[_col(f"{side}_{s}")] for s in ("hip_flex", "knee_flex", "ankle_flex")] == [92, 105, 24]
-        assert crouch[_col("trunk_flex")] == 32 and crouch[_col("left_elbow_flex")] == 40.0  # arms as they were
-        assert crouch[_col("root_dz")] == pytest.approx(0.5 * (0.1 - 0.3))  # half way down (or up)
+        crouch = compiler._via(src, dst, before, target, -0.3)
+        half = 0.5 * (before + target)  # legs, arms and pelvis half way: never below the seat
+        assert np.delete(crouch, _col("trunk_flex")) == pytest.approx(np.delete(half, _col("trunk_flex")))
+        assert crouch[_col("trunk_flex")] == lean  # leaning over the feet
+        target[_col("trunk_flex")] = 2 * lean + 10.0
+        assert compiler._via(src, dst, before, target, -0.3)[_col("trunk_flex")] == lean + 5.0  # already leaning more
+        target[_col("trunk_flex")] = 8.0
     for src, dst in (("sitting", "lying"), ("standing", "kneeling"), ("kneeling", "sitting"), ("standing", None)):
-        assert compiler._via(src, dst, before, step, None, -0.3) is None
+        assert compiler._via(src, dst, before, target, -0.3) is None
+
+
+def test_sitting_down_and_standing_up_move_the_pelvis_one_way_only():
+    """No dip below the seat on the way down or up (the crouch is half way, not a full squat)."""
+    from vsmp_imu.motion.procedural import ProceduralBackend
+
+    backend = ProceduralBackend(compile_mode="always")
+    sit = ("sit", "sit upright on the chair", [])
+    crouch = ("crouch", "lean forward over the feet in a crouch", [])  # seated: off the seat, not below it
+    for prims, rising in (((("stand", "stand upright", []), ("sit", "bend the hips and knees to sit down", [])), False),
+                          ((sit, ("rise", "stand up from the chair", [])), True),
+                          ((sit, crouch, ("rise", "stand up from the chair", [])), True)):
+        motion = backend.generate(_smp(*prims), seed=0)
+        steps = np.diff(motion.positions[:, 0, 1])  # the pelvis height
+        assert (steps >= -1e-3).all() if rising else (steps <= 1e-3).all()
+    _, keys = _compiled(_smp(sit, crouch))
+    off = keys["crouch"][-1][1]
+    assert 0.0 < off["left_knee_flex"] < compiler.BUILTIN_POSES["sitting"]["knee_flex"]
+    assert off["root_dz"] == pytest.approx(0.5 * (SEAT_SHIFT_M + 0.0) - SEAT_SHIFT_M)  # half way to over the feet
 
 
 def test_each_return_undoes_the_latest_open_outward_primitive():
@@ -1310,3 +1330,29 @@ def test_only_a_lying_down_after_a_seated_lean_back_makes_it_a_recline():
     (_, leaned), = keys["lean"]
     assert leaned["root_pitch"] == 0.0 and leaned["left_knee_flex"] > 60.0  # still seated
     assert leaned["trunk_flex"] == MOVEMENTS["trunk_extension"].pose["trunk_flex"]
+
+
+def test_getting_up_from_lying_turns_back_the_way_lying_down_turned():
+    """Lying down from a bed's edge swings the legs onto the bed, turning the body; getting up on the
+    same side swings them off, turning back: the opposite sign, in one primitive or in the second of two."""
+    def smp(*prims):
+        out = _smp(*prims, dominant="right")
+        out.object_contact.environment_contact = ["bed"]
+        return out
+
+    turn = MOVEMENTS["turn"].pose["root_yaw"]
+    _, down = _compiled(smp(("sit", "sit on the edge of the bed", []),
+                            ("lie_down", "turn to lie along the bed, swinging the legs up", [])))
+    _, up = _compiled(smp(("lie", "lie on the back", []),
+                          ("sit", "turn to the edge of the bed, swinging the legs down to sit", [])))
+    _, two = _compiled(smp(("lie", "lie on the back", []), ("raise_trunk", "lift the trunk up from lying", []),
+                           ("legs", "turn to the edge of the bed, swinging the legs down to sit", [])))
+    lying_yaw = down["lie_down"][-1][1]["root_yaw"]
+    assert abs(lying_yaw) == turn
+    assert up["sit"][-1][1]["root_yaw"] == -lying_yaw
+    assert two["raise_trunk"][-1][1]["root_yaw"] == 0.0 and two["legs"][-1][1]["root_yaw"] == -lying_yaw
+    _, named = _compiled(smp(("lie", "lie on the back", []),
+                             ("sit", "turn left to the edge of the bed, swinging the legs down to sit", [])))
+    _, named_down = _compiled(smp(("sit", "sit on the edge of the bed", []),
+                                  ("lie_down", "turn left to lie along the bed, swinging the legs up", [])))
+    assert named["sit"][-1][1]["root_yaw"] == named_down["lie_down"][-1][1]["root_yaw"] == turn  # words win

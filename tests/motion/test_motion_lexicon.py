@@ -159,6 +159,10 @@ def test_return_out_and_back_hold_and_sides():
     assert hold.hold and hold.posture == "standing"
     assert read_primitive("twist", "twist the trunk to the left").direction == 1
     assert read_primitive("twist", "twist the trunk to the right").direction == -1
+    for words, sign in (("turn left", 1), ("turn to the left, swinging the legs down", 1), ("turning to the right", -1)):
+        turn = read_primitive("p", words)
+        assert "turn" in turn.movements and turn.direction == sign
+    assert "turn" not in read_primitive("p", "the trunk turns to the left").movements  # a trunk rotation
     assert read_primitive("circle", "trace a counter-clockwise circle").counter_clockwise
     held = read_primitive("row_up", "pull the dumbbells up while bent forward at the hips")
     assert "trunk_flexion" in held.context and "trunk_flexion" not in held.movements

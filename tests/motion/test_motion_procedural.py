@@ -235,6 +235,25 @@ def test_treadmill_walking_and_displacement_extent(backend, library):
     assert drift.positions[-1, 0, 2] - drift.positions[0, 0, 2] == pytest.approx(1.5, abs=0.05)
 
 
+def test_compiled_keyframes_travel_their_postures_way_and_only_the_rest_drifts(library):
+    """A compiled change of posture moves the pelvis onto the seat behind the feet (or along a bed):
+    that way is the SMP's "small" displacement, so nothing more drifts; an activity whose keys travel
+    nowhere drifts its whole extent, and a number in metres drifts what the keys leave of it."""
+    compiled = ProceduralBackend(library, compile_mode="always")
+    travel = lambda m: m.positions[-1, 0, 2] - m.positions[0, 0, 2]  # noqa: E731
+    sit = library.get("stand_to_sit").smp
+    assert sit.execution_attributes.global_displacement == "small"
+    assert -0.5 < travel(compiled.generate(sit, seed=1)) < -0.3
+    assert 0.35 < travel(compiled.generate(library.get("lie_to_sit").smp, seed=1)) < 0.55
+    curl = library.get("two_arm_curl").smp
+    for extent in ("small", 1.5):
+        moved = compiled.generate(_with(curl, execution_attributes__global_displacement=extent), seed=1)
+        assert travel(moved) == pytest.approx(1.0 if extent == "small" else 1.5, abs=0.05)
+    keyed = compiled.generate(sit, seed=1)
+    farther = compiled.generate(_with(sit, execution_attributes__global_displacement=1.5), seed=1)
+    assert travel(farther) - travel(keyed) == pytest.approx(1.5 - 0.4, abs=0.05)  # the keys' 0.4 m counted
+
+
 def test_stairs_rise_and_fall(backend, library):
     up = backend.generate(library.get("walking_upstairs").smp, seed=2)
     down = backend.generate(library.get("walking_downstairs").smp, seed=2)

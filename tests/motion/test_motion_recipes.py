@@ -201,3 +201,14 @@ def test_sit_stand_transitions_do_not_turn(backend, library):
     for name in ("stand_to_sit", "sit_to_stand"):
         turn, _ = _turn_and_pitch(backend, library.get(name).smp, "none")
         assert np.linalg.norm(turn) < 0.1, name
+
+
+def test_keyed_travel_is_the_farthest_horizontal_way_of_a_key_from_the_start_pose():
+    data = {"kind": "discrete", "principal_joints": ["pelvis"], "start_pose": {"root_dx": 0.1},
+            "poses": {"a": {"root_dz": -0.4, "root_dx": 0.1}, "b": {"root_dx": 0.4, "root_dz": 0.4, "root_dy": -0.9}},
+            "primitives": {"p": {"duration_s": 1.0, "keys": [[0.5, "a"], [1.0, "b"]]}, "q": {"duration_s": 1.0}}}
+    assert parse_recipe(data).keyed_travel_m() == pytest.approx(0.5)  # (0.3, 0.4) from the start; height not counted
+    data["start_pose"] = None
+    assert parse_recipe(data).keyed_travel_m() == pytest.approx(0.4 * 2 ** 0.5)  # from the base pose
+    del data["primitives"]["p"]["keys"]
+    assert parse_recipe(data).keyed_travel_m() == 0.0

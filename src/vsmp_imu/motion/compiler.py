@@ -84,7 +84,7 @@ _LEG_PARTS = ("thigh", "lower_leg", "foot")
 STAIRS_PELVIS = {"rise_m": 0.07, "speed_fluctuation": 0.5}
 WALKING_PELVIS = {"walk": {}, "stairs_up": STAIRS_PELVIS, "stairs_down": STAIRS_PELVIS}
 _POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
-_YAW = DOF_INDEX["root_yaw"]
+_YAW, _TRUNK = DOF_INDEX["root_yaw"], DOF_INDEX["trunk_flex"]
 _BODY = smpl22_skeleton()
 _ROOT = [DOF_INDEX[name] for name in ("root_dx", "root_dy", "root_dz")]
 _CM = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)  # root travel: a centimetre counts as a degree
@@ -476,7 +476,7 @@ def _reset(current: np.ndarray, moves: list[Movement], base: np.ndarray) -> np.n
 # -- keyframes ----------------------------------------------------------------------------------
 def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycle: list[int]) -> None:
     current, stack, root_dz, start_posture = base.copy(), [], 0.0, posture
-    cycle_start, bed = None, _on_bed(smp)
+    cycle_start, bed, risen = None, _on_bed(smp), False
     arms = np.array([DOF_INDEX[f"{side}_{stem}"] for side in ("left", "right") for stem in _ARM_STEMS])
     placed = arms[np.abs(base - _posture_vector(posture, 0.0))[arms] > CHANGE_DEG]
     for i, step in enumerate(steps):
@@ -520,15 +520,21 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             target = _posture_vector(post.posture, root_dz)
             target[placed] = before[placed]  # arms placed from the start (crossed, on the hips) stay placed
             target[_YAW] = before[_YAW]  # the body keeps its heading (turned to sit on the bed's edge)
+            risen = (posture == "lying" or risen) and post.posture != "lying"  # getting up from lying
+            if risen:  # undoes the turn of lying down (the same bed side)
+                hint = -hint
             target = _apply(target, upper, step, smp, hint)
-            via = _via(posture, post.posture, before, step, smp, root_dz, bed)
+            via = _via(posture, post.posture, before, target, root_dz, bed)
             step.keys = ([(0.5, via, "smooth")] if via is not None else []) + [(1.0, target, "stop")]
             posture = post.posture or posture
             stack.append(before)
             current = target
         else:
-            target = _apply(_reset(before, moves, base),
-                            [m for m in moves if m.kind in ("excursion", "swing")], step, smp, hint,
+            start = _reset(before, moves, base)
+            if posture == "sitting" and any(m.name == "squat" for m in moves):  # off the seat, over the feet
+                start = _crouch_off_seat(before, root_dz)
+                moves = [m for m in moves if m.name != "squat"]
+            target = _apply(start, [m for m in moves if m.kind in ("excursion", "swing")], step, smp, hint,
                             neutral=_posture_vector(posture, root_dz), aim=rest)
             step.keys = _shape(step, moves, before, target)
             if step.action == "go":
@@ -618,16 +624,24 @@ def _posture_shift(src: str, dst: str | None, root_dz: float, bed: bool = False)
     return root_dz if start is None or end is None else root_dz + end - start
 
 
-def _via(src: str, dst: str | None, before: np.ndarray, step: Step, smp: SMP, root_dz: float,
+def _via(src: str, dst: str | None, before: np.ndarray, target: np.ndarray, root_dz: float,
          bed: bool = False) -> np.ndarray | None:
-    """A pose passed through: sitting between standing and lying, a crouch before a seat."""
+    """A pose passed through: sitting between standing and lying; between standing and a seat, half
+    way with the trunk leaning over the feet (the pelvis never dips below the seat)."""
     if {src, dst} == {"standing", "lying"}:
         return _posture_vector("sitting", root_dz + SEAT_SHIFT_M - _pelvis_offset(dst, bed))
     if src == "standing" and dst == "sitting" or src == "sitting" and dst == "standing":
-        crouch = _apply(before, [MOVEMENTS["squat"]], step, smp, 0)
-        crouch[DOF_INDEX["root_dz"]] = 0.5 * (before[DOF_INDEX["root_dz"]] + root_dz)
+        crouch = 0.5 * (before + target)
+        crouch[_TRUNK] = max(crouch[_TRUNK], MOVEMENTS["squat"].pose["trunk_flex"])
         return crouch
     return None
+
+
+def _crouch_off_seat(before: np.ndarray, root_dz: float) -> np.ndarray:
+    """Seated, a squat rises off the seat into the crouch half way to standing (never below the seat)."""
+    up = _posture_vector("standing", _posture_shift("sitting", "standing", root_dz))
+    up[_YAW] = before[_YAW]
+    return _via("sitting", "standing", before, up, root_dz)
 
 
 def _close(step: Step, before: np.ndarray, current: np.ndarray, start: np.ndarray) -> None:

@@ -48,7 +48,7 @@ RULES: tuple[tuple[str, str], ...] = (
     (r"\bplank\b|\bpush[- ]?up position|\bon the hands and toes", "plank"),
     (r"\bface down\b|\bprone\b|\bon the (belly|stomach)\b", "lie_prone"),
     (r"\bkneel\w*", "kneel"),
-    (r"\bturn(s|ing)? (the body |around|about)|\bturn(s|ing)? to (face|lie|sit|stand|the edge)\b|(?<!in )\bturn(s|ing)?(?=,|\.|$)|\bpivot\w*|(?<!trunk )(?<!torso )\bturn(s|ing)? (left|right)\b"
+    (r"\bturn(s|ing)? (the body |around|about)|\bturn(s|ing)? to (face|lie|sit|stand|the edge)\b|(?<!in )\bturn(s|ing)?(?=,|\.|$)|\bpivot\w*|(?<!trunk )(?<!torso )\bturn(s|ing)? (to the )?(left|right)\b"
      r"(?! ?(the )?(trunk|torso|chest|head|wheel|palm|hand|forearm|wrist))", "turn"),
     # trunk and neck
     (r"\bside bend|\bbend\w* (the (trunk|torso|body|upper body) )?(sideways|to the (left|right)( side)?|to (one|the) side)"

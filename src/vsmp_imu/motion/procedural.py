@@ -72,7 +72,7 @@ from vsmp_imu.motion.tracks import (
 )
 from vsmp_imu.seeding import rng_for
 from vsmp_imu.smp.library import ActivityMatchError
-from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, STRUCTURAL_NAMES, UNKNOWN
+from vsmp_imu.smp.schema import MAX_MOTION_S, SMP, STRUCTURAL_NAMES, UNKNOWN, displacement_word
 
 BACKEND_NAME = "procedural"
 ROTATION_DOF_NAMES = tuple(DOF_NAMES[c] for c in ROTATION_COLUMNS)  # the DOFs in degrees
@@ -473,6 +473,16 @@ def _level(value: Any, words: tuple[str, str, str], default: float) -> float:
     return float(value)
 
 
+def _keyed_extent(smp: SMP, recipe: Recipe) -> float | None:
+    """How far compiled keyframes travel: the pelvis's way between postures (onto a seat behind the
+    feet, along a bed). A displacement word the SMP names is realized when that way falls in it."""
+    travel = recipe.keyed_travel_m()
+    word = smp.execution_attributes.global_displacement
+    if isinstance(word, str) and travel > 0.0 and displacement_word(travel) == word:
+        return smp.displacement_extent_m()
+    return travel
+
+
 def _controls(entry: Any, recipe: Recipe, smp: SMP, rng: np.random.Generator) -> dict[str, Any]:
     default = entry.smp
     tempo_l = _level(smp.execution_attributes.tempo, ("slow", "medium", "fast"),
@@ -494,7 +504,7 @@ def _controls(entry: Any, recipe: Recipe, smp: SMP, rng: np.random.Generator) ->
     extent = smp.displacement_extent_m()
     default_extent = default.displacement_extent_m()
     if getattr(entry, "compiled", False) and recipe.locomotion == "none":
-        default_extent = 0.0  # compiled keyframes travel nowhere: the whole extent drifts forward
+        default_extent = _keyed_extent(smp, recipe)  # what the keys do not travel drifts forward
     if extent is None:
         extent = default_extent if default_extent is not None else 0.0
     stride, drift = 1.0, 0.0

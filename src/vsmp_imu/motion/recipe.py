@@ -278,6 +278,15 @@ class Recipe(_Strict):
             return poses[ref]
         return _resolve(self, ref, ())
 
+    def keyed_travel_m(self) -> float:
+        """Farthest horizontal root travel of a key pose from the start pose (m, 1.70 m body)."""
+        from vsmp_imu.motion.dofs import DOF_INDEX
+
+        cols = [DOF_INDEX["root_dx"], DOF_INDEX["root_dz"]]
+        start = self.pose(self.start_pose if self.start_pose is not None else self.base_pose)[cols]
+        keys = [self.pose(k.pose)[cols] for p in self.primitives.values() for k in p.keys]
+        return max((float(np.hypot(*(vec - start))) for vec in keys), default=0.0)
+
     def cycle_primitives(self) -> list[str]:
         return list(self.cycle.primitives) if self.cycle is not None else list(self.primitives)
 
