@@ -1265,8 +1265,9 @@ def test_sitting_up_from_lying_in_two_primitives_rises_halfway_on_the_hands_firs
     assert abs(seated["root_yaw"]) == MOVEMENTS["turn"].pose["root_yaw"]
     assert seated["root_dz"] == pytest.approx(-compiler.LIE_SHIFT_M)
     _, keys = _compiled(smp(("stand", "extend the hips and knees to stand upright", [])))
-    (_, sat), = keys["raise_trunk"]
-    assert sat["root_pitch"] == 0.0  # no second sitting primitive: straight up
+    (_, passed), (_, sat) = keys["raise_trunk"]
+    assert sat["root_pitch"] == 0.0  # no second sitting primitive: all the way up, passing the recline
+    assert passed["root_pitch"] == recline["root_pitch"]
 
 
 def test_the_body_is_tipped_out_of_a_posture_when_its_pitch_differs():
@@ -1356,3 +1357,39 @@ def test_getting_up_from_lying_turns_back_the_way_lying_down_turned():
     _, named_down = _compiled(smp(("sit", "sit on the edge of the bed", []),
                                   ("lie_down", "turn left to lie along the bed, swinging the legs up", [])))
     assert named["sit"][-1][1]["root_yaw"] == named_down["lie_down"][-1][1]["root_yaw"] == turn  # words win
+
+
+def test_between_a_seat_and_lying_in_one_primitive_the_body_passes_the_recline_half_turned():
+    recline = MOVEMENTS["recline"].pose
+    lying, seat = compiler._posture_vector("lying", 0.3), compiler._posture_vector("sitting", 0.6)
+    seat[_col("root_yaw")] = 90.0
+    for src, dst, before, target in (("lying", "sitting", lying, seat), ("sitting", "lying", seat, lying)):
+        half = compiler._via(src, dst, before, target, 0.0)
+        assert half[_col("root_pitch")] == recline["root_pitch"] and half[_col("right_knee_flex")] == recline["knee_flex"]
+        assert half[_col("root_dz")] == pytest.approx(0.6 + recline["root_dz"])  # from the seat
+        assert half[_col("root_yaw")] == 45.0
+    reclined = compiler._apply(seat, [MOVEMENTS["recline"]], None, None, 0)
+    assert compiler._via("sitting", "lying", reclined, lying, 0.0) is None  # already on the hands
+    assert compiler._via("lying", "sitting", lying, reclined, 0.0) is None  # the rise stops there
+    _, keys = _compiled(_smp(("lie", "lie on the back", []), ("sit", "sit up on the edge of the bed", [])))
+    (at, half), (_, sat) = keys["sit"]
+    assert at == 0.5 and half["root_pitch"] == recline["root_pitch"] and sat["root_pitch"] == 0.0
+
+
+def test_a_change_of_posture_is_shared_out_with_no_phase_slower_than_alone():
+    prims = (("sit", "sit upright on the chair", []), ("lean", "lean the trunk forward", []),
+             ("rise", "stand up", []), ("upright", "straighten the trunk", []))
+    shares = [0.15, 0.25, 0.45, 0.15]
+
+    def durations(smp):
+        return [p["duration_s"] for p in compiler.compile_recipe_data(smp)["primitives"].values()]
+
+    alone = durations(_smp(*prims))  # no shares: each phase at its own pace
+    flowing = durations(_smp(*prims, shares=shares))
+    assert flowing == pytest.approx([sum(flowing) * s for s in shares], abs=1e-3)  # as the SMP shares them
+    assert all(f <= a + 1e-3 for f, a in zip(flowing, alone, strict=True))
+    assert any(f == pytest.approx(a, abs=1e-3) for f, a in zip(flowing, alone, strict=True))
+    assert sum(flowing) < sum(alone)
+    arms = (("raise", "raise both arms forward", _ARMS), ("lower", "lower the arms", _ARMS))  # no posture change
+    apart = durations(_smp(*arms))
+    assert sum(durations(_smp(*arms, shares=[0.45, 0.55]))) == pytest.approx(sum(apart), abs=1e-3)

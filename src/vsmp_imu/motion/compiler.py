@@ -626,10 +626,16 @@ def _posture_shift(src: str, dst: str | None, root_dz: float, bed: bool = False)
 
 def _via(src: str, dst: str | None, before: np.ndarray, target: np.ndarray, root_dz: float,
          bed: bool = False) -> np.ndarray | None:
-    """A pose passed through: sitting between standing and lying; between standing and a seat, half
-    way with the trunk leaning over the feet (the pelvis never dips below the seat)."""
+    """A pose passed through: sitting between standing and lying; the recline between a seat and lying
+    in one primitive; between standing and a seat, half way with the trunk leaning over the feet (the
+    pelvis never dips below the seat)."""
     if {src, dst} == {"standing", "lying"}:
         return _posture_vector("sitting", root_dz + SEAT_SHIFT_M - _pelvis_offset(dst, bed))
+    if {src, dst} == {"sitting", "lying"} and not (_tipped(before, src, 0.0) or _tipped(target, dst, 0.0)):
+        seat = before if src == "sitting" else target  # half way: reclined on the hands, half turned
+        half = _apply(seat, [MOVEMENTS["recline"]], None, None, 0)
+        half[_YAW] = 0.5 * (before[_YAW] + target[_YAW])
+        return half
     if src == "standing" and dst == "sitting" or src == "sitting" and dst == "standing":
         crouch = 0.5 * (before + target)
         crouch[_TRUNK] = max(crouch[_TRUNK], MOVEMENTS["squat"].pose["trunk_flex"])
@@ -679,6 +685,9 @@ def _durations(steps: list[Step], smp: SMP) -> None:
     shares = _shares(smp, len(steps))
     if shares is not None and not any(s.action == "gait" for s in steps):
         total = sum(s.duration_s for s in steps)
+        if _changes_posture(steps) and not _periodic(smp, steps):
+            # one flowing change of posture, shared out: no phase slower than it would be alone
+            total = min(s.duration_s / share for s, share in zip(steps, shares, strict=True))
         for step, share in zip(steps, shares, strict=True):
             step.duration_s = float(np.clip(total * share, 0.15, 60.0))
     for step in steps:
