@@ -198,3 +198,16 @@ def test_standing_up_from_a_squat_straightens_the_legs_and_the_trunk(library):
     assert down["left_knee_flex"] == 105.0 and down["trunk_flex"] == 32.0
     assert up == _last(data, "clasp_hands")  # the clasped hands stay, legs and trunk are straight again
     assert [at for at, _, _ in _keys(data, "stand_up")] == [1.0]
+
+
+@pytest.mark.parametrize("name,primitive,movement", [
+    ("sit_to_lie", "lie_down", "lie_down"), ("stand_to_lie", "lie_down", "lie_down"),
+    ("stand_to_sit", "lean_and_lower", "sit_down"),
+])
+def test_a_change_of_posture_takes_as_long_as_the_librarys_reviewed_recipes_take(library, name, primitive, movement):
+    """The nominal paces of lying and sitting down come from the library's recipes (reviewed motion):
+    an activity compiled from its SMP alone lies down as fast as the library's transitions do."""
+    from vsmp_imu.motion.recipe import recipe_for_entry
+
+    recipe = recipe_for_entry(library.get(name))
+    assert recipe.primitives[primitive].duration_s == MOVEMENTS[movement].nominal_s

@@ -263,7 +263,7 @@ MOVEMENTS: dict[str, Movement] = {m.name: m for m in (
     _m("sit_down_floor", "hip", "sagittal", {}, sided=False, kind="posture", posture="sitting_floor",
        nominal_s=1.8),
     _m("stand_up", "hip", "sagittal", {}, sided=False, kind="posture", posture="standing", nominal_s=1.3),
-    _m("lie_down", "body", "sagittal", {}, sided=False, kind="posture", posture="lying", nominal_s=1.8),
+    _m("lie_down", "body", "sagittal", {}, sided=False, kind="posture", posture="lying", nominal_s=1.2),
     _m("lie_prone", "body", "sagittal", {}, sided=False, kind="posture", posture="lying_prone", nominal_s=1.8),
     _m("kneel", "knee", "sagittal", {}, sided=False, kind="posture", posture="kneeling", nominal_s=1.5),
     _m("plank", "body", "sagittal", {}, sided=False, kind="posture", posture="plank", nominal_s=1.8),
