@@ -159,7 +159,7 @@ def test_sitting_down_and_standing_up_move_the_pelvis_one_way_only():
 
     backend = ProceduralBackend(compile_mode="always")
     sit = ("sit", "sit upright on the chair", [])
-    crouch = ("crouch", "lean forward over the feet in a crouch", [])  # seated: off the seat, not below it
+    crouch = ("crouch", "lean forward over the feet in a crouch", [])  # seated: the seat-off crouch, not below it
     for prims, rising in (((("stand", "stand upright", []), ("sit", "bend the hips and knees to sit down", [])), False),
                           ((sit, ("rise", "stand up from the chair", [])), True),
                           ((sit, crouch, ("rise", "stand up from the chair", [])), True)):
@@ -167,9 +167,12 @@ def test_sitting_down_and_standing_up_move_the_pelvis_one_way_only():
         steps = np.diff(motion.positions[:, 0, 1])  # the pelvis height
         assert (steps >= -1e-3).all() if rising else (steps <= 1e-3).all()
     _, keys = _compiled(_smp(sit, crouch))
-    off = keys["crouch"][-1][1]
-    assert 0.0 < off["left_knee_flex"] < compiler.BUILTIN_POSES["sitting"]["knee_flex"]
-    assert off["root_dz"] == pytest.approx(0.5 * (SEAT_SHIFT_M + 0.0) - SEAT_SHIFT_M)  # half way to over the feet
+    off, seated = keys["crouch"][-1][1], compiler.BUILTIN_POSES["sitting"]
+    assert off["left_knee_flex"] == seated["knee_flex"] and off["root_dz"] == 0.0  # seat-off: the legs as seated
+    assert off["trunk_flex"] >= MOVEMENTS["squat"].pose["trunk_flex"]  # the trunk over the feet
+    before = compiler._posture_vector("sitting", 0.1)
+    before[_col("trunk_flex")] = 50.0
+    assert compiler._crouch_off_seat(before)[_col("trunk_flex")] == 50.0  # already leaning further
 
 
 def test_each_return_undoes_the_latest_open_outward_primitive():

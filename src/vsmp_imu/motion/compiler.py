@@ -532,7 +532,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
         else:
             start = _reset(before, moves, base)
             if posture == "sitting" and any(m.name == "squat" for m in moves):  # off the seat, over the feet
-                start = _crouch_off_seat(before, root_dz)
+                start = _crouch_off_seat(before)
                 moves = [m for m in moves if m.name != "squat"]
             target = _apply(start, [m for m in moves if m.kind in ("excursion", "swing")], step, smp, hint,
                             neutral=_posture_vector(posture, root_dz), aim=rest)
@@ -643,11 +643,11 @@ def _via(src: str, dst: str | None, before: np.ndarray, target: np.ndarray, root
     return None
 
 
-def _crouch_off_seat(before: np.ndarray, root_dz: float) -> np.ndarray:
-    """Seated, a squat rises off the seat into the crouch half way to standing (never below the seat)."""
-    up = _posture_vector("standing", _posture_shift("sitting", "standing", root_dz))
-    up[_YAW] = before[_YAW]
-    return _via("sitting", "standing", before, up, root_dz)
+def _crouch_off_seat(before: np.ndarray) -> np.ndarray:
+    """Seated, a squat is the seat-off crouch: the legs as seated, the trunk leaning over the feet."""
+    crouch = before.copy()
+    crouch[_TRUNK] = max(crouch[_TRUNK], MOVEMENTS["squat"].pose["trunk_flex"])
+    return crouch
 
 
 def _close(step: Step, before: np.ndarray, current: np.ndarray, start: np.ndarray) -> None:
