@@ -531,7 +531,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             current = target
         else:
             start = _reset(before, moves, base)
-            if posture == "sitting" and any(m.name == "squat" for m in moves):  # off the seat, over the feet
+            if posture == "sitting" and any(m.name == "squat" for m in moves):  # the seat-off crouch
                 start = _crouch_off_seat(before)
                 moves = [m for m in moves if m.name != "squat"]
             target = _apply(start, [m for m in moves if m.kind in ("excursion", "swing")], step, smp, hint,
@@ -637,17 +637,19 @@ def _via(src: str, dst: str | None, before: np.ndarray, target: np.ndarray, root
         half[_YAW] = 0.5 * (before[_YAW] + target[_YAW])
         return half
     if src == "standing" and dst == "sitting" or src == "sitting" and dst == "standing":
-        crouch = 0.5 * (before + target)
-        crouch[_TRUNK] = max(crouch[_TRUNK], MOVEMENTS["squat"].pose["trunk_flex"])
-        return crouch
+        return _over_the_feet(0.5 * (before + target))
     return None
 
 
 def _crouch_off_seat(before: np.ndarray) -> np.ndarray:
     """Seated, a squat is the seat-off crouch: the legs as seated, the trunk leaning over the feet."""
-    crouch = before.copy()
-    crouch[_TRUNK] = max(crouch[_TRUNK], MOVEMENTS["squat"].pose["trunk_flex"])
-    return crouch
+    return _over_the_feet(before.copy())
+
+
+def _over_the_feet(pose: np.ndarray) -> np.ndarray:
+    """`pose` with the trunk leaning at least as far forward as a squat's (in place)."""
+    pose[_TRUNK] = max(pose[_TRUNK], MOVEMENTS["squat"].pose["trunk_flex"])
+    return pose
 
 
 def _close(step: Step, before: np.ndarray, current: np.ndarray, start: np.ndarray) -> None:
