@@ -1275,13 +1275,13 @@ def test_sitting_up_from_lying_in_two_primitives_rises_halfway_on_the_hands_firs
 
 def test_the_body_is_tipped_out_of_a_posture_when_its_pitch_differs():
     vec = compiler._posture_vector("sitting", 0.2)
-    assert not compiler._tipped(vec, "sitting", 0.2)
+    assert not compiler._tipped(vec, "sitting")
     vec[_col("root_pitch")] -= 1.5
-    assert compiler._tipped(vec, "sitting", 0.2)
+    assert compiler._tipped(vec, "sitting")
     vec[_col("root_pitch")] += 0.6  # within a degree of the posture's pitch
-    assert not compiler._tipped(vec, "sitting", 0.2)
+    assert not compiler._tipped(vec, "sitting")
     vec[_col("root_pitch")] = -compiler.CHANGE_DEG  # exactly a degree is still in the posture
-    assert not compiler._tipped(vec, "sitting", 0.2)
+    assert not compiler._tipped(vec, "sitting")
 
 
 def test_a_return_with_nothing_to_return_to_goes_to_the_start_pose():

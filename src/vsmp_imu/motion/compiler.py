@@ -491,7 +491,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             moves = [MOVEMENTS["push_up_lower"] if m.name == "elbow_flexion" else m for m in moves]
         hint = _twist_hint(current, smp)
         post = next((m for m in moves if m.kind == "posture"), None)
-        if post is not None and post.posture == posture and not _tipped(current, posture, root_dz):
+        if post is not None and post.posture == posture and not _tipped(current, posture):
             # already there: standing up from a squat straightens the legs; any other posture is kept
             moves = [m for m in moves if m is not post]
             if post.posture == "standing":
@@ -557,10 +557,10 @@ def _reached_later(steps: list[Step], i: int, posture: str) -> bool:
     return any(m.kind == "posture" and m.posture == posture for s in steps[i + 1:] for m in s.movements)
 
 
-def _tipped(current: np.ndarray, posture: str, root_dz: float) -> bool:
+def _tipped(current: np.ndarray, posture: str) -> bool:
     """The body is tipped out of its posture (reclined on the hands while sitting)."""
     pitch = DOF_INDEX["root_pitch"]
-    return abs(current[pitch] - _posture_vector(posture, root_dz)[pitch]) > CHANGE_DEG
+    return abs(current[pitch] - _posture_vector(posture, 0.0)[pitch]) > CHANGE_DEG
 
 
 def _twist_hint(current: np.ndarray, smp: SMP) -> int:
@@ -631,7 +631,7 @@ def _via(src: str, dst: str | None, before: np.ndarray, target: np.ndarray, root
     pelvis never dips below the seat)."""
     if {src, dst} == {"standing", "lying"}:
         return _posture_vector("sitting", root_dz + SEAT_SHIFT_M - _pelvis_offset(dst, bed))
-    if {src, dst} == {"sitting", "lying"} and not (_tipped(before, src, 0.0) or _tipped(target, dst, 0.0)):
+    if {src, dst} == {"sitting", "lying"} and not (_tipped(before, src) or _tipped(target, dst)):
         seat = before if src == "sitting" else target  # half way: reclined on the hands, half turned
         half = _apply(seat, [MOVEMENTS["recline"]], None, None, 0)
         half[_YAW] = 0.5 * (before[_YAW] + target[_YAW])
