@@ -1396,3 +1396,16 @@ def test_a_change_of_posture_is_shared_out_with_no_phase_slower_than_alone():
     arms = (("raise", "raise both arms forward", _ARMS), ("lower", "lower the arms", _ARMS))  # no posture change
     apart = durations(_smp(*arms))
     assert sum(durations(_smp(*arms, shares=[0.45, 0.55]))) == pytest.approx(sum(apart), abs=1e-3)
+
+
+def test_a_floor_sit_up_passes_the_recline_with_its_arms_crossed_and_no_lower_than_lying():
+    crossed = "lie on the back with the knees bent and the arms crossed over the chest"
+    _, keys = _compiled(_smp(("lie_back", crossed, []), ("sit_up", "curl the trunk up off the floor toward the knees", []),
+                             ("lower_back", "lower the trunk back down to the floor", []), periodic=True))
+    (_, half), (_, sat) = keys["sit_up"]
+    lying = keys["lower_back"][-1][1]
+    assert half["root_pitch"] == MOVEMENTS["recline"].pose["root_pitch"]  # half way up
+    for side in ("left", "right"):  # the hands stay on the chest, they do not reach back for a bed
+        for stem in ("shoulder_horiz", "elbow_flex"):
+            assert half[f"{side}_{stem}"] == sat[f"{side}_{stem}"] == lying[f"{side}_{stem}"] > 50.0
+    assert half["root_dz"] >= min(lying["root_dz"], sat["root_dz"])  # never through the floor

@@ -84,7 +84,7 @@ _LEG_PARTS = ("thigh", "lower_leg", "foot")
 STAIRS_PELVIS = {"rise_m": 0.07, "speed_fluctuation": 0.5}
 WALKING_PELVIS = {"walk": {}, "stairs_up": STAIRS_PELVIS, "stairs_down": STAIRS_PELVIS}
 _POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
-_YAW, _TRUNK = DOF_INDEX["root_yaw"], DOF_INDEX["trunk_flex"]
+_YAW, _TRUNK, _DZ = DOF_INDEX["root_yaw"], DOF_INDEX["trunk_flex"], DOF_INDEX["root_dz"]
 _BODY = smpl22_skeleton()
 _ROOT = [DOF_INDEX[name] for name in ("root_dx", "root_dy", "root_dz")]
 _CM = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)  # root travel: a centimetre counts as a degree
@@ -525,6 +525,8 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
                 hint = -hint
             target = _apply(target, upper, step, smp, hint)
             via = _via(posture, post.posture, before, target, root_dz, bed)
+            if via is not None:
+                via[placed] = target[placed]  # crossed arms stay crossed on the way (a sit-up)
             step.keys = ([(0.5, via, "smooth")] if via is not None else []) + [(1.0, target, "stop")]
             posture = post.posture or posture
             stack.append(before)
@@ -635,6 +637,7 @@ def _via(src: str, dst: str | None, before: np.ndarray, target: np.ndarray, root
         seat = before if src == "sitting" else target  # half way: reclined on the hands, half turned
         half = _apply(seat, [MOVEMENTS["recline"]], None, None, 0)
         half[_YAW] = 0.5 * (before[_YAW] + target[_YAW])
+        half[_DZ] = max(half[_DZ], min(before[_DZ], target[_DZ]))  # on the floor: no lower than lying
         return half
     if src == "standing" and dst == "sitting" or src == "sitting" and dst == "standing":
         return _over_the_feet(0.5 * (before + target))
