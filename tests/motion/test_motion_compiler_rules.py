@@ -1354,7 +1354,7 @@ def test_getting_up_from_lying_turns_back_the_way_lying_down_turned():
     lying_yaw = down["lie_down"][-1][1]["root_yaw"]
     assert abs(lying_yaw) == turn
     assert up["sit"][-1][1]["root_yaw"] == -lying_yaw
-    assert two["raise_trunk"][-1][1]["root_yaw"] == 0.0 and two["legs"][-1][1]["root_yaw"] == -lying_yaw
+    assert two["raise_trunk"][-1][1]["root_yaw"] == -lying_yaw / 2 and two["legs"][-1][1]["root_yaw"] == -lying_yaw
     _, named = _compiled(smp(("lie", "lie on the back", []),
                              ("sit", "turn left to the edge of the bed, swinging the legs down to sit", [])))
     _, named_down = _compiled(smp(("sit", "sit on the edge of the bed", []),
@@ -1379,7 +1379,7 @@ def test_between_a_seat_and_lying_in_one_primitive_the_body_passes_the_recline_h
     assert at == 0.5 and half["root_pitch"] == recline["root_pitch"] and sat["root_pitch"] == 0.0
 
 
-def test_a_change_of_posture_is_shared_out_with_no_phase_slower_than_alone():
+def test_a_change_of_posture_is_shared_out_with_no_change_of_posture_slower_than_alone():
     prims = (("sit", "sit upright on the chair", []), ("lean", "lean the trunk forward", []),
              ("rise", "stand up", []), ("upright", "straighten the trunk", []))
     shares = [0.15, 0.25, 0.45, 0.15]
@@ -1398,6 +1398,21 @@ def test_a_change_of_posture_is_shared_out_with_no_phase_slower_than_alone():
     assert sum(durations(_smp(*arms, shares=[0.45, 0.55]))) == pytest.approx(sum(apart), abs=1e-3)
 
 
+def test_the_phases_between_two_changes_of_posture_take_their_share_and_do_not_set_the_pace():
+    prims = (("lie", "lie on the back", []), ("sit_up", "sit up on the edge of the bed", []),
+             ("crouch", "lean forward and shift the weight over the feet", []),
+             ("stand_up", "extend the hips and knees to stand upright", []))
+    shares = [0.1, 0.3, 0.3, 0.3]
+    data = compiler.compile_recipe_data(_smp(*prims, shares=shares))
+    flowing = [p["duration_s"] for p in data["primitives"].values()]
+    assert flowing == pytest.approx([sum(flowing) * s for s in shares], abs=1e-3)
+    paces = {"sit_up": MOVEMENTS["sit_down"].nominal_s, "stand_up": MOVEMENTS["stand_up"].nominal_s}
+    # the changes of posture run no slower than alone, the quicker one at its own pace
+    assert all(data["primitives"][n]["duration_s"] <= pace + 1e-3 for n, pace in paces.items())
+    assert max(data["primitives"][n]["duration_s"] - pace for n, pace in paces.items()) == pytest.approx(0.0, abs=1e-3)
+    assert data["primitives"]["crouch"]["duration_s"] > MOVEMENTS["squat"].nominal_s  # slower than alone
+
+
 def test_a_floor_sit_up_passes_the_recline_with_its_arms_crossed_and_no_lower_than_lying():
     crossed = "lie on the back with the knees bent and the arms crossed over the chest"
     _, keys = _compiled(_smp(("lie_back", crossed, []), ("sit_up", "curl the trunk up off the floor toward the knees", []),
@@ -1409,3 +1424,24 @@ def test_a_floor_sit_up_passes_the_recline_with_its_arms_crossed_and_no_lower_th
         for stem in ("shoulder_horiz", "elbow_flex"):
             assert half[f"{side}_{stem}"] == sat[f"{side}_{stem}"] == lying[f"{side}_{stem}"] > 50.0
     assert half["root_dz"] >= min(lying["root_dz"], sat["root_dz"])  # never through the floor
+
+
+def test_a_recline_of_its_own_before_the_body_turns_is_half_turned():
+    recline = MOVEMENTS["recline"].pose["root_pitch"]
+    _, down = _compiled(_smp(("sit", "sit on the edge of the bed", []),
+                             ("lean_back", "lean the trunk backward, supporting the body while reclining", []),
+                             ("lie_down", "turn to lie along the bed, swinging the legs up", [])))
+    (_, reclined), = down["lean_back"]
+    lying = down["lie_down"][-1][1]
+    assert reclined["root_pitch"] == recline and abs(lying["root_yaw"]) == 90.0
+    assert reclined["root_yaw"] == lying["root_yaw"] / 2  # half of the turn before lying down
+    _, up = _compiled(_smp(("lie", "lie on the back", []), ("raise_trunk", "lift the trunk and head up from lying, bending the hips", []),
+                           ("legs", "turn to the edge of the bed, swinging the legs down to sit", [])))
+    (_, half_up), = up["raise_trunk"]
+    sat = up["legs"][-1][1]
+    assert half_up["root_pitch"] == recline and abs(sat["root_yaw"]) == 90.0
+    assert half_up["root_yaw"] == sat["root_yaw"] / 2
+    _, still = _compiled(_smp(("sit", "sit on the edge of the bed", []),
+                              ("lean_back", "lean the trunk backward, supporting the body while reclining", []),
+                              ("sit_up", "sit upright", [])))
+    assert still["lean_back"][-1][1]["root_yaw"] == 0.0  # no turn follows: none taken

@@ -102,6 +102,7 @@ class Step:
     duration_s: float = HOLD_S
     movements: tuple[Movement, ...] = ()
     start: np.ndarray | None = None  # the pose the primitive starts from
+    changes_posture: bool = False  # goes from one posture to another (sits down, lies down, gets up)
 
 
 @dataclass(frozen=True)
@@ -158,6 +159,7 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
         base = pose_vector({k: v for m in step.movements if m.kind == "gait" for k, v in m.pose.items()}, base)
     lead, cycle, _ = _cycle_span(steps) if periodic else ([], list(range(len(steps))), [])
     _keyframes(steps, base, posture, smp, cycle if periodic else [])
+    _turn_through_recline(steps)
     _durations(steps, smp)
     kind = "periodic" if periodic else ("static" if _static(smp, steps) else "discrete")
     data: dict[str, Any] = {
@@ -513,6 +515,7 @@ def _keyframes(steps: list[Step], base: np.ndarray, posture: str, smp: SMP, cycl
             step.keys = _hop(before, target) if jumps else [(1.0, target, "stop")]
             current = target
         elif post is not None:
+            step.changes_posture = True
             root_dz = _posture_shift(posture, post.posture, root_dz, bed)
             upper = [m for m in moves if m.kind == "excursion" and m.limb != "leg"]  # the legs follow the posture
             if posture == "lying" and post.posture == "sitting" and _reached_later(steps, i, "sitting"):
@@ -644,6 +647,23 @@ def _via(src: str, dst: str | None, before: np.ndarray, target: np.ndarray, root
     return None
 
 
+def _turn_through_recline(steps: list[Step]) -> None:
+    """A recline held as a primitive of its own, just before the body turns (to lie along the bed, or
+    back to its edge), is half turned, as the recline passed inside one primitive is (`_via`)."""
+    for step, after in zip(steps, steps[1:]):
+        if not (step.keys and after.keys) or after.start is None:
+            continue
+        end, turned_to = step.keys[-1][1], after.keys[-1][1][_YAW]
+        if not _reclined(end) or abs(turned_to - end[_YAW]) <= CHANGE_DEG:
+            continue
+        end[_YAW] = after.start[_YAW] = 0.5 * (end[_YAW] + turned_to)
+
+
+def _reclined(pose: np.ndarray) -> bool:
+    """The body leans back on the hands between sitting and lying."""
+    return pose[DOF_INDEX["root_pitch"]] == MOVEMENTS["recline"].pose["root_pitch"]
+
+
 def _crouch_off_seat(before: np.ndarray) -> np.ndarray:
     """Seated, a squat is the seat-off crouch: the legs as seated, the trunk leaning over the feet."""
     return _over_the_feet(before.copy())
@@ -691,8 +711,10 @@ def _durations(steps: list[Step], smp: SMP) -> None:
     if shares is not None and not any(s.action == "gait" for s in steps):
         total = sum(s.duration_s for s in steps)
         if _changes_posture(steps) and not _periodic(smp, steps):
-            # one flowing change of posture, shared out: no phase slower than it would be alone
-            total = min(s.duration_s / share for s, share in zip(steps, shares, strict=True))
+            # one flowing change of posture, shared out: no change of posture slower than it would be
+            # alone; the phases between (holds, leans, a crouch, a straightening) take their share
+            pacing = [(s, share) for s, share in zip(steps, shares, strict=True) if s.changes_posture]
+            total = min(s.duration_s / share for s, share in pacing or zip(steps, shares, strict=True))
         for step, share in zip(steps, shares, strict=True):
             step.duration_s = float(np.clip(total * share, 0.15, 60.0))
     for step in steps:
