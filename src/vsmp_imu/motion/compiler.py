@@ -33,6 +33,7 @@ import functools
 import math
 import re
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -650,7 +651,7 @@ def _via(src: str, dst: str | None, before: np.ndarray, target: np.ndarray, root
 def _turn_through_recline(steps: list[Step]) -> None:
     """A recline held as a primitive of its own, just before the body turns (to lie along the bed, or
     back to its edge), is half turned, as the recline passed inside one primitive is (`_via`)."""
-    for step, after in zip(steps, steps[1:]):
+    for step, after in pairwise(steps):
         if not (step.keys and after.keys) or after.start is None:
             continue
         end, turned_to = step.keys[-1][1], after.keys[-1][1][_YAW]
