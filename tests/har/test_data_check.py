@@ -406,6 +406,41 @@ def test_movement_is_timed_from_the_rotation_rate_or_without_a_gyroscope_the_acc
     assert duration_flag(Timing(2.4, 2.0, 9)) is None and duration_flag(Timing(None, 2.0, 1)) is None
 
 
+def test_an_execution_that_turns_much_faster_at_its_peak_than_the_real_ones_is_flagged():
+    """The same turn in half the time turns twice as fast at its peak: flagged; a simulation that turns
+    slower than the real executions is not (a real rate holds sway and noise a simulation lacks)."""
+    from vsmp_imu.har.datasets.hapt import WAIST
+    from vsmp_imu.pipeline.check import (
+        MIN_EVENTS,
+        Timing,
+        compare,
+        peak_turn_flag,
+        peak_turn_rad_s,
+        timing,
+    )
+
+    fs = 50.0
+    t = np.arange(int(8 * fs)) / fs
+
+    def turn(seconds, angle=1.5):  # `angle` rad about x, as a cos² rate over `seconds`, mid-signal
+        rate = np.where(np.abs(t - 4) < seconds / 2, np.cos(np.pi * (t - 4) / seconds) ** 2, 0.0)
+        rate *= angle / (rate.sum() / fs)
+        return np.c_[np.full_like(t, 9.81), 0 * t, 0 * t, rate, 0 * t, 0 * t]
+
+    slow, quick = peak_turn_rad_s(turn(3.0), fs), peak_turn_rad_s(turn(1.5), fs)
+    assert 1.7 < quick / slow < 2.1
+    assert peak_turn_rad_s(turn(3.0)[:, :3], fs) is None  # no gyroscope
+    fast = timing([turn(3.0)] * MIN_EVENTS, [turn(1.5)] * 2, fs)
+    assert fast.real_peak == pytest.approx(slow) and fast.synthetic_peak == pytest.approx(quick)
+    assert f"turns the body {quick / slow:.1f}x as fast" in peak_turn_flag(fast)
+    assert peak_turn_flag(timing([turn(1.5)] * MIN_EVENTS, [turn(3.0)], fs)) is None  # slower: not flagged
+    assert peak_turn_flag(timing([turn(3.0)] * (MIN_EVENTS - 1), [turn(1.5)], fs)) is None  # too few to say
+    windows = np.repeat(turn(3.0)[None, :100], 8, axis=0)
+    checked = compare("x", WAIST, "x.json", windows, windows, fs, executions=fast)
+    assert checked.synthetic_peak_turn_rad_s == round(quick, 3) and [f for f in checked.flags if "rad/s" in f]
+    assert compare("x", WAIST, "x.json", windows, windows, fs, executions=Timing(3.0, 3.0, 5)).flags == []
+
+
 def test_a_single_execution_is_timed_instead_of_read_for_a_rhythm():
     """Windows that peak at 1 Hz against windows at 3 Hz: a frequency flag for an activity with a
     rhythm, none for a single execution (compared by its duration instead)."""

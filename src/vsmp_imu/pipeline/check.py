@@ -111,6 +111,9 @@ MIN_PAIR_WINDOWS = 6  # per class and side; fewer windows say nothing about a cu
 QUARTERS = 4
 MAX_DURATION_RATIO = 1.3  # one execution's movement, simulated vs real, beyond this either way: flagged
 MIN_EVENTS = 3  # labelled real executions a class needs for its duration
+# one execution's peak rotation rate, simulated beyond this times the real one: flagged (only this way:
+# a real rate holds sway and sensor noise a simulation has not, so a slower simulated peak says little)
+MAX_PEAK_TURN_RATIO = 1.3
 RATE_SMOOTH_S = 0.3  # moving average of the rotation rate before the threshold
 # an SMP that lets its variants change side: the generator already takes the side the real windows show
 SIDE_FROM_EVIDENCE = (" (the SMP leaves the side to its variants: generate and evaluate take it from the "
@@ -143,6 +146,8 @@ class ClassCheck:
     real_duration_s: float | None = None  # one execution's movement (median), single executions only
     synthetic_duration_s: float | None = None
     n_real_executions: int | None = None
+    real_peak_turn_rad_s: float | None = None  # one execution's fastest rotation (median), single executions
+    synthetic_peak_turn_rad_s: float | None = None
     real_execution_turn_deg: list[float] | None = None  # mean net turn of one execution (x, y, z)
     synthetic_execution_turn_deg: list[float] | None = None
     declared_gravity_angle_deg: float | None = None  # before the mounting
@@ -329,6 +334,18 @@ def simulate_windows(signal: np.ndarray, size: int, step: int, span: tuple[float
     return np.stack([signal[s : s + size] for s in starts])
 
 
+def _rotation_rate(signal: np.ndarray, fs_hz: float) -> np.ndarray:
+    """The gyroscope's norm of `signal` (T, 6), smoothed over `RATE_SMOOTH_S`."""
+    k = max(1, int(round(RATE_SMOOTH_S * fs_hz)))
+    return np.convolve(np.linalg.norm(signal[:, GYRO], axis=1), np.ones(k) / k, mode="same")
+
+
+def peak_turn_rad_s(signal: np.ndarray, fs_hz: float) -> float | None:
+    """How fast the execution (T, 6) turns at its fastest, rad/s (smoothed as `movement_s`); None
+    without a gyroscope."""
+    return float(_rotation_rate(signal, fs_hz).max()) if signal.shape[1] >= 6 and len(signal) else None
+
+
 def movement_s(signal: np.ndarray, fs_hz: float) -> float | None:
     """Seconds between the first and the last moment the signal (T, C) moves: its rotation rate
     (the gyroscope's norm; without one, how fast the acceleration changes), smoothed
@@ -337,11 +354,10 @@ def movement_s(signal: np.ndarray, fs_hz: float) -> float | None:
     if len(signal) < 2:
         return None
     if signal.shape[1] >= 6:
-        rate = np.linalg.norm(signal[:, GYRO], axis=1)
+        rate = _rotation_rate(signal, fs_hz)
     else:
-        rate = np.linalg.norm(np.gradient(signal[:, :3], axis=0), axis=1)
-    k = max(1, int(round(RATE_SMOOTH_S * fs_hz)))
-    rate = np.convolve(rate, np.ones(k) / k, mode="same")
+        k = max(1, int(round(RATE_SMOOTH_S * fs_hz)))
+        rate = np.convolve(np.linalg.norm(np.gradient(signal[:, :3], axis=0), axis=1), np.ones(k) / k, mode="same")
     if not rate.max() > 0:
         return None
     moving = np.flatnonzero(rate > ACTIVE_SPEED_FRACTION * rate.max())
@@ -375,6 +391,8 @@ class Timing:
     n_real: int
     real_turns: np.ndarray | None = None
     synthetic_turns: np.ndarray | None = None
+    real_peak: float | None = None  # rad/s, median over the executions (None without a gyroscope)
+    synthetic_peak: float | None = None
 
 
 def timing(real: list[np.ndarray], simulated: list[np.ndarray], fs_hz: float) -> Timing:
@@ -382,10 +400,22 @@ def timing(real: list[np.ndarray], simulated: list[np.ndarray], fs_hz: float) ->
     seconds = [[v for v in (movement_s(x, fs_hz) for x in side) if v is not None] for side in (real, simulated)]
     turns = [np.array([net_turn_deg(x, fs_hz) for x in side]) if side and side[0].shape[1] >= 6 else None
              for side in (real, simulated)]
+    peaks = [[v for v in (peak_turn_rad_s(x, fs_hz) for x in side) if v is not None] for side in (real, simulated)]
     enough = len(seconds[0]) >= MIN_EVENTS
     return Timing(float(np.median(seconds[0])) if enough else None,
                   float(np.median(seconds[1])) if seconds[1] else None, len(seconds[0]),
-                  turns[0] if enough else None, turns[1])
+                  turns[0] if enough else None, turns[1],
+                  float(np.median(peaks[0])) if enough and peaks[0] else None,
+                  float(np.median(peaks[1])) if peaks[1] else None)
+
+
+def peak_turn_flag(t: Timing) -> str | None:
+    """What looks off when one simulated execution turns much faster at its peak than a real one."""
+    if not (t.real_peak and t.synthetic_peak) or t.synthetic_peak <= MAX_PEAK_TURN_RATIO * t.real_peak:
+        return None
+    return (f"one execution turns at up to {t.synthetic_peak:.1f} rad/s simulated vs {t.real_peak:.1f} rad/s real "
+            f"(median of {t.n_real} labelled executions): the activity file turns the body "
+            f"{t.synthetic_peak / t.real_peak:.1f}x as fast: give the primitive that turns more time")
 
 
 def duration_flag(t: Timing) -> str | None:
@@ -527,6 +557,9 @@ def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn:
         out.real_duration_s = None if executions.real_s is None else round(executions.real_s, 3)
         out.synthetic_duration_s = None if executions.synthetic_s is None else round(executions.synthetic_s, 3)
         out.n_real_executions = executions.n_real
+        out.real_peak_turn_rad_s = None if executions.real_peak is None else round(executions.real_peak, 3)
+        out.synthetic_peak_turn_rad_s = (None if executions.synthetic_peak is None
+                                         else round(executions.synthetic_peak, 3))
     if len(real) == 0 or len(syn) == 0:
         out.flags.append("no real windows" if len(real) == 0 else "no simulated windows")
         return out
@@ -555,9 +588,9 @@ def compare(label: str, loc: SensorLocation, source: str, real: np.ndarray, syn:
         out.flags.append(f"gravity points {out.gravity_angle_deg:.0f}° apart: check the declared axes, "
                          "the side, or the posture in the activity file")
     fr, fs = out.real_frequency_hz, out.synthetic_frequency_hz
-    timed = duration_flag(executions) if executions is not None else None
-    if timed:
-        out.flags.append(timed)
+    for timed in ((duration_flag(executions), peak_turn_flag(executions)) if executions is not None else ()):
+        if timed:
+            out.flags.append(timed)
     if (executions is None and fr and fs and max(fr, fs) / min(fr, fs) > MAX_FREQUENCY_RATIO
             and not strong_at(syn, fs_hz, fr) and not strong_at(real, fs_hz, fs)):
         out.flags.append(f"dominant frequency {fs:.2f} Hz simulated vs {fr:.2f} Hz real: check the tempo "
