@@ -12,7 +12,7 @@ import pytest
 from vsmp_imu.motion import compiler
 from vsmp_imu.motion.anatomy import MOVEMENTS, SEAT_SHIFT_M, undoes
 from vsmp_imu.motion.dofs import DOF_INDEX, N_DOFS
-from vsmp_imu.motion.lexicon import PACE, Reading
+from vsmp_imu.motion.lexicon import PACE, Reading, read_primitive
 from vsmp_imu.motion.selfcheck import MAX_STEP_FRACTION
 from vsmp_imu.motion.skeleton import DEFAULT_HEIGHT_M, SMPL22_JOINTS
 
@@ -1445,3 +1445,47 @@ def test_a_recline_of_its_own_before_the_body_turns_is_half_turned():
                               ("lean_back", "lean the trunk backward, supporting the body while reclining", []),
                               ("sit_up", "sit upright", [])))
     assert still["lean_back"][-1][1]["root_yaw"] == 0.0  # no turn follows: none taken
+
+
+def test_only_a_reclined_end_just_before_a_turn_of_more_than_a_degree_takes_half_of_it():
+    def step(name, end_yaw, pitch):
+        pose = compiler._posture_vector("sitting", 0.0)
+        pose[_col("root_yaw")], pose[_col("root_pitch")] = end_yaw, pitch
+        return compiler.Step(name, read_primitive(name), (), action="go", keys=[(1.0, pose, "stop")],
+                             start=pose.copy())
+
+    recline = MOVEMENTS["recline"].pose["root_pitch"]
+    # a seated step with keys, then a recline at 45°, then a turn to -45°: only the recline takes half
+    seated, reclined, turned = step("sit", 0.0, 0.0), step("lean", 45.0, recline), step("lie", -45.0, -90.0)
+    compiler._turn_through_recline([seated, reclined, turned])
+    assert seated.keys[-1][1][_col("root_yaw")] == 0.0  # not reclined: kept, though a turn follows
+    assert reclined.keys[-1][1][_col("root_yaw")] == 0.0 == turned.start[_col("root_yaw")]
+    upright_first = [step("raise", 0.0, 0.0), step("turn", 90.0, 0.0)]
+    compiler._turn_through_recline(upright_first)
+    assert upright_first[0].keys[-1][1][_col("root_yaw")] == 0.0
+    barely = [step("lean", 0.0, recline), step("lie", compiler.CHANGE_DEG, -90.0)]  # a degree is no turn
+    compiler._turn_through_recline(barely)
+    assert barely[0].keys[-1][1][_col("root_yaw")] == 0.0
+
+
+def test_seated_arm_movements_leave_the_trunk_as_seated():
+    _, keys = _compiled(_smp(_WAIT, ("sit", "sit down on the chair", []), ("raise", "raise both arms forward", _ARMS)))
+    sat, raised = keys["sit"][-1][1], keys["raise"][-1][1]
+    assert raised["trunk_flex"] == sat["trunk_flex"] and raised["right_shoulder_flex"] > 60.0
+
+
+def test_getting_up_on_the_left_side_turns_back_as_lying_down_turned_and_lying_again_turns_back():
+    def smp(*prims):
+        out = _smp(*prims, dominant="left")
+        out.object_contact.environment_contact = ["bed"]
+        return out
+
+    legs_up = ("lie_down", "turn to lie along the bed, swinging the legs up", [])
+    legs_down = ("sit", "turn to the edge of the bed, swinging the legs down to sit", [])
+    _, down = _compiled(smp(("sit", "sit on the edge of the bed", []), legs_up))
+    _, up = _compiled(smp(("lie", "lie on the back", []), legs_down))
+    assert up["sit"][-1][1]["root_yaw"] == -down["lie_down"][-1][1]["root_yaw"] != 0.0
+    _, again = _compiled(smp(("lie", "lie on the back", []), legs_down, legs_up))
+    rise = again["sit"][-1][1]["root_yaw"]
+    lie_again = again["lie_down"][-1][1]["root_yaw"] - rise
+    assert np.sign(lie_again) == -np.sign(rise) != 0  # lying along the bed again turns the other way
