@@ -1489,3 +1489,4 @@ def test_getting_up_on_the_left_side_turns_back_as_lying_down_turned_and_lying_a
     rise = again["sit"][-1][1]["root_yaw"]
     lie_again = again["lie_down"][-1][1]["root_yaw"] - rise
     assert np.sign(lie_again) == -np.sign(rise) != 0  # lying along the bed again turns the other way
+    assert again["lie_down"][-1][1]["root_yaw"] == 0.0  # back along the bed: a turn turns from the heading

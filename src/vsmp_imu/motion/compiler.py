@@ -450,7 +450,8 @@ def _targets(move: Movement, stem: str, value: float, step: Step, smp: SMP, orig
     col = DOF_INDEX[stem]
     if stem in ("trunk_twist", "trunk_lean", "root_yaw", "head_turn"):
         sign = step.reading.direction or hint or 1
-        return [(col, float(value) * sign)]
+        heading = origin[col] if stem == "root_yaw" else 0.0  # a turn turns from where the body faces
+        return [(col, heading + float(value) * sign)]
     if stem in ("root_dz", "root_dy"):
         if move.kind == "jump":
             return []  # the root rises in the air (_hop) and lands where it took off
