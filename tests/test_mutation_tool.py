@@ -64,3 +64,23 @@ def test_the_report_counts_a_renumbered_mutant_as_a_survivor_and_flags_it(record
     (records / "excluded.json").write_text(json.dumps(_rules(**{A: "- x = 1\n+ x = 2"})))
     text = mutation.report()
     assert "| g | 50.0 % | 1 | 1 | 1 |" in text and "Argued in excluded.json for another diff" not in text
+
+
+def test_remap_follows_a_renumbered_argued_mutant_by_its_diff_and_drops_one_gone(records):
+    moved_to, gone = "pkg.mod.x_f__mutmut_3", "pkg.mod.x_f__mutmut_9"
+    record = json.loads((records / "g.json").read_text())
+    record["outcomes"].update({moved_to: "survived", A: "killed"})  # number 1 is another mutant now
+    record["survivors"] = {moved_to: "- x = 1\n+ x = 2", B: "- z = 1\n+ z = 3"}  # A's diff is now number 3
+    (records / "g.json").write_text(json.dumps(record))
+    rules = _rules(**{A: "- x = 1\n+ x = 2"})
+    rules.append({"kind": "equivalent", "why": "gone", "mutants": [gone], "diffs": {gone: "- w\n+ v"}})
+    rules.append({"kind": "equivalent", "why": "other", "mutants": ["other.x_k__mutmut_1"],
+                  "diffs": {"other.x_k__mutmut_1": "- k\n+ j"}})  # another group's: left alone
+    (records / "excluded.json").write_text(json.dumps(rules))
+    assert mutation.remap(list(mutation.GROUPS)) == (1, 1)
+    after = json.loads((records / "excluded.json").read_text())
+    assert [r["why"] for r in after] == ["argued", "other"]  # the rule left empty is gone
+    assert after[0]["mutants"] == ["pkg.mod.x_g__mutmut_*", moved_to] and after[0]["diffs"] == {moved_to: "- x = 1\n+ x = 2"}
+    assert after[1] == rules[2]
+    assert mutation.remap(list(mutation.GROUPS)) == (0, 0)  # nothing left to follow
+    assert "| g | 66.7 % | 2 | 1 | 1 |" in mutation.report()

@@ -5,6 +5,7 @@
     python tools/mutation.py rerun GROUP       # re-test the survivors after adding tests
     python tools/mutation.py collect GROUP     # write the record of a finished (or stopped) run
     python tools/mutation.py pin [GROUP ...]   # store the diff each argued survivor has now in excluded.json
+    python tools/mutation.py remap [GROUP ...] # follow renumbered argued mutants by their pinned diffs
     python tools/mutation.py report            # rebuild docs/mutation-report.md from the records
 
 `run` copies src/ and tests/ into build/mutation/GROUP/, writes a pyproject.toml
@@ -17,7 +18,9 @@ docs/mutation/excluded.json (equivalent, import-time or layout, argued there) co
 mutmut numbers a function's mutants in order, so editing a function renumbers them and a rule's
 mutant name can come to mean another mutant. A rule's `diffs` (written by `pin`, after checking
 that each argued mutant is the one its rule describes) holds the diff each name was argued for;
-a survivor whose diff differs is not excluded by that rule, and the report flags it.
+a survivor whose diff differs is not excluded by that rule, and the report flags it. After an edit
+and a new run, `remap` renames each pinned name to the survivor of the same function that has its
+diff now, and drops a name whose diff no survivor has (the mutant is gone or now killed).
 """
 
 from __future__ import annotations
@@ -254,6 +257,45 @@ def pin(groups: list[Group]) -> int:
     return pinned
 
 
+def _function(name: str) -> str:
+    return name.rsplit("__mutmut_", 1)[0]
+
+
+def remap(groups: list[Group]) -> tuple[int, int]:
+    """Rename, in excluded.json, each pinned mutant of the groups' records whose diff moved to another
+    number of the same function; drop the names whose diff no survivor has; drop rules left empty.
+    Returns (renamed, dropped)."""
+    rules = json.loads(EXCLUDED.read_text())
+    moved = dropped = 0
+    for group in groups:
+        path = RECORDS / f"{group.name}.json"
+        if not path.exists():
+            continue
+        record = json.loads(path.read_text())
+        survivors, functions = record["survivors"], {_function(n) for n in record["outcomes"]}
+        claimed = {n for r in rules for n, d in r.get("diffs", {}).items() if survivors.get(n) == d}
+        for rule in rules:
+            pinned, kept = rule.get("diffs", {}), {}
+            for name, diff in pinned.items():
+                if _function(name) not in functions or survivors.get(name) == diff:
+                    kept[name] = diff
+                    continue
+                new = next((n for n, d in survivors.items()
+                            if d == diff and _function(n) == _function(name) and n not in claimed), None)
+                if new is None:
+                    dropped += 1
+                    continue
+                claimed.add(new)
+                kept[new] = diff
+                moved += 1
+            if kept != pinned:
+                rule["mutants"] = [m for m in rule["mutants"] if m not in pinned or m in kept]
+                rule["mutants"] += [n for n in kept if n not in rule["mutants"]]
+                rule["diffs"] = kept
+    EXCLUDED.write_text(json.dumps([r for r in rules if r["mutants"]], indent=1, ensure_ascii=False) + "\n")
+    return moved, dropped
+
+
 def _counts(record: dict, rules: list[dict]) -> dict[str, int]:
     counts = {"killed": 0, "survived": 0, "equivalent": 0, "layout": 0, "import-time": 0, "other": 0}
     for name, status in record["outcomes"].items():
@@ -341,13 +383,15 @@ def _diff_lines(record: dict, names: list[str]) -> list[str]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("command", choices=("run", "resume", "rerun", "collect", "pin", "report"))
+    parser.add_argument("command", choices=("run", "resume", "rerun", "collect", "pin", "remap", "report"))
     parser.add_argument("groups", nargs="*", help="groups to run (default: all): "
                         + ", ".join(g.name for g in GROUPS))
     args = parser.parse_args()
     chosen = [g for g in GROUPS if not args.groups or g.name in args.groups]
     if args.command == "pin":
         print(f"pinned {pin(chosen)} diffs in {EXCLUDED.relative_to(ROOT)}")
+    elif args.command == "remap":
+        print("renamed {} and dropped {} argued mutants in {}".format(*remap(chosen), EXCLUDED.relative_to(ROOT)))
     elif args.command != "report":
         for group in chosen:
             record = {"run": run, "resume": resume, "rerun": rerun, "collect": collect}[args.command](group)
