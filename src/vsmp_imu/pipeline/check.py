@@ -334,10 +334,15 @@ def simulate_windows(signal: np.ndarray, size: int, step: int, span: tuple[float
     return np.stack([signal[s : s + size] for s in starts])
 
 
-def _rotation_rate(signal: np.ndarray, fs_hz: float) -> np.ndarray:
-    """The gyroscope's norm of `signal` (T, 6), smoothed over `RATE_SMOOTH_S`."""
+def _smoothed(rate: np.ndarray, fs_hz: float) -> np.ndarray:
+    """`rate` (T,) as a moving average over `RATE_SMOOTH_S`."""
     k = max(1, int(round(RATE_SMOOTH_S * fs_hz)))
-    return np.convolve(np.linalg.norm(signal[:, GYRO], axis=1), np.ones(k) / k, mode="same")
+    return np.convolve(rate, np.ones(k) / k, mode="same")
+
+
+def _rotation_rate(signal: np.ndarray, fs_hz: float) -> np.ndarray:
+    """The gyroscope's norm of `signal` (T, 6), smoothed."""
+    return _smoothed(np.linalg.norm(signal[:, GYRO], axis=1), fs_hz)
 
 
 def peak_turn_rad_s(signal: np.ndarray, fs_hz: float) -> float | None:
@@ -356,8 +361,7 @@ def movement_s(signal: np.ndarray, fs_hz: float) -> float | None:
     if signal.shape[1] >= 6:
         rate = _rotation_rate(signal, fs_hz)
     else:
-        k = max(1, int(round(RATE_SMOOTH_S * fs_hz)))
-        rate = np.convolve(np.linalg.norm(np.gradient(signal[:, :3], axis=0), axis=1), np.ones(k) / k, mode="same")
+        rate = _smoothed(np.linalg.norm(np.gradient(signal[:, :3], axis=0), axis=1), fs_hz)
     if not rate.max() > 0:
         return None
     moving = np.flatnonzero(rate > ACTIVE_SPEED_FRACTION * rate.max())
