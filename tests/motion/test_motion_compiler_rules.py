@@ -1490,3 +1490,34 @@ def test_getting_up_on_the_left_side_turns_back_as_lying_down_turned_and_lying_a
     lie_again = again["lie_down"][-1][1]["root_yaw"] - rise
     assert np.sign(lie_again) == -np.sign(rise) != 0  # lying along the bed again turns the other way
     assert again["lie_down"][-1][1]["root_yaw"] == 0.0  # back along the bed: a turn turns from the heading
+
+
+def _eases(smp) -> dict[str, list[str]]:
+    return {name: [ease for _, _, ease in p["keys"]] for name, p in compiler.compile_recipe_data(smp)["primitives"].items()}
+
+
+def test_a_flowing_change_of_posture_passes_the_ends_of_its_primitives_without_stopping():
+    sit, lie = ("sit", "sit on the edge of the bed", []), ("lie_down", "turn to lie along the bed, swinging the legs up", [])
+    lean = ("lean_back", "lean the trunk backward, supporting the body while reclining", [])
+    assert _eases(_smp(sit, lean, lie)) == {"sit": [], "lean_back": ["pass"], "lie_down": ["stop"]}
+    held = _eases(_smp(sit, lean, ("pause", "hold the position", []), lie))  # a hold between: at rest there
+    assert held["lean_back"] == ["stop"] and held["lie_down"] == ["stop"]
+    arms = _eases(_smp(("raise", "raise both arms forward", _ARMS), ("lower", "lower the arms", _ARMS)))
+    assert arms == {"raise": ["stop"], "lower": ["stop"]}  # no change of posture: each excursion stops
+    lying = ("lie_back", "lie on the back with the knees bent and the arms crossed over the chest", [])
+    sit_ups = _eases(_smp(lying, ("sit_up", "curl the trunk up off the floor toward the knees", []),
+                          ("lower_back", "lower the trunk back down to the floor", []), periodic=True))
+    assert sit_ups["sit_up"][-1] == "stop"  # repetitions turn back at each end
+
+
+@pytest.mark.parametrize("name", ["sit_to_lie", "lie_to_sit"])
+def test_the_library_lying_transitions_turn_the_pelvis_without_a_halt_between_their_primitives(name):
+    from vsmp_imu.motion.procedural import ProceduralBackend
+    from vsmp_imu.smp.library import ActivityLibrary
+
+    motion = ProceduralBackend(compile_mode="always").generate(ActivityLibrary.load().get(name).smp, seed=0)
+    q = motion.rotations[:, 0]  # the pelvis
+    rate = 2.0 * np.arccos(np.clip(np.abs((q[1:] * q[:-1]).sum(axis=-1)), 0.0, 1.0)) * motion.fps
+    moving = np.flatnonzero(rate > 0.1 * rate.max())
+    # with a stop at each primitive's end the pelvis halts (about 1.5 % of its peak rate) between them
+    assert rate[moving[0]:moving[-1] + 1].min() > 0.05 * rate.max()

@@ -124,6 +124,8 @@ def test_jumping_jacks_keeps_its_smp(library):
     (lambda r: r.__setitem__("base_pose", {"like": "standing", "root_dz": 11}),
      "procedural.base_pose.root_dz", "within ±10 m"),
     (lambda r: r["cycle"].__setitem__("count", 10**9), "procedural.cycle.count", "<= 1000"),
+    (lambda r: r["primitives"]["jump_open"].__setitem__("keys", [[1.0, "open", "glide"]]),
+     "procedural.primitives.jump_open.keys[0].ease", "'stop', 'smooth' or 'pass'"),
 ])
 def test_recipe_errors_name_file_and_field(library, edit, field, words):
     data = _jj_recipe(library)
@@ -134,6 +136,12 @@ def test_recipe_errors_name_file_and_field(library, edit, field, words):
     assert err.file == "activities/jumping_jacks.yaml"
     assert err.field.startswith(field), err.field
     assert words in err.render(), err.render()
+
+
+def test_a_key_may_be_passed_without_overshoot(library):
+    data = _jj_recipe(library)
+    data["primitives"]["jump_open"]["keys"] = [[0.5, "open", "pass"], [1.0, "open"]]
+    assert [k.ease for k in parse_recipe(data).primitives["jump_open"].keys] == ["pass", "stop"]
 
 
 def test_pose_like_loops_are_reported(library):

@@ -19,7 +19,9 @@ How a sequence becomes keyframes:
   straighten back, return, uncross) goes back there; "... and back" goes out
   and comes back within the primitive; a primitive naming no movement holds;
 - sit / stand / lie transitions reach their posture (the seat behind the
-  feet, via sitting between standing and lying);
+  feet, via sitting between standing and lying); a single change of posture
+  flows: its primitives share its time and the body passes from one to the
+  next without stopping (`pass` keys);
 - gait, running and stairs drive periodic waves and locomotion; jumps add a
   hop; circles trace the arm around; alternating left / right primitives each
   go out and back;
@@ -162,6 +164,7 @@ def compile_recipe_data(smp: SMP) -> dict[str, Any]:
     _keyframes(steps, base, posture, smp, cycle if periodic else [])
     _turn_through_recline(steps)
     _durations(steps, smp)
+    _flow(steps, smp)
     kind = "periodic" if periodic else ("static" if _static(smp, steps) else "discrete")
     data: dict[str, Any] = {
         "kind": kind,
@@ -659,6 +662,18 @@ def _turn_through_recline(steps: list[Step]) -> None:
         if not _reclined(end) or abs(turned_to - end[_YAW]) <= CHANGE_DEG:
             continue
         end[_YAW] = after.start[_YAW] = 0.5 * (end[_YAW] + turned_to)
+
+
+def _flow(steps: list[Step], smp: SMP) -> None:
+    """One flowing change of posture does not stop between its primitives: where one moving primitive
+    follows another, the body passes through the first one's last pose (`pass`: a joint that turns
+    back or holds there stops there, so the pelvis never dips below a seat it rises from)."""
+    if not _changes_posture(steps) or _periodic(smp, steps):
+        return
+    for step, after in pairwise(steps):
+        if step.keys and after.keys and step.keys[-1][2] == "stop":
+            at, vec, _ = step.keys[-1]
+            step.keys[-1] = (at, vec, "pass")
 
 
 def _reclined(pose: np.ndarray) -> bool:

@@ -644,24 +644,27 @@ def _plan(entry: Any, recipe: Recipe, smp: SMP, seed: int, duration_s: float | N
 
 
 # -- curves -----------------------------------------------------------------------------
-def _keys(plan: Plan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _keys(plan: Plan) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Key times, poses, which keys stop and which are passed (`pass`: `tracks.key_velocities`)."""
     recipe = plan.recipe
     cur = recipe.pose("start")
-    times, values, stops = [0.0], [cur], [True]
+    times, values, stops, through = [0.0], [cur], [True], [False]
 
-    def add(time: float, value: np.ndarray, stop: bool) -> None:
+    def add(time: float, value: np.ndarray, ease: str) -> None:
         if time <= times[-1] + 1e-6:
-            times[-1], values[-1], stops[-1] = times[-1], value, stops[-1] or stop
+            values[-1], stops[-1] = value, stops[-1] or ease == "stop"
+            through[-1] = through[-1] or ease == "pass"
             return
         times.append(time)
         values.append(value)
-        stops.append(stop)
+        stops.append(ease == "stop")
+        through.append(ease == "pass")
 
     poses: dict[str, np.ndarray] = {}
     for seg in plan.segments:
         prim = recipe.primitives[seg.primitive]
         if not prim.keys:
-            add(seg.end_s, cur, True)
+            add(seg.end_s, cur, "stop")
             continue
         for key in prim.keys:
             if isinstance(key.pose, str):
@@ -670,10 +673,10 @@ def _keys(plan: Plan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                 value = poses[key.pose]
             else:
                 value = recipe.pose(key.pose)
-            add(seg.start_s + key.at * (seg.end_s - seg.start_s), value, key.ease == "stop")
+            add(seg.start_s + key.at * (seg.end_s - seg.start_s), value, key.ease)
             cur = value
-    add(max(plan.duration_s, times[-1]) + 1.0, cur, True)
-    return np.array(times), np.array(values), np.array(stops)
+    add(max(plan.duration_s, times[-1]) + 1.0, cur, "stop")
+    return np.array(times), np.array(values), np.array(stops), np.array(through)
 
 
 def _phase_map(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
@@ -709,10 +712,10 @@ def _wave_columns(plan: Plan) -> list[tuple[int, PeriodicWave, float]]:
     return out
 
 
-def _curves_at(plan: Plan, t: np.ndarray, keys: tuple[np.ndarray, np.ndarray, np.ndarray],
+def _curves_at(plan: Plan, t: np.ndarray, keys: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
                waves: list[tuple[int, PeriodicWave, float]], phase_map: tuple[np.ndarray, np.ndarray]
                ) -> np.ndarray:
-    values = hermite_track(keys[0], keys[1], keys[2], t)
+    values = hermite_track(*keys[:3], t, through=keys[3])
     if not waves or plan.block is None or len(phase_map[0]) < 2:
         return values
     start, end = plan.block

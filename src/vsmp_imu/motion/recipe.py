@@ -58,8 +58,9 @@ class KeyFrame(_Strict):
 
     at: Annotated[float, Field(gt=0.0, le=1.0)]
     pose: PoseRef
-    # stop: arrive at rest (minimum-jerk-like); smooth: pass through with velocity
-    ease: Literal["stop", "smooth"] = "stop"
+    # stop: arrive at rest (minimum-jerk-like); smooth: pass through with velocity; pass: as smooth,
+    # but a DOF that turns back or holds there stops there (no swing past the key)
+    ease: Literal["stop", "smooth", "pass"] = "stop"
 
     @model_validator(mode="before")
     @classmethod

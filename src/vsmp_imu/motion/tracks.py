@@ -21,29 +21,39 @@ def minimum_jerk(u: np.ndarray) -> np.ndarray:
     return u**3 * (10.0 - 15.0 * u + 6.0 * u**2)
 
 
-def key_velocities(times: np.ndarray, values: np.ndarray, stop: np.ndarray) -> np.ndarray:
-    """Velocity at each key: zero at stop keys and at the ends, Catmull-Rom otherwise."""
+def key_velocities(times: np.ndarray, values: np.ndarray, stop: np.ndarray,
+                   through: np.ndarray | None = None) -> np.ndarray:
+    """Velocity at each key: zero at stop keys and at the ends, Catmull-Rom otherwise. At a `through`
+    key a DOF that turns back or holds on either side stops (the curve never swings past a key where
+    it turns); the others keep their Catmull-Rom velocity, so the body moves on as one."""
     vel = np.zeros_like(values)
     if len(times) > 2:
         span = (times[2:] - times[:-2])[:, None]
         vel[1:-1] = (values[2:] - values[:-2]) / np.maximum(span, 1e-9)
+    if through is not None and len(times) > 2:
+        steps = np.diff(values, axis=0)
+        turns = (steps[:-1] * steps[1:] <= 0.0) & through[1:-1, None]  # turns back or holds on a side
+        vel[1:-1][turns] = 0.0
     vel[stop] = 0.0
     vel[0] = 0.0
     vel[-1] = 0.0
     return vel
 
 
-def hermite_track(times: np.ndarray, values: np.ndarray, stop: np.ndarray, t: np.ndarray) -> np.ndarray:
+def hermite_track(times: np.ndarray, values: np.ndarray, stop: np.ndarray, t: np.ndarray,
+                  through: np.ndarray | None = None) -> np.ndarray:
     """Evaluate the keyframe track at times `t` -> (len(t), D).
 
-    `times` (K,) strictly increasing, `values` (K, D), `stop` (K,) bool.
+    `times` (K,) strictly increasing, `values` (K, D), `stop` (K,) bool, `through` (K,) bool or None
+    (keys passed where the DOF goes on the same way, `key_velocities`).
     Before the first key and after the last, the end values hold.
     """
     times = np.asarray(times, dtype=float)
     values = np.asarray(values, dtype=float)
     if len(times) == 1:
         return np.repeat(values[:1], len(t), axis=0)
-    vel = key_velocities(times, values, np.asarray(stop, dtype=bool))
+    vel = key_velocities(times, values, np.asarray(stop, dtype=bool),
+                         None if through is None else np.asarray(through, dtype=bool))
     i = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
     h = (times[i + 1] - times[i])[:, None]
     u = np.clip((t[:, None] - times[i][:, None]) / h, 0.0, 1.0)
