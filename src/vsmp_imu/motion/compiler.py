@@ -668,7 +668,7 @@ def _flow(steps: list[Step], smp: SMP) -> None:
     """One flowing change of posture does not stop between its primitives: where one moving primitive
     follows another, the body passes through the first one's last pose (`pass`: a joint that turns
     back or holds there stops there, so the pelvis never dips below a seat it rises from)."""
-    if not _changes_posture(steps) or _periodic(smp, steps):
+    if not _one_change_of_posture(smp, steps):
         return
     for step, after in pairwise(steps):
         if step.keys and after.keys and step.keys[-1][2] == "stop":
@@ -727,7 +727,7 @@ def _durations(steps: list[Step], smp: SMP) -> None:
     shares = _shares(smp, len(steps))
     if shares is not None and not any(s.action == "gait" for s in steps):
         total = sum(s.duration_s for s in steps)
-        if _changes_posture(steps) and not _periodic(smp, steps):
+        if _one_change_of_posture(smp, steps):
             # one flowing change of posture, shared out: no change of posture slower than it would be
             # alone; the phases between (holds, leans, a crouch, a straightening) take their share
             pacing = [(s, share) for s, share in zip(steps, shares, strict=True) if s.changes_posture]
@@ -835,6 +835,12 @@ def _paired(joints: list[str]) -> list[str]:
             if j.startswith(a):
                 out += [j, b + j[len(a):]]
     return list(dict.fromkeys(out))
+
+
+def _one_change_of_posture(smp: SMP, steps: list[Step]) -> bool:
+    """The sequence is a single change of posture, not repeated: one flowing movement (`_durations`,
+    `_flow`)."""
+    return _changes_posture(steps) and not _periodic(smp, steps)
 
 
 def _changes_posture(steps: list[Step]) -> bool:
