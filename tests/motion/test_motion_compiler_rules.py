@@ -149,6 +149,11 @@ def test_standing_and_lying_pass_through_sitting_and_a_seat_through_a_crouch():
         target[_col("trunk_flex")] = 2 * lean + 10.0
         assert compiler._via(src, dst, before, target, -0.3)[_col("trunk_flex")] == lean + 5.0  # already leaning more
         target[_col("trunk_flex")] = 8.0
+    seat, stand = compiler._posture_vector("sitting", -0.3), compiler._posture_vector("standing", 0.0)
+    assert seat[_col("pelvis_tilt")] < stand[_col("pelvis_tilt")]  # the seat rolls the pelvis back
+    for src, dst, a, b in (("standing", "sitting", stand, seat), ("sitting", "standing", seat, stand)):
+        over = compiler._via(src, dst, a, b, -0.3)  # the pelvis tilts forward with the trunk, not back
+        assert over[_col("pelvis_tilt")] == stand[_col("pelvis_tilt")]
     for src, dst in (("sitting", "lying"), ("standing", "kneeling"), ("kneeling", "sitting"), ("standing", None)):
         assert compiler._via(src, dst, before, target, -0.3) is None
 
@@ -170,6 +175,7 @@ def test_sitting_down_and_standing_up_move_the_pelvis_one_way_only():
     off, seated = keys["crouch"][-1][1], compiler.BUILTIN_POSES["sitting"]
     assert off["left_knee_flex"] == seated["knee_flex"] and off["root_dz"] == 0.0  # seat-off: the legs as seated
     assert off["trunk_flex"] >= MOVEMENTS["squat"].pose["trunk_flex"]  # the trunk over the feet
+    assert off["pelvis_tilt"] == compiler.BUILTIN_POSES["standing"].get("pelvis_tilt", 0.0)  # tilted up with it
     before = compiler._posture_vector("sitting", 0.1)
     before[_col("trunk_flex")] = 50.0
     assert compiler._crouch_off_seat(before)[_col("trunk_flex")] == 50.0  # already leaning further

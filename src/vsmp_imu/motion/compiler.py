@@ -88,6 +88,7 @@ STAIRS_PELVIS = {"rise_m": 0.07, "speed_fluctuation": 0.5}
 WALKING_PELVIS = {"walk": {}, "stairs_up": STAIRS_PELVIS, "stairs_down": STAIRS_PELVIS}
 _POSTURE_LIFT = ("hip_flex", "knee_flex", "ankle_flex", "root_dz", "root_pitch", "root_dy")
 _YAW, _TRUNK, _DZ = DOF_INDEX["root_yaw"], DOF_INDEX["trunk_flex"], DOF_INDEX["root_dz"]
+_PELVIS = DOF_INDEX["pelvis_tilt"]
 _BODY = smpl22_skeleton()
 _ROOT = [DOF_INDEX[name] for name in ("root_dx", "root_dy", "root_dz")]
 _CM = np.where([n.startswith("root_d") for n in DOF_NAMES], 100.0, 1.0)  # root travel: a centimetre counts as a degree
@@ -687,8 +688,10 @@ def _crouch_off_seat(before: np.ndarray) -> np.ndarray:
 
 
 def _over_the_feet(pose: np.ndarray) -> np.ndarray:
-    """`pose` with the trunk leaning at least as far forward as a squat's (in place)."""
+    """`pose` with the trunk leaning at least as far forward as a squat's, the pelvis rolled no further
+    back than standing (it tilts forward with the trunk; only the seat rolls it back) (in place)."""
     pose[_TRUNK] = max(pose[_TRUNK], MOVEMENTS["squat"].pose["trunk_flex"])
+    pose[_PELVIS] = max(pose[_PELVIS], BUILTIN_POSES["standing"].get("pelvis_tilt", 0.0))
     return pose
 
 
