@@ -60,6 +60,9 @@ def test_a_wrong_activity_file_is_flagged_and_the_right_one_is_not(cli, tmp_path
     assert result["walking"]["real_turn_rms"] > 3 * result["sitting"]["real_turn_rms"]
     assert abs(result["walking"]["real_turn_rms"] / result["walking"]["synthetic_turn_rms"] - 1) < 0.3
     assert result["sitting"]["flags"] and "moves" in " ".join(result["sitting"]["flags"])
+    # a forest knows only the classes it was trained on: jumping jacks, unlike either, are still taken for one
+    assert result["walking"]["taken_for"] == {"walking": 100.0}
+    assert sum(result["sitting"]["taken_for"].values()) == pytest.approx(100.0)
     assert result["sitting"]["l_sim"] > 2 * result["walking"]["l_sim"]
     assert "sitting (waist, sitting.json)" in " ".join(out.split())
     assert (tmp_path / "chk" / "check.png").stat().st_size > 0
@@ -68,6 +71,8 @@ def test_a_wrong_activity_file_is_flagged_and_the_right_one_is_not(cli, tmp_path
     written = json.loads((tmp_path / "chk2" / "check.json").read_text())
     assert code == 0 and [c["flags"] for c in written["classes"]] == [[], []] and written["warnings"] == []
     assert written["pairs"] == []  # real walking and sitting differ on every cue: no pair to check
+    assert [c["recognised_pct"] for c in written["classes"]] == [100.0, 100.0]
+    assert (tmp_path / "chk2" / "check_taken.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_wrong_axes_turn_gravity_away(cli, tmp_path):
@@ -484,3 +489,53 @@ def test_a_single_execution_is_judged_by_its_net_turn_not_by_where_windows_cut_i
     assert "check the side" in turn_flag(quarter, -quarter, None, per="execution")
     assert "lacks" in turn_flag(quarter, 0 * quarter, None, per="execution")
     assert "one execution turns +90° about z" in turn_flag(quarter, 0 * quarter, None, per="execution")
+
+
+def _level_windows(rng, n, level):
+    """n windows (T=40, 2 channels) of noise around `level`."""
+    return rng.normal(level, 0.3, (n, 40, 2))
+
+
+def test_simulated_windows_taken_for_another_class_are_flagged_with_that_class():
+    from vsmp_imu.pipeline.check import taken_flag, taken_for
+
+    rng = np.random.default_rng(4)
+    windows = {("x", "wrist"): (_level_windows(rng, 30, 0.0), _level_windows(rng, 10, 3.0)),  # reads like y
+               ("y", "wrist"): (_level_windows(rng, 30, 3.0), _level_windows(rng, 10, 3.0)),
+               ("z", "wrist"): (_level_windows(rng, 30, -3.0), np.zeros((0, 40, 2))),  # nothing simulated
+               ("x", "ankle"): (_level_windows(rng, 30, 0.0), _level_windows(rng, 10, 0.0))}
+    taken = taken_for(windows, "wrist")
+    assert taken == {"x": {"y": 100.0}, "y": {"y": 100.0}}  # z is read by no one: it has no simulated window
+    assert "takes 100 % of the simulated windows for y and 0 % for x" in taken_flag("x", taken["x"])
+    assert taken_flag("y", taken["y"]) is None
+    assert taken_for(windows, "ankle") == {}  # one class: nothing to take it for
+    windows[("w", "wrist")] = (np.zeros((0, 40, 2)), _level_windows(rng, 10, 0.0))  # no real windows: not read
+    assert "w" not in taken_for(windows, "wrist")
+
+
+@pytest.mark.parametrize(("shares", "flagged"), [
+    ({"x": 40.0, "y": 40.0, "z": 20.0}, False),  # a tie is no majority for the other class
+    ({"y": 45.0, "x": 40.0, "z": 15.0}, True),
+    ({"x": 100.0}, False),
+    ({"y": 60.0, "z": 40.0}, True),  # never taken for itself
+])
+def test_the_taken_flag_needs_another_class_ahead_of_the_class_itself(shares, flagged):
+    from vsmp_imu.pipeline.check import taken_flag
+
+    flag = taken_flag("x", shares)
+    assert (flag is not None) == flagged
+    if flagged:
+        assert f"for {next(iter(shares))} and {shares.get('x', 0.0):.0f} % for x" in flag
+
+
+def test_the_taken_matrix_is_plotted_per_location_and_nothing_read_means_no_plot(tmp_path):
+    from vsmp_imu.pipeline.check import ClassCheck, DataCheck
+
+    check = DataCheck()
+    check.results_ = [ClassCheck("x", "wrist", "library", 3, 3, recognised_pct=20.0, taken_for={"y": 80.0, "x": 20.0}),
+                      ClassCheck("y", "wrist", "library", 3, 3, recognised_pct=100.0, taken_for={"y": 100.0}),
+                      ClassCheck("x", "ankle", "library", 3, 3, recognised_pct=100.0, taken_for={"x": 100.0})]
+    path = check.plot_taken(tmp_path / "taken.png")
+    assert path is not None and path.read_bytes()[:4] == b"\x89PNG"
+    check.results_ = [ClassCheck("x", "wrist", "library", 3, 0)]
+    assert check.plot_taken(tmp_path / "none.png") is None and not (tmp_path / "none.png").exists()

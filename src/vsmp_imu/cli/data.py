@@ -94,15 +94,18 @@ def check_cmd(
                                        "pairs_skipped": check.pairs_skipped_})
     check.plot(output / "check.png", ds.info.fs_hz)
     pairs_png = check.plot_pairs(output / "check_pairs.png")
+    taken_png = check.plot_taken(output / "check_taken.png")
     places = sorted({r.location for r in results})
     one_place = len(places) == 1  # the location goes into the title, its column away (80 columns)
     title = f"{ds.info.name}: activity files vs real windows" + (f" ({places[0]})" if one_place else "")
-    table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1, 0, 0),
+    table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 0, 0, 0),
                   caption="pairs are real/simulated; angle: between real and simulated mean acc (gravity); "
                           "tempo: dominant frequency of |acc| in Hz, or for a single execution (a transition) how long it "
                           "moves, in s; rms: m/s² around the window mean; turn: rad/s "
-                          "around it; skew: of |acc| within a window (impacts make it positive); !: see below")
-    columns = ("class", *(() if one_place else ("at",)), "real", "L_sim", "angle", "tempo", "rms", "turn", "skew", "")
+                          "around it; skew: of |acc| within a window (impacts make it positive); own: % of the "
+                          "simulated windows a forest trained on the real ones takes for the class; !: see below")
+    columns = ("class", *(() if one_place else ("at",)), "real", "L_sim", "angle", "tempo", "rms", "turn", "skew",
+               "own", "")
     for col in columns:
         table.add_column(col, overflow="fold", no_wrap=col != "class", min_width=12 if col == "class" else None)
     for r in results:
@@ -112,8 +115,8 @@ def check_cmd(
                       else _pair(r.real_duration_s, r.synthetic_duration_s) + "s",
                       _pair(r.real_motion_rms, r.synthetic_motion_rms),
                       _pair(r.real_turn_rms, r.synthetic_turn_rms),
-                      _pair(r.real_acc_skew, r.synthetic_acc_skew),
-                      "[yellow]![/]" if r.flags else "ok")
+                      _pair(r.real_acc_skew, r.synthetic_acc_skew), _num(r.recognised_pct, ".0f"),
+                      "[yellow]![/]" if r.flags else "")
     console.print(table)
     for m in check.mountings_ if mounting else ():
         console.print(m.describe(), highlight=False)
@@ -127,7 +130,7 @@ def check_cmd(
     for p in check.pairs_:
         for flag in p.flags:
             console.print(f"[yellow]{p.first} vs {p.second}[/] ({p.location}): {flag}", highlight=False)
-    written = f"{output / 'check.json'}, {output / 'check.png'}" + (f" and {pairs_png}" if pairs_png else "")
+    written = ", ".join(str(p) for p in (output / "check.json", output / "check.png", pairs_png, taken_png) if p)
     console.print(f"[green]wrote[/] {written}", highlight=False)
 
 

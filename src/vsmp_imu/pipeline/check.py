@@ -70,6 +70,21 @@ flagged when a cue separates the simulated windows by `MIN_OVERSHARP_GAP`
 more than the real ones (|AUC - 0.5|), or the two sides separate clearly
 (beyond `MIN_REVERSED`) in opposite directions. Windows of fewer than `QUARTERS` samples
 have no quarters: the pairs are then not compared, and `pairs_skipped_` says why.
+
+Which real class the simulated windows look like (`taken_for`): per location, a
+Random Forest on ECDF features (the HAR backbone, balanced class weights),
+trained on the real windows of every class checked there, reads each class's
+simulated windows (train on real, test on synthetic). Per class it gives the
+share of them taken for each class (`taken_for`, largest first) and for the
+class itself (`recognised_pct`); a class whose simulated windows are taken for
+one other class more often than for itself is flagged, naming that class. The
+simulated windows are neither calibrated nor rank-grounded here, so a class
+recognised well is one whose raw motion already reads like its real windows;
+one taken for another class says which real class its activity file imitates
+(on HAPT12 the compiled sit-to-lie is taken for stand-to-lie). A forest answers
+with one of the classes it knows: a file unlike every class is still taken for
+one of them, so a high share says the file reads more like its own class than
+like the others, not that it reads like it (the loss and the motion say that).
 """
 
 from __future__ import annotations
@@ -108,6 +123,7 @@ MAX_REAL_SEPARATION = 0.35  # a pair some real cue separates beyond AUC 0.85 is 
 MIN_OVERSHARP_GAP = 0.25  # |AUC - 0.5| simulated minus real that flags a cue
 MIN_REVERSED = 0.15  # |AUC - 0.5| on both sides, opposite ways: a reversed cue
 MIN_PAIR_WINDOWS = 6  # per class and side; fewer windows say nothing about a cue
+TAKEN_TREES = 100  # the forest trained on the real windows that reads the simulated ones (`taken_for`)
 QUARTERS = 4
 MAX_DURATION_RATIO = 1.3  # one execution's movement, simulated vs real, beyond this either way: flagged
 MIN_EVENTS = 3  # labelled real executions a class needs for its duration
@@ -151,6 +167,8 @@ class ClassCheck:
     real_execution_turn_deg: list[float] | None = None  # mean net turn of one execution (x, y, z)
     synthetic_execution_turn_deg: list[float] | None = None
     declared_gravity_angle_deg: float | None = None  # before the mounting
+    recognised_pct: float | None = None  # simulated windows a forest trained on the real ones takes for this class
+    taken_for: dict[str, float] | None = None  # % of the simulated windows taken for each class, largest first
     flags: list[str] = field(default_factory=list)
 
 
@@ -531,6 +549,40 @@ def check_pairs(windows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]],
     return out
 
 
+def taken_for(windows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]], place: str) -> dict[str, dict[str, float]]:
+    """At `place`, per class with real and simulated windows: the share (%) of its simulated windows a
+    forest trained on every class's real windows takes for each class, largest first (see module doc);
+    empty where fewer than two classes have real windows."""
+    from vsmp_imu.har.backbones.rf import RandomForestECDF
+
+    labels = [label for (label, at), (real, _) in windows.items() if at == place and len(real)]
+    if len(labels) < 2:
+        return {}
+    X = np.concatenate([windows[(label, place)][0] for label in labels])
+    y = np.concatenate([np.full(len(windows[(label, place)][0]), k) for k, label in enumerate(labels)])
+    forest = RandomForestECDF(n_estimators=TAKEN_TREES, class_weight="balanced", n_jobs=1).fit(X, y)
+    out = {}
+    for label in labels:
+        syn = windows[(label, place)][1]
+        if len(syn):
+            counts = np.bincount(forest.predict(syn), minlength=len(labels))
+            shares = {labels[k]: round(100.0 * n / len(syn), 1) for k, n in enumerate(counts) if n}
+            out[label] = dict(sorted(shares.items(), key=lambda kv: (-kv[1], kv[0])))
+    return out
+
+
+def taken_flag(label: str, shares: dict[str, float]) -> str | None:
+    """The flag of a class whose simulated windows are taken for one other class more often than for
+    itself (`shares` as `taken_for` gives them); None otherwise."""
+    own = shares.get(label, 0.0)
+    other = next((k for k in shares if k != label), None)
+    if other is None or shares[other] <= own:
+        return None
+    return (f"a forest trained on the real windows takes {shares[other]:.0f} % of the simulated windows for "
+            f"{other} and {own:.0f} % for {label}: the activity file reads more like the real {other}; "
+            "check what it does differently (the pair check names cues)")
+
+
 def _turns(out: ClassCheck, real: np.ndarray, syn: np.ndarray,
            executions: Timing | None) -> tuple[np.ndarray, np.ndarray, str, float]:
     """What the turn flag compares: (real, simulated, per, either-way threshold). The windows, or for
@@ -676,10 +728,22 @@ class DataCheck:
             self.windows_[(label, place)] = (r, s_turned)
             self.results_.append(compare(label, loc, sources_of[label], r, s_turned, info.fs_hz, declared=s,
                                          side_free=side_free[label], executions=timings.get((label, place))))
+        self._taken()
         self._channels = {loc.name: tuple(loc.channels) for loc in info.locations}
         self.pairs_skipped_ = pairs_skipped(size)
         self.pairs_ = [] if self.pairs_skipped_ else check_pairs(self.windows_, self._channels)
         return self.results_
+
+    def _taken(self) -> None:
+        """Each result's `taken_for`, `recognised_pct` and flag (module doc)."""
+        for place in dict.fromkeys(at for _, at in self.windows_):
+            taken = taken_for(self.windows_, place)
+            for r in self.results_:
+                if r.location == place and r.label in taken:
+                    r.taken_for, r.recognised_pct = taken[r.label], taken[r.label].get(r.label, 0.0)
+                    flag = taken_flag(r.label, r.taken_for)
+                    if flag:
+                        r.flags.append(flag)
 
     def _mounting(self, loc: SensorLocation, declared: dict, singles: set[str]) -> MountingCheck:
         """As grounding estimates it: from the classes that hold a posture or repeat a rhythm
@@ -716,6 +780,42 @@ class DataCheck:
                     auc = pair.real_auc if side == 0 else pair.synthetic_auc
                     ax.set_title(f"{name}: {pair.cue} @ {pair.location} (AUC {auc:.2f})", fontsize=9, loc="left")
                 row[0].legend(fontsize=7)
+            fig.tight_layout()
+            with atomic_path(path, suffix=".png") as tmp:
+                fig.savefig(tmp, format="png", dpi=90)
+        finally:
+            plt.close(fig)
+        return Path(path)
+
+    def plot_taken(self, path: Path) -> Path | None:
+        """Per location: which class a forest trained on the real windows takes each class's simulated
+        windows for, as a matrix (rows: the simulated class; written atomically); None when no class
+        was read."""
+        places = list(dict.fromkeys(r.location for r in self.results_ if r.taken_for))
+        if not places:
+            return None
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        size = max(len([r for r in self.results_ if r.location == p and r.taken_for]) for p in places)
+        fig, axes = plt.subplots(1, len(places), figsize=(2.5 + 0.45 * size * len(places), 1.5 + 0.4 * size),
+                                 squeeze=False)
+        try:
+            for place, ax in zip(places, axes[0], strict=True):
+                rows = [r for r in self.results_ if r.location == place and r.taken_for]
+                labels = [r.label for r in rows]
+                matrix = np.array([[r.taken_for.get(label, 0.0) for label in labels] for r in rows])
+                ax.imshow(matrix, cmap="Blues", vmin=0, vmax=100)
+                for i, j in zip(*np.nonzero(matrix), strict=True):
+                    ax.text(j, i, f"{matrix[i, j]:.0f}", ha="center", va="center", fontsize=7,
+                            color="white" if matrix[i, j] > 60 else "black")
+                ax.set_xticks(range(len(labels)), labels, rotation=60, ha="right", fontsize=7)
+                ax.set_yticks(range(len(labels)), labels, fontsize=7)
+                ax.set_xlabel("taken for (forest trained on the real windows)", fontsize=8)
+                ax.set_ylabel("simulated class", fontsize=8)
+                ax.set_title(f"{place}: % of each class's simulated windows", fontsize=9, loc="left")
             fig.tight_layout()
             with atomic_path(path, suffix=".png") as tmp:
                 fig.savefig(tmp, format="png", dpi=90)
