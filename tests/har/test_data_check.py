@@ -539,3 +539,19 @@ def test_the_taken_matrix_is_plotted_per_location_and_nothing_read_means_no_plot
     assert path is not None and path.read_bytes()[:4] == b"\x89PNG"
     check.results_ = [ClassCheck("x", "wrist", "library", 3, 0)]
     assert check.plot_taken(tmp_path / "none.png") is None and not (tmp_path / "none.png").exists()
+
+
+def test_the_table_fits_an_80_column_terminal_without_folding_a_long_label(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    path = _dataset(tmp_path / "ds", ActivityLibrary.load(), labels=("walking_downstairs", "sitting"))
+    env = {**os.environ, "COLUMNS": "80", "TERM": "dumb"}
+    out = subprocess.run([sys.executable, "-c", "from vsmp_imu.cli import main; main()", "data", "check", str(path),
+                          "--samples", "2", "-o", str(tmp_path / "chk")], env=env, capture_output=True, text=True,
+                         check=True).stdout
+    assert max(len(line) for line in out.splitlines()) <= 80
+    header = next(line for line in out.splitlines() if line.split()[:2] == ["class", "real"])
+    assert header.split()[-1] == "own"
+    assert "walking_downstairs" in out.split()  # the 18-character label on one line
