@@ -555,3 +555,21 @@ def test_the_table_fits_an_80_column_terminal_without_folding_a_long_label(tmp_p
     header = next(line for line in out.splitlines() if line.split()[:2] == ["class", "real"])
     assert header.split()[-1] == "own"
     assert "walking_downstairs" in out.split()  # the 18-character label on one line
+
+
+def test_the_forest_reads_at_most_a_capped_number_of_real_windows_per_class(monkeypatch):
+    from vsmp_imu.har.backbones.rf import RandomForestECDF
+    from vsmp_imu.pipeline import check
+
+    seen = []
+    fit = RandomForestECDF.fit
+    monkeypatch.setattr(RandomForestECDF, "fit", lambda self, X, y, *a, **k: seen.append(np.bincount(y)) or
+                        fit(self, X, y, *a, **k))
+    monkeypatch.setattr(check, "TAKEN_MAX_PER_CLASS", 7)
+    rng = np.random.default_rng(5)
+    windows = {("x", "w"): (_level_windows(rng, 30, 0.0), _level_windows(rng, 4, 0.0)),
+               ("y", "w"): (_level_windows(rng, 5, 3.0), _level_windows(rng, 4, 3.0))}
+    assert check.taken_for(windows, "w") == {"x": {"x": 100.0}, "y": {"y": 100.0}}
+    assert seen[0].tolist() == [7, 5]  # 30 drawn down to 7; 5 kept whole
+    first_last = check._evenly(np.arange(30), 7)
+    assert first_last[0] == 0 and first_last[-1] == 29 and len(set(first_last)) == 7

@@ -73,7 +73,8 @@ have no quarters: the pairs are then not compared, and `pairs_skipped_` says why
 
 Which real class the simulated windows look like (`taken_for`): per location, a
 Random Forest on ECDF features (the HAR backbone, balanced class weights),
-trained on the real windows of every class checked there, reads each class's
+trained on the real windows of every class checked there (at most
+`TAKEN_MAX_PER_CLASS` a class, drawn evenly), reads each class's
 simulated windows (train on real, test on synthetic). Per class it gives the
 share of them taken for each class (`taken_for`, largest first) and for the
 class itself (`recognised_pct`); a class whose simulated windows are taken for
@@ -124,6 +125,7 @@ MIN_OVERSHARP_GAP = 0.25  # |AUC - 0.5| simulated minus real that flags a cue
 MIN_REVERSED = 0.15  # |AUC - 0.5| on both sides, opposite ways: a reversed cue
 MIN_PAIR_WINDOWS = 6  # per class and side; fewer windows say nothing about a cue
 TAKEN_TREES = 100  # the forest trained on the real windows that reads the simulated ones (`taken_for`)
+TAKEN_MAX_PER_CLASS = 2000  # real windows per class it trains on at most (drawn evenly): seconds, not minutes
 QUARTERS = 4
 MAX_DURATION_RATIO = 1.3  # one execution's movement, simulated vs real, beyond this either way: flagged
 MIN_EVENTS = 3  # labelled real executions a class needs for its duration
@@ -558,8 +560,9 @@ def taken_for(windows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]], pla
     labels = [label for (label, at), (real, _) in windows.items() if at == place and len(real)]
     if len(labels) < 2:
         return {}
-    X = np.concatenate([windows[(label, place)][0] for label in labels])
-    y = np.concatenate([np.full(len(windows[(label, place)][0]), k) for k, label in enumerate(labels)])
+    real = [_evenly(windows[(label, place)][0], TAKEN_MAX_PER_CLASS) for label in labels]
+    X = np.concatenate(real)
+    y = np.concatenate([np.full(len(r), k) for k, r in enumerate(real)])
     forest = RandomForestECDF(n_estimators=TAKEN_TREES, class_weight="balanced", n_jobs=1).fit(X, y)
     out = {}
     for label in labels:
@@ -569,6 +572,13 @@ def taken_for(windows: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]], pla
             shares = {labels[k]: round(100.0 * n / len(syn), 1) for k, n in enumerate(counts) if n}
             out[label] = dict(sorted(shares.items(), key=lambda kv: (-kv[1], kv[0])))
     return out
+
+
+def _evenly(windows: np.ndarray, most: int) -> np.ndarray:
+    """At most `most` of `windows`, spread evenly over them (recordings stay represented in order)."""
+    if len(windows) <= most:
+        return windows
+    return windows[np.linspace(0, len(windows) - 1, most).round().astype(int)]
 
 
 def taken_flag(label: str, shares: dict[str, float]) -> str | None:
