@@ -675,6 +675,12 @@ def locations_of(info, label: str) -> list[SensorLocation]:
     return list(info.locations)
 
 
+def _save_png(fig, path: Path) -> None:
+    """Write `fig` to `path` as a PNG (90 dpi), atomically."""
+    with atomic_path(path, suffix=".png") as tmp:
+        fig.savefig(tmp, format="png", dpi=90)
+
+
 @dataclass
 class DataCheck:
     """Simulates each class's base SMP at the dataset's locations and compares (see module doc)."""
@@ -791,8 +797,7 @@ class DataCheck:
                     ax.set_title(f"{name}: {pair.cue} @ {pair.location} (AUC {auc:.2f})", fontsize=9, loc="left")
                 row[0].legend(fontsize=7)
             fig.tight_layout()
-            with atomic_path(path, suffix=".png") as tmp:
-                fig.savefig(tmp, format="png", dpi=90)
+            _save_png(fig, path)
         finally:
             plt.close(fig)
         return Path(path)
@@ -827,8 +832,7 @@ class DataCheck:
                 ax.set_ylabel("simulated class", fontsize=8)
                 ax.set_title(f"{place}: % of each class's simulated windows", fontsize=9, loc="left")
             fig.tight_layout()
-            with atomic_path(path, suffix=".png") as tmp:
-                fig.savefig(tmp, format="png", dpi=90)
+            _save_png(fig, path)
         finally:
             plt.close(fig)
         return Path(path)
@@ -868,8 +872,7 @@ class DataCheck:
             if turns:
                 fig.suptitle(f"simulated windows turned by the estimated mounting ({', '.join(turns)})", fontsize=9)
             fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))
-            with atomic_path(path, suffix=".png") as tmp:
-                fig.savefig(tmp, format="png", dpi=90)
+            _save_png(fig, path)
         finally:
             plt.close(fig)
         return Path(path)
