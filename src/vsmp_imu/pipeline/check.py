@@ -815,7 +815,7 @@ class DataCheck:
         import matplotlib.pyplot as plt
 
         size = max(len([r for r in self.results_ if r.location == p and r.taken_for]) for p in places)
-        fig, axes = plt.subplots(1, len(places), figsize=(2.5 + 0.45 * size * len(places), 1.5 + 0.4 * size),
+        fig, axes = plt.subplots(1, len(places), figsize=(1.8 + 0.42 * size * len(places), 1.8 + 0.42 * size),
                                  squeeze=False)
         try:
             for place, ax in zip(places, axes[0], strict=True):
