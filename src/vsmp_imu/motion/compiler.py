@@ -691,7 +691,7 @@ def _over_the_feet(pose: np.ndarray) -> np.ndarray:
     """`pose` with the trunk leaning at least as far forward as a squat's, the pelvis rolled no further
     back than standing (it tilts forward with the trunk; only the seat rolls it back) (in place)."""
     pose[_TRUNK] = max(pose[_TRUNK], MOVEMENTS["squat"].pose["trunk_flex"])
-    pose[_PELVIS] = max(pose[_PELVIS], BUILTIN_POSES["standing"].get("pelvis_tilt", 0.0))
+    pose[_PELVIS] = max(pose[_PELVIS], 0.0)  # standing's: the standing pose leaves the pelvis untilted
     return pose
 
 
