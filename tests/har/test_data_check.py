@@ -529,7 +529,7 @@ def test_the_taken_flag_needs_another_class_ahead_of_the_class_itself(shares, fl
 
 
 def test_the_taken_matrix_is_plotted_per_location_and_nothing_read_means_no_plot(tmp_path):
-    from vsmp_imu.pipeline.check import ClassCheck, DataCheck
+    from vsmp_imu.pipeline.check import ClassCheck, DataCheck, taken_matrix
 
     check = DataCheck()
     check.results_ = [ClassCheck("x", "wrist", "library", 3, 3, recognised_pct=20.0, taken_for={"y": 80.0, "x": 20.0}),
@@ -537,6 +537,12 @@ def test_the_taken_matrix_is_plotted_per_location_and_nothing_read_means_no_plot
                       ClassCheck("x", "ankle", "library", 3, 3, recognised_pct=100.0, taken_for={"x": 100.0})]
     path = check.plot_taken(tmp_path / "taken.png")
     assert path is not None and path.read_bytes()[:4] == b"\x89PNG"
+    rows, columns, matrix = taken_matrix(check.results_, "wrist")
+    assert rows == ["x", "y"] and columns == ["x", "y"] and matrix.tolist() == [[20.0, 80.0], [0.0, 100.0]]
+    # a class read as one that has real windows but none simulated (no row of its own) still gets a column
+    check.results_.append(ClassCheck("w", "wrist", "library", 3, 3, recognised_pct=0.0, taken_for={"z": 100.0}))
+    rows, columns, matrix = taken_matrix(check.results_, "wrist")
+    assert columns == ["x", "y", "w", "z"] and matrix.sum(axis=1).tolist() == [100.0, 100.0, 100.0]
     check.results_ = [ClassCheck("x", "wrist", "library", 3, 0)]
     assert check.plot_taken(tmp_path / "none.png") is None and not (tmp_path / "none.png").exists()
 

@@ -675,6 +675,14 @@ def locations_of(info, label: str) -> list[SensorLocation]:
     return list(info.locations)
 
 
+def taken_matrix(results: list[ClassCheck], place: str) -> tuple[list[str], list[str], np.ndarray]:
+    """The shares `taken_for` gives at `place` as a matrix: (simulated classes, the classes they are taken
+    for: the rows' own first, then any other, e.g. one with real windows and none simulated, % per cell)."""
+    rows = [r for r in results if r.location == place and r.taken_for]
+    columns = list(dict.fromkeys([r.label for r in rows] + [k for r in rows for k in r.taken_for]))
+    return [r.label for r in rows], columns, np.array([[r.taken_for.get(c, 0.0) for c in columns] for r in rows])
+
+
 def _save_png(fig, path: Path) -> None:
     """Write `fig` to `path` as a PNG (90 dpi), atomically."""
     with atomic_path(path, suffix=".png") as tmp:
@@ -814,20 +822,18 @@ class DataCheck:
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
-        size = max(len([r for r in self.results_ if r.location == p and r.taken_for]) for p in places)
+        size = max(len(taken_matrix(self.results_, p)[1]) for p in places)
         fig, axes = plt.subplots(1, len(places), figsize=(1.8 + 0.42 * size * len(places), 1.8 + 0.42 * size),
                                  squeeze=False)
         try:
             for place, ax in zip(places, axes[0], strict=True):
-                rows = [r for r in self.results_ if r.location == place and r.taken_for]
-                labels = [r.label for r in rows]
-                matrix = np.array([[r.taken_for.get(label, 0.0) for label in labels] for r in rows])
+                rows, labels, matrix = taken_matrix(self.results_, place)
                 ax.imshow(matrix, cmap="Blues", vmin=0, vmax=100)
                 for i, j in zip(*np.nonzero(matrix), strict=True):
                     ax.text(j, i, f"{matrix[i, j]:.0f}", ha="center", va="center", fontsize=7,
                             color="white" if matrix[i, j] > 60 else "black")
                 ax.set_xticks(range(len(labels)), labels, rotation=60, ha="right", fontsize=7)
-                ax.set_yticks(range(len(labels)), labels, fontsize=7)
+                ax.set_yticks(range(len(rows)), rows, fontsize=7)
                 ax.set_xlabel("taken for (forest trained on the real windows)", fontsize=8)
                 ax.set_ylabel("simulated class", fontsize=8)
                 ax.set_title(f"{place}: % of each class's simulated windows", fontsize=9, loc="left")
