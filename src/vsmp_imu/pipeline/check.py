@@ -683,6 +683,16 @@ def taken_matrix(results: list[ClassCheck], place: str) -> tuple[list[str], list
     return [r.label for r in rows], columns, np.array([[r.taken_for.get(c, 0.0) for c in columns] for r in rows])
 
 
+def _pyplot():
+    """matplotlib.pyplot on the file backend (Agg, unless a backend is already chosen)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
 def _save_png(fig, path: Path) -> None:
     """Write `fig` to `path` as a PNG (90 dpi), atomically."""
     with atomic_path(path, suffix=".png") as tmp:
@@ -785,10 +795,7 @@ class DataCheck:
         flagged = [p for p in self.pairs_ if p.flags]
         if not flagged:
             return None
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
+        plt = _pyplot()
 
         fig, axes = plt.subplots(len(flagged), 2, figsize=(8, 2.1 * len(flagged)), squeeze=False)
         try:
@@ -817,10 +824,7 @@ class DataCheck:
         places = list(dict.fromkeys(r.location for r in self.results_ if r.taken_for))
         if not places:
             return None
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
+        plt = _pyplot()
 
         size = max(len(taken_matrix(self.results_, p)[1]) for p in places)
         fig, axes = plt.subplots(1, len(places), figsize=(1.8 + 0.42 * size * len(places), 1.8 + 0.42 * size),
@@ -849,10 +853,7 @@ class DataCheck:
     def plot(self, path: Path, fs_hz: float) -> Path:
         """Per class and location: mean acceleration (x, y, z) and the spectrum of |acc|, real vs
         simulated (turned by the mounting; written atomically)."""
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
+        plt = _pyplot()
 
         rows = list(self.windows_.items())
         fig, axes = plt.subplots(max(len(rows), 1), 2, figsize=(9, 2.2 * max(len(rows), 1)), squeeze=False)
