@@ -84,3 +84,30 @@ def test_remap_follows_a_renumbered_argued_mutant_by_its_diff_and_drops_one_gone
     assert after[1] == rules[2]
     assert mutation.remap(list(mutation.GROUPS)) == (0, 0)  # nothing left to follow
     assert "| g | 66.7 % | 2 | 1 | 1 |" in mutation.report()
+
+
+def test_a_rerun_records_the_runs_minutes_plus_its_own_not_the_time_since_the_run_began(records, tmp_path,
+                                                                                        monkeypatch):
+    import os
+    import time
+
+    build = tmp_path / "build"
+    where = build / "g"
+    (where / "tests").mkdir(parents=True)
+    (where / "pyproject.toml").write_text('[tool.mutmut]\npytest_add_cli_args_test_selection = ["tests"]\n')
+    (where / "mutmut.log").write_text("")
+    began = time.time() - 3 * 3600  # the run began three hours ago
+    os.utime(where / "pyproject.toml", (began, began))
+    monkeypatch.setattr(mutation, "BUILD", build)
+    monkeypatch.setattr(mutation, "ROOT", tmp_path)
+    (tmp_path / "tests").mkdir()
+    outcomes = {A: "survived", "pkg.mod.x_h__mutmut_1": "killed"}
+    monkeypatch.setattr(mutation, "_outcomes", lambda where: dict(outcomes))
+    monkeypatch.setattr(mutation, "_diffs", lambda where, names: {n: "- a\n+ b" for n in names})
+    monkeypatch.setattr(mutation, "_select_tests", lambda where, group: None)
+    monkeypatch.setattr(mutation, "_mutmut", lambda where, names: outcomes.update({A: "killed"}))
+    record = mutation.rerun(mutation.GROUPS[0])
+    assert record["outcomes"][A] == "killed"
+    assert record["minutes"] == pytest.approx(1.0, abs=0.1)  # the fixture's run took a minute
+    assert json.loads((records / "g.json").read_text())["minutes"] == record["minutes"]
+    assert mutation.collect(mutation.GROUPS[0])["minutes"] == pytest.approx(180.0, abs=1.0)  # a run's own span

@@ -34,6 +34,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 import tomllib
 from dataclasses import dataclass
 from importlib.metadata import version
@@ -161,8 +162,12 @@ def resume(group: Group) -> dict:
 
 def rerun(group: Group) -> dict:
     """Re-test the survivors of a finished run against the current tests (new tests copied in),
-    except those excluded.json argues equivalent or import-time."""
+    except those excluded.json argues equivalent or import-time. The record's minutes are the
+    run's plus the rerun's own (not the time since the run started)."""
     where = BUILD / group.name
+    before = RECORDS / f"{group.name}.json"
+    run_minutes = json.loads(before.read_text())["minutes"] if before.exists() else 0.0
+    began = time.time()
     rules = json.loads(EXCLUDED.read_text()) if EXCLUDED.exists() else []
     survived = [n for n, s in _outcomes(where).items() if s == "survived"]
     diffs = _diffs(where, survived)
@@ -172,7 +177,7 @@ def rerun(group: Group) -> dict:
         shutil.copytree(ROOT / "tests", where / "tests", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         _select_tests(where, group)
         _mutmut(where, survivors)
-    return collect(group)
+    return collect(group, minutes=run_minutes + (time.time() - began) / 60)
 
 
 def _select_tests(where: Path, group: Group) -> None:
@@ -184,8 +189,9 @@ def _select_tests(where: Path, group: Group) -> None:
     os.utime(pyproject, (started, started))
 
 
-def collect(group: Group) -> dict:
-    """The record of a finished run in build/mutation/GROUP (also after an interrupted `run`)."""
+def collect(group: Group, minutes: float | None = None) -> dict:
+    """The record of a finished run in build/mutation/GROUP (also after an interrupted `run`);
+    `minutes`: the testing time, when not the span from the run's start to its log's last line."""
     where = BUILD / group.name
     outcomes = _outcomes(where) if where.exists() else {}
     if not outcomes:
@@ -199,7 +205,7 @@ def collect(group: Group) -> dict:
         "tests": selection["pytest_add_cli_args_test_selection"],
         "tool": f"mutmut {version('mutmut')}",
         "date": dt.datetime.fromtimestamp(started, dt.UTC).strftime("%Y-%m-%d"),
-        "minutes": round((ended - started) / 60, 1),
+        "minutes": round((ended - started) / 60 if minutes is None else minutes, 1),
         "outcomes": outcomes,
         "survivors": _diffs(where, [n for n, s in outcomes.items() if s == "survived"]),
     }

@@ -366,6 +366,16 @@ def test_turning_targets_take_the_words_side_then_the_hint_and_root_travel_adds_
             (_col(turning), -10.0)]
     assert compiler._targets(twist, "trunk_flex", 10.0, _step(direction=-1), None, current, 0) == [
         (_col("trunk_flex"), 10.0)]  # not a turn: the side does not flip it
+    # a body already turned: the whole body turns on from where it faces; the trunk, the lean and the
+    # head turn to their angle relative to the body, wherever they were
+    turned = np.zeros(N_DOFS)
+    for name, angle in (("root_yaw", 30.0), ("trunk_twist", 20.0), ("trunk_lean", -15.0), ("head_turn", 25.0)):
+        turned[_col(name)] = angle
+    assert compiler._targets(twist, "root_yaw", 10.0, _step(direction=-1), None, turned, 0) == [
+        (_col("root_yaw"), 20.0)]
+    for relative in ("trunk_twist", "trunk_lean", "head_turn"):
+        assert compiler._targets(twist, relative, 10.0, _step(direction=-1), None, turned, 0) == [
+            (_col(relative), -10.0)]
     lunge = MOVEMENTS["lunge"]
     assert compiler._targets(lunge, "hip_flex", 80.0, _step(leg_side="right"), None, current, 0) == [
         (_col("right_hip_flex"), 80.0), (_col("left_hip_flex"), -15.0)]
