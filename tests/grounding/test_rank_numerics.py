@@ -68,6 +68,28 @@ def test_smoothed_quantiles_are_those_of_the_gaussian_mixture_with_the_variance_
     assert out[0] == min(out[1], grid[0]) and out[-1] == max(out[-2], grid[-1])
 
 
+def test_a_kernel_narrower_than_the_gaps_leaves_each_level_where_it_is():
+    # two levels 50 apart, a kernel of 0.001 (a still posture's gyroscope gets about 2e-5 rad/s): the
+    # smoothed quartiles are the levels themselves, not a ramp across the gap between them
+    grid = np.array([0.0, 0.0, 50.0, 50.0])
+    out = _kernel_smoothed(grid, _probs(2), 0.001)
+    step = (50.0 + 8 * 0.001) / 4096
+    assert out[1:-1] == pytest.approx([0.0, 50.0], abs=step)
+
+
+def test_a_narrow_kernel_on_a_dense_core_with_sparse_tails_gives_the_mixtures_tails():
+    # as a still posture's channel: most samples in a narrow core, a few spikes far out in the tails,
+    # the kernel (from the windows' near-equal means) far narrower than a histogram bin
+    rng = np.random.default_rng(3)
+    points = np.sort(np.concatenate([rng.normal(0.0, 0.02, 300), [-1.4, -0.9, 0.5, 0.6, 1.1]]))
+    probs = _probs(len(points))
+    grid = np.concatenate([[points[0]], points, [points[-1]]])
+    h = 2e-5
+    out = _kernel_smoothed(grid, probs, h)
+    step = (points[-1] - points[0] + 8 * h) / 4096
+    assert out[1:-1] == pytest.approx(_mixture_quantiles(points, h, probs[1:-1]), abs=3 * step)
+
+
 def test_smoothing_keeps_the_mean_and_variance_and_leaves_degenerate_columns_alone():
     rng = np.random.default_rng(4)
     points = np.sort(np.concatenate([rng.normal(0, 1, 400), rng.normal(6, 0.5, 200)]))

@@ -112,8 +112,11 @@ def _kernel_smoothed(grid: np.ndarray, probs: np.ndarray, h: float) -> np.ndarra
                                 h / (edges[1] - edges[0]), mode="constant")
     cdf = np.concatenate([[0.0], np.cumsum(density)])
     cdf /= cdf[-1]
-    inside = np.flatnonzero(np.diff(cdf) > 0)  # strictly increasing part of the CDF
-    knots = np.concatenate([inside, inside[-1:] + 1])
+    # the CDF's knots: where each run of bins with mass begins and ends (a kernel narrower than the
+    # gaps between levels leaves empty bins, and inverting across one must not spread a bin's mass
+    # over the gap)
+    rising = np.flatnonzero(np.diff(cdf) > 0)
+    knots = np.union1d(rising, rising + 1)
     smooth = mean + (np.interp(probs, cdf[knots], edges[knots]) - mean) / np.sqrt(1.0 + (h / sd) ** 2)
     # the kernel's far tails are no data: the ends are the outer levels, or the data's own
     # extremes where those lie further out (so every input value maps strictly inside)
