@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -88,9 +90,6 @@ def test_remap_follows_a_renumbered_argued_mutant_by_its_diff_and_drops_one_gone
 
 def test_a_rerun_records_the_runs_minutes_plus_its_own_not_the_time_since_the_run_began(records, tmp_path,
                                                                                         monkeypatch):
-    import os
-    import time
-
     build = tmp_path / "build"
     where = build / "g"
     (where / "tests").mkdir(parents=True)

@@ -12,6 +12,7 @@ from scipy.stats import norm
 
 from vsmp_imu.grounding.rank import (
     GAP_WIDTHS,
+    KDE_BINS,
     ChannelMap,
     _balance_weights,
     _kernel_smoothed,
@@ -56,13 +57,18 @@ def _mixture_quantiles(points, h, probs):
     return mean + (q - mean) / np.sqrt(1 + (h / sd) ** 2)
 
 
+def _bin(lo: float, hi: float, h: float) -> float:
+    """The width of one bin of the histogram on which levels from `lo` to `hi` are smoothed."""
+    return (hi - lo + 8 * h) / KDE_BINS
+
+
 @pytest.mark.parametrize("h", [0.2, 1.0])
 def test_smoothed_quantiles_are_those_of_the_gaussian_mixture_with_the_variance_kept(h):
     points = np.array([0.0, 0.1, 0.2, 3.0, 3.1, 7.0])  # three plateaus, as a few windows give
     probs = _probs(len(points))
     grid = np.concatenate([[points[0]], points, [points[-1]]])  # its quantile grid at probs
     out = _kernel_smoothed(grid, probs, h)
-    step = (points[-1] - points[0] + 8 * h) / 4096  # the histogram's resolution
+    step = _bin(points[0], points[-1], h)
     assert out[1:-1] == pytest.approx(_mixture_quantiles(points, h, probs[1:-1]), abs=3 * step)
     # the ends: the outer smoothed levels, or the data's extremes where those lie further out
     assert out[0] == min(out[1], grid[0]) and out[-1] == max(out[-2], grid[-1])
@@ -73,7 +79,7 @@ def test_a_kernel_narrower_than_the_gaps_leaves_each_level_where_it_is():
     # smoothed quartiles are the levels themselves, not a ramp across the gap between them
     grid = np.array([0.0, 0.0, 50.0, 50.0])
     out = _kernel_smoothed(grid, _probs(2), 0.001)
-    step = (50.0 + 8 * 0.001) / 4096
+    step = _bin(0.0, 50.0, 0.001)
     assert out[1:-1] == pytest.approx([0.0, 50.0], abs=step)
 
 
@@ -86,7 +92,7 @@ def test_a_narrow_kernel_on_a_dense_core_with_sparse_tails_gives_the_mixtures_ta
     grid = np.concatenate([[points[0]], points, [points[-1]]])
     h = 2e-5
     out = _kernel_smoothed(grid, probs, h)
-    step = (points[-1] - points[0] + 8 * h) / 4096
+    step = _bin(points[0], points[-1], h)
     assert out[1:-1] == pytest.approx(_mixture_quantiles(points, h, probs[1:-1]), abs=3 * step)
 
 
