@@ -172,6 +172,46 @@ def test_a_folder_run_into_once_per_seed_imports_every_seed_only_when_asked(tmp_
     assert len((tmp_path / "results" / "seeds2" / "records.jsonl").read_text().splitlines()) == 16
 
 
+def _seed_dir(tmp_path: Path, seed: int, config: dict) -> Path:
+    """An `evaluate` folder of one `--only-seeds SEED` invocation."""
+    run = tmp_path / f"run_s{seed}"
+    run.mkdir()
+    records = [r for r in _records() if r["seed"] == seed]
+    (run / "results.json").write_text(json.dumps(
+        {"config": {**config, "seeds": [seed]}, "label_names": list(LABELS), "records": records}))
+    return run
+
+
+def test_folders_of_one_experiment_on_other_seeds_import_as_one_set(tmp_path, cli):
+    config = {"alpha": 2.0, "folds": ["1", "2", "3", "4"]}
+    runs = [_seed_dir(tmp_path, seed, config) for seed in (1, 0)]
+    folder = import_run(runs, "both", "cmd", tmp_path / "res")
+    rows = [json.loads(line) for line in (folder / "records.jsonl").read_text().splitlines()]
+    assert len(rows) == 16 and {r["seed"] for r in rows} == {0, 1}
+    meta = json.loads((folder / "run.json").read_text())
+    assert meta["config"] == {"alpha": 2.0, "folds": ["1", "2", "3", "4"], "seeds": [0, 1]}
+    code, _, err = cli("report", "import", *runs, "--name", "both", "--command", "cmd", "--root", tmp_path)
+    assert code == 0, err
+    assert (tmp_path / "results" / "both" / "records.jsonl").read_text() == (folder / "records.jsonl").read_text()
+
+
+def test_folders_that_ran_other_settings_or_the_same_run_do_not_join(tmp_path, cli):
+    first = _seed_dir(tmp_path, 0, {"alpha": 2.0})
+    other = _seed_dir(tmp_path, 1, {"alpha": 0.5})
+    with pytest.raises(ConfigError, match=r"ran with alpha = 2\.0, .*run_s1 with 0\.5"):
+        import_run([first, other], "mixed", "cmd", tmp_path / "res")
+    again = tmp_path / "again"
+    shutil.copytree(first, again)
+    with pytest.raises(ConfigError, match=r"again.*and .*run_s0.* hold the same run"):
+        import_run([first, again], "twice", "cmd", tmp_path / "res")
+    assert not (tmp_path / "res").exists()
+    code, _, err = cli("report", "import", first, other, "--name", "mixed", "--command", "cmd", "--root", tmp_path)
+    assert code == 2 and "alpha" in err
+    code, _, err = cli("report", "import", first, other, "--name", "study2", "--command",
+                       "vsmp-imu study control -o x", "--root", tmp_path)
+    assert code == 2 and "a study is imported from one folder" in err
+
+
 def test_import_does_not_overwrite_a_record_set_unless_told(tmp_path, cli):
     run = _evaluate_dir(tmp_path)
     code, _, err = cli("report", "import", run, "--name", "kept", "--command", "first", "--root", tmp_path)

@@ -71,7 +71,10 @@ def _head_commit() -> str | None:
 
 @report_app.command("import")
 def import_cmd(
-    run_dir: Path = typer.Argument(..., help="a `vsmp-imu evaluate` or `vsmp-imu study` output folder"),
+    run_dirs: list[Path] = typer.Argument(
+        ..., metavar="run_dir", help="a `vsmp-imu evaluate` or `vsmp-imu study` output folder; several "
+                                        "`evaluate` folders of one experiment (e.g. one per --only-seeds) "
+                                        "make one record set"),
     name: str = typer.Option(..., "--name", help="record-set name, e.g. lr_rf"),
     command: str = typer.Option(..., "--command", help="the command that produced the run"),
     commit: str | None = typer.Option(
@@ -89,7 +92,8 @@ def import_cmd(
 ) -> None:
     """Copy a run's records into results/NAME/: records.jsonl + run.json for an evaluation,
     study.json + run.json for a study (told by the command, `vsmp-imu study NAME ...`).
-    A record set of that name is not overwritten unless --replace."""
+    Several evaluation folders join into one set when they ran the same settings on other
+    seeds or folds. A record set of that name is not overwritten unless --replace."""
     from vsmp_imu.errors import ConfigError
     from vsmp_imu.har.records import import_run
     from vsmp_imu.har.study_records import import_study, study_of
@@ -99,9 +103,11 @@ def import_cmd(
         raise ConfigError(f"record set '{name}' exists ({shown(root / 'results' / name)}/): other tables may "
                           "read it; choose another --name, or --replace to overwrite it", field="--name")
     if study_of(command):
-        folder = import_study(run_dir, name, command, root / "results", commit or _head_commit(), note)
+        if len(run_dirs) > 1:
+            raise ConfigError("a study is imported from one folder", field="run_dir")
+        folder = import_study(run_dirs[0], name, command, root / "results", commit or _head_commit(), note)
     else:
-        folder = import_run(run_dir, name, command, root / "results", commit or _head_commit(), note,
+        folder = import_run(run_dirs, name, command, root / "results", commit or _head_commit(), note,
                             tuple(parse_csv(labels, option="--labels")) if labels else (), every_record)
     console.print(f"wrote {shown(folder)}/", highlight=False)
 

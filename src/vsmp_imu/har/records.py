@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
@@ -298,8 +299,52 @@ def _extra_records(records: list[tuple[Any, Origin]], files: list[tuple[Any, Ori
     return [(r, o) for r, o in files if isinstance(r, dict) and key(r) not in known]
 
 
+def read_evaluations(run_dirs: Sequence[str | Path], every_record: bool = False
+                     ) -> tuple[dict[str, Any], tuple[str, ...], list[tuple[dict, Origin]]]:
+    """`read_evaluation` over several output folders of one experiment (e.g. one folder per
+    `--only-seeds`): their records together, the class order they share, and their configuration
+    with the seeds and folds of them all. A ConfigError where the folders differ in another setting
+    or class order, or two of them hold the same run."""
+    reads = [(Path(d), *read_evaluation(d, every_record)) for d in run_dirs]
+    orders = {found for _, _, found, _ in reads if found}
+    if len(orders) > 1:
+        raise ConfigError("the folders name different classes: " + "; ".join(
+            f"{d}: {', '.join(found)}" for d, _, found, _ in reads if found), field="run_dir")
+    seen: dict[tuple, Origin] = {}
+    records = []
+    for _, _, _, found in reads:
+        for record, origin in found:
+            key = (*(str(record.get(k)) for k in RUN_KEYS), tuple(record.get("unseen_classes") or ()))
+            if key in seen:
+                raise ConfigError(f"{origin} and {seen[key]} hold the same run", field="run_dir")
+            seen[key] = origin
+            records.append((record, origin))
+    config = _merged_config([(d, c) for d, c, _, _ in reads if c])
+    return config, orders.pop() if orders else (), records
+
+
+def _merged_config(configs: list[tuple[Path, dict[str, Any]]]) -> dict[str, Any]:
+    """One configuration for several folders: equal but for seeds and folds, which are joined."""
+    if not configs:
+        return {}
+    first_dir, first = configs[0]
+    joined = {k: v for k, v in first.items() if k not in ("seeds", "folds")}
+    for run_dir, config in configs[1:]:
+        other = {k: v for k, v in config.items() if k not in ("seeds", "folds")}
+        for key in sorted(set(joined) | set(other)):
+            if joined.get(key) != other.get(key):
+                raise ConfigError(f"{first_dir} ran with {key} = {joined.get(key)!r}, {run_dir} with "
+                                  f"{other.get(key)!r}: import them as separate record sets", field="run_dir")
+    if any("seeds" in c for _, c in configs):
+        joined["seeds"] = sorted({s for _, c in configs for s in c.get("seeds") or ()})
+    if any("folds" in c for _, c in configs):
+        folds = {str(f): f for _, c in configs for f in c.get("folds") or ()}
+        joined["folds"] = [folds[k] for k in sorted(folds, key=natural_key)]
+    return joined
+
+
 def import_run(
-    run_dir: str | Path,
+    run_dir: str | Path | Sequence[str | Path],
     name: str,
     command: str,
     results_dir: str | Path,
@@ -308,14 +353,16 @@ def import_run(
     labels: tuple[str, ...] = (),
     every_record: bool = False,
 ) -> Path:
-    """Write `results_dir/NAME/` from an `evaluate` output folder; returns the folder.
+    """Write `results_dir/NAME/` from an `evaluate` output folder, or from several of one
+    experiment (`read_evaluations`); returns the folder.
     `labels`: the class order of the confusion matrices, for a folder that does not say it
     (the record files of an unfinished run written before records carried it);
     `every_record`: also the records of earlier invocations into the folder (read_evaluation)."""
     check_name(name)
     if not command.strip():
         raise ConfigError("the command that produced the records is required", field="--command")
-    config, found, records = read_evaluation(run_dir, every_record)
+    dirs = [run_dir] if isinstance(run_dir, (str, Path)) else list(run_dir)
+    config, found, records = read_evaluations(dirs, every_record)
     label_names = _class_order(found, tuple(labels))
     for record, origin in records:
         check_classes(record, label_names, origin, given=not found)
