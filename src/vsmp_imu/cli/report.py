@@ -69,7 +69,11 @@ def _head_commit() -> str | None:
     return out.stdout.strip() or None
 
 
-@report_app.command("import")
+@report_app.command("import", help=(
+    "Copy a run's records into results/NAME/: records.jsonl + run.json for an evaluation, study.json + "
+    "run.json for a study (told by the command, `vsmp-imu study NAME ...`). Several evaluation folders "
+    "of one experiment (e.g. one per --only-seeds) join into one set when they ran the same settings. "
+    "A record set of that name is not overwritten unless --replace."))
 def import_cmd(
     run_dirs: list[Path] = typer.Argument(
         ..., metavar="run_dir", help="a `vsmp-imu evaluate` or `vsmp-imu study` output folder; several "
@@ -90,10 +94,7 @@ def import_cmd(
                                       "results.json holds the last run's only, e.g. one --only-seeds)"),
     replace: bool = typer.Option(False, "--replace", help="overwrite a record set NAME that exists"),
 ) -> None:
-    """Copy a run's records into results/NAME/: records.jsonl + run.json for an evaluation,
-    study.json + run.json for a study (told by the command, `vsmp-imu study NAME ...`).
-    Several evaluation folders join into one set when they ran the same settings on other
-    seeds or folds. A record set of that name is not overwritten unless --replace."""
+    """`report import`: the run folders' records into results/NAME/ (import_run, import_study)."""
     from vsmp_imu.errors import ConfigError
     from vsmp_imu.har.records import import_run
     from vsmp_imu.har.study_records import import_study, study_of
