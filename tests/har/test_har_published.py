@@ -204,6 +204,8 @@ def test_folders_that_ran_other_settings_or_the_same_run_do_not_join(tmp_path, c
     shutil.copytree(first, again)
     with pytest.raises(ConfigError, match=r"again.*and .*run_s0.* hold the same run"):
         import_run([first, again], "twice", "cmd", tmp_path / "res")
+    with pytest.raises(ConfigError, match=r"run_s0 is given twice"):
+        import_run([first, tmp_path / "." / "run_s0"], "twice", "cmd", tmp_path / "res")
     assert not (tmp_path / "res").exists()
     code, _, err = cli("report", "import", first, other, "--name", "mixed", "--command", "cmd", "--root", tmp_path)
     assert code == 2 and "alpha" in err

@@ -305,6 +305,10 @@ def read_evaluations(run_dirs: Sequence[str | Path], every_record: bool = False
     `--only-seeds`): their records together, the class order they share, and their configuration
     with the seeds and folds of them all. A ConfigError where the folders differ in another setting
     or class order, or two of them hold the same run."""
+    resolved = [Path(d).resolve() for d in run_dirs]
+    twice = next((d for i, d in enumerate(resolved) if d in resolved[:i]), None)
+    if twice is not None:
+        raise ConfigError(f"{twice} is given twice", field="run_dir")
     reads = [(Path(d), *read_evaluation(d, every_record)) for d in run_dirs]
     orders = {found for _, _, found, _ in reads if found}
     if len(orders) > 1:
