@@ -206,6 +206,13 @@ def test_folders_that_ran_other_settings_or_the_same_run_do_not_join(tmp_path, c
         import_run([first, again], "twice", "cmd", tmp_path / "res")
     with pytest.raises(ConfigError, match=r"run_s0 is given twice"):
         import_run([first, tmp_path / "." / "run_s0"], "twice", "cmd", tmp_path / "res")
+    swapped = tmp_path / "swapped"
+    shutil.copytree(other, swapped)
+    data = json.loads((swapped / "results.json").read_text())
+    data["label_names"] = list(reversed(LABELS))
+    (swapped / "results.json").write_text(json.dumps(data))
+    with pytest.raises(ConfigError, match="the folders name different classes"):
+        import_run([first, swapped], "classes", "cmd", tmp_path / "res")
     assert not (tmp_path / "res").exists()
     code, _, err = cli("report", "import", first, other, "--name", "mixed", "--command", "cmd", "--root", tmp_path)
     assert code == 2 and "alpha" in err

@@ -291,12 +291,14 @@ def _listed(records: Any, results: Path) -> list[tuple[Any, Origin]]:
 
 def _extra_records(records: list[tuple[Any, Origin]], files: list[tuple[Any, Origin]]
                    ) -> list[tuple[Any, Origin]]:
-    """The record files whose run (RUN_KEYS and the unseen classes) `records` lacks."""
-    def key(r: dict) -> tuple:
-        return (*(str(r.get(k)) for k in RUN_KEYS), tuple(r.get("unseen_classes") or ()))
+    """The record files whose run (`_run_key`) `records` lacks."""
+    known = {_run_key(r) for r, _ in records if isinstance(r, dict)}
+    return [(r, o) for r, o in files if isinstance(r, dict) and _run_key(r) not in known]
 
-    known = {key(r) for r, _ in records if isinstance(r, dict)}
-    return [(r, o) for r, o in files if isinstance(r, dict) and key(r) not in known]
+
+def _run_key(record: dict) -> tuple:
+    """Which run a record is: RUN_KEYS and the unseen classes."""
+    return (*(str(record.get(k)) for k in RUN_KEYS), tuple(record.get("unseen_classes") or ()))
 
 
 def read_evaluations(run_dirs: Sequence[str | Path], every_record: bool = False
@@ -318,7 +320,7 @@ def read_evaluations(run_dirs: Sequence[str | Path], every_record: bool = False
     records = []
     for _, _, _, found in reads:
         for record, origin in found:
-            key = (*(str(record.get(k)) for k in RUN_KEYS), tuple(record.get("unseen_classes") or ()))
+            key = _run_key(record)
             if key in seen:
                 raise ConfigError(f"{origin} and {seen[key]} hold the same run", field="run_dir")
             seen[key] = origin
