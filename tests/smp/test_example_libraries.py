@@ -36,3 +36,31 @@ def test_each_timed_execution_moves_as_much_longer_as_intended(name):
                 for seed in range(3)]
         seconds[key] = sum(runs) / len(runs)
     assert abs(seconds["timed"] / seconds["plain"] / SLOWER[name] - 1) < 0.12
+
+
+PELVIS = EXAMPLES / "hapt12_pelvis"
+# the waist's fastest rotation in one execution, rad/s: the library's file, the example's (data check
+# measured 0.80 and 0.89 for the library's, 1.61 and 1.41 for HAPT12's subjects)
+PEAK_TURN = {"sit_to_stand": (0.95, 1.35), "stand_to_sit": (0.95, 1.15)}
+
+
+def test_the_pelvis_files_override_the_library_with_its_smps():
+    plain, pelvis = ActivityLibrary.load(), ActivityLibrary.load([PELVIS])
+    assert sorted(p.stem for p in PELVIS.glob("*.yaml")) == sorted(PEAK_TURN)
+    for name in PEAK_TURN:
+        assert pelvis.get(name).path.parent == PELVIS and plain.get(name).path.parent != PELVIS
+        assert pelvis.get(name).smp == plain.get(name).smp  # only the recipe's pelvis differs
+
+
+@pytest.mark.parametrize("name", sorted(PEAK_TURN))
+def test_a_pelvis_over_the_feet_turns_the_waist_faster(name):
+    from vsmp_imu.har.datasets.hapt import WAIST
+    from vsmp_imu.pipeline.check import peak_turn_rad_s
+
+    below, above = PEAK_TURN[name]
+    for dirs, ok in (((), lambda v: v < below), ((str(PELVIS),), lambda v: v > above)):
+        backend = backend_for("procedural", dirs)
+        library = ActivityLibrary.load([Path(d) for d in dirs])
+        for seed in range(3):
+            peak = peak_turn_rad_s(simulate_signal(backend.generate(library.get(name).smp, seed), WAIST, 50.0)[0], 50.0)
+            assert ok(peak), (name, dirs, seed, peak)
