@@ -16,14 +16,6 @@ TIMED = EXAMPLES / "hapt12_timed"
 SLOWER = {"stand_to_sit": 1.4, "sit_to_lie": 1.7, "lie_to_sit": 1.4}
 
 
-def test_the_timed_files_override_the_library_with_its_smps():
-    plain, timed = ActivityLibrary.load(), ActivityLibrary.load([TIMED])
-    assert sorted(p.stem for p in TIMED.glob("*.yaml")) == sorted(SLOWER)
-    for name in SLOWER:
-        assert timed.get(name).path.parent == TIMED and plain.get(name).path.parent != TIMED
-        assert timed.get(name).smp == plain.get(name).smp  # only the recipe's timing differs
-
-
 @pytest.mark.parametrize("name", sorted(SLOWER))
 def test_each_timed_execution_moves_as_much_longer_as_intended(name):
     from vsmp_imu.har.datasets.hapt import WAIST
@@ -44,12 +36,13 @@ PELVIS = EXAMPLES / "hapt12_pelvis"
 PEAK_TURN = {"sit_to_stand": (0.95, 1.35), "stand_to_sit": (0.95, 1.15)}
 
 
-def test_the_pelvis_files_override_the_library_with_its_smps():
-    plain, pelvis = ActivityLibrary.load(), ActivityLibrary.load([PELVIS])
-    assert sorted(p.stem for p in PELVIS.glob("*.yaml")) == sorted(PEAK_TURN)
-    for name in PEAK_TURN:
-        assert pelvis.get(name).path.parent == PELVIS and plain.get(name).path.parent != PELVIS
-        assert pelvis.get(name).smp == plain.get(name).smp  # only the recipe's pelvis differs
+@pytest.mark.parametrize(("folder", "names"), [(TIMED, SLOWER), (PELVIS, PEAK_TURN)], ids=["timed", "pelvis"])
+def test_an_example_folder_overrides_the_library_with_its_smps(folder, names):
+    plain, example = ActivityLibrary.load(), ActivityLibrary.load([folder])
+    assert sorted(p.stem for p in folder.glob("*.yaml")) == sorted(names)
+    for name in names:
+        assert example.get(name).path.parent == folder and plain.get(name).path.parent != folder
+        assert example.get(name).smp == plain.get(name).smp  # only the recipe differs
 
 
 @pytest.mark.parametrize("name", sorted(PEAK_TURN))
